@@ -1,0 +1,946 @@
+//! Stage 2, check: RON value tree → [`CheckedGraph`].
+//!
+//! Checking is the gate. It collects every problem in the file at once (unknown kinds and
+//! references, wrong components, types, cycles, bad parameters, limits), each with the node id
+//! and span, and only a graph without problems goes on. Named nodes are lowered in dependency
+//! order found by an iterative depth-first search, so a chain of 10 000 nodes cannot overflow the
+//! stack; inline nesting is bounded by the parser's depth limit.
+
+use crate::diagnostic::{Diagnostic, DiagnosticClass as Class, Diagnostics, SourceFile, Span, Spanned};
+use crate::graph::{CheckedGraph, FractalParams, GraphBuilder, NodeId, Op, Origin, Output, TableKey, Type};
+use crate::limits;
+use crate::noise::{Basis, Interpolation};
+use crate::nodes::{self, ArgDef, ArgKind, DefaultValue, InputType, Kind, NodeDef, OutputType};
+use crate::ops::{self, BinaryOp, Curve, Hermite, Ramp, SplineInterpolation, TernaryOp, UnaryOp};
+use crate::syntax::{self, Value, ValueKind};
+use std::collections::HashMap;
+use std::sync::Arc;
+
+/// Options for checking one graph.
+#[derive(Clone, Debug, Default)]
+pub struct CheckOptions {
+    /// `--set NAME=VALUE`: param values that replace the file's.
+    pub overrides: Vec<(String, f64)>,
+}
+
+/// Parses and checks a graph file. On failure every problem found is returned.
+pub fn check(file: Arc<SourceFile>, options: &CheckOptions) -> Result<CheckedGraph, Diagnostics> {
+    let root = match syntax::parse(&file.text) {
+        Ok(root) => root,
+        Err(diagnostic) => return Err(Diagnostics { file, list: vec![diagnostic] }),
+    };
+    let mut checker = Checker {
+        builder: GraphBuilder::new(),
+        diagnostics: Vec::new(),
+        params: Vec::new(),
+        node_index: HashMap::new(),
+        lowered: Vec::new(),
+        written: 0,
+    };
+    let result = checker.graph(&root, options);
+    if checker.diagnostics.is_empty() {
+        if let Some((outputs, named, declared)) = result {
+            let mut stats = checker.builder.stats;
+            stats.declared = declared;
+            stats.written = checker.written;
+            return Ok(CheckedGraph {
+                file,
+                nodes: checker.builder.nodes,
+                outputs,
+                named,
+                params: checker.params,
+                stats,
+            });
+        }
+    }
+    Err(Diagnostics { file, list: checker.diagnostics })
+}
+
+/// One argument after reading it through its [`ArgDef`].
+enum Arg {
+    Input(NodeId),
+    Const(f64),
+    Axis([f64; 3]),
+    Basis(Basis),
+    Interpolation(&'static str, bool),
+    Stops(Vec<(f64, [f64; 3])>),
+    Points(Vec<(f64, f64)>),
+}
+
+struct Checker {
+    builder: GraphBuilder,
+    diagnostics: Vec<Diagnostic>,
+    params: Vec<(String, f64)>,
+    /// Node id → index in the file's `nodes` map.
+    node_index: HashMap<String, usize>,
+    /// What each named node became; `None` until lowered or when it failed.
+    lowered: Vec<Option<NodeId>>,
+    written: usize,
+}
+
+type CheckedParts = (Vec<Output>, Vec<(String, NodeId)>, usize);
+
+impl Checker {
+    fn error(&mut self, diagnostic: Diagnostic) {
+        self.diagnostics.push(diagnostic);
+    }
+
+    fn graph(&mut self, root: &Value, options: &CheckOptions) -> Option<CheckedParts> {
+        let fields = match &root.kind {
+            ValueKind::Struct { name, fields } if name.as_ref().is_none_or(|n| n.value == "Graph") => fields,
+            _ => {
+                self.error(
+                    Diagnostic::new(Class::Syntax, format!("expected `Graph(params: {{...}}, nodes: {{...}}, outputs: {{...}})`, found {}", root.kind.describe()))
+                        .at(root.span)
+                        .label("not a graph"),
+                );
+                return None;
+            }
+        };
+        let mut params = None;
+        let mut nodes = None;
+        let mut outputs = None;
+        for (field, value) in fields {
+            let slot = match field.value.as_str() {
+                "params" => &mut params,
+                "nodes" => &mut nodes,
+                "outputs" => &mut outputs,
+                other => {
+                    let hint = nodes::suggest_from(other, ["params", "nodes", "outputs"].into_iter());
+                    let mut d = Diagnostic::new(Class::UnknownArgument, format!("unknown field `{other}` in Graph")).at(field.span).label("not a Graph field");
+                    d = d.help(match hint {
+                        Some(h) => format!("did you mean `{h}`? A graph has `params`, `nodes` and `outputs`"),
+                        None => "a graph has `params`, `nodes` and `outputs`".into(),
+                    });
+                    self.error(d);
+                    continue;
+                }
+            };
+            if slot.is_some() {
+                self.error(Diagnostic::new(Class::DuplicateName, format!("field `{}` is given twice", field.value)).at(field.span).label("second time"));
+            }
+            *slot = Some(value);
+        }
+
+        let empty = Value { kind: ValueKind::Map(Vec::new()), span: root.span };
+        self.params(params.unwrap_or(&empty), options);
+        let node_entries = self.map_entries(nodes.unwrap_or(&empty), "nodes");
+        let declared = node_entries.len();
+        if declared > limits::MAX_NODES {
+            self.error(
+                Diagnostic::new(Class::Limit, format!("the graph has {declared} nodes; at most {} are allowed", limits::MAX_NODES))
+                    .at(nodes.map_or(root.span, |n| n.span)),
+            );
+            return None;
+        }
+        // Register node ids first: nodes may refer to nodes declared later in the file.
+        for (i, (id, _)) in node_entries.iter().enumerate() {
+            if id.value.is_empty() || id.value.contains('.') {
+                self.error(
+                    Diagnostic::new(Class::BadParameter, format!("node id \"{}\" is not allowed", id.value))
+                        .at(id.span)
+                        .label("bad id")
+                        .help("ids are non-empty and contain no `.` (it selects components: \"id.x\")"),
+                );
+            }
+            if self.params.iter().any(|(p, _)| *p == id.value) {
+                self.error(
+                    Diagnostic::new(Class::DuplicateName, format!("\"{}\" is both a param and a node", id.value))
+                        .in_node(&id.value)
+                        .at(id.span)
+                        .label("also a param"),
+                );
+            }
+            if self.node_index.insert(id.value.clone(), i).is_some() {
+                self.error(Diagnostic::new(Class::DuplicateName, format!("node \"{}\" is defined twice", id.value)).in_node(&id.value).at(id.span).label("second definition"));
+            }
+        }
+        self.lowered = vec![None; declared];
+        let order = self.dependency_order(&node_entries);
+        for i in order {
+            let (id, value) = &node_entries[i];
+            let origin = Origin { node: id.value.clone(), span: value.span };
+            self.lowered[i] = self.expression(value, &origin);
+        }
+
+        let output_entries = self.map_entries(outputs.unwrap_or(&empty), "outputs");
+        if outputs.is_none() || output_entries.is_empty() {
+            self.error(
+                Diagnostic::new(Class::UnknownOutput, "the graph has no outputs")
+                    .at(outputs.map_or(root.span, |o| o.span))
+                    .help("add `outputs: { \"colour\": \"some_node\" }`"),
+            );
+        }
+        let mut result_outputs = Vec::new();
+        for (name, value) in &output_entries {
+            if result_outputs.iter().any(|o: &Output| o.name == name.value) {
+                self.error(Diagnostic::new(Class::DuplicateName, format!("output \"{}\" is defined twice", name.value)).at(name.span).label("second definition"));
+                continue;
+            }
+            let origin = Origin { node: format!("outputs.{}", name.value), span: value.span };
+            if let Some(node) = self.expression(value, &origin) {
+                result_outputs.push(Output { name: name.value.clone(), node, span: value.span });
+            }
+        }
+        let named = node_entries
+            .iter()
+            .enumerate()
+            .filter_map(|(i, (id, _))| self.lowered[i].map(|n| (id.value.clone(), n)))
+            .collect();
+        Some((result_outputs, named, declared))
+    }
+
+    /// Reads a `{ "key": value, ... }` map with string keys.
+    fn map_entries<'v>(&mut self, value: &'v Value, what: &str) -> Vec<(Spanned<String>, &'v Value)> {
+        let ValueKind::Map(entries) = &value.kind else {
+            self.error(
+                Diagnostic::new(Class::Syntax, format!("`{what}` must be a map `{{ \"name\": ..., }}`, found {}", value.kind.describe()))
+                    .at(value.span)
+                    .label("expected a map"),
+            );
+            return Vec::new();
+        };
+        let mut out = Vec::with_capacity(entries.len());
+        for (key, v) in entries {
+            match &key.kind {
+                ValueKind::Str(s) => out.push((Spanned { value: s.clone(), span: key.span }, v)),
+                other => self.error(
+                    Diagnostic::new(Class::Syntax, format!("keys of `{what}` are strings, found {}", other.describe()))
+                        .at(key.span)
+                        .label("expected a \"quoted name\""),
+                ),
+            }
+        }
+        out
+    }
+
+    fn params(&mut self, value: &Value, options: &CheckOptions) {
+        let entries = self.map_entries(value, "params");
+        if entries.len() > limits::MAX_PARAMS {
+            self.error(Diagnostic::new(Class::Limit, format!("the graph has {} params; at most {} are allowed", entries.len(), limits::MAX_PARAMS)).at(value.span));
+            return;
+        }
+        for (name, v) in entries {
+            let node = format!("params.{}", name.value);
+            if self.params.iter().any(|(p, _)| *p == name.value) {
+                self.error(Diagnostic::new(Class::DuplicateName, format!("param \"{}\" is defined twice", name.value)).in_node(node).at(name.span).label("second definition"));
+                continue;
+            }
+            let number = match v.kind {
+                ValueKind::Number(n) if n.is_nan() => {
+                    self.error(Diagnostic::new(Class::BadParameter, "a param cannot be NaN").in_node(node).at(v.span).label("NaN"));
+                    continue;
+                }
+                ValueKind::Number(n) => n,
+                ref other => {
+                    self.error(
+                        Diagnostic::new(Class::Type, format!("a param is a number, found {}", other.describe()))
+                            .in_node(node)
+                            .at(v.span)
+                            .label("expected a number")
+                            .help("params are named scalars; put expressions in `nodes`"),
+                    );
+                    continue;
+                }
+            };
+            self.params.push((name.value.clone(), number));
+        }
+        for (name, value) in &options.overrides {
+            if value.is_nan() {
+                self.error(Diagnostic::new(Class::BadParameter, format!("--set {name}: a param cannot be NaN")));
+            } else if let Some(slot) = self.params.iter_mut().find(|(p, _)| p == name) {
+                slot.1 = *value;
+            } else {
+                let known: Vec<&str> = self.params.iter().map(|(p, _)| p.as_str()).collect();
+                let mut d = Diagnostic::new(Class::UnknownParam, format!("--set {name}: the graph has no param \"{name}\""));
+                d = d.help(match nodes::suggest_from(name, known.iter().copied()) {
+                    Some(s) => format!("did you mean \"{s}\"?"),
+                    None if known.is_empty() => "the graph has no params".to_string(),
+                    None => format!("its params are: {}", known.join(", ")),
+                });
+                self.error(d);
+            }
+        }
+    }
+
+    /// Orders named nodes so each comes after the nodes it refers to; reports cycles.
+    fn dependency_order(&mut self, entries: &[(Spanned<String>, &Value)]) -> Vec<usize> {
+        let deps: Vec<Vec<usize>> = entries
+            .iter()
+            .map(|(_, value)| {
+                let mut refs = Vec::new();
+                collect_references(value, &mut |name| {
+                    let base = name.split('.').next().unwrap_or(name);
+                    if let Some(&j) = self.node_index.get(base) {
+                        if !refs.contains(&j) {
+                            refs.push(j);
+                        }
+                    }
+                });
+                refs
+            })
+            .collect();
+        const WHITE: u8 = 0;
+        const GREY: u8 = 1;
+        const BLACK: u8 = 2;
+        let mut state = vec![WHITE; entries.len()];
+        let mut in_cycle = vec![false; entries.len()];
+        let mut order = Vec::with_capacity(entries.len());
+        for root in 0..entries.len() {
+            if state[root] != WHITE {
+                continue;
+            }
+            state[root] = GREY;
+            let mut stack: Vec<(usize, usize)> = vec![(root, 0)];
+            while let Some(&mut (v, ref mut next)) = stack.last_mut() {
+                if let Some(&w) = deps[v].get(*next) {
+                    *next += 1;
+                    match state[w] {
+                        WHITE => {
+                            state[w] = GREY;
+                            stack.push((w, 0));
+                        }
+                        GREY => {
+                            let start = stack.iter().position(|&(u, _)| u == w).unwrap_or(0);
+                            let cycle: Vec<usize> = stack[start..].iter().map(|&(u, _)| u).collect();
+                            if cycle.iter().all(|&u| !in_cycle[u]) {
+                                let mut names: Vec<String> = cycle.iter().map(|&u| format!("\"{}\"", entries[u].0.value)).collect();
+                                names.push(format!("\"{}\"", entries[w].0.value));
+                                let (id, value) = &entries[w];
+                                self.error(
+                                    Diagnostic::new(Class::Cycle, format!("the graph has a cycle: {}", names.join(" -> ")))
+                                        .in_node(&id.value)
+                                        .at(value.span)
+                                        .label("depends on itself through this expression")
+                                        .help("a node cannot use its own value; break the loop"),
+                                );
+                            }
+                            for u in cycle {
+                                in_cycle[u] = true;
+                            }
+                        }
+                        _ => {}
+                    }
+                } else {
+                    state[v] = BLACK;
+                    if !in_cycle[v] {
+                        order.push(v);
+                    }
+                    stack.pop();
+                }
+            }
+        }
+        order
+    }
+
+    /// Lowers one input expression. `None` means it failed (and a diagnostic was recorded, here
+    /// or for the node it refers to).
+    fn expression(&mut self, value: &Value, origin: &Origin) -> Option<NodeId> {
+        let here = Origin { node: origin.node.clone(), span: value.span };
+        match &value.kind {
+            ValueKind::Number(v) => {
+                if v.is_nan() {
+                    self.error(
+                        Diagnostic::new(Class::BadParameter, "NaN is not allowed as a literal")
+                            .in_node(&origin.node)
+                            .at(value.span)
+                            .label("NaN")
+                            .help("a NaN literal would make every result NaN"),
+                    );
+                    return None;
+                }
+                Some(self.builder.add(Op::ConstScalar(*v), Vec::new(), &here))
+            }
+            ValueKind::Str(name) => self.reference(name, value.span, origin),
+            ValueKind::Tuple { name: None, items } => {
+                if items.len() != 3 {
+                    self.error(
+                        Diagnostic::new(Class::Type, format!("a vec3 literal has 3 components, this one has {}", items.len()))
+                            .in_node(&origin.node)
+                            .at(value.span)
+                            .label("expected (x, y, z)"),
+                    );
+                    return None;
+                }
+                let mut components = Vec::with_capacity(3);
+                for item in items {
+                    components.push(self.typed_input(item, InputType::Scalar, "a vec3 component", origin));
+                }
+                let components: Option<Vec<NodeId>> = components.into_iter().collect();
+                Some(self.builder.add(Op::Combine, components?, &here))
+            }
+            ValueKind::Ident(kind_name) => self.node(kind_name, value.span, &[], &[], value, origin),
+            ValueKind::Tuple { name: Some(kind_name), items } => {
+                let positional: Vec<&Value> = items.iter().collect();
+                self.node(&kind_name.value, kind_name.span, &positional, &[], value, origin)
+            }
+            ValueKind::Struct { name: Some(kind_name), fields } => {
+                let named: Vec<(&Spanned<String>, &Value)> = fields.iter().map(|(f, v)| (f, v)).collect();
+                self.node(&kind_name.value, kind_name.span, &[], &named, value, origin)
+            }
+            other => {
+                self.error(
+                    Diagnostic::new(Class::Type, format!("expected an input (a \"reference\", a number, a vec3 (x, y, z) or a node), found {}", other.describe()))
+                        .in_node(&origin.node)
+                        .at(value.span)
+                        .label("not an input"),
+                );
+                None
+            }
+        }
+    }
+
+    fn reference(&mut self, text: &str, span: Span, origin: &Origin) -> Option<NodeId> {
+        let here = Origin { node: origin.node.clone(), span };
+        let (base, component) = match text.split_once('.') {
+            Some((b, c)) => (b, Some(c)),
+            None => (text, None),
+        };
+        let target = if let Some((_, v)) = self.params.iter().find(|(p, _)| p == base) {
+            let v = *v;
+            Some(self.builder.add(Op::ConstScalar(v), Vec::new(), &here))
+        } else if let Some(&i) = self.node_index.get(base) {
+            // Lowered already (dependency order) or failed with its own diagnostic.
+            self.lowered.get(i).copied().flatten()
+        } else {
+            let candidates: Vec<&str> = self.node_index.keys().map(|s| s.as_str()).chain(self.params.iter().map(|(p, _)| p.as_str())).collect();
+            let mut d = Diagnostic::new(Class::UnknownReference, format!("unknown reference \"{base}\""))
+                .in_node(&origin.node)
+                .at(span)
+                .label("no node or param has this name");
+            if let Some(s) = nodes::suggest_from(base, candidates.iter().copied()) {
+                d = d.help(format!("did you mean \"{s}\"?"));
+            } else if nodes::lookup(base).is_some() {
+                d = d.help(format!("`{base}` is a node kind: write it without quotes"));
+            }
+            self.error(d);
+            return None;
+        };
+        let target = target?;
+        let Some(component) = component else { return Some(target) };
+        let axis = match component {
+            "x" | "r" => 0,
+            "y" | "g" => 1,
+            "z" | "b" => 2,
+            _ => {
+                self.error(
+                    Diagnostic::new(Class::WrongComponent, format!("\"{text}\": there is no component `{component}`"))
+                        .in_node(&origin.node)
+                        .at(span)
+                        .label("unknown component")
+                        .help("components are .x .y .z (or .r .g .b)"),
+                );
+                return None;
+            }
+        };
+        if self.builder.ty(target) != Type::Vec3 {
+            self.error(
+                Diagnostic::new(Class::WrongComponent, format!("\"{text}\": \"{base}\" is a scalar and has no components"))
+                    .in_node(&origin.node)
+                    .at(span)
+                    .label("scalar")
+                    .help(format!("use \"{base}\" itself")),
+            );
+            return None;
+        }
+        Some(self.builder.add(Op::Component(axis), vec![target], &here))
+    }
+
+    /// Lowers an input and checks its type (a vec3 where a scalar is expected is an error; a
+    /// scalar where a vec3 is expected is an error unless the type is `Any`).
+    fn typed_input(&mut self, value: &Value, ty: InputType, what: &str, origin: &Origin) -> Option<NodeId> {
+        let id = self.expression(value, origin)?;
+        let actual = self.builder.ty(id);
+        let ok = match ty {
+            InputType::Any => true,
+            InputType::Scalar => actual == Type::Scalar,
+            InputType::Vec3 => actual == Type::Vec3,
+        };
+        if !ok {
+            let expected = if ty == InputType::Scalar { "scalar" } else { "vec3" };
+            let help = if ty == InputType::Scalar {
+                "pick one component with \"id.x\", or reduce the vector with Length or Dot"
+            } else {
+                "build a point with Combine(x, y, z), or use Position"
+            };
+            self.error(
+                Diagnostic::new(Class::Type, format!("{what} must be a {expected}, found a {actual}"))
+                    .in_node(&origin.node)
+                    .at(value.span)
+                    .label(format!("this is a {actual}"))
+                    .help(help),
+            );
+            return None;
+        }
+        Some(id)
+    }
+
+    fn constant_scalar(&mut self, value: &Value, arg: &ArgDef, range: nodes::Range, def: &NodeDef, origin: &Origin) -> Option<f64> {
+        let id = self.typed_input(value, InputType::Scalar, &format!("`{}` of {}", arg.name, def.name), origin)?;
+        let Some(v) = self.builder.const_scalar(id) else {
+            self.error(
+                Diagnostic::new(Class::NotConstant, format!("`{}` of {} must be a constant", arg.name, def.name))
+                    .in_node(&origin.node)
+                    .at(value.span)
+                    .label("varies per point")
+                    .help("use a number, a param, or an expression of those"),
+            );
+            return None;
+        };
+        if !v.is_finite() || !range.contains(v) {
+            self.error(
+                Diagnostic::new(Class::BadParameter, format!("`{}` of {} must be {}, got {v}", arg.name, def.name, range.describe()))
+                    .in_node(&origin.node)
+                    .at(value.span)
+                    .label("out of range"),
+            );
+            return None;
+        }
+        Some(v)
+    }
+
+    fn constant_vec3(&mut self, value: &Value, what: &str, origin: &Origin) -> Option<[f64; 3]> {
+        let id = self.expression(value, origin)?;
+        let v = self.builder.const_vec3(id);
+        match v {
+            Some(v) if v.iter().all(|c| c.is_finite()) => Some(v),
+            Some(_) => {
+                self.error(Diagnostic::new(Class::BadParameter, format!("{what} must be finite")).in_node(&origin.node).at(value.span).label("not finite"));
+                None
+            }
+            None => {
+                self.error(
+                    Diagnostic::new(Class::NotConstant, format!("{what} must be a constant"))
+                        .in_node(&origin.node)
+                        .at(value.span)
+                        .label("varies per point")
+                        .help("use (r, g, b) numbers or params"),
+                );
+                None
+            }
+        }
+    }
+
+    /// A node expression `Kind`, `Kind(a, b)` or `Kind(name: a, ...)`.
+    fn node(&mut self, kind_name: &str, kind_span: Span, positional: &[&Value], named: &[(&Spanned<String>, &Value)], whole: &Value, origin: &Origin) -> Option<NodeId> {
+        self.written += 1;
+        let Some(def) = nodes::lookup(kind_name) else {
+            let mut d = Diagnostic::new(Class::UnknownKind, format!("unknown node kind `{kind_name}`")).in_node(&origin.node).at(kind_span).label("not a node kind");
+            if let Some(s) = nodes::suggest(kind_name) {
+                d = d.help(format!("did you mean `{s}`?"));
+            } else if self.node_index.contains_key(kind_name) || self.params.iter().any(|(p, _)| p == kind_name) {
+                d = d.help(format!("references are strings: write \"{kind_name}\""));
+            } else {
+                d = d.help("`texgraph nodes` lists every kind");
+            }
+            self.error(d);
+            return None;
+        };
+        let here = Origin { node: origin.node.clone(), span: whole.span };
+
+        // Match the written arguments to the definition's.
+        let mut given: Vec<Option<&Value>> = vec![None; def.args.len()];
+        if positional.len() > def.args.len() {
+            self.error(
+                Diagnostic::new(Class::UnknownArgument, format!("{} takes {} argument(s), found {}", def.name, def.args.len(), positional.len()))
+                    .in_node(&origin.node)
+                    .at(positional[def.args.len()].span)
+                    .label("extra argument")
+                    .help(signature(def)),
+            );
+            return None;
+        }
+        for (slot, value) in given.iter_mut().zip(positional) {
+            *slot = Some(value);
+        }
+        let mut ok = true;
+        for (field, value) in named {
+            match def.args.iter().position(|a| a.name == field.value) {
+                Some(i) if given[i].is_some() => {
+                    self.error(Diagnostic::new(Class::DuplicateName, format!("`{}` is given twice", field.value)).in_node(&origin.node).at(field.span).label("second time"));
+                    ok = false;
+                }
+                Some(i) => given[i] = Some(value),
+                None => {
+                    let mut d = Diagnostic::new(Class::UnknownArgument, format!("{} has no argument `{}`", def.name, field.value))
+                        .in_node(&origin.node)
+                        .at(field.span)
+                        .label("unknown argument");
+                    d = d.help(match nodes::suggest_from(&field.value, def.args.iter().map(|a| a.name)) {
+                        Some(s) => format!("did you mean `{s}`? {}", signature(def)),
+                        None => signature(def),
+                    });
+                    self.error(d);
+                    ok = false;
+                }
+            }
+        }
+        let mut args: Vec<Option<Arg>> = Vec::with_capacity(def.args.len());
+        for (arg, value) in def.args.iter().zip(&given) {
+            let read = match value {
+                Some(value) => self.argument(value, arg, def, origin),
+                None => match arg.default {
+                    Some(default) => Some(self.default_argument(default, arg, &here)),
+                    None => {
+                        self.error(
+                            Diagnostic::new(Class::MissingArgument, format!("{} needs `{}`", def.name, arg.name))
+                                .in_node(&origin.node)
+                                .at(whole.span)
+                                .label(format!("`{}` missing", arg.name))
+                                .help(signature(def)),
+                        );
+                        None
+                    }
+                },
+            };
+            ok &= read.is_some();
+            args.push(read);
+        }
+        if !ok {
+            return None;
+        }
+        let args: Vec<Arg> = args.into_iter().map(|a| a.expect("all arguments read")).collect();
+        self.build(def, args, &given, whole, &here)
+    }
+
+    fn default_argument(&mut self, default: DefaultValue, arg: &ArgDef, here: &Origin) -> Arg {
+        match (default, arg.kind) {
+            (DefaultValue::Number(v), ArgKind::Input(_)) => Arg::Input(self.builder.add(Op::ConstScalar(v), Vec::new(), here)),
+            (DefaultValue::Number(v), _) => Arg::Const(v),
+            (DefaultValue::Vec3(v), _) => Arg::Axis(v),
+            (DefaultValue::Name(n), _) => Arg::Interpolation(n, false),
+        }
+    }
+
+    fn argument(&mut self, value: &Value, arg: &ArgDef, def: &NodeDef, origin: &Origin) -> Option<Arg> {
+        match arg.kind {
+            ArgKind::Input(ty) => self.typed_input(value, ty, &format!("`{}` of {}", arg.name, def.name), origin).map(Arg::Input),
+            ArgKind::ConstScalar(range) => self.constant_scalar(value, arg, range, def, origin).map(Arg::Const),
+            ArgKind::ConstAxis => {
+                let v = self.constant_vec3(value, &format!("`{}` of {}", arg.name, def.name), origin)?;
+                match ops::normalise_axis(v) {
+                    Some(axis) => Some(Arg::Axis(axis)),
+                    None => {
+                        self.error(
+                            Diagnostic::new(Class::BadParameter, format!("the rotation axis is zero: ({}, {}, {})", v[0], v[1], v[2]))
+                                .in_node(&origin.node)
+                                .at(value.span)
+                                .label("zero axis")
+                                .help("give the axis a direction, e.g. (0, 1, 0)"),
+                        );
+                        None
+                    }
+                }
+            }
+            ArgKind::Basis => self.basis(value, origin).map(|b| Arg::Basis(b)),
+            ArgKind::Interpolation(allowed) => {
+                let name = match &value.kind {
+                    ValueKind::Ident(n) => allowed.iter().find(|a| **a == n.as_str()).copied(),
+                    _ => None,
+                };
+                match name {
+                    Some(n) => Some(Arg::Interpolation(n, true)),
+                    None => {
+                        self.error(
+                            Diagnostic::new(Class::BadParameter, format!("`{}` of {} must be one of {}, found {}", arg.name, def.name, allowed.join(", "), value.kind.describe()))
+                                .in_node(&origin.node)
+                                .at(value.span)
+                                .label("unknown interpolation"),
+                        );
+                        None
+                    }
+                }
+            }
+            ArgKind::Stops => {
+                let knots = self.knots(value, def, "stops", "(t, (r, g, b))", origin)?;
+                let mut stops = Vec::with_capacity(knots.len());
+                for (t, v) in knots {
+                    stops.push((t, self.constant_vec3(v, "a stop's colour", origin)?));
+                }
+                Some(Arg::Stops(stops))
+            }
+            ArgKind::Points => {
+                let knots = self.knots(value, def, "points", "(x, y)", origin)?;
+                let mut points = Vec::with_capacity(knots.len());
+                let y_def = ArgDef { name: "y", kind: ArgKind::ConstScalar(nodes::Range::FINITE), default: None, doc: "" };
+                for (x, v) in knots {
+                    points.push((x, self.constant_scalar(v, &y_def, nodes::Range::FINITE, def, origin)?));
+                }
+                Some(Arg::Points(points))
+            }
+        }
+    }
+
+    /// Reads `[(key, value), ...]`: constant, finite, sorted keys; the values are returned raw.
+    fn knots<'v>(&mut self, value: &'v Value, def: &NodeDef, what: &str, form: &str, origin: &Origin) -> Option<Vec<(f64, &'v Value)>> {
+        let ValueKind::List(items) = &value.kind else {
+            self.error(
+                Diagnostic::new(Class::Type, format!("`{what}` of {} is a list [{form}, ...], found {}", def.name, value.kind.describe()))
+                    .in_node(&origin.node)
+                    .at(value.span)
+                    .label("expected a list"),
+            );
+            return None;
+        };
+        if items.is_empty() {
+            self.error(Diagnostic::new(Class::BadParameter, format!("`{what}` of {} is empty", def.name)).in_node(&origin.node).at(value.span).label("needs at least one entry"));
+            return None;
+        }
+        if items.len() > limits::MAX_RAMP_STOPS {
+            self.error(
+                Diagnostic::new(Class::Limit, format!("`{what}` of {} has {} entries; at most {} are allowed", def.name, items.len(), limits::MAX_RAMP_STOPS))
+                    .in_node(&origin.node)
+                    .at(value.span),
+            );
+            return None;
+        }
+        let key_def = ArgDef { name: "t", kind: ArgKind::ConstScalar(nodes::Range::FINITE), default: None, doc: "" };
+        let mut out: Vec<(f64, &Value)> = Vec::with_capacity(items.len());
+        for item in items {
+            let ValueKind::Tuple { name: None, items: pair } = &item.kind else {
+                self.error(Diagnostic::new(Class::Type, format!("each entry of `{what}` is {form}, found {}", item.kind.describe())).in_node(&origin.node).at(item.span).label(format!("expected {form}")));
+                return None;
+            };
+            if pair.len() != 2 {
+                self.error(Diagnostic::new(Class::Type, format!("each entry of `{what}` is {form}, this one has {} items", pair.len())).in_node(&origin.node).at(item.span).label(format!("expected {form}")));
+                return None;
+            }
+            let key = self.constant_scalar(&pair[0], &key_def, nodes::Range::FINITE, def, origin)?;
+            if let Some(&(previous, _)) = out.last() {
+                if key < previous {
+                    self.error(
+                        Diagnostic::new(Class::BadParameter, format!("`{what}` of {} are not sorted: {key} comes after {previous}", def.name))
+                            .in_node(&origin.node)
+                            .at(pair[0].span)
+                            .label("smaller than the one before")
+                            .help("sort the entries by their first number"),
+                    );
+                    return None;
+                }
+            }
+            out.push((key, &pair[1]));
+        }
+        Some(out)
+    }
+
+    fn basis(&mut self, value: &Value, origin: &Origin) -> Option<Basis> {
+        let (name, span, inner) = match &value.kind {
+            ValueKind::Ident(n) => (n.as_str(), value.span, None),
+            ValueKind::Struct { name: Some(n), fields } => (n.value.as_str(), n.span, Some(fields.as_slice())),
+            ValueKind::Tuple { name: Some(n), items } if items.len() == 1 => {
+                // `Value(Smooth)`: positional interpolation.
+                let interpolation = match &items[0].kind {
+                    ValueKind::Ident(i) if i == "Linear" => Interpolation::Linear,
+                    ValueKind::Ident(i) if i == "Smooth" => Interpolation::Smooth,
+                    _ => {
+                        self.error(Diagnostic::new(Class::BadParameter, "value noise interpolation is Linear or Smooth").in_node(&origin.node).at(items[0].span).label("unknown interpolation"));
+                        return None;
+                    }
+                };
+                if n.value == "Value" {
+                    return Some(Basis::Value(interpolation));
+                }
+                (n.value.as_str(), n.span, None)
+            }
+            _ => ("", value.span, None),
+        };
+        let basis = match name {
+            "Perlin" if inner.is_none() => Basis::Perlin,
+            "Gradient" if inner.is_none() => Basis::Gradient,
+            "Value" => {
+                let mut interpolation = Interpolation::Linear;
+                for (field, v) in inner.unwrap_or(&[]) {
+                    match (field.value.as_str(), &v.kind) {
+                        ("interpolation", ValueKind::Ident(i)) if i == "Linear" => interpolation = Interpolation::Linear,
+                        ("interpolation", ValueKind::Ident(i)) if i == "Smooth" => interpolation = Interpolation::Smooth,
+                        _ => {
+                            self.error(
+                                Diagnostic::new(Class::BadParameter, "Value noise takes `interpolation: Linear` or `interpolation: Smooth`")
+                                    .in_node(&origin.node)
+                                    .at(field.span.to(v.span))
+                                    .label("not understood"),
+                            );
+                            return None;
+                        }
+                    }
+                }
+                Basis::Value(interpolation)
+            }
+            _ => {
+                let mut d = Diagnostic::new(Class::BadParameter, format!("unknown noise basis {}", value.kind.describe()))
+                    .in_node(&origin.node)
+                    .at(span)
+                    .label("not a basis");
+                d = d.help(match nodes::suggest_from(name, ["Perlin", "Gradient", "Value"].into_iter()) {
+                    Some(s) if !name.is_empty() => format!("did you mean `{s}`?"),
+                    _ => "the bases are Perlin, Gradient and Value".into(),
+                });
+                self.error(d);
+                return None;
+            }
+        };
+        Some(basis)
+    }
+
+    /// Turns a node's checked arguments into graph operations.
+    fn build(&mut self, def: &NodeDef, args: Vec<Arg>, given: &[Option<&Value>], whole: &Value, here: &Origin) -> Option<NodeId> {
+        let input = |i: usize| match args[i] {
+            Arg::Input(id) => id,
+            _ => unreachable_arg(),
+        };
+        let constant = |i: usize| match args[i] {
+            Arg::Const(v) => v,
+            _ => 0.0,
+        };
+        let unary = |op| Op::Unary(op);
+        let op_args: (Op, Vec<NodeId>) = match def.kind {
+            Kind::Position => (Op::Position, vec![]),
+            Kind::Combine => (Op::Combine, vec![input(0), input(1), input(2)]),
+            Kind::Scale | Kind::Translate => {
+                let by = self.builder.broadcast(input(1), Type::Vec3, here);
+                let op = if def.kind == Kind::Scale { BinaryOp::Mul } else { BinaryOp::Add };
+                (Op::Binary(op), vec![input(0), by])
+            }
+            Kind::Rotate => {
+                let Arg::Axis(axis) = args[1] else { return None };
+                (Op::Rotate { axis }, vec![input(0), input(2)])
+            }
+            Kind::Noise | Kind::Fbm | Kind::Turbulence => {
+                let Arg::Basis(basis) = args[1] else { return None };
+                let interpolation_index = if def.kind == Kind::Noise { 3 } else { 7 };
+                let basis = match (basis, &args[interpolation_index]) {
+                    (Basis::Value(_), Arg::Interpolation("Smooth", true)) => Basis::Value(Interpolation::Smooth),
+                    (Basis::Value(_), Arg::Interpolation("Linear", true)) => Basis::Value(Interpolation::Linear),
+                    (Basis::Value(i), _) => Basis::Value(i),
+                    (other, Arg::Interpolation(_, true)) => {
+                        let span = given[interpolation_index].map_or(whole.span, |v| v.span);
+                        self.error(
+                            Diagnostic::new(Class::BadParameter, format!("`interpolation` applies to the Value basis only, not {other:?}"))
+                                .in_node(&here.node)
+                                .at(span)
+                                .label("not used by this basis"),
+                        );
+                        return None;
+                    }
+                    (other, _) => other,
+                };
+                let key = TableKey { basis, seed: constant(2) as u64 };
+                if def.kind == Kind::Noise {
+                    (Op::Noise(key), vec![input(0)])
+                } else {
+                    let params = FractalParams {
+                        octaves: constant(3),
+                        lacunarity: constant(4),
+                        gain: constant(5),
+                        first_octave: constant(6) as u32,
+                        turbulence: def.kind == Kind::Turbulence,
+                    };
+                    (Op::Fractal(key, params), vec![input(0)])
+                }
+            }
+            Kind::Add | Kind::Sub | Kind::Mul | Kind::Div | Kind::Min | Kind::Max | Kind::Pow | Kind::Atan2 | Kind::Mod => {
+                let op = match def.kind {
+                    Kind::Add => BinaryOp::Add,
+                    Kind::Sub => BinaryOp::Sub,
+                    Kind::Mul => BinaryOp::Mul,
+                    Kind::Div => BinaryOp::Div,
+                    Kind::Min => BinaryOp::Min,
+                    Kind::Max => BinaryOp::Max,
+                    Kind::Pow => BinaryOp::Pow,
+                    Kind::Atan2 => BinaryOp::Atan2,
+                    _ => BinaryOp::Mod,
+                };
+                (Op::Binary(op), self.broadcast_all(&[input(0), input(1)], here))
+            }
+            Kind::Abs | Kind::Neg | Kind::Sin | Kind::Cos | Kind::Sqrt | Kind::Floor | Kind::Fract => {
+                let op = match def.kind {
+                    Kind::Abs => UnaryOp::Abs,
+                    Kind::Neg => UnaryOp::Neg,
+                    Kind::Sin => UnaryOp::Sin,
+                    Kind::Cos => UnaryOp::Cos,
+                    Kind::Sqrt => UnaryOp::Sqrt,
+                    Kind::Floor => UnaryOp::Floor,
+                    _ => UnaryOp::Fract,
+                };
+                (unary(op), vec![input(0)])
+            }
+            Kind::Length => (Op::Length, vec![input(0)]),
+            Kind::Dot => (Op::Dot, vec![input(0), input(1)]),
+            Kind::Clamp | Kind::Mix | Kind::Smoothstep => {
+                let op = match def.kind {
+                    Kind::Clamp => TernaryOp::Clamp,
+                    Kind::Mix => TernaryOp::Mix,
+                    _ => TernaryOp::Smoothstep,
+                };
+                (Op::Ternary(op), self.broadcast_all(&[input(0), input(1), input(2)], here))
+            }
+            Kind::Hermite => (Op::Hermite(Hermite { p0: constant(1), p1: constant(2), m0: constant(3), m1: constant(4) }), vec![input(0)]),
+            Kind::ColorRamp | Kind::Curve => {
+                let interpolation = match args[2] {
+                    Arg::Interpolation("Smooth", _) => SplineInterpolation::Smooth,
+                    Arg::Interpolation("Constant", _) => SplineInterpolation::Constant,
+                    _ => SplineInterpolation::Linear,
+                };
+                match &args[1] {
+                    Arg::Stops(stops) => {
+                        let ramp = Ramp::new(stops.iter().map(|s| s.0).collect(), stops.iter().map(|s| s.1).collect(), interpolation);
+                        (Op::Ramp(Arc::new(ramp)), vec![input(0)])
+                    }
+                    Arg::Points(points) => {
+                        let curve = Curve::new(points.iter().map(|p| p.0).collect(), points.iter().map(|p| [p.1]).collect(), interpolation);
+                        (Op::Curve(Arc::new(curve)), vec![input(0)])
+                    }
+                    _ => return None,
+                }
+            }
+        };
+        debug_assert!(def.output != OutputType::Broadcast || !op_args.1.is_empty());
+        let (op, op_args) = op_args;
+        Some(self.builder.add(op, op_args, here))
+    }
+
+    /// Splats scalar operands when any operand is a vec3 (component-wise math).
+    fn broadcast_all(&mut self, ids: &[NodeId], here: &Origin) -> Vec<NodeId> {
+        let ty = if ids.iter().any(|&id| self.builder.ty(id) == Type::Vec3) { Type::Vec3 } else { Type::Scalar };
+        ids.iter().map(|&id| self.builder.broadcast(id, ty, here)).collect()
+    }
+}
+
+fn unreachable_arg() -> NodeId {
+    // `build` only asks for inputs at positions the catalogue declares as inputs; the catalogue
+    // test pins that. Returning node 0 keeps this path panic-free should it ever be reached.
+    0
+}
+
+fn signature(def: &NodeDef) -> String {
+    let args: Vec<String> = def
+        .args
+        .iter()
+        .map(|a| match a.default {
+            None => a.name.to_string(),
+            Some(_) => format!("{}?", a.name),
+        })
+        .collect();
+    format!("{}({}); `texgraph nodes` explains each argument", def.name, args.join(", "))
+}
+
+/// Calls `f` with every string in a value tree (strings are references in graph files).
+fn collect_references(value: &Value, f: &mut impl FnMut(&str)) {
+    // Explicit stack: the tree is bounded by the parser's nesting limit, but no recursion is
+    // needed at all.
+    let mut stack = vec![value];
+    while let Some(v) = stack.pop() {
+        match &v.kind {
+            ValueKind::Str(s) => f(s),
+            ValueKind::Tuple { items, .. } | ValueKind::List(items) => stack.extend(items.iter()),
+            ValueKind::Struct { fields, .. } => stack.extend(fields.iter().map(|(_, v)| v)),
+            ValueKind::Map(entries) => {
+                for (k, v) in entries {
+                    stack.push(k);
+                    stack.push(v);
+                }
+            }
+            _ => {}
+        }
+    }
+}

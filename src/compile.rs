@@ -1,0 +1,270 @@
+//! Stage 3, compile: checked graph → tape.
+//!
+//! Keeps only the nodes the requested outputs need, lowers each to one instruction (fbm,
+//! turbulence, ramps and splines are single coarse instructions), and assigns slots: constants
+//! get pinned slots filled once per workspace, every other value gets the lowest free slot of its
+//! type and gives it back after its last use. Deduplication and constant folding already happened
+//! while the graph was built (graph.rs), so this pass is linear in the live nodes and never
+//! recurses.
+
+use crate::diagnostic::{Diagnostic, DiagnosticClass, Diagnostics};
+use crate::graph::{CheckedGraph, NodeId, Op, TableKey, Type};
+use crate::ops;
+use crate::tape::{Instr, Slot, Tape, TapeOutput, TapeStats};
+use std::collections::{BTreeSet, HashMap};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// What to compile.
+#[derive(Clone, Debug, Default)]
+pub struct CompileOptions {
+    /// Outputs to compile, by name, in this order; empty means all, in file order.
+    pub outputs: Vec<String>,
+}
+
+static NEXT_TAPE_ID: AtomicU64 = AtomicU64::new(1);
+
+/// Compiles the requested outputs. Fails only if a requested output does not exist.
+pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, Diagnostics> {
+    let selected: Vec<&crate::graph::Output> = if options.outputs.is_empty() {
+        graph.outputs.iter().collect()
+    } else {
+        let mut selected = Vec::new();
+        let mut errors = Vec::new();
+        for name in &options.outputs {
+            match graph.output(name) {
+                Some(o) if !selected.iter().any(|s: &&crate::graph::Output| s.name == *name) => selected.push(o),
+                Some(_) => {}
+                None => {
+                    let names: Vec<&str> = graph.outputs.iter().map(|o| o.name.as_str()).collect();
+                    errors.push(
+                        Diagnostic::new(DiagnosticClass::UnknownOutput, format!("--output {name}: the graph has no output \"{name}\""))
+                            .help(format!("its outputs are: {}", names.join(", "))),
+                    );
+                }
+            }
+        }
+        if !errors.is_empty() {
+            return Err(Diagnostics { file: graph.file.clone(), list: errors });
+        }
+        selected
+    };
+
+    // Liveness: mark what the outputs need. Arguments have smaller ids than their users, so one
+    // reverse sweep suffices.
+    let mut live = vec![false; graph.nodes.len()];
+    for output in &selected {
+        live[output.node as usize] = true;
+    }
+    for id in (0..graph.nodes.len()).rev() {
+        if live[id] {
+            for &arg in &graph.nodes[id].args {
+                live[arg as usize] = true;
+            }
+        }
+    }
+    // Last use of each live node (instruction index = node id order); outputs live to the end.
+    let mut last_use: Vec<usize> = vec![0; graph.nodes.len()];
+    for (id, node) in graph.nodes.iter().enumerate() {
+        if live[id] {
+            for &arg in &node.args {
+                last_use[arg as usize] = last_use[arg as usize].max(id);
+            }
+        }
+    }
+    for output in &selected {
+        last_use[output.node as usize] = usize::MAX;
+    }
+
+    let mut emitter = Emitter::default();
+    let mut slot_of: HashMap<NodeId, Slot> = HashMap::new();
+    let live_nodes = live.iter().filter(|&&l| l).count();
+    for (id, node) in graph.nodes.iter().enumerate() {
+        if !live[id] {
+            continue;
+        }
+        let id = id as NodeId;
+        let arg = |i: usize| slot_of[&node.args[i]];
+        let vec3 = node.ty == Type::Vec3;
+        match &node.op {
+            Op::ConstScalar(v) => {
+                let slot = emitter.scalars.pin();
+                emitter.scalar_constants.push((slot, *v));
+                slot_of.insert(id, slot);
+                continue;
+            }
+            Op::ConstVec3(v) => {
+                let slot = emitter.vec3s.pin();
+                emitter.vec3_constants.push((slot, *v));
+                slot_of.insert(id, slot);
+                continue;
+            }
+            _ => {}
+        }
+        // Allocate the destination before freeing dead arguments, so an instruction never
+        // writes a slot it reads (the interpreter relies on it).
+        let dst = if vec3 { emitter.vec3s.alloc() } else { emitter.scalars.alloc() };
+        let instr = match &node.op {
+            Op::ConstScalar(_) | Op::ConstVec3(_) => unreachable_const(),
+            Op::Position => Instr::Position { dst },
+            Op::Splat => Instr::Splat { dst, src: arg(0) },
+            Op::Combine => Instr::Combine { dst, x: arg(0), y: arg(1), z: arg(2) },
+            Op::Component(axis) => Instr::Component { dst, src: arg(0), axis: *axis },
+            Op::Unary(op) if vec3 => Instr::UnaryVec3 { op: *op, dst, src: arg(0) },
+            Op::Unary(op) => Instr::UnaryScalar { op: *op, dst, src: arg(0) },
+            Op::Binary(op) if vec3 => Instr::BinaryVec3 { op: *op, dst, a: arg(0), b: arg(1) },
+            Op::Binary(op) => Instr::BinaryScalar { op: *op, dst, a: arg(0), b: arg(1) },
+            Op::Ternary(op) if vec3 => Instr::TernaryVec3 { op: *op, dst, a: arg(0), b: arg(1), c: arg(2) },
+            Op::Ternary(op) => Instr::TernaryScalar { op: *op, dst, a: arg(0), b: arg(1), c: arg(2) },
+            Op::Dot => Instr::Dot { dst, a: arg(0), b: arg(1) },
+            Op::Length => Instr::Length { dst, src: arg(0) },
+            Op::Rotate { axis } => match graph.nodes[node.args[1] as usize].op {
+                Op::ConstScalar(degrees) => {
+                    emitter.matrices.push(ops::rotation_matrix(*axis, degrees));
+                    Instr::RotateConst { dst, src: arg(0), matrix: (emitter.matrices.len() - 1) as u32 }
+                }
+                _ => {
+                    emitter.axes.push(*axis);
+                    Instr::RotateVarying { dst, src: arg(0), degrees: arg(1), axis: (emitter.axes.len() - 1) as u32 }
+                }
+            },
+            Op::Noise(key) => Instr::Noise { dst, src: arg(0), table: emitter.table(*key) },
+            Op::Fractal(key, params) => {
+                let table = emitter.table(*key);
+                emitter.octaves.push(params.schedule());
+                Instr::Fractal { dst, src: arg(0), table, octaves: (emitter.octaves.len() - 1) as u32, turbulence: params.turbulence }
+            }
+            Op::Hermite(h) => {
+                emitter.hermites.push(*h);
+                Instr::Hermite { dst, src: arg(0), spline: (emitter.hermites.len() - 1) as u32 }
+            }
+            Op::Ramp(r) => {
+                emitter.ramps.push(r.clone());
+                Instr::Ramp { dst, src: arg(0), ramp: (emitter.ramps.len() - 1) as u32 }
+            }
+            Op::Curve(c) => {
+                emitter.curves.push(c.clone());
+                Instr::Curve { dst, src: arg(0), curve: (emitter.curves.len() - 1) as u32 }
+            }
+        };
+        emitter.instrs.push(instr);
+        emitter.origins.push(node.origin.node.clone());
+        slot_of.insert(id, dst);
+        // Free arguments whose last use is this node (each once, even if used twice here).
+        let mut freed: Vec<NodeId> = Vec::with_capacity(3);
+        for &a in &node.args {
+            let pinned = matches!(graph.nodes[a as usize].op, Op::ConstScalar(_) | Op::ConstVec3(_));
+            if !pinned && last_use[a as usize] == id as usize && !freed.contains(&a) {
+                freed.push(a);
+                let slot = slot_of[&a];
+                match graph.nodes[a as usize].ty {
+                    Type::Vec3 => emitter.vec3s.free(slot),
+                    Type::Scalar => emitter.scalars.free(slot),
+                }
+            }
+        }
+    }
+
+    let mut outputs = Vec::with_capacity(selected.len());
+    let mut first_channel = 0;
+    for output in selected {
+        let ty = graph.nodes[output.node as usize].ty;
+        outputs.push(TapeOutput { name: output.name.clone(), ty, slot: slot_of[&output.node], first_channel });
+        first_channel += ty.channels();
+    }
+    // Pruned: nodes of the written graph (reachable from a named node or any output) that the
+    // requested outputs do not need. Intermediate constants left behind by folding don't count.
+    let mut written = vec![false; graph.nodes.len()];
+    for &(_, id) in &graph.named {
+        written[id as usize] = true;
+    }
+    for output in &graph.outputs {
+        written[output.node as usize] = true;
+    }
+    for id in (0..graph.nodes.len()).rev() {
+        if written[id] {
+            for &arg in &graph.nodes[id].args {
+                written[arg as usize] = true;
+            }
+        }
+    }
+    let graph_nodes = written.iter().filter(|&&w| w).count();
+    Ok(Tape {
+        id: NEXT_TAPE_ID.fetch_add(1, Ordering::Relaxed),
+        instrs: emitter.instrs,
+        scalar_slots: emitter.scalars.count,
+        vec3_slots: emitter.vec3s.count,
+        scalar_constants: emitter.scalar_constants,
+        vec3_constants: emitter.vec3_constants,
+        outputs,
+        tables: emitter.tables,
+        octaves: emitter.octaves,
+        matrices: emitter.matrices,
+        axes: emitter.axes,
+        hermites: emitter.hermites,
+        ramps: emitter.ramps,
+        curves: emitter.curves,
+        origins: emitter.origins,
+        stats: TapeStats { graph_nodes, live_nodes, pruned_nodes: graph_nodes.saturating_sub(live_nodes) },
+    })
+}
+
+fn unreachable_const() -> Instr {
+    // Constants are handled (and `continue`d) before this match; kept panic-free regardless.
+    Instr::Position { dst: 0 }
+}
+
+/// A slot file: hands out the lowest free slot so allocation is deterministic.
+#[derive(Default)]
+struct SlotFile {
+    count: usize,
+    free: BTreeSet<Slot>,
+}
+
+impl SlotFile {
+    fn alloc(&mut self) -> Slot {
+        if let Some(&slot) = self.free.iter().next() {
+            self.free.remove(&slot);
+            slot
+        } else {
+            self.count += 1;
+            (self.count - 1) as Slot
+        }
+    }
+
+    /// A slot that is never freed (constants).
+    fn pin(&mut self) -> Slot {
+        self.count += 1;
+        (self.count - 1) as Slot
+    }
+
+    fn free(&mut self, slot: Slot) {
+        self.free.insert(slot);
+    }
+}
+
+#[derive(Default)]
+struct Emitter {
+    instrs: Vec<Instr>,
+    origins: Vec<String>,
+    scalars: SlotFile,
+    vec3s: SlotFile,
+    scalar_constants: Vec<(Slot, f64)>,
+    vec3_constants: Vec<(Slot, [f64; 3])>,
+    tables: Vec<(TableKey, std::sync::Arc<crate::noise::NoiseTable>)>,
+    octaves: Vec<crate::noise::Octaves>,
+    matrices: Vec<[[f64; 3]; 3]>,
+    axes: Vec<[f64; 3]>,
+    hermites: Vec<ops::Hermite>,
+    ramps: Vec<std::sync::Arc<ops::Ramp>>,
+    curves: Vec<std::sync::Arc<ops::Curve>>,
+}
+
+impl Emitter {
+    fn table(&mut self, key: TableKey) -> u32 {
+        if let Some(i) = self.tables.iter().position(|(k, _)| *k == key) {
+            return i as u32;
+        }
+        self.tables.push((key, std::sync::Arc::new(crate::noise::NoiseTable::new(key.basis, key.seed))));
+        (self.tables.len() - 1) as u32
+    }
+}

@@ -1,0 +1,301 @@
+//! Source files, spans and diagnostics.
+//!
+//! Every problem with a graph file becomes a [`Diagnostic`] that names the node (when there is
+//! one) and carries a byte span into the file; rendering turns the span into `file:line:column`
+//! and shows the offending line with a caret (miette's graphical handler).
+
+use std::fmt;
+use std::sync::Arc;
+
+/// A half-open byte range `start..end` into a [`SourceFile`]'s text.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub struct Span {
+    pub start: usize,
+    pub end: usize,
+}
+
+impl Span {
+    pub fn new(start: usize, end: usize) -> Span {
+        Span { start, end }
+    }
+
+    /// The smallest span that covers both.
+    pub fn to(self, other: Span) -> Span {
+        Span::new(self.start.min(other.start), self.end.max(other.end))
+    }
+}
+
+/// A value together with where it was written.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Spanned<T> {
+    pub value: T,
+    pub span: Span,
+}
+
+/// A graph file's name (as the user typed it) and text.
+#[derive(Debug)]
+pub struct SourceFile {
+    pub name: String,
+    pub text: String,
+}
+
+impl SourceFile {
+    pub fn new(name: impl Into<String>, text: impl Into<String>) -> Arc<SourceFile> {
+        Arc::new(SourceFile {
+            name: name.into(),
+            text: text.into(),
+        })
+    }
+
+    /// 1-based line and column (in characters) of a byte offset.
+    pub fn line_col(&self, offset: usize) -> (usize, usize) {
+        let offset = offset.min(self.text.len());
+        let before = &self.text[..floor_char_boundary(&self.text, offset)];
+        let line = before.matches('\n').count() + 1;
+        let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+        let column = before[line_start..].chars().count() + 1;
+        (line, column)
+    }
+}
+
+fn floor_char_boundary(text: &str, mut offset: usize) -> usize {
+    while offset > 0 && !text.is_char_boundary(offset) {
+        offset -= 1;
+    }
+    offset
+}
+
+/// What went wrong, by class. The class is part of the rendered message (`error[class]`), so
+/// tests and scripts can tell the classes apart without parsing prose.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DiagnosticClass {
+    Syntax,
+    UnknownKind,
+    UnknownReference,
+    WrongComponent,
+    Type,
+    Cycle,
+    BadParameter,
+    MissingArgument,
+    UnknownArgument,
+    DuplicateName,
+    Limit,
+    NotConstant,
+    UnknownOutput,
+    UnknownParam,
+}
+
+impl DiagnosticClass {
+    pub fn code(self) -> &'static str {
+        match self {
+            DiagnosticClass::Syntax => "syntax",
+            DiagnosticClass::UnknownKind => "unknown-kind",
+            DiagnosticClass::UnknownReference => "unknown-reference",
+            DiagnosticClass::WrongComponent => "wrong-component",
+            DiagnosticClass::Type => "type",
+            DiagnosticClass::Cycle => "cycle",
+            DiagnosticClass::BadParameter => "bad-parameter",
+            DiagnosticClass::MissingArgument => "missing-argument",
+            DiagnosticClass::UnknownArgument => "unknown-argument",
+            DiagnosticClass::DuplicateName => "duplicate-name",
+            DiagnosticClass::Limit => "limit",
+            DiagnosticClass::NotConstant => "not-constant",
+            DiagnosticClass::UnknownOutput => "unknown-output",
+            DiagnosticClass::UnknownParam => "unknown-param",
+        }
+    }
+}
+
+/// One problem with a graph file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Diagnostic {
+    pub class: DiagnosticClass,
+    /// The node id (or `outputs.NAME`, `params.NAME`) the problem belongs to.
+    pub node: Option<String>,
+    pub message: String,
+    pub span: Option<Span>,
+    /// Short text under the caret.
+    pub label: Option<String>,
+    pub help: Option<String>,
+}
+
+impl Diagnostic {
+    pub fn new(class: DiagnosticClass, message: impl Into<String>) -> Diagnostic {
+        Diagnostic {
+            class,
+            node: None,
+            message: message.into(),
+            span: None,
+            label: None,
+            help: None,
+        }
+    }
+
+    pub fn at(mut self, span: Span) -> Diagnostic {
+        self.span = Some(span);
+        self
+    }
+
+    pub fn in_node(mut self, node: impl Into<String>) -> Diagnostic {
+        self.node = Some(node.into());
+        self
+    }
+
+    pub fn label(mut self, label: impl Into<String>) -> Diagnostic {
+        self.label = Some(label.into());
+        self
+    }
+
+    pub fn help(mut self, help: impl Into<String>) -> Diagnostic {
+        self.help = Some(help.into());
+        self
+    }
+
+    fn headline(&self) -> String {
+        match &self.node {
+            Some(node) => format!("node \"{node}\": {}", self.message),
+            None => self.message.clone(),
+        }
+    }
+}
+
+/// All the problems found in one file. This is the error type of checking and compiling.
+#[derive(Clone, Debug)]
+pub struct Diagnostics {
+    pub file: Arc<SourceFile>,
+    pub list: Vec<Diagnostic>,
+}
+
+impl Diagnostics {
+    /// Renders every diagnostic without colour: `error[class]: file:line:col: node "id": message`,
+    /// then the source line with a caret. Stable text, compared by the error goldens.
+    pub fn render_plain(&self) -> String {
+        self.render(false)
+    }
+
+    /// Renders with colour when `colour` is set (for terminals).
+    pub fn render(&self, colour: bool) -> String {
+        use miette::{GraphicalReportHandler, GraphicalTheme};
+        let theme = if colour {
+            GraphicalTheme::unicode()
+        } else {
+            GraphicalTheme::unicode_nocolor()
+        };
+        let handler = GraphicalReportHandler::new_themed(theme)
+            .with_width(100)
+            .with_links(false);
+        let mut out = String::new();
+        for diagnostic in &self.list {
+            let location = match diagnostic.span {
+                Some(span) => {
+                    let (line, column) = self.file.line_col(span.start);
+                    format!("{}:{line}:{column}", self.file.name)
+                }
+                None => self.file.name.clone(),
+            };
+            out.push_str(&format!(
+                "error[{}]: {location}: {}\n",
+                diagnostic.class.code(),
+                diagnostic.headline()
+            ));
+            let report = MietteReport {
+                diagnostic,
+                file: &self.file,
+            };
+            let mut body = String::new();
+            // Rendering into a String cannot fail; if miette ever did, the headline above
+            // already carries the location and message.
+            let _ = handler.render_report(&mut body, &report);
+            // miette repeats the headline as its first line; drop it, keep the snippet.
+            let snippet: Vec<&str> = body.lines().skip(1).collect();
+            let snippet = snippet.join("\n");
+            let snippet = snippet.trim_matches('\n');
+            if !snippet.trim().is_empty() {
+                out.push_str(snippet);
+                out.push('\n');
+            }
+        }
+        out
+    }
+}
+
+impl fmt::Display for Diagnostics {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.render_plain())
+    }
+}
+
+impl std::error::Error for Diagnostics {}
+
+/// Adapter from our diagnostic to miette's trait, used only for rendering.
+struct MietteReport<'a> {
+    diagnostic: &'a Diagnostic,
+    file: &'a SourceFile,
+}
+
+impl fmt::Debug for MietteReport<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.diagnostic.message)
+    }
+}
+
+impl fmt::Display for MietteReport<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.diagnostic.headline())
+    }
+}
+
+impl std::error::Error for MietteReport<'_> {}
+
+impl miette::Diagnostic for MietteReport<'_> {
+    fn help<'b>(&'b self) -> Option<Box<dyn fmt::Display + 'b>> {
+        self.diagnostic
+            .help
+            .as_ref()
+            .map(|h| Box::new(h) as Box<dyn fmt::Display>)
+    }
+
+    fn source_code(&self) -> Option<&dyn miette::SourceCode> {
+        self.diagnostic.span.map(|_| &self.file.text as &dyn miette::SourceCode)
+    }
+
+    fn labels(&self) -> Option<Box<dyn Iterator<Item = miette::LabeledSpan> + '_>> {
+        let span = self.diagnostic.span?;
+        let len = span.end.saturating_sub(span.start).max(1);
+        let start = span.start.min(self.file.text.len());
+        let len = len.min(self.file.text.len().saturating_sub(start)).max(0);
+        let label = miette::LabeledSpan::new(self.diagnostic.label.clone(), start, len);
+        Some(Box::new(std::iter::once(label)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn line_col_counts_from_one() {
+        let file = SourceFile::new("a.ron", "ab\ncd\n");
+        assert_eq!(file.line_col(0), (1, 1));
+        assert_eq!(file.line_col(3), (2, 1));
+        assert_eq!(file.line_col(4), (2, 2));
+        assert_eq!(file.line_col(999), (3, 1));
+    }
+
+    #[test]
+    fn render_names_file_line_column_and_node() {
+        let file = SourceFile::new("g.ron", "Graph(\n  nodes: { \"a\": Sinn(1) },\n)\n");
+        let diagnostics = Diagnostics {
+            file,
+            list: vec![Diagnostic::new(DiagnosticClass::UnknownKind, "unknown node kind `Sinn`")
+                .in_node("a")
+                .at(Span::new(21, 25))
+                .label("not a node kind")
+                .help("did you mean `Sin`?")],
+        };
+        let text = diagnostics.render_plain();
+        assert!(text.starts_with("error[unknown-kind]: g.ron:2:14: node \"a\": unknown node kind `Sinn`"), "{text}");
+        assert!(text.contains("Sinn(1)"), "{text}");
+        assert!(text.contains("did you mean `Sin`?"), "{text}");
+    }
+}

@@ -1,0 +1,338 @@
+//! Stage 4, evaluate: the tape interpreter, per point and per batch, in f32 or f64.
+//!
+//! A batch is cut into chunks of [`LANES`] points (structure of arrays: x, y and z planes). For
+//! each chunk the interpreter walks the tape once: one dispatch per instruction per chunk, then a
+//! tight loop over the lanes, which the compiler is free to vectorise. A point evaluation is the
+//! same walk over a chunk of one lane, so point and batch results agree bit for bit by
+//! construction (each lane runs the same per-lane functions from `ops` and `noise`).
+//!
+//! Scratch memory lives in a [`Workspace`]: allocated when it is first bound to a tape, then
+//! reused; evaluation itself never allocates.
+
+use crate::noise;
+use crate::ops::{self, BinaryOp, TernaryOp, UnaryOp};
+use crate::real::Real;
+use crate::tape::{Instr, Tape};
+use std::mem::take;
+
+/// Points per chunk. 256 lanes keep a typical tape's live slots (a few KiB each) in L1/L2.
+pub const LANES: usize = 256;
+
+/// Per-thread scratch slots for evaluating tapes in lane type `S`.
+#[derive(Debug, Default)]
+pub struct Workspace<S: Real> {
+    bound_to: u64,
+    scalars: Vec<Vec<S>>,
+    /// Each vec3 slot holds three planes of LANES f64: x, then y, then z.
+    vec3s: Vec<Vec<f64>>,
+}
+
+impl<S: Real> Workspace<S> {
+    pub fn new() -> Workspace<S> {
+        Workspace { bound_to: 0, scalars: Vec::new(), vec3s: Vec::new() }
+    }
+
+    /// Sizes the slots for `tape` and writes its constants; a no-op when already bound to it.
+    fn bind(&mut self, tape: &Tape) {
+        if self.bound_to == tape.id {
+            return;
+        }
+        self.scalars = (0..tape.scalar_slots).map(|_| vec![S::ZERO; LANES]).collect();
+        self.vec3s = (0..tape.vec3_slots).map(|_| vec![0.0; 3 * LANES]).collect();
+        for &(slot, v) in &tape.scalar_constants {
+            self.scalars[slot as usize].fill(S::from_f64(v));
+        }
+        for &(slot, v) in &tape.vec3_constants {
+            let planes = &mut self.vec3s[slot as usize];
+            for (c, plane) in planes.chunks_exact_mut(LANES).enumerate() {
+                plane.fill(v[c]);
+            }
+        }
+        self.bound_to = tape.id;
+    }
+}
+
+impl Tape {
+    /// Evaluates every compiled output at one point. `out` receives the channels in output order
+    /// (scalar: one value, vec3: three).
+    ///
+    /// # Panics
+    /// If `out.len() != self.channels()`.
+    pub fn eval_point<S: Real>(&self, workspace: &mut Workspace<S>, point: [f64; 3], out: &mut [S]) {
+        assert_eq!(out.len(), self.channels(), "eval_point: output buffer has the wrong length");
+        workspace.bind(self);
+        self.run_chunk(workspace, &[point[0]], &[point[1]], &[point[2]]);
+        self.write_outputs(workspace, 1, 0, 1, out);
+    }
+
+    /// Evaluates every compiled output at `x.len()` points. `out` is planar: channel `c` of
+    /// point `i` is `out[c * n + i]`, channels numbered across outputs in order.
+    ///
+    /// # Panics
+    /// If the coordinate slices differ in length or `out.len() != self.channels() * x.len()`.
+    pub fn eval_batch<S: Real>(&self, workspace: &mut Workspace<S>, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
+        let n = x.len();
+        assert!(y.len() == n && z.len() == n, "eval_batch: coordinate slices differ in length");
+        assert_eq!(out.len(), self.channels() * n, "eval_batch: output buffer has the wrong length");
+        workspace.bind(self);
+        let mut start = 0;
+        while start < n {
+            let end = (start + LANES).min(n);
+            self.run_chunk(workspace, &x[start..end], &y[start..end], &z[start..end]);
+            self.write_outputs(workspace, end - start, start, n, out);
+            start = end;
+        }
+    }
+
+    /// Copies the output slots of the current chunk (`len` lanes) to `out` at lane `offset` of a
+    /// planar buffer with `stride` lanes per channel.
+    fn write_outputs<S: Real>(&self, ws: &Workspace<S>, len: usize, offset: usize, stride: usize, out: &mut [S]) {
+        for output in &self.outputs {
+            let base = output.first_channel;
+            match output.ty {
+                crate::graph::Type::Scalar => {
+                    let src = &ws.scalars[output.slot as usize][..len];
+                    out[base * stride + offset..][..len].copy_from_slice(src);
+                }
+                crate::graph::Type::Vec3 => {
+                    let planes = &ws.vec3s[output.slot as usize];
+                    for c in 0..3 {
+                        let src = &planes[c * LANES..][..len];
+                        let dst = &mut out[(base + c) * stride + offset..][..len];
+                        for (d, s) in dst.iter_mut().zip(src) {
+                            *d = S::from_f64(*s);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Runs every instruction over one chunk of `x.len() <= LANES` lanes.
+    fn run_chunk<S: Real>(&self, ws: &mut Workspace<S>, x: &[f64], y: &[f64], z: &[f64]) {
+        let n = x.len();
+        for instr in &self.instrs {
+            match *instr {
+                Instr::Position { dst } => {
+                    let planes = &mut ws.vec3s[dst as usize];
+                    planes[..n].copy_from_slice(x);
+                    planes[LANES..LANES + n].copy_from_slice(y);
+                    planes[2 * LANES..2 * LANES + n].copy_from_slice(z);
+                }
+                Instr::Splat { dst, src } => {
+                    let mut out = take(&mut ws.vec3s[dst as usize]);
+                    let s = &ws.scalars[src as usize][..n];
+                    for plane in out.chunks_exact_mut(LANES) {
+                        for (o, v) in plane[..n].iter_mut().zip(s) {
+                            *o = v.to_f64();
+                        }
+                    }
+                    ws.vec3s[dst as usize] = out;
+                }
+                Instr::Combine { dst, x: sx, y: sy, z: sz } => {
+                    let mut out = take(&mut ws.vec3s[dst as usize]);
+                    for (plane, src) in out.chunks_exact_mut(LANES).zip([sx, sy, sz]) {
+                        for (o, v) in plane[..n].iter_mut().zip(&ws.scalars[src as usize][..n]) {
+                            *o = v.to_f64();
+                        }
+                    }
+                    ws.vec3s[dst as usize] = out;
+                }
+                Instr::Component { dst, src, axis } => {
+                    let plane = &ws.vec3s[src as usize][axis as usize % 3 * LANES..][..n];
+                    for (o, v) in ws.scalars[dst as usize][..n].iter_mut().zip(plane) {
+                        *o = S::from_f64(*v);
+                    }
+                }
+                Instr::UnaryScalar { op, dst, src } => {
+                    let mut out = take(&mut ws.scalars[dst as usize]);
+                    unary_lanes(op, &mut out[..n], &ws.scalars[src as usize][..n]);
+                    ws.scalars[dst as usize] = out;
+                }
+                Instr::UnaryVec3 { op, dst, src } => {
+                    let mut out = take(&mut ws.vec3s[dst as usize]);
+                    let a = &ws.vec3s[src as usize];
+                    for c in 0..3 {
+                        unary_lanes(op, &mut out[c * LANES..][..n], &a[c * LANES..][..n]);
+                    }
+                    ws.vec3s[dst as usize] = out;
+                }
+                Instr::BinaryScalar { op, dst, a, b } => {
+                    let mut out = take(&mut ws.scalars[dst as usize]);
+                    binary_lanes(op, &mut out[..n], &ws.scalars[a as usize][..n], &ws.scalars[b as usize][..n]);
+                    ws.scalars[dst as usize] = out;
+                }
+                Instr::BinaryVec3 { op, dst, a, b } => {
+                    let mut out = take(&mut ws.vec3s[dst as usize]);
+                    let (a, b) = (&ws.vec3s[a as usize], &ws.vec3s[b as usize]);
+                    for c in 0..3 {
+                        binary_lanes(op, &mut out[c * LANES..][..n], &a[c * LANES..][..n], &b[c * LANES..][..n]);
+                    }
+                    ws.vec3s[dst as usize] = out;
+                }
+                Instr::TernaryScalar { op, dst, a, b, c } => {
+                    let mut out = take(&mut ws.scalars[dst as usize]);
+                    let s = &ws.scalars;
+                    ternary_lanes(op, &mut out[..n], &s[a as usize][..n], &s[b as usize][..n], &s[c as usize][..n]);
+                    ws.scalars[dst as usize] = out;
+                }
+                Instr::TernaryVec3 { op, dst, a, b, c } => {
+                    let mut out = take(&mut ws.vec3s[dst as usize]);
+                    let v = &ws.vec3s;
+                    for k in 0..3 {
+                        let plane = |slot: u32| &v[slot as usize][k * LANES..][..n];
+                        ternary_lanes(op, &mut out[k * LANES..][..n], plane(a), plane(b), plane(c));
+                    }
+                    ws.vec3s[dst as usize] = out;
+                }
+                Instr::Dot { dst, a, b } => {
+                    let (a, b) = (&ws.vec3s[a as usize], &ws.vec3s[b as usize]);
+                    let out = &mut ws.scalars[dst as usize][..n];
+                    for (i, o) in out.iter_mut().enumerate() {
+                        let d = a[i] * b[i] + a[LANES + i] * b[LANES + i] + a[2 * LANES + i] * b[2 * LANES + i];
+                        *o = S::from_f64(d);
+                    }
+                }
+                Instr::Length { dst, src } => {
+                    let a = &ws.vec3s[src as usize];
+                    let out = &mut ws.scalars[dst as usize][..n];
+                    for (i, o) in out.iter_mut().enumerate() {
+                        let (px, py, pz) = (a[i], a[LANES + i], a[2 * LANES + i]);
+                        *o = S::from_f64((px * px + py * py + pz * pz).sqrt());
+                    }
+                }
+                Instr::RotateConst { dst, src, matrix } => {
+                    let m = &self.matrices[matrix as usize];
+                    let mut out = take(&mut ws.vec3s[dst as usize]);
+                    let a = &ws.vec3s[src as usize];
+                    for i in 0..n {
+                        let p = ops::apply_matrix(m, [a[i], a[LANES + i], a[2 * LANES + i]]);
+                        out[i] = p[0];
+                        out[LANES + i] = p[1];
+                        out[2 * LANES + i] = p[2];
+                    }
+                    ws.vec3s[dst as usize] = out;
+                }
+                Instr::RotateVarying { dst, src, degrees, axis } => {
+                    let axis = self.axes[axis as usize];
+                    let mut out = take(&mut ws.vec3s[dst as usize]);
+                    let a = &ws.vec3s[src as usize];
+                    let d = &ws.scalars[degrees as usize];
+                    for i in 0..n {
+                        let m = ops::rotation_matrix(axis, d[i].to_f64());
+                        let p = ops::apply_matrix(&m, [a[i], a[LANES + i], a[2 * LANES + i]]);
+                        out[i] = p[0];
+                        out[LANES + i] = p[1];
+                        out[2 * LANES + i] = p[2];
+                    }
+                    ws.vec3s[dst as usize] = out;
+                }
+                Instr::Noise { dst, src, table } => {
+                    let a = &ws.vec3s[src as usize];
+                    let table = &self.tables[table as usize].1;
+                    table.sample_batch(&a[..n], &a[LANES..LANES + n], &a[2 * LANES..2 * LANES + n], &mut ws.scalars[dst as usize][..n]);
+                }
+                Instr::Fractal { dst, src, table, octaves, turbulence } => {
+                    let a = &ws.vec3s[src as usize];
+                    let table = &self.tables[table as usize].1;
+                    noise::fractal_batch(
+                        table,
+                        &self.octaves[octaves as usize],
+                        turbulence,
+                        &a[..n],
+                        &a[LANES..LANES + n],
+                        &a[2 * LANES..2 * LANES + n],
+                        &mut ws.scalars[dst as usize][..n],
+                    );
+                }
+                Instr::Hermite { dst, src, spline } => {
+                    let h = self.hermites[spline as usize];
+                    let mut out = take(&mut ws.scalars[dst as usize]);
+                    for (o, v) in out[..n].iter_mut().zip(&ws.scalars[src as usize][..n]) {
+                        *o = h.apply(*v);
+                    }
+                    ws.scalars[dst as usize] = out;
+                }
+                Instr::Ramp { dst, src, ramp } => {
+                    let ramp = &self.ramps[ramp as usize];
+                    let out = &mut ws.vec3s[dst as usize];
+                    for (i, t) in ws.scalars[src as usize][..n].iter().enumerate() {
+                        let c = ramp.eval(t.to_f64());
+                        out[i] = c[0];
+                        out[LANES + i] = c[1];
+                        out[2 * LANES + i] = c[2];
+                    }
+                }
+                Instr::Curve { dst, src, curve } => {
+                    let curve = &self.curves[curve as usize];
+                    let mut out = take(&mut ws.scalars[dst as usize]);
+                    for (o, t) in out[..n].iter_mut().zip(&ws.scalars[src as usize][..n]) {
+                        *o = S::from_f64(curve.eval(t.to_f64())[0]);
+                    }
+                    ws.scalars[dst as usize] = out;
+                }
+            }
+        }
+    }
+}
+
+/// One loop per operation: the `match` is outside, so each loop body is a single operation the
+/// compiler can vectorise. Each arm calls the op's own `apply` with a constant op, so the lane
+/// semantics are the ones defined in `ops` (also used by constant folding).
+#[inline]
+fn unary_lanes<T: Real>(op: UnaryOp, out: &mut [T], a: &[T]) {
+    macro_rules! lanes {
+        ($op:expr) => {
+            for (o, x) in out.iter_mut().zip(a) {
+                *o = $op.apply(*x);
+            }
+        };
+    }
+    match op {
+        UnaryOp::Abs => lanes!(UnaryOp::Abs),
+        UnaryOp::Neg => lanes!(UnaryOp::Neg),
+        UnaryOp::Sin => lanes!(UnaryOp::Sin),
+        UnaryOp::Cos => lanes!(UnaryOp::Cos),
+        UnaryOp::Sqrt => lanes!(UnaryOp::Sqrt),
+        UnaryOp::Floor => lanes!(UnaryOp::Floor),
+        UnaryOp::Fract => lanes!(UnaryOp::Fract),
+    }
+}
+
+#[inline]
+fn binary_lanes<T: Real>(op: BinaryOp, out: &mut [T], a: &[T], b: &[T]) {
+    macro_rules! lanes {
+        ($op:expr) => {
+            for ((o, x), y) in out.iter_mut().zip(a).zip(b) {
+                *o = $op.apply(*x, *y);
+            }
+        };
+    }
+    match op {
+        BinaryOp::Add => lanes!(BinaryOp::Add),
+        BinaryOp::Sub => lanes!(BinaryOp::Sub),
+        BinaryOp::Mul => lanes!(BinaryOp::Mul),
+        BinaryOp::Div => lanes!(BinaryOp::Div),
+        BinaryOp::Min => lanes!(BinaryOp::Min),
+        BinaryOp::Max => lanes!(BinaryOp::Max),
+        BinaryOp::Pow => lanes!(BinaryOp::Pow),
+        BinaryOp::Atan2 => lanes!(BinaryOp::Atan2),
+        BinaryOp::Mod => lanes!(BinaryOp::Mod),
+    }
+}
+
+#[inline]
+fn ternary_lanes<T: Real>(op: TernaryOp, out: &mut [T], a: &[T], b: &[T], c: &[T]) {
+    macro_rules! lanes {
+        ($op:expr) => {
+            for (((o, x), y), z) in out.iter_mut().zip(a).zip(b).zip(c) {
+                *o = $op.apply(*x, *y, *z);
+            }
+        };
+    }
+    match op {
+        TernaryOp::Clamp => lanes!(TernaryOp::Clamp),
+        TernaryOp::Mix => lanes!(TernaryOp::Mix),
+        TernaryOp::Smoothstep => lanes!(TernaryOp::Smoothstep),
+    }
+}

@@ -1,0 +1,365 @@
+//! Stage 2's output: the checked graph, a typed DAG of operations.
+//!
+//! Nodes are created through [`GraphBuilder`], which deduplicates identical subgraphs
+//! (hash-consing: an operation with the same inputs is the same node) and folds constants as it
+//! goes (an operation whose inputs are all constant becomes one constant). Scalar operands of
+//! vec3 operations are broadcast with explicit `Splat` nodes, so every later stage sees operands
+//! of exactly the types it expects.
+
+use crate::diagnostic::{SourceFile, Span};
+use crate::noise::{self, Basis, NoiseTable, Octaves};
+use crate::ops::{self, BinaryOp, Curve, Hermite, Ramp, TernaryOp, UnaryOp};
+use std::collections::HashMap;
+use std::fmt;
+use std::sync::Arc;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Type {
+    Scalar,
+    Vec3,
+}
+
+impl Type {
+    pub fn channels(self) -> usize {
+        match self {
+            Type::Scalar => 1,
+            Type::Vec3 => 3,
+        }
+    }
+}
+
+impl fmt::Display for Type {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Type::Scalar => "scalar",
+            Type::Vec3 => "vec3",
+        })
+    }
+}
+
+/// Index of a node in [`CheckedGraph::nodes`]. Arguments always have smaller ids than their
+/// users (the node list is in topological order).
+pub type NodeId = u32;
+
+/// Which lattice tables a noise instruction reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct TableKey {
+    pub basis: Basis,
+    pub seed: u64,
+}
+
+/// The parameters of an Fbm or Turbulence, as written (before level of detail).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FractalParams {
+    pub octaves: f64,
+    pub lacunarity: f64,
+    pub gain: f64,
+    pub first_octave: u32,
+    pub turbulence: bool,
+}
+
+impl FractalParams {
+    pub fn schedule(&self) -> Octaves {
+        Octaves::new(self.octaves, self.lacunarity, self.gain, self.first_octave)
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Op {
+    Position,
+    ConstScalar(f64),
+    ConstVec3([f64; 3]),
+    /// scalar → vec3 (x, x, x).
+    Splat,
+    /// three scalars → vec3.
+    Combine,
+    /// vec3 → one component.
+    Component(u8),
+    Unary(UnaryOp),
+    Binary(BinaryOp),
+    Ternary(TernaryOp),
+    Dot,
+    Length,
+    /// args: point, degrees. The axis is unit length.
+    Rotate { axis: [f64; 3] },
+    Noise(TableKey),
+    Fractal(TableKey, FractalParams),
+    Hermite(Hermite),
+    Ramp(Arc<Ramp>),
+    Curve(Arc<Curve>),
+}
+
+impl Op {
+    /// Encodes the operation (not its arguments) for hash-consing; floats by their bits so that
+    /// NaN payloads and -0.0 are kept apart.
+    fn key(&self, out: &mut Vec<u64>) {
+        fn basis_code(basis: Basis) -> u64 {
+            match basis {
+                Basis::Perlin => 0,
+                Basis::Gradient => 1,
+                Basis::Value(noise::Interpolation::Linear) => 2,
+                Basis::Value(noise::Interpolation::Smooth) => 3,
+            }
+        }
+        match self {
+            Op::Position => out.push(0),
+            Op::ConstScalar(v) => out.extend([1, v.to_bits()]),
+            Op::ConstVec3(v) => out.extend([2, v[0].to_bits(), v[1].to_bits(), v[2].to_bits()]),
+            Op::Splat => out.push(3),
+            Op::Combine => out.push(4),
+            Op::Component(c) => out.extend([5, *c as u64]),
+            Op::Unary(op) => out.extend([6, *op as u64]),
+            Op::Binary(op) => out.extend([7, *op as u64]),
+            Op::Ternary(op) => out.extend([8, *op as u64]),
+            Op::Dot => out.push(9),
+            Op::Length => out.push(10),
+            Op::Rotate { axis } => out.extend([11, axis[0].to_bits(), axis[1].to_bits(), axis[2].to_bits()]),
+            Op::Noise(t) => out.extend([12, basis_code(t.basis), t.seed]),
+            Op::Fractal(t, p) => out.extend([
+                13,
+                basis_code(t.basis),
+                t.seed,
+                p.octaves.to_bits(),
+                p.lacunarity.to_bits(),
+                p.gain.to_bits(),
+                p.first_octave as u64,
+                p.turbulence as u64,
+            ]),
+            Op::Hermite(h) => out.extend([14, h.p0.to_bits(), h.p1.to_bits(), h.m0.to_bits(), h.m1.to_bits()]),
+            Op::Ramp(r) => {
+                out.extend([15, r.interpolation() as u64]);
+                for (k, v) in r.knots().iter().zip(r.values()) {
+                    out.extend([k.to_bits(), v[0].to_bits(), v[1].to_bits(), v[2].to_bits()]);
+                }
+            }
+            Op::Curve(c) => {
+                out.extend([16, c.interpolation() as u64]);
+                for (k, v) in c.knots().iter().zip(c.values()) {
+                    out.extend([k.to_bits(), v[0].to_bits()]);
+                }
+            }
+        }
+    }
+}
+
+/// Where a node came from: the id of the graph node it was written in, and its span.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Origin {
+    pub node: String,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Node {
+    pub op: Op,
+    pub args: Vec<NodeId>,
+    pub ty: Type,
+    pub origin: Origin,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Output {
+    pub name: String,
+    pub node: NodeId,
+    pub span: Span,
+}
+
+/// Counts reported by `texgraph check`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GraphStats {
+    /// Entries in the file's `nodes` map.
+    pub declared: usize,
+    /// Node expressions written in the file, inline ones included.
+    pub written: usize,
+    /// Creations answered by an existing identical node.
+    pub deduplicated: usize,
+    /// Operations replaced by a constant.
+    pub folded: usize,
+}
+
+/// A graph that passed checking: typed, acyclic, deduplicated and constant-folded. Compiling it
+/// cannot fail except for a request naming an output it does not have.
+#[derive(Debug)]
+pub struct CheckedGraph {
+    pub file: Arc<SourceFile>,
+    pub nodes: Vec<Node>,
+    pub outputs: Vec<Output>,
+    /// The file's node ids and what each became (a folded node points at its constant).
+    pub named: Vec<(String, NodeId)>,
+    /// Params after `--set` overrides, in file order.
+    pub params: Vec<(String, f64)>,
+    pub stats: GraphStats,
+}
+
+impl CheckedGraph {
+    pub fn output(&self, name: &str) -> Option<&Output> {
+        self.outputs.iter().find(|o| o.name == name)
+    }
+}
+
+/// Creates nodes with deduplication and constant folding.
+pub struct GraphBuilder {
+    pub nodes: Vec<Node>,
+    interned: HashMap<(Vec<u64>, Vec<NodeId>), NodeId>,
+    tables: HashMap<TableKey, Arc<NoiseTable>>,
+    pub stats: GraphStats,
+}
+
+impl Default for GraphBuilder {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl GraphBuilder {
+    pub fn new() -> GraphBuilder {
+        GraphBuilder { nodes: Vec::new(), interned: HashMap::new(), tables: HashMap::new(), stats: GraphStats::default() }
+    }
+
+    pub fn node(&self, id: NodeId) -> &Node {
+        &self.nodes[id as usize]
+    }
+
+    pub fn ty(&self, id: NodeId) -> Type {
+        self.node(id).ty
+    }
+
+    pub fn const_scalar(&self, id: NodeId) -> Option<f64> {
+        match self.node(id).op {
+            Op::ConstScalar(v) => Some(v),
+            _ => None,
+        }
+    }
+
+    pub fn const_vec3(&self, id: NodeId) -> Option<[f64; 3]> {
+        match self.node(id).op {
+            Op::ConstVec3(v) => Some(v),
+            Op::ConstScalar(v) => Some([v; 3]),
+            _ => None,
+        }
+    }
+
+    /// Adds (or finds) a node. `args` must have the types `op` expects: callers insert splats
+    /// with [`GraphBuilder::broadcast`]. Folds when every argument is constant.
+    pub fn add(&mut self, op: Op, args: Vec<NodeId>, origin: &Origin) -> NodeId {
+        // x * 1 and x / 1 are x exactly (NaN, infinities and -0 included): drop the operation.
+        if let (Op::Binary(BinaryOp::Mul | BinaryOp::Div), [a, b]) = (&op, args.as_slice()) {
+            if self.is_one(*b) {
+                self.stats.folded += 1;
+                return *a;
+            }
+            if op == Op::Binary(BinaryOp::Mul) && self.is_one(*a) {
+                self.stats.folded += 1;
+                return *b;
+            }
+        }
+        if let Some(folded) = self.fold(&op, &args) {
+            self.stats.folded += 1;
+            return self.intern(folded, Vec::new(), origin);
+        }
+        self.intern(op, args, origin)
+    }
+
+    fn intern(&mut self, op: Op, args: Vec<NodeId>, origin: &Origin) -> NodeId {
+        let mut key = Vec::with_capacity(8);
+        op.key(&mut key);
+        let map_key = (key, args);
+        if let Some(&id) = self.interned.get(&map_key) {
+            self.stats.deduplicated += 1;
+            return id;
+        }
+        let ty = self.result_type(&op, &map_key.1);
+        let id = self.nodes.len() as NodeId;
+        self.nodes.push(Node { op, args: map_key.1.clone(), ty, origin: origin.clone() });
+        self.interned.insert(map_key, id);
+        id
+    }
+
+    fn result_type(&self, op: &Op, args: &[NodeId]) -> Type {
+        match op {
+            Op::Position | Op::ConstVec3(_) | Op::Splat | Op::Combine | Op::Rotate { .. } | Op::Ramp(_) => Type::Vec3,
+            Op::ConstScalar(_) | Op::Component(_) | Op::Dot | Op::Length | Op::Noise(_) | Op::Fractal(..) | Op::Hermite(_) | Op::Curve(_) => {
+                Type::Scalar
+            }
+            Op::Unary(_) | Op::Binary(_) | Op::Ternary(_) => args.first().map_or(Type::Scalar, |&a| self.ty(a)),
+        }
+    }
+
+    fn is_one(&self, id: NodeId) -> bool {
+        matches!(self.node(id).op, Op::ConstScalar(v) if v == 1.0) || matches!(self.node(id).op, Op::ConstVec3(v) if v == [1.0; 3])
+    }
+
+    /// Makes `id` a vec3 by splatting a scalar (a constant splat folds to a vec3 constant).
+    pub fn broadcast(&mut self, id: NodeId, ty: Type, origin: &Origin) -> NodeId {
+        if ty == Type::Vec3 && self.ty(id) == Type::Scalar {
+            self.add(Op::Splat, vec![id], origin)
+        } else {
+            id
+        }
+    }
+
+    pub fn table(&mut self, key: TableKey) -> Arc<NoiseTable> {
+        self.tables.entry(key).or_insert_with(|| Arc::new(NoiseTable::new(key.basis, key.seed))).clone()
+    }
+
+    /// Evaluates `op` in f64 when every argument is a constant.
+    fn fold(&mut self, op: &Op, args: &[NodeId]) -> Option<Op> {
+        match op {
+            Op::Position | Op::ConstScalar(_) | Op::ConstVec3(_) => return None,
+            Op::Rotate { axis } => {
+                // Mixed argument types: point (vec3), degrees (scalar).
+                let point = match self.node(args[0]).op {
+                    Op::ConstVec3(v) => v,
+                    _ => return None,
+                };
+                let degrees = self.const_scalar(args[1])?;
+                return Some(Op::ConstVec3(ops::apply_matrix(&ops::rotation_matrix(*axis, degrees), point)));
+            }
+            _ => {}
+        }
+        let scalars: Option<Vec<f64>> = args.iter().map(|&a| self.const_scalar(a)).collect();
+        let vectors: Option<Vec<[f64; 3]>> = args
+            .iter()
+            .map(|&a| match self.node(a).op {
+                Op::ConstVec3(v) => Some(v),
+                _ => None,
+            })
+            .collect();
+        let all_scalar = scalars.is_some();
+        let all_vec3 = vectors.is_some();
+        if !all_scalar && !all_vec3 {
+            return None;
+        }
+        if args.is_empty() {
+            return None;
+        }
+        let s = scalars.unwrap_or_default();
+        let v = vectors.unwrap_or_default();
+        let map3 = |f: &dyn Fn(usize) -> f64| Op::ConstVec3([f(0), f(1), f(2)]);
+        Some(match op {
+            Op::Splat if all_scalar => Op::ConstVec3([s[0]; 3]),
+            Op::Combine if all_scalar => Op::ConstVec3([s[0], s[1], s[2]]),
+            Op::Component(c) if all_vec3 => Op::ConstScalar(v[0][*c as usize % 3]),
+            Op::Unary(u) if all_scalar => Op::ConstScalar(u.apply(s[0])),
+            Op::Unary(u) if all_vec3 => map3(&|c| u.apply(v[0][c])),
+            Op::Binary(b) if all_scalar => Op::ConstScalar(b.apply(s[0], s[1])),
+            Op::Binary(b) if all_vec3 => map3(&|c| b.apply(v[0][c], v[1][c])),
+            Op::Ternary(t) if all_scalar => Op::ConstScalar(t.apply(s[0], s[1], s[2])),
+            Op::Ternary(t) if all_vec3 => map3(&|c| t.apply(v[0][c], v[1][c], v[2][c])),
+            Op::Dot if all_vec3 => Op::ConstScalar(v[0][0] * v[1][0] + v[0][1] * v[1][1] + v[0][2] * v[1][2]),
+            Op::Length if all_vec3 => Op::ConstScalar((v[0][0] * v[0][0] + v[0][1] * v[0][1] + v[0][2] * v[0][2]).sqrt()),
+            Op::Noise(key) if all_vec3 => {
+                let table = self.table(*key);
+                Op::ConstScalar(table.sample::<f64>(v[0]))
+            }
+            Op::Fractal(key, params) if all_vec3 => {
+                let table = self.table(*key);
+                Op::ConstScalar(noise::fractal::<f64>(&table, &params.schedule(), params.turbulence, v[0]))
+            }
+            Op::Hermite(h) if all_scalar => Op::ConstScalar(h.apply(s[0])),
+            Op::Ramp(r) if all_scalar => Op::ConstVec3(r.eval(s[0])),
+            Op::Curve(c) if all_scalar => Op::ConstScalar(c.eval(s[0])[0]),
+            _ => return None,
+        })
+    }
+}

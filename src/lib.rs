@@ -1,0 +1,42 @@
+//! texgraph: procedural solid textures from RON node graphs.
+//!
+//! The pipeline, one module per stage (ARCHITECTURE.md has the map):
+//! parse ([`syntax`]) → check ([`check`], producing a [`graph::CheckedGraph`]) → compile
+//! ([`compile`], producing a [`tape::Tape`]) → evaluate ([`eval`], per point or per batch, in
+//! f32 or f64).
+//!
+//! ```
+//! use texgraph::{check, compile, CheckOptions, CompileOptions, SourceFile, Workspace};
+//! let file = SourceFile::new("doc.ron", r#"Graph(nodes: { "n": Noise(input: Position, basis: Perlin) }, outputs: { "v": "n" })"#);
+//! let graph = check(file, &CheckOptions::default()).unwrap();
+//! let tape = compile(&graph, &CompileOptions::default()).unwrap();
+//! let mut workspace = Workspace::<f64>::new();
+//! let mut out = [0.0];
+//! tape.eval_point(&mut workspace, [3.14, 42.0, 7.0], &mut out);
+//! assert_eq!(out[0], 0.13691995878400012); // Ken Perlin's reference implementation
+//! ```
+
+pub mod check;
+pub mod compile;
+pub mod diagnostic;
+pub mod eval;
+pub mod graph;
+pub mod limits;
+pub mod load;
+pub mod nodes;
+pub mod noise;
+pub mod ops;
+pub mod points;
+pub mod real;
+pub mod summary;
+pub mod syntax;
+pub mod tape;
+
+pub use check::{check, CheckOptions};
+pub use compile::{compile, CompileOptions};
+pub use diagnostic::{Diagnostic, Diagnostics, SourceFile};
+pub use eval::{Workspace, LANES};
+pub use graph::{CheckedGraph, Type};
+pub use load::{load_graph, load_tape, read_source, LoadError};
+pub use real::Real;
+pub use tape::Tape;

@@ -1,0 +1,479 @@
+//! The node catalogue: every node kind, defined once — its arguments, their types and defaults,
+//! its output type and one sentence of meaning. The checker reads arguments through these
+//! definitions, `texgraph nodes` prints them, and docs/format.md's node table is generated from
+//! them (a test keeps the document in step).
+
+use crate::limits;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Kind {
+    Position,
+    Combine,
+    Scale,
+    Translate,
+    Rotate,
+    Noise,
+    Fbm,
+    Turbulence,
+    Add,
+    Sub,
+    Mul,
+    Div,
+    Min,
+    Max,
+    Pow,
+    Atan2,
+    Mod,
+    Abs,
+    Neg,
+    Sin,
+    Cos,
+    Sqrt,
+    Floor,
+    Fract,
+    Length,
+    Dot,
+    Clamp,
+    Mix,
+    Smoothstep,
+    Hermite,
+    ColorRamp,
+    Curve,
+}
+
+/// The type an input expression must have.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InputType {
+    Scalar,
+    Vec3,
+    /// Scalar or vec3; scalars broadcast when another `Any` operand is a vec3.
+    Any,
+}
+
+/// A closed or half-open interval that a constant argument must lie in.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Range {
+    pub min: f64,
+    pub max: f64,
+    /// `min` itself is allowed (otherwise the argument must be strictly greater).
+    pub min_inclusive: bool,
+    pub integer: bool,
+}
+
+impl Range {
+    pub const FINITE: Range = Range { min: f64::MIN, max: f64::MAX, min_inclusive: true, integer: false };
+
+    pub fn contains(&self, v: f64) -> bool {
+        let above = if self.min_inclusive { v >= self.min } else { v > self.min };
+        above && v <= self.max && (!self.integer || v.fract() == 0.0)
+    }
+
+    pub fn describe(&self) -> String {
+        let kind = if self.integer { "an integer" } else { "a finite number" };
+        if *self == Range::FINITE {
+            return kind.to_string();
+        }
+        let low = if self.min_inclusive { format!(">= {}", self.min) } else { format!("> {}", self.min) };
+        format!("{kind} {low} and <= {}", self.max)
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ArgKind {
+    /// Any expression of the given type, evaluated per point.
+    Input(InputType),
+    /// A compile-time constant scalar (number, param, or constant expression) within a range.
+    ConstScalar(Range),
+    /// A compile-time constant, non-zero vec3 (Rotate's axis).
+    ConstAxis,
+    /// `Perlin`, `Gradient`, `Value` or `Value(interpolation: Linear | Smooth)`.
+    Basis,
+    /// One of the listed interpolation names.
+    Interpolation(&'static [&'static str]),
+    /// `[(t, (r, g, b)), ...]`, constant, sorted by t.
+    Stops,
+    /// `[(x, y), ...]`, constant, sorted by x.
+    Points,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DefaultValue {
+    Number(f64),
+    Vec3([f64; 3]),
+    Name(&'static str),
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct ArgDef {
+    pub name: &'static str,
+    pub kind: ArgKind,
+    /// `None`: the argument is required.
+    pub default: Option<DefaultValue>,
+    pub doc: &'static str,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutputType {
+    Scalar,
+    Vec3,
+    /// Vec3 if any `Any` input is a vec3, else scalar (component-wise math).
+    Broadcast,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct NodeDef {
+    pub kind: Kind,
+    pub name: &'static str,
+    pub args: &'static [ArgDef],
+    pub output: OutputType,
+    pub doc: &'static str,
+}
+
+const fn input(name: &'static str, ty: InputType, doc: &'static str) -> ArgDef {
+    ArgDef { name, kind: ArgKind::Input(ty), default: None, doc }
+}
+
+const fn input_or(name: &'static str, ty: InputType, default: f64, doc: &'static str) -> ArgDef {
+    ArgDef { name, kind: ArgKind::Input(ty), default: Some(DefaultValue::Number(default)), doc }
+}
+
+const fn constant(name: &'static str, range: Range, default: Option<f64>, doc: &'static str) -> ArgDef {
+    let default = match default {
+        Some(v) => Some(DefaultValue::Number(v)),
+        None => None,
+    };
+    ArgDef { name, kind: ArgKind::ConstScalar(range), default, doc }
+}
+
+const ANY_X: &[ArgDef] = &[input("x", InputType::Any, "operand")];
+const ANY_AB: &[ArgDef] = &[input("a", InputType::Any, "left operand"), input("b", InputType::Any, "right operand")];
+
+const SEED: Range = Range { min: 0.0, max: limits::MAX_SEED, min_inclusive: true, integer: true };
+const OCTAVES: Range = Range { min: 0.0, max: limits::MAX_OCTAVES, min_inclusive: true, integer: false };
+const FIRST_OCTAVE: Range = Range { min: 0.0, max: limits::MAX_FIRST_OCTAVE, min_inclusive: true, integer: true };
+const LACUNARITY: Range = Range { min: 0.0, max: 1.0e6, min_inclusive: false, integer: false };
+const GAIN: Range = Range { min: -1.0e6, max: 1.0e6, min_inclusive: true, integer: false };
+
+const NOISE_INTERPOLATION: &[&str] = &["Linear", "Smooth"];
+const RAMP_INTERPOLATION: &[&str] = &["Linear", "Smooth", "Constant"];
+
+const FRACTAL_ARGS: &[ArgDef] = &[
+    input("input", InputType::Vec3, "the point to sample"),
+    ArgDef { name: "basis", kind: ArgKind::Basis, default: None, doc: "the noise summed: Perlin, Gradient or Value" },
+    constant("seed", SEED, Some(0.0), "selects the lattice tables; 0 is the reference table for Perlin"),
+    constant("octaves", OCTAVES, None, "how many octaves; a fraction weights the last, partial octave"),
+    constant("lacunarity", LACUNARITY, Some(2.0), "frequency ratio between octaves"),
+    constant("gain", GAIN, Some(0.5), "amplitude ratio between octaves"),
+    constant("first_octave", FIRST_OCTAVE, Some(0.0), "index of the first octave summed (seed 004's n1)"),
+    ArgDef {
+        name: "interpolation",
+        kind: ArgKind::Interpolation(NOISE_INTERPOLATION),
+        default: Some(DefaultValue::Name("Linear")),
+        doc: "Value basis only: Linear (trilinear) or Smooth",
+    },
+];
+
+/// Every node kind, in the order `texgraph nodes` lists them.
+pub static CATALOGUE: &[NodeDef] = &[
+    NodeDef { kind: Kind::Position, name: "Position", args: &[], output: OutputType::Vec3, doc: "The sample point (x, y, z)." },
+    NodeDef {
+        kind: Kind::Combine,
+        name: "Combine",
+        args: &[input("x", InputType::Scalar, "x component"), input("y", InputType::Scalar, "y component"), input("z", InputType::Scalar, "z component")],
+        output: OutputType::Vec3,
+        doc: "Builds a vec3 from three scalars.",
+    },
+    NodeDef {
+        kind: Kind::Scale,
+        name: "Scale",
+        args: &[input("input", InputType::Vec3, "the point"), input("by", InputType::Any, "scale factor, scalar or per axis")],
+        output: OutputType::Vec3,
+        doc: "Component-wise product input * by (seed 001's texture repeat vector).",
+    },
+    NodeDef {
+        kind: Kind::Translate,
+        name: "Translate",
+        args: &[input("input", InputType::Vec3, "the point"), input("by", InputType::Any, "offset, scalar or per axis")],
+        output: OutputType::Vec3,
+        doc: "Adds an offset: input + by.",
+    },
+    NodeDef {
+        kind: Kind::Rotate,
+        name: "Rotate",
+        args: &[
+            input("input", InputType::Vec3, "the point"),
+            ArgDef { name: "axis", kind: ArgKind::ConstAxis, default: Some(DefaultValue::Vec3([0.0, 0.0, 1.0])), doc: "rotation axis through the origin (normalised)" },
+            input("degrees", InputType::Scalar, "angle, right-handed about the axis; may vary per point (twist)"),
+        ],
+        output: OutputType::Vec3,
+        doc: "Rotates the point about an axis through the origin; the pattern appears rotated the other way.",
+    },
+    NodeDef {
+        kind: Kind::Noise,
+        name: "Noise",
+        args: &[
+            input("input", InputType::Vec3, "the point to sample"),
+            ArgDef { name: "basis", kind: ArgKind::Basis, default: None, doc: "Perlin, Gradient or Value" },
+            constant("seed", SEED, Some(0.0), "selects the lattice tables; 0 is the reference table for Perlin"),
+            ArgDef {
+                name: "interpolation",
+                kind: ArgKind::Interpolation(NOISE_INTERPOLATION),
+                default: Some(DefaultValue::Name("Linear")),
+                doc: "Value basis only: Linear (trilinear) or Smooth",
+            },
+        ],
+        output: OutputType::Scalar,
+        doc: "One lattice noise sample: Perlin (improved, 2002), Gradient (seed 000) or Value (seeds 002/004).",
+    },
+    NodeDef {
+        kind: Kind::Fbm,
+        name: "Fbm",
+        args: FRACTAL_ARGS,
+        output: OutputType::Scalar,
+        doc: "Fractal sum: sum over octaves i of gain^i * basis(input * lacunarity^i).",
+    },
+    NodeDef {
+        kind: Kind::Turbulence,
+        name: "Turbulence",
+        args: FRACTAL_ARGS,
+        output: OutputType::Scalar,
+        doc: "Perlin's turbulence: sum over octaves i of gain^i * |basis(input * lacunarity^i)|.",
+    },
+    NodeDef { kind: Kind::Add, name: "Add", args: ANY_AB, output: OutputType::Broadcast, doc: "a + b." },
+    NodeDef { kind: Kind::Sub, name: "Sub", args: ANY_AB, output: OutputType::Broadcast, doc: "a - b." },
+    NodeDef { kind: Kind::Mul, name: "Mul", args: ANY_AB, output: OutputType::Broadcast, doc: "a * b." },
+    NodeDef { kind: Kind::Div, name: "Div", args: ANY_AB, output: OutputType::Broadcast, doc: "a / b (IEEE: x/0 is +-inf, 0/0 is NaN)." },
+    NodeDef { kind: Kind::Min, name: "Min", args: ANY_AB, output: OutputType::Broadcast, doc: "The smaller of a and b; NaN if either is NaN." },
+    NodeDef { kind: Kind::Max, name: "Max", args: ANY_AB, output: OutputType::Broadcast, doc: "The larger of a and b; NaN if either is NaN." },
+    NodeDef { kind: Kind::Pow, name: "Pow", args: ANY_AB, output: OutputType::Broadcast, doc: "a raised to b (IEEE pow: a negative a with a non-integer b is NaN)." },
+    NodeDef {
+        kind: Kind::Atan2,
+        name: "Atan2",
+        args: &[input("y", InputType::Any, "y"), input("x", InputType::Any, "x")],
+        output: OutputType::Broadcast,
+        doc: "The angle of (x, y) in radians, in [-pi, pi]; Atan2(0, 0) is 0.",
+    },
+    NodeDef { kind: Kind::Mod, name: "Mod", args: ANY_AB, output: OutputType::Broadcast, doc: "Floored modulo: the result takes the sign of b; Mod(a, 0) is NaN." },
+    NodeDef { kind: Kind::Abs, name: "Abs", args: ANY_X, output: OutputType::Broadcast, doc: "|x|." },
+    NodeDef { kind: Kind::Neg, name: "Neg", args: ANY_X, output: OutputType::Broadcast, doc: "-x." },
+    NodeDef { kind: Kind::Sin, name: "Sin", args: ANY_X, output: OutputType::Broadcast, doc: "sin(x), x in radians." },
+    NodeDef { kind: Kind::Cos, name: "Cos", args: ANY_X, output: OutputType::Broadcast, doc: "cos(x), x in radians." },
+    NodeDef { kind: Kind::Sqrt, name: "Sqrt", args: ANY_X, output: OutputType::Broadcast, doc: "Square root; NaN for negative x." },
+    NodeDef { kind: Kind::Floor, name: "Floor", args: ANY_X, output: OutputType::Broadcast, doc: "The largest integer <= x." },
+    NodeDef { kind: Kind::Fract, name: "Fract", args: ANY_X, output: OutputType::Broadcast, doc: "x - floor(x), in [0, 1); NaN for infinite x." },
+    NodeDef { kind: Kind::Length, name: "Length", args: &[input("v", InputType::Vec3, "the vector")], output: OutputType::Scalar, doc: "Euclidean length of a vec3." },
+    NodeDef {
+        kind: Kind::Dot,
+        name: "Dot",
+        args: &[input("a", InputType::Vec3, "left vector"), input("b", InputType::Vec3, "right vector")],
+        output: OutputType::Scalar,
+        doc: "Dot product of two vec3.",
+    },
+    NodeDef {
+        kind: Kind::Clamp,
+        name: "Clamp",
+        args: &[input("input", InputType::Any, "the value"), input_or("min", InputType::Any, 0.0, "lower bound"), input_or("max", InputType::Any, 1.0, "upper bound")],
+        output: OutputType::Broadcast,
+        doc: "min(max(input, min), max); NaN stays NaN.",
+    },
+    NodeDef {
+        kind: Kind::Mix,
+        name: "Mix",
+        args: &[input("a", InputType::Any, "value at t = 0"), input("b", InputType::Any, "value at t = 1"), input("t", InputType::Any, "blend factor, not clamped")],
+        output: OutputType::Broadcast,
+        doc: "Linear blend a + t * (b - a), t not clamped.",
+    },
+    NodeDef {
+        kind: Kind::Smoothstep,
+        name: "Smoothstep",
+        args: &[input("edge0", InputType::Any, "where the step starts"), input("edge1", InputType::Any, "where the step ends"), input("x", InputType::Any, "the value")],
+        output: OutputType::Broadcast,
+        doc: "GLSL smoothstep: t = clamp((x - edge0) / (edge1 - edge0), 0, 1), t*t*(3 - 2t); a hard step at edge0 when edge0 = edge1.",
+    },
+    NodeDef {
+        kind: Kind::Hermite,
+        name: "Hermite",
+        args: &[
+            input("input", InputType::Scalar, "the value; clamped to [0, 1]"),
+            constant("p0", Range::FINITE, Some(0.0), "value at 0"),
+            constant("p1", Range::FINITE, Some(1.0), "value at 1"),
+            constant("m0", Range::FINITE, Some(1.0), "slope at 0"),
+            constant("m1", Range::FINITE, Some(1.0), "slope at 1"),
+        ],
+        output: OutputType::Scalar,
+        doc: "Cubic Hermite spline on t = clamp(input, 0, 1) from p0 (slope m0) to p1 (slope m1): seed 000's crack sharpening.",
+    },
+    NodeDef {
+        kind: Kind::ColorRamp,
+        name: "ColorRamp",
+        args: &[
+            input("input", InputType::Scalar, "the value; clamped to the first and last stop"),
+            ArgDef { name: "stops", kind: ArgKind::Stops, default: None, doc: "[(t, (r, g, b)), ...] sorted by t; equal t make a hard edge" },
+            ArgDef {
+                name: "interpolation",
+                kind: ArgKind::Interpolation(RAMP_INTERPOLATION),
+                default: Some(DefaultValue::Name("Linear")),
+                doc: "Linear, Smooth (smoothstep-eased) or Constant (hold each stop)",
+            },
+        ],
+        output: OutputType::Vec3,
+        doc: "Colour spline: maps a scalar to a colour through sorted stops.",
+    },
+    NodeDef {
+        kind: Kind::Curve,
+        name: "Curve",
+        args: &[
+            input("input", InputType::Scalar, "the value; clamped to the first and last point"),
+            ArgDef { name: "points", kind: ArgKind::Points, default: None, doc: "[(x, y), ...] sorted by x; equal x make a jump" },
+            ArgDef {
+                name: "interpolation",
+                kind: ArgKind::Interpolation(RAMP_INTERPOLATION),
+                default: Some(DefaultValue::Name("Linear")),
+                doc: "Linear, Smooth (smoothstep-eased) or Constant (hold each point)",
+            },
+        ],
+        output: OutputType::Scalar,
+        doc: "Scalar spline: maps a scalar through sorted (x, y) points.",
+    },
+];
+
+/// Looks a kind up by its name as written in graph files.
+pub fn lookup(name: &str) -> Option<&'static NodeDef> {
+    CATALOGUE.iter().find(|def| def.name == name)
+}
+
+pub fn def(kind: Kind) -> &'static NodeDef {
+    // Every Kind has exactly one entry (pinned by a test), so the search always succeeds.
+    CATALOGUE.iter().find(|def| def.kind == kind).unwrap_or(&CATALOGUE[0])
+}
+
+/// The closest catalogue name to a misspelt one, for "did you mean" hints.
+pub fn suggest(name: &str) -> Option<&'static str> {
+    suggest_from(name, CATALOGUE.iter().map(|d| d.name))
+}
+
+/// The closest candidate by edit distance (case-insensitive), if it is close enough to help.
+pub fn suggest_from<'a>(name: &str, candidates: impl Iterator<Item = &'a str>) -> Option<&'a str> {
+    let lower = name.to_ascii_lowercase();
+    candidates
+        .map(|c| (edit_distance(&lower, &c.to_ascii_lowercase()), c))
+        .filter(|(d, c)| *d <= 2.max(c.len() / 3))
+        .min_by_key(|(d, _)| *d)
+        .map(|(_, c)| c)
+}
+
+/// Levenshtein distance; tiny inputs only (names), so the quadratic table is fine and no crate
+/// is worth a dependency.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let a: Vec<char> = a.chars().collect();
+    let b: Vec<char> = b.chars().collect();
+    let mut previous: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.iter().enumerate() {
+        let mut current = vec![i + 1; b.len() + 1];
+        for (j, cb) in b.iter().enumerate() {
+            let substitution = previous[j] + usize::from(ca != cb);
+            current[j + 1] = substitution.min(previous[j + 1] + 1).min(current[j] + 1);
+        }
+        previous = current;
+    }
+    previous[b.len()]
+}
+
+fn describe_arg(arg: &ArgDef) -> String {
+    match arg.kind {
+        ArgKind::Input(InputType::Scalar) => "scalar".into(),
+        ArgKind::Input(InputType::Vec3) => "vec3".into(),
+        ArgKind::Input(InputType::Any) => "scalar|vec3".into(),
+        ArgKind::ConstScalar(range) => format!("constant, {}", range.describe()),
+        ArgKind::ConstAxis => "constant non-zero vec3".into(),
+        ArgKind::Basis => "Perlin|Gradient|Value".into(),
+        ArgKind::Interpolation(names) => names.join("|"),
+        ArgKind::Stops => "[(t, (r, g, b)), ...]".into(),
+        ArgKind::Points => "[(x, y), ...]".into(),
+    }
+}
+
+fn describe_default(default: Option<DefaultValue>) -> String {
+    match default {
+        None => "required".into(),
+        Some(DefaultValue::Number(v)) => format!("default {v}"),
+        Some(DefaultValue::Vec3([x, y, z])) => format!("default ({x}, {y}, {z})"),
+        Some(DefaultValue::Name(n)) => format!("default {n}"),
+    }
+}
+
+fn describe_output(output: OutputType) -> &'static str {
+    match output {
+        OutputType::Scalar => "scalar",
+        OutputType::Vec3 => "vec3",
+        OutputType::Broadcast => "scalar, or vec3 if any operand is a vec3 (component-wise)",
+    }
+}
+
+/// The catalogue as plain text, for `texgraph nodes`.
+pub fn catalogue_text() -> String {
+    let mut out = String::new();
+    for def in CATALOGUE {
+        let signature: Vec<&str> = def.args.iter().map(|a| a.name).collect();
+        out.push_str(&format!("{}({}) -> {}\n", def.name, signature.join(", "), describe_output(def.output)));
+        out.push_str(&format!("    {}\n", def.doc));
+        for arg in def.args {
+            out.push_str(&format!(
+                "    {:<14} {:<40} {:<16} {}\n",
+                arg.name,
+                describe_arg(arg),
+                describe_default(arg.default),
+                arg.doc
+            ));
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// The catalogue as a Markdown table, for docs/format.md.
+pub fn catalogue_markdown() -> String {
+    let mut out = String::from("| node | arguments | output | meaning |\n|---|---|---|---|\n");
+    for def in CATALOGUE {
+        let args: Vec<String> = def
+            .args
+            .iter()
+            .map(|a| format!("`{}`: {} ({}) — {}", a.name, describe_arg(a), describe_default(a.default), a.doc))
+            .collect();
+        let args = if args.is_empty() { "—".to_string() } else { args.join("<br>") };
+        out.push_str(&format!(
+            "| `{}` | {} | {} | {} |\n",
+            def.name,
+            args.replace('|', "\\|"),
+            describe_output(def.output),
+            def.doc.replace('|', "\\|")
+        ));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_kind_is_defined_once() {
+        for (i, a) in CATALOGUE.iter().enumerate() {
+            for b in &CATALOGUE[i + 1..] {
+                assert_ne!(a.kind, b.kind);
+                assert_ne!(a.name, b.name);
+            }
+            assert_eq!(def(a.kind).name, a.name);
+            assert_eq!(lookup(a.name).map(|d| d.kind), Some(a.kind));
+        }
+        assert_eq!(CATALOGUE.len(), 32);
+    }
+
+    #[test]
+    fn suggestions() {
+        assert_eq!(suggest("Fmb"), Some("Fbm"));
+        assert_eq!(suggest("sin"), Some("Sin"));
+        assert_eq!(suggest("Turbulance"), Some("Turbulence"));
+        assert_eq!(suggest("Xyzzyplugh"), None);
+    }
+}

@@ -1,0 +1,290 @@
+//! Lattice noise bases (Perlin's improved noise, Ebert's gradient noise, value noise) and their
+//! fractal sums, evaluated one point at a time or over a batch of lanes.
+//!
+//! Precision contract: positions are always `f64`, so the integer lattice cell of a point stays
+//! exact far beyond f32's 24-bit mantissa; the cell index mod 256 and the fraction within the cell
+//! are computed in f64, and only the fraction enters the interior arithmetic in `S` (f32 or f64).
+//! The tables are built by a frozen generator ([`rng`]) so a graph's output never changes, and
+//! stored in f32 precision so the f32 and f64 paths read identical numbers.
+//!
+//! Batch functions run the same `#[inline(always)]` per-lane kernel as the point functions, so
+//! they are bit-identical to them by construction (Rust never contracts or reassociates float
+//! arithmetic).
+
+mod lattice;
+mod rng;
+
+/// The lattice noise function of one basis, as one monomorphic kernel per basis, so the batch
+/// loops can dispatch on the basis once per batch instead of once per lane.
+trait Kernel {
+    fn eval<S: Real>(&self, p: [f64; 3]) -> S;
+}
+
+/// Runs `$body` with `$k` bound to the [`Kernel`] of `$table`'s basis.
+macro_rules! with_kernel {
+    ($table:expr, $k:ident => $body:expr) => {{
+        let t: &NoiseTable = $table;
+        match t.basis {
+            Basis::Perlin => {
+                let $k = PerlinKernel { perm: &t.perm };
+                $body
+            }
+            Basis::Gradient => {
+                let $k = GradientKernel {
+                    perm: &t.perm,
+                    grads: &t.grads,
+                };
+                $body
+            }
+            Basis::Value(Interpolation::Linear) => {
+                let $k = ValueKernel::<false> {
+                    perm: &t.perm,
+                    values: &t.values,
+                };
+                $body
+            }
+            Basis::Value(Interpolation::Smooth) => {
+                let $k = ValueKernel::<true> {
+                    perm: &t.perm,
+                    values: &t.values,
+                };
+                $body
+            }
+        }
+    }};
+}
+
+mod fractal;
+mod gradient;
+mod perlin;
+mod value;
+#[cfg(test)]
+mod tests;
+
+pub use fractal::{fractal, fractal_batch, Octaves};
+
+use crate::real::Real;
+
+/// The lattice noise function underlying a noise node.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Basis {
+    /// Ken Perlin's 2002 improved noise; seed 0 is the published reference. Range within ±1.04.
+    Perlin,
+    /// Ebert's gradient noise (random unit gradients); zero on lattice points, range ±√3/2.
+    Gradient,
+    /// Value noise: random values in [0, 1] on lattice points, interpolated.
+    Value(Interpolation),
+}
+
+/// Interpolation of value noise between lattice points.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Interpolation {
+    /// Trilinear: continuous, with creases at cell faces.
+    Linear,
+    /// Trilinear with smoothstep weights t²(3 - 2t): C¹.
+    Smooth,
+}
+
+/// Immutable lattice tables for one (basis, seed); Send + Sync; built once at compile time.
+///
+/// Every table is kept even when the basis does not read it (zeros then): the struct is small
+/// (about 4.6 KB) and a fixed layout keeps all indexing free of bounds checks.
+#[derive(Clone)]
+pub struct NoiseTable {
+    basis: Basis,
+    seed: u64,
+    /// The permutation of 0..=255, doubled to 512 entries so that a hash plus an index <= 255
+    /// needs no wrap.
+    perm: [u8; 512],
+    /// Gradient basis: unit vectors (f32 precision, see the module docs).
+    grads: [[f32; 3]; 256],
+    /// Value basis: lattice values in [0, 1] (f32 precision).
+    values: [f32; 256],
+}
+
+impl std::fmt::Debug for NoiseTable {
+    // The tables themselves are noise to a reader; (basis, seed) determines them.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("NoiseTable")
+            .field("basis", &self.basis)
+            .field("seed", &self.seed)
+            .finish_non_exhaustive()
+    }
+}
+
+impl NoiseTable {
+    /// Builds the tables of `basis` for `seed`: deterministic forever (see [`rng`]).
+    ///
+    /// The permutation is the identity shuffled by Fisher–Yates from SplitMix64 seeded with
+    /// `seed ^ PERM_SALT`, except that `Perlin` with seed 0 uses the published reference
+    /// permutation. Gradient vectors and values come from their own streams
+    /// (`seed ^ GRAD_SALT`, `seed ^ VALUE_SALT`), independent of the permutation.
+    pub fn new(basis: Basis, seed: u64) -> Self {
+        let base = if basis == Basis::Perlin && seed == 0 {
+            perlin::REFERENCE_PERMUTATION
+        } else {
+            rng::shuffled_permutation(seed ^ rng::PERM_SALT)
+        };
+        let mut perm = [0u8; 512];
+        perm[..256].copy_from_slice(&base);
+        perm[256..].copy_from_slice(&base);
+        let grads = match basis {
+            Basis::Gradient => gradient::unit_vectors(seed ^ rng::GRAD_SALT),
+            _ => [[0.0; 3]; 256],
+        };
+        let values = match basis {
+            Basis::Value(_) => value::values(seed ^ rng::VALUE_SALT),
+            _ => [0.0; 256],
+        };
+        NoiseTable {
+            basis,
+            seed,
+            perm,
+            grads,
+            values,
+        }
+    }
+
+    /// The basis these tables serve.
+    pub fn basis(&self) -> Basis {
+        self.basis
+    }
+
+    /// The seed the tables were built from.
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    /// One sample at p. Positions are f64 (always, also on the f32 path); the interior
+    /// arithmetic is in S. Non-finite coordinates give NaN; any finite coordinate (even 1e300)
+    /// is fine.
+    #[inline]
+    pub fn sample<S: Real>(&self, p: [f64; 3]) -> S {
+        with_kernel!(self, k => k.eval(p))
+    }
+
+    /// `out[i] = sample(x[i], y[i], z[i])` bit for bit (one basis dispatch per batch, then a
+    /// straight loop over the lanes running the same kernel as [`NoiseTable::sample`]).
+    ///
+    /// Panics only if the slices' lengths differ (a caller bug).
+    pub fn sample_batch<S: Real>(&self, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
+        check_lengths(x, y, z, out.len());
+        with_kernel!(self, k => {
+            for (((o, &x), &y), &z) in out.iter_mut().zip(x).zip(y).zip(z) {
+                *o = k.eval([x, y, z]);
+            }
+        });
+    }
+
+    /// Guaranteed `[min, max]` of [`NoiseTable::sample`] for finite input, in f32 and in f64,
+    /// for every seed. Derivation (each basis is a convex combination Σ_c W_c(p) h_c(p) over
+    /// the 8 cell corners c, the weights W_c being products of 1D weights in [0, 1] summing to 1):
+    ///
+    /// - `Value`: `[0, 1]`. The values are in [0, 1] and every step is a lerp `a + t (b - a)`
+    ///   with a, b, t in [0, 1]; with round-to-nearest such a lerp stays in [0, 1] (rounding is
+    ///   monotone and 0, 1 are representable), in f32 as in f64. Tight up to the table.
+    /// - `Gradient`: `±0.8661`. |h_c| = |g_c · (p - c)| <= |p - c| (unit g_c), and by
+    ///   Cauchy–Schwarz Σ W_c |p - c| <= sqrt(Σ_c W_c |p - c|²) = sqrt(Σ_axes (1 - s(t)) t² +
+    ///   s(t) (1 - t)²) <= sqrt(3/4) = 0.866025 (each axis term is <= 1/4 because s(t) <= t for
+    ///   t <= 1/2), attained only at a cell centre with every gradient aimed at it. Rounded up
+    ///   to 4 digits; the 7.5e-5 margin covers the f32 rounding of the vectors (2^-24 relative)
+    ///   and of the evaluation (~1e-6).
+    /// - `Perlin`: `±1.04`. |h_c| = |g_c · (p - c)| <= T(p - c), the sum of the two largest
+    ///   |components| (the gradients are the 12 edge vectors (±1, ±1, 0) and permutations), so
+    ///   |N(p)| <= F(p) = Σ_c W_c(p) T(p - c), the value with every corner's gradient chosen
+    ///   adversarially. F has no closed-form maximum; numerically max F = 1.03635, at about
+    ///   (0.355, 0.4825, 0.5) and its mirror images. The test `perlin_range_bound_is_proved`
+    ///   proves F <= 1.04 over the whole cell by branch and bound (F is symmetric under
+    ///   x -> 1 - x and under axis swaps, and |∂F/∂x| <= 1 + fade'(x)). The 3.6e-3 to spare
+    ///   covers the rounding of the f32 evaluation (~1e-6) many times over.
+    pub fn range(&self) -> (f64, f64) {
+        match self.basis {
+            Basis::Perlin => (-PERLIN_RANGE, PERLIN_RANGE),
+            Basis::Gradient => (-GRADIENT_RANGE, GRADIENT_RANGE),
+            Basis::Value(_) => (0.0, 1.0),
+        }
+    }
+
+    /// An upper bound on the Lipschitz constant (max |gradient|) of [`NoiseTable::sample`] in
+    /// exact arithmetic (floating-point evaluation adds a few ulps of noise on top), for seam
+    /// tests. Same for every seed. With N = Σ_c W_c h_c (see [`NoiseTable::range`]) and s the 1D
+    /// weight (t, smoothstep, or fade),
+    /// ∂N/∂x = Σ_c W_c ∂h_c/∂x + s'(f_x) Σ_yz w_yz (h_1yz - h_0yz):
+    ///
+    /// - `Value`: h_c is constant in [0, 1], so |∂N/∂x| <= max s', and |∇N| <= √3 max s':
+    ///   Linear √3 (1.7321), Smooth 1.5 √3 (2.5981).
+    /// - `Gradient`, `Perlin`: the first term is a convex combination of gradients, at most
+    ///   max |g| (1, or √2 for Perlin's edge vectors). For the second, |h_c| <= |d_x| + |d_y| +
+    ///   |d_z| with d = p - c (unit g; for Perlin, h is ±d_i ± d_j), so |h_1yz| + |h_0yz| <= 1 +
+    ///   2 (|d_y| + |d_z|), whose w-weighted sum is <= 1 + 2 (1/2 + 1/2) = 3 (each 1D term
+    ///   t (1 - s(t)) + (1 - t) s(t) is <= 1/2). So each component is <= 3 max s' (s' <= 1.5 for
+    ///   smoothstep, 15/8 for fade), and |∇N| <= max|g| + 3 √3 max s':
+    ///   Gradient 1 + 4.5 √3 (8.795), Perlin √2 + 5.625 √3 (11.157). Not tight (measured
+    ///   gradients stay well below); it only has to be safe.
+    pub fn lipschitz(&self) -> f64 {
+        match self.basis {
+            Basis::Perlin => 11.157,
+            Basis::Gradient => 8.795,
+            Basis::Value(Interpolation::Linear) => 1.7321,
+            Basis::Value(Interpolation::Smooth) => 2.5981,
+        }
+    }
+}
+
+/// Half-width of the `Gradient` range; see [`NoiseTable::range`].
+const GRADIENT_RANGE: f64 = 0.8661;
+
+/// Half-width of the `Perlin` range; see [`NoiseTable::range`].
+const PERLIN_RANGE: f64 = 1.04;
+
+/// The length check of every batch entry point: mismatched slices are a caller bug, and a loud
+/// panic beats silently evaluating only the shortest prefix.
+#[inline]
+fn check_lengths(x: &[f64], y: &[f64], z: &[f64], n: usize) {
+    assert!(
+        x.len() == n && y.len() == n && z.len() == n,
+        "noise batch: slice lengths differ (x {}, y {}, z {}, out {})",
+        x.len(),
+        y.len(),
+        z.len(),
+        n
+    );
+}
+
+/// [`Basis::Perlin`]'s kernel.
+struct PerlinKernel<'a> {
+    perm: &'a [u8; 512],
+}
+
+impl Kernel for PerlinKernel<'_> {
+    #[inline(always)]
+    fn eval<S: Real>(&self, p: [f64; 3]) -> S {
+        perlin::sample(self.perm, p)
+    }
+}
+
+/// [`Basis::Gradient`]'s kernel.
+struct GradientKernel<'a> {
+    perm: &'a [u8; 512],
+    grads: &'a [[f32; 3]; 256],
+}
+
+impl Kernel for GradientKernel<'_> {
+    #[inline(always)]
+    fn eval<S: Real>(&self, p: [f64; 3]) -> S {
+        gradient::sample(self.perm, self.grads, p)
+    }
+}
+
+/// [`Basis::Value`]'s kernel; `SMOOTH` selects [`Interpolation::Smooth`].
+struct ValueKernel<'a, const SMOOTH: bool> {
+    perm: &'a [u8; 512],
+    values: &'a [f32; 256],
+}
+
+impl<const SMOOTH: bool> Kernel for ValueKernel<'_, SMOOTH> {
+    #[inline(always)]
+    fn eval<S: Real>(&self, p: [f64; 3]) -> S {
+        value::sample::<S, SMOOTH>(self.perm, self.values, p)
+    }
+}

@@ -1,0 +1,98 @@
+//! Ken Perlin's improved noise (SIGGRAPH 2002; the Java reference `ImprovedNoise.java`).
+//!
+//! The operation order below is the reference's, expression for expression, so that with the
+//! published permutation and `S = f64` the result equals the Java output bit for bit (pinned by
+//! tests). Only the cell index differs in form: the reference's `(int)Math.floor(x) & 255` is
+//! replaced by the exact, overflow-free [`lattice`], which agrees with it wherever the Java cast
+//! does not overflow.
+
+use super::lattice::{lattice, lerp};
+use crate::real::Real;
+
+/// The published permutation (`ImprovedNoise.java`, `permutation[]`), used for seed 0.
+pub(super) const REFERENCE_PERMUTATION: [u8; 256] = [
+    151, 160, 137, 91, 90, 15, 131, 13, 201, 95, 96, 53, 194, 233, 7, 225, 140, 36, 103, 30, 69,
+    142, 8, 99, 37, 240, 21, 10, 23, 190, 6, 148, 247, 120, 234, 75, 0, 26, 197, 62, 94, 252, 219,
+    203, 117, 35, 11, 32, 57, 177, 33, 88, 237, 149, 56, 87, 174, 20, 125, 136, 171, 168, 68, 175,
+    74, 165, 71, 134, 139, 48, 27, 166, 77, 146, 158, 231, 83, 111, 229, 122, 60, 211, 133, 230,
+    220, 105, 92, 41, 55, 46, 245, 40, 244, 102, 143, 54, 65, 25, 63, 161, 1, 216, 80, 73, 209, 76,
+    132, 187, 208, 89, 18, 169, 200, 196, 135, 130, 116, 188, 159, 86, 164, 100, 109, 198, 173,
+    186, 3, 64, 52, 217, 226, 250, 124, 123, 5, 202, 38, 147, 118, 126, 255, 82, 85, 212, 207, 206,
+    59, 227, 47, 16, 58, 17, 182, 189, 28, 42, 223, 183, 170, 213, 119, 248, 152, 2, 44, 154, 163,
+    70, 221, 153, 101, 155, 167, 43, 172, 9, 129, 22, 39, 253, 19, 98, 108, 110, 79, 113, 224, 232,
+    178, 185, 112, 104, 218, 246, 97, 228, 251, 34, 242, 193, 238, 210, 144, 12, 191, 179, 162,
+    241, 81, 51, 145, 235, 249, 14, 239, 107, 49, 192, 214, 31, 181, 199, 106, 157, 184, 84, 204,
+    176, 115, 121, 50, 45, 127, 4, 150, 254, 138, 236, 205, 93, 222, 114, 67, 29, 24, 72, 243, 141,
+    128, 195, 78, 66, 215, 61, 156, 180,
+];
+
+/// The reference's `fade(t) = t^3 (t (6t - 15) + 10)`, in its association order.
+#[inline(always)]
+fn fade<S: Real>(t: S) -> S {
+    t * t * t * (t * (t * S::from_f64(6.0) - S::from_f64(15.0)) + S::from_f64(10.0))
+}
+
+/// The reference's `grad`: the low 4 hash bits pick one of 12 edge directions (4 repeated) and
+/// the result is `±u ± v`, computed as the same single addition as the reference, so that even
+/// the sign of a zero matches. Written as selects on the hash bits, which the optimizer can
+/// lower without data-dependent branches.
+#[inline(always)]
+fn grad<S: Real>(hash: u8, x: S, y: S, z: S) -> S {
+    let h = hash & 15;
+    let u = if h < 8 { x } else { y };
+    let v = if h < 4 {
+        y
+    } else if h == 12 || h == 14 {
+        x
+    } else {
+        z
+    };
+    let u = if h & 1 == 0 { u } else { -u };
+    let v = if h & 2 == 0 { v } else { -v };
+    u + v
+}
+
+/// One sample of improved noise; `p` is the permutation doubled to 512 entries.
+#[inline(always)]
+pub(super) fn sample<S: Real>(p: &[u8; 512], pos: [f64; 3]) -> S {
+    let (xi, xf) = lattice(pos[0]);
+    let (yi, yf) = lattice(pos[1]);
+    let (zi, zf) = lattice(pos[2]);
+    let x = S::from_f64(xf);
+    let y = S::from_f64(yf);
+    let z = S::from_f64(zf);
+    let u = fade(x);
+    let v = fade(y);
+    let w = fade(z);
+    // Every index below is at most 255 + 255 + 1 = 511 (the reason the table is doubled); the
+    // masks only tell the optimizer so.
+    let a = p[xi] as usize + yi;
+    let aa = p[a & 511] as usize + zi;
+    let ab = p[(a + 1) & 511] as usize + zi;
+    let b = p[(xi + 1) & 511] as usize + yi;
+    let ba = p[b & 511] as usize + zi;
+    let bb = p[(b + 1) & 511] as usize + zi;
+    let one = S::ONE;
+    let (x1, y1, z1) = (x - one, y - one, z - one);
+    lerp(
+        w,
+        lerp(
+            v,
+            lerp(u, grad(p[aa & 511], x, y, z), grad(p[ba & 511], x1, y, z)),
+            lerp(u, grad(p[ab & 511], x, y1, z), grad(p[bb & 511], x1, y1, z)),
+        ),
+        lerp(
+            v,
+            lerp(
+                u,
+                grad(p[(aa + 1) & 511], x, y, z1),
+                grad(p[(ba + 1) & 511], x1, y, z1),
+            ),
+            lerp(
+                u,
+                grad(p[(ab + 1) & 511], x, y1, z1),
+                grad(p[(bb + 1) & 511], x1, y1, z1),
+            ),
+        ),
+    )
+}

@@ -1,0 +1,49 @@
+//! Value noise: a seeded table of values in [0, 1] at the lattice points (hashed exactly like the
+//! Gradient basis), interpolated trilinearly, with linear or smoothstep weights.
+
+use super::lattice::{corner_hashes, lattice, lerp, smoothstep};
+use super::rng::SplitMix64;
+use crate::real::Real;
+
+/// 256 values uniform in [0, 1), from SplitMix64 seeded with `seed`, stored rounded to f32 so the
+/// f32 and f64 paths share one table exactly (rounding may give 1.0, hence "in [0, 1]").
+pub(super) fn values(seed: u64) -> [f32; 256] {
+    let mut rng = SplitMix64::new(seed);
+    let mut table = [0.0f32; 256];
+    for v in table.iter_mut() {
+        *v = rng.next_f64() as f32;
+    }
+    table
+}
+
+/// One sample; `SMOOTH` picks the weights t (Linear) or t²(3 - 2t) (Smooth). The lerps are
+/// `d0 + t (d1 - d0)`, x first, then y, then z.
+#[inline(always)]
+pub(super) fn sample<S: Real, const SMOOTH: bool>(
+    perm: &[u8; 512],
+    values: &[f32; 256],
+    p: [f64; 3],
+) -> S {
+    let (ix, fx) = lattice(p[0]);
+    let (iy, fy) = lattice(p[1]);
+    let (iz, fz) = lattice(p[2]);
+    let h = corner_hashes(perm, ix, iy, iz);
+    let weight = |f: f64| {
+        let t = S::from_f64(f);
+        if SMOOTH {
+            smoothstep(t)
+        } else {
+            t
+        }
+    };
+    let (wx, wy, wz) = (weight(fx), weight(fy), weight(fz));
+    // f32 -> f64 -> S is exact and, for S = f32, folds to nothing. `& 255`: see gradient.rs.
+    let v = |i: usize| S::from_f64(values[h[i] & 255] as f64);
+    let vy0 = lerp(wx, v(0), v(1));
+    let vy1 = lerp(wx, v(2), v(3));
+    let vz0 = lerp(wy, vy0, vy1);
+    let vy0 = lerp(wx, v(4), v(5));
+    let vy1 = lerp(wx, v(6), v(7));
+    let vz1 = lerp(wy, vy0, vy1);
+    lerp(wz, vz0, vz1)
+}

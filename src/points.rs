@@ -1,0 +1,58 @@
+//! Reading sample points (`x y z` per line) for `texgraph eval --points`.
+
+use std::io::BufRead;
+
+/// A problem in a points file: the line number (1-based) and what was wrong.
+#[derive(Debug, thiserror::Error)]
+pub enum PointsError {
+    #[error("{source_name}:{line}: expected three numbers `x y z`, found `{text}`")]
+    Malformed { source_name: String, line: usize, text: String },
+    #[error("{source_name}: {error}")]
+    Io { source_name: String, error: std::io::Error },
+}
+
+/// Reads points in chunks of up to `chunk` points, calling `f` with x, y and z planes.
+/// Blank lines and lines starting with `#` are skipped; numbers are separated by whitespace or
+/// commas; `nan`, `inf` and `-inf` are accepted (the stability cases).
+pub fn for_each_chunk(
+    reader: impl BufRead,
+    source_name: &str,
+    chunk: usize,
+    mut f: impl FnMut(&[f64], &[f64], &[f64]) -> std::io::Result<()>,
+) -> Result<(), PointsError> {
+    let io = |error| PointsError::Io { source_name: source_name.to_string(), error };
+    let (mut xs, mut ys, mut zs) = (Vec::with_capacity(chunk), Vec::with_capacity(chunk), Vec::with_capacity(chunk));
+    for (index, line) in reader.lines().enumerate() {
+        let line = line.map_err(io)?;
+        let text = line.trim();
+        if text.is_empty() || text.starts_with('#') {
+            continue;
+        }
+        let numbers: Vec<&str> = text.split(|c: char| c.is_whitespace() || c == ',').filter(|s| !s.is_empty()).collect();
+        let parsed: Option<Vec<f64>> = numbers.iter().map(|s| s.parse::<f64>().ok()).collect();
+        match parsed {
+            Some(p) if p.len() == 3 => {
+                xs.push(p[0]);
+                ys.push(p[1]);
+                zs.push(p[2]);
+            }
+            _ => {
+                return Err(PointsError::Malformed {
+                    source_name: source_name.to_string(),
+                    line: index + 1,
+                    text: text.chars().take(80).collect(),
+                })
+            }
+        }
+        if xs.len() == chunk {
+            f(&xs, &ys, &zs).map_err(io)?;
+            xs.clear();
+            ys.clear();
+            zs.clear();
+        }
+    }
+    if !xs.is_empty() {
+        f(&xs, &ys, &zs).map_err(io)?;
+    }
+    Ok(())
+}

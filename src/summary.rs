@@ -1,0 +1,36 @@
+//! The short summary `texgraph check` prints for a graph and its tape.
+
+use crate::graph::CheckedGraph;
+use crate::tape::Tape;
+use std::fmt::Write;
+
+pub fn check_summary(graph: &CheckedGraph, tape: &Tape) -> String {
+    let mut s = String::new();
+    let g = graph.stats;
+    let _ = writeln!(s, "{}: ok", graph.file.name);
+    let _ = writeln!(
+        s,
+        "  nodes: {} declared, {} written (inline included); {} deduplicated, {} folded; {} after checking, {} live, {} pruned",
+        g.declared,
+        g.written,
+        g.deduplicated,
+        g.folded,
+        tape.stats.graph_nodes,
+        tape.stats.live_nodes,
+        tape.stats.pruned_nodes
+    );
+    let _ = writeln!(
+        s,
+        "  tape: {} instructions; slots: {} scalar + {} vec3 ({} of them constants)",
+        tape.instrs.len(),
+        tape.scalar_slots,
+        tape.vec3_slots,
+        tape.scalar_constants.len() + tape.vec3_constants.len()
+    );
+    let outputs: Vec<String> = tape.outputs.iter().map(|o| format!("{} {}", o.name, o.ty)).collect();
+    let _ = writeln!(s, "  outputs: {}", outputs.join(", "));
+    for (origin, octaves) in tape.fractal_octaves() {
+        let _ = writeln!(s, "  fractal \"{origin}\": {octaves} octaves kept");
+    }
+    s
+}

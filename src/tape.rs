@@ -1,0 +1,210 @@
+//! Stage 3's output: the flat instruction tape.
+//!
+//! The tape is addressed like a stack frame with fixed offsets (the way Blender Cycles' SVM
+//! "stack" is addressed): every instruction names the slots it reads and the slot it writes, and
+//! the slot of each value is decided at compile time. Two slot files exist, scalar slots (one lane
+//! array of the evaluation's `Real` type) and vec3 slots (three f64 lane planes). Why slots and
+//! not push/pop: a batch interpreter pays one dispatch per instruction per batch, so what matters
+//! is the lane loops; with fixed slots a value is written once and read in place by every user
+//! (a DAG, not a tree: fbm results feed several nodes), where a push/pop machine would have to copy
+//! lane arrays to duplicate them. Slots are reused once their value is dead, so the working set
+//! of a 256-lane batch stays in L1/L2 (ARCHITECTURE.md, "Tape").
+//!
+//! A tape is immutable, `Send + Sync`, and shared by reference across threads; all mutable state
+//! lives in a per-thread `Workspace`.
+
+use crate::graph::{TableKey, Type};
+use crate::noise::{Basis, Interpolation, NoiseTable, Octaves};
+use crate::ops::{BinaryOp, Curve, Hermite, Ramp, TernaryOp, UnaryOp};
+use std::fmt;
+use std::sync::Arc;
+
+/// A slot index in the scalar or vec3 file (which one follows from the instruction).
+pub type Slot = u32;
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Instr {
+    /// dst(vec3) = the sample point.
+    Position { dst: Slot },
+    /// dst(vec3) = (src, src, src).
+    Splat { dst: Slot, src: Slot },
+    /// dst(vec3) = (x, y, z) from three scalar slots.
+    Combine { dst: Slot, x: Slot, y: Slot, z: Slot },
+    /// dst(scalar) = src(vec3)[axis].
+    Component { dst: Slot, src: Slot, axis: u8 },
+    UnaryScalar { op: UnaryOp, dst: Slot, src: Slot },
+    UnaryVec3 { op: UnaryOp, dst: Slot, src: Slot },
+    BinaryScalar { op: BinaryOp, dst: Slot, a: Slot, b: Slot },
+    BinaryVec3 { op: BinaryOp, dst: Slot, a: Slot, b: Slot },
+    TernaryScalar { op: TernaryOp, dst: Slot, a: Slot, b: Slot, c: Slot },
+    TernaryVec3 { op: TernaryOp, dst: Slot, a: Slot, b: Slot, c: Slot },
+    Dot { dst: Slot, a: Slot, b: Slot },
+    Length { dst: Slot, src: Slot },
+    /// dst(vec3) = matrices[matrix] · src: a rotation whose angle is constant.
+    RotateConst { dst: Slot, src: Slot, matrix: u32 },
+    /// dst(vec3) = rotation of src about `axes[axis]` by degrees(scalar slot), per lane.
+    RotateVarying { dst: Slot, src: Slot, degrees: Slot, axis: u32 },
+    Noise { dst: Slot, src: Slot, table: u32 },
+    /// Fbm (or turbulence) with the octave loop inside one instruction.
+    Fractal { dst: Slot, src: Slot, table: u32, octaves: u32, turbulence: bool },
+    Hermite { dst: Slot, src: Slot, spline: u32 },
+    Ramp { dst: Slot, src: Slot, ramp: u32 },
+    Curve { dst: Slot, src: Slot, curve: u32 },
+}
+
+/// Where an output's value lives at the end of the tape.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TapeOutput {
+    pub name: String,
+    pub ty: Type,
+    pub slot: Slot,
+    /// Index of its first channel in an evaluation's output (scalar: 1 channel, vec3: 3).
+    pub first_channel: usize,
+}
+
+/// Counts reported by `texgraph check`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TapeStats {
+    /// Nodes of the checked graph after deduplication and folding.
+    pub graph_nodes: usize,
+    /// Graph nodes the requested outputs need.
+    pub live_nodes: usize,
+    /// Graph nodes left out because no requested output needs them.
+    pub pruned_nodes: usize,
+}
+
+/// A compiled graph: a flat list of instructions over fixed slots.
+#[derive(Debug)]
+pub struct Tape {
+    pub(crate) id: u64,
+    pub instrs: Vec<Instr>,
+    pub scalar_slots: usize,
+    pub vec3_slots: usize,
+    /// Constant slots, filled once when a workspace is bound to this tape.
+    pub scalar_constants: Vec<(Slot, f64)>,
+    pub vec3_constants: Vec<(Slot, [f64; 3])>,
+    pub outputs: Vec<TapeOutput>,
+    pub tables: Vec<(TableKey, Arc<NoiseTable>)>,
+    pub octaves: Vec<Octaves>,
+    pub matrices: Vec<[[f64; 3]; 3]>,
+    pub axes: Vec<[f64; 3]>,
+    pub hermites: Vec<Hermite>,
+    pub ramps: Vec<Arc<Ramp>>,
+    pub curves: Vec<Arc<Curve>>,
+    /// For each instruction, the graph node id it was written in (disassembly comments).
+    pub origins: Vec<String>,
+    pub stats: TapeStats,
+}
+
+impl Tape {
+    /// Total output channels: 1 per scalar output, 3 per vec3 output.
+    pub fn channels(&self) -> usize {
+        self.outputs.iter().map(|o| o.ty.channels()).sum()
+    }
+
+    pub fn output(&self, name: &str) -> Option<&TapeOutput> {
+        self.outputs.iter().find(|o| o.name == name)
+    }
+
+    /// Most octaves any fbm/turbulence instruction sums (after level of detail).
+    pub fn fractal_octaves(&self) -> Vec<(String, usize)> {
+        self.instrs
+            .iter()
+            .zip(&self.origins)
+            .filter_map(|(instr, origin)| match instr {
+                Instr::Fractal { octaves, .. } => Some((origin.clone(), self.octaves[*octaves as usize].len())),
+                _ => None,
+            })
+            .collect()
+    }
+}
+
+fn basis_name(key: &TableKey) -> String {
+    match key.basis {
+        Basis::Perlin => format!("perlin seed={}", key.seed),
+        Basis::Gradient => format!("gradient seed={}", key.seed),
+        Basis::Value(Interpolation::Linear) => format!("value seed={}", key.seed),
+        Basis::Value(Interpolation::Smooth) => format!("value-smooth seed={}", key.seed),
+    }
+}
+
+fn vec3_text(v: &[f64; 3]) -> String {
+    format!("({}, {}, {})", v[0], v[1], v[2])
+}
+
+/// The disassembly: stable, human readable, one instruction per line. It is a golden format.
+impl fmt::Display for Tape {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "; {} instructions, {} scalar slots, {} vec3 slots, {} constants",
+            self.instrs.len(),
+            self.scalar_slots,
+            self.vec3_slots,
+            self.scalar_constants.len() + self.vec3_constants.len()
+        )?;
+        for (slot, v) in &self.scalar_constants {
+            writeln!(f, "const s{slot} = {v}")?;
+        }
+        for (slot, v) in &self.vec3_constants {
+            writeln!(f, "const v{slot} = {}", vec3_text(v))?;
+        }
+        for (i, (instr, origin)) in self.instrs.iter().zip(&self.origins).enumerate() {
+            let text = match instr {
+                Instr::Position { dst } => format!("v{dst} = position"),
+                Instr::Splat { dst, src } => format!("v{dst} = splat s{src}"),
+                Instr::Combine { dst, x, y, z } => format!("v{dst} = combine s{x}, s{y}, s{z}"),
+                Instr::Component { dst, src, axis } => format!("s{dst} = v{src}.{}", ["x", "y", "z"][*axis as usize % 3]),
+                Instr::UnaryScalar { op, dst, src } => format!("s{dst} = {op} s{src}"),
+                Instr::UnaryVec3 { op, dst, src } => format!("v{dst} = {op} v{src}"),
+                Instr::BinaryScalar { op, dst, a, b } => format!("s{dst} = {op} s{a}, s{b}"),
+                Instr::BinaryVec3 { op, dst, a, b } => format!("v{dst} = {op} v{a}, v{b}"),
+                Instr::TernaryScalar { op, dst, a, b, c } => format!("s{dst} = {op} s{a}, s{b}, s{c}"),
+                Instr::TernaryVec3 { op, dst, a, b, c } => format!("v{dst} = {op} v{a}, v{b}, v{c}"),
+                Instr::Dot { dst, a, b } => format!("s{dst} = dot v{a}, v{b}"),
+                Instr::Length { dst, src } => format!("s{dst} = length v{src}"),
+                Instr::RotateConst { dst, src, matrix } => {
+                    let m = &self.matrices[*matrix as usize];
+                    format!("v{dst} = rotate v{src} matrix [{}, {}, {}]", vec3_text(&m[0]), vec3_text(&m[1]), vec3_text(&m[2]))
+                }
+                Instr::RotateVarying { dst, src, degrees, axis } => {
+                    format!("v{dst} = rotate v{src} axis={} degrees=s{degrees}", vec3_text(&self.axes[*axis as usize]))
+                }
+                Instr::Noise { dst, src, table } => format!("s{dst} = noise v{src} {}", basis_name(&self.tables[*table as usize].0)),
+                Instr::Fractal { dst, src, table, octaves, turbulence } => {
+                    let schedule = &self.octaves[*octaves as usize];
+                    let amplitudes: Vec<String> = schedule.amplitudes.iter().map(|a| a.to_string()).collect();
+                    let frequencies: Vec<String> = schedule.frequencies.iter().map(|a| a.to_string()).collect();
+                    format!(
+                        "s{dst} = {} v{src} {} octaves={} frequencies=[{}] amplitudes=[{}]",
+                        if *turbulence { "turbulence" } else { "fbm" },
+                        basis_name(&self.tables[*table as usize].0),
+                        schedule.len(),
+                        frequencies.join(", "),
+                        amplitudes.join(", ")
+                    )
+                }
+                Instr::Hermite { dst, src, spline } => {
+                    let h = &self.hermites[*spline as usize];
+                    format!("s{dst} = hermite s{src} p0={} p1={} m0={} m1={}", h.p0, h.p1, h.m0, h.m1)
+                }
+                Instr::Ramp { dst, src, ramp } => {
+                    let r = &self.ramps[*ramp as usize];
+                    let stops: Vec<String> = r.knots().iter().zip(r.values()).map(|(t, c)| format!("({t}, {})", vec3_text(c))).collect();
+                    format!("v{dst} = ramp s{src} {:?} [{}]", r.interpolation(), stops.join(", "))
+                }
+                Instr::Curve { dst, src, curve } => {
+                    let c = &self.curves[*curve as usize];
+                    let points: Vec<String> = c.knots().iter().zip(c.values()).map(|(x, y)| format!("({x}, {})", y[0])).collect();
+                    format!("s{dst} = curve s{src} {:?} [{}]", c.interpolation(), points.join(", "))
+                }
+            };
+            writeln!(f, "{i:04}  {text:<48} ; {origin}")?;
+        }
+        for output in &self.outputs {
+            let prefix = if output.ty == Type::Scalar { "s" } else { "v" };
+            writeln!(f, "output \"{}\": {} = {prefix}{}", output.name, output.ty, output.slot)?;
+        }
+        Ok(())
+    }
+}
