@@ -32,7 +32,8 @@ fn powi(base: f64, exp: u32) -> f64 {
 
 impl Octaves {
     /// Octave indices i = first_octave, first_octave+1, ... over `octaves` octaves:
-    /// frequency lacunarity^i, amplitude gain^i (integer powers, see [`powi`]). A fractional
+    /// frequency lacunarity^i, amplitude gain^i (`f64::powi`'s algorithm, frozen in a local
+    /// copy so the schedule can never change with the compiler). A fractional
     /// `octaves` (e.g. 2.5) adds a last, partial octave whose amplitude is multiplied by the
     /// fraction (0.5): smooth level of detail as `octaves` varies continuously.
     /// `octaves == 0` gives an empty schedule (sum 0). Callers validate octaves >= 0 and finite
@@ -49,7 +50,11 @@ impl Octaves {
             let i = first_octave.saturating_add(u32::try_from(k).unwrap_or(u32::MAX));
             frequencies.push(powi(lacunarity, i));
             let amplitude = powi(gain, i);
-            amplitudes.push(if k < full { amplitude } else { amplitude * fraction });
+            amplitudes.push(if k < full {
+                amplitude
+            } else {
+                amplitude * fraction
+            });
         }
         Octaves {
             frequencies,

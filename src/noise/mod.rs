@@ -4,7 +4,7 @@
 //! Precision contract: positions are always `f64`, so the integer lattice cell of a point stays
 //! exact far beyond f32's 24-bit mantissa; the cell index mod 256 and the fraction within the cell
 //! are computed in f64, and only the fraction enters the interior arithmetic in `S` (f32 or f64).
-//! The tables are built by a frozen generator ([`rng`]) so a graph's output never changes, and
+//! The tables are built by a frozen generator (`rng.rs`) so a graph's output never changes, and
 //! stored in f32 precision so the f32 and f64 paths read identical numbers.
 //!
 //! Batch functions run the same `#[inline(always)]` per-lane kernel as the point functions, so
@@ -57,9 +57,9 @@ macro_rules! with_kernel {
 mod fractal;
 mod gradient;
 mod perlin;
-mod value;
 #[cfg(test)]
 mod tests;
+mod value;
 
 pub use fractal::{fractal, fractal_batch, Octaves};
 
@@ -113,7 +113,7 @@ impl std::fmt::Debug for NoiseTable {
 }
 
 impl NoiseTable {
-    /// Builds the tables of `basis` for `seed`: deterministic forever (see [`rng`]).
+    /// Builds the tables of `basis` for `seed`: deterministic forever (see `rng.rs`).
     ///
     /// The permutation is the identity shuffled by Fisher–Yates from SplitMix64 seeded with
     /// `seed ^ PERM_SALT`, except that `Perlin` with seed 0 uses the published reference
@@ -182,11 +182,13 @@ impl NoiseTable {
     ///
     /// - `Value`: `[0, 1]`. The values are in [0, 1] and every step is a lerp `a + t (b - a)`
     ///   with a, b, t in [0, 1]; with round-to-nearest such a lerp stays in [0, 1] (rounding is
-    ///   monotone and 0, 1 are representable), in f32 as in f64. Tight up to the table.
+    ///   monotone and 0, 1 are representable; the smoothstep weight of a t in [0, 1] also
+    ///   rounds into [0, 1]), in f32 as in f64. Tight up to the table.
     /// - `Gradient`: `±0.8661`. |h_c| = |g_c · (p - c)| <= |p - c| (unit g_c), and by
-    ///   Cauchy–Schwarz Σ W_c |p - c| <= sqrt(Σ_c W_c |p - c|²) = sqrt(Σ_axes (1 - s(t)) t² +
-    ///   s(t) (1 - t)²) <= sqrt(3/4) = 0.866025 (each axis term is <= 1/4 because s(t) <= t for
-    ///   t <= 1/2), attained only at a cell centre with every gradient aimed at it. Rounded up
+    ///   Cauchy–Schwarz (the W_c sum to 1) Σ W_c |p - c| <= sqrt(Σ_c W_c |p - c|²) =
+    ///   sqrt(Σ_axes (1 - s(t)) t² + s(t) (1 - t)²) <= sqrt(3/4) = 0.866025 (each axis term is
+    ///   <= 1/4 because s(t) <= t for t <= 1/2), attained only at a cell centre with every
+    ///   gradient aimed at it. Rounded up
     ///   to 4 digits; the 7.5e-5 margin covers the f32 rounding of the vectors (2^-24 relative)
     ///   and of the evaluation (~1e-6).
     /// - `Perlin`: `±1.04`. |h_c| = |g_c · (p - c)| <= T(p - c), the sum of the two largest

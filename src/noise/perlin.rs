@@ -32,23 +32,23 @@ fn fade<S: Real>(t: S) -> S {
     t * t * t * (t * (t * S::from_f64(6.0) - S::from_f64(15.0)) + S::from_f64(10.0))
 }
 
+/// For each `hash & 15`: which of (x, y, z) is the reference's `u` (h < 8 ? x : y) and `v`
+/// (h < 4 ? y : h == 12 || h == 14 ? x : z).
+const GRAD_U: [u8; 16] = [0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1];
+const GRAD_V: [u8; 16] = [1, 1, 1, 1, 2, 2, 2, 2, 2, 2, 2, 2, 0, 2, 0, 2];
+
 /// The reference's `grad`: the low 4 hash bits pick one of 12 edge directions (4 repeated) and
-/// the result is `±u ± v`, computed as the same single addition as the reference, so that even
-/// the sign of a zero matches. Written as selects on the hash bits, which the optimizer can
-/// lower without data-dependent branches.
+/// the result is `±u ± v`, the same single addition as the reference, so that even the sign of
+/// a zero matches. The choices are table lookups into small arrays rather than `if`s: on x86
+/// a float select on an integer condition becomes a branch, and these branches are random.
 #[inline(always)]
 fn grad<S: Real>(hash: u8, x: S, y: S, z: S) -> S {
-    let h = hash & 15;
-    let u = if h < 8 { x } else { y };
-    let v = if h < 4 {
-        y
-    } else if h == 12 || h == 14 {
-        x
-    } else {
-        z
-    };
-    let u = if h & 1 == 0 { u } else { -u };
-    let v = if h & 2 == 0 { v } else { -v };
+    let h = (hash & 15) as usize;
+    let d = [x, y, z, z];
+    let u = d[GRAD_U[h] as usize & 3];
+    let v = d[GRAD_V[h] as usize & 3];
+    let u = [u, -u][h & 1];
+    let v = [v, -v][(h >> 1) & 1];
     u + v
 }
 

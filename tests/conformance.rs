@@ -1,0 +1,380 @@
+//! Conformance: every math node, through the whole pipeline (parse → check → compile → tape →
+//! interpreter), against a plain scalar reference on "spicy" inputs (0, -0, ±1, fractions,
+//! tiny, huge, ±inf, NaN), per point and per batch, in f32 and f64, on scalar and vec3 operands,
+//! and folded to a constant. Written once, stamped out for every operation (fidget style).
+
+use texgraph::{check, compile, CheckOptions, CompileOptions, SourceFile, Tape, Workspace};
+
+const SPICY: [f64; 17] = [
+    0.0,
+    -0.0,
+    1.0,
+    -1.0,
+    0.5,
+    -0.5,
+    2.5,
+    -2.5,
+    3.0,
+    std::f64::consts::PI,
+    1e-30,
+    -1e-30,
+    1e30,
+    -1e30,
+    f64::INFINITY,
+    f64::NEG_INFINITY,
+    f64::NAN,
+];
+
+fn tape(source: &str) -> Tape {
+    let graph = check(SourceFile::new("conformance.ron", source), &CheckOptions::default()).unwrap_or_else(|e| panic!("{}\n{source}", e.render_plain()));
+    compile(&graph, &CompileOptions::default()).unwrap_or_else(|e| panic!("{}", e.render_plain()))
+}
+
+fn same<T: PartialEq + Copy + std::fmt::Debug>(a: T, b: T, a_nan: bool, b_nan: bool) -> bool {
+    (a_nan && b_nan) || a == b
+}
+
+/// Plain references, written independently of `texgraph::ops`.
+fn reference_unary(name: &str, x: f64) -> f64 {
+    match name {
+        "Abs" => x.abs(),
+        "Neg" => -x,
+        "Sin" => x.sin(),
+        "Cos" => x.cos(),
+        "Sqrt" => x.sqrt(),
+        "Floor" => x.floor(),
+        "Fract" => {
+            let r = x - x.floor();
+            if r >= 1.0 {
+                1.0 - f64::EPSILON / 2.0
+            } else {
+                r
+            }
+        }
+        _ => unreachable!(),
+    }
+}
+
+fn reference_unary32(name: &str, x: f32) -> f32 {
+    match name {
+        "Abs" => x.abs(),
+        "Neg" => -x,
+        "Sin" => x.sin(),
+        "Cos" => x.cos(),
+        "Sqrt" => x.sqrt(),
+        "Floor" => x.floor(),
+        "Fract" => {
+            let r = x - x.floor();
+            if r >= 1.0 {
+                1.0 - f32::EPSILON / 2.0
+            } else {
+                r
+            }
+        }
+        _ => unreachable!(),
+    }
+}
+
+macro_rules! binary_reference {
+    ($name:expr, $a:expr, $b:expr) => {{
+        let (a, b) = ($a, $b);
+        match $name {
+            "Add" => a + b,
+            "Sub" => a - b,
+            "Mul" => a * b,
+            "Div" => a / b,
+            "Min" => {
+                if a.is_nan() || b.is_nan() {
+                    a + b
+                } else if b < a {
+                    b
+                } else {
+                    a
+                }
+            }
+            "Max" => {
+                if a.is_nan() || b.is_nan() {
+                    a + b
+                } else if b > a {
+                    b
+                } else {
+                    a
+                }
+            }
+            "Pow" => a.powf(b),
+            "Atan2" => a.atan2(b),
+            "Mod" => {
+                // Floored: the sign of b. From the exact remainder.
+                let r = a % b;
+                if r != 0.0 && ((r < 0.0) != (b < 0.0)) {
+                    r + b
+                } else {
+                    r
+                }
+            }
+            _ => unreachable!(),
+        }
+    }};
+}
+
+macro_rules! ternary_reference {
+    ($name:expr, $a:expr, $b:expr, $c:expr) => {{
+        let (a, b, c) = ($a, $b, $c);
+        let nan = a + b + c;
+        let clamp = |x, lo, hi| {
+            if x != x || lo != lo || hi != hi {
+                nan
+            } else {
+                let y = if x < lo { lo } else { x };
+                if y > hi {
+                    hi
+                } else {
+                    y
+                }
+            }
+        };
+        match $name {
+            "Clamp" => clamp(a, b, c),
+            "Mix" => a + c * (b - a),
+            "Smoothstep" => {
+                if a == b {
+                    if c != c {
+                        c
+                    } else if c < a {
+                        0.0
+                    } else {
+                        1.0
+                    }
+                } else {
+                    let t = (c - a) / (b - a);
+                    let t = if t != t { t } else if t < 0.0 { 0.0 } else if t > 1.0 { 1.0 } else { t };
+                    t * t * (3.0 - 2.0 * t)
+                }
+            }
+            _ => unreachable!(),
+        }
+    }};
+}
+
+const UNARY: [&str; 7] = ["Abs", "Neg", "Sin", "Cos", "Sqrt", "Floor", "Fract"];
+const BINARY: [&str; 9] = ["Add", "Sub", "Mul", "Div", "Min", "Max", "Pow", "Atan2", "Mod"];
+const TERNARY: [&str; 3] = ["Clamp", "Mix", "Smoothstep"];
+
+/// Evaluates a tape with outputs ("s" scalar, "v" vec3) at points, per point and per batch, in
+/// both precisions; asserts point == batch bit for bit and returns the f32 and f64 results.
+fn run(tape: &Tape, points: &[[f64; 3]]) -> (Vec<f32>, Vec<f64>) {
+    let n = points.len();
+    let x: Vec<f64> = points.iter().map(|p| p[0]).collect();
+    let y: Vec<f64> = points.iter().map(|p| p[1]).collect();
+    let z: Vec<f64> = points.iter().map(|p| p[2]).collect();
+    let channels = tape.channels();
+    let mut batch32 = vec![0f32; channels * n];
+    let mut batch64 = vec![0f64; channels * n];
+    tape.eval_batch(&mut Workspace::new(), &x, &y, &z, &mut batch32);
+    tape.eval_batch(&mut Workspace::new(), &x, &y, &z, &mut batch64);
+    let (mut ws32, mut ws64) = (Workspace::<f32>::new(), Workspace::<f64>::new());
+    for (i, p) in points.iter().enumerate() {
+        let mut p32 = vec![0f32; channels];
+        let mut p64 = vec![0f64; channels];
+        tape.eval_point(&mut ws32, *p, &mut p32);
+        tape.eval_point(&mut ws64, *p, &mut p64);
+        for c in 0..channels {
+            assert_eq!(p32[c].to_bits(), batch32[c * n + i].to_bits(), "point/batch f32 at {p:?}");
+            assert_eq!(p64[c].to_bits(), batch64[c * n + i].to_bits(), "point/batch f64 at {p:?}");
+        }
+    }
+    (batch32, batch64)
+}
+
+#[test]
+fn unary_nodes_match_the_scalar_reference() {
+    for name in UNARY {
+        // Scalar operand: the x component (rounded to f32 on the fast path); vec3 operand: the
+        // point itself (always f64).
+        let t = tape(&format!(r#"Graph(nodes: {{ "p": Position }}, outputs: {{ "s": {name}("p.x"), "v": {name}("p") }})"#));
+        let points: Vec<[f64; 3]> = SPICY.iter().map(|&a| [a, a, -a]).collect();
+        let (r32, r64) = run(&t, &points);
+        let n = points.len();
+        for (i, p) in points.iter().enumerate() {
+            let e64 = reference_unary(name, p[0]);
+            let e32 = reference_unary32(name, p[0] as f32);
+            assert!(same(r64[i], e64, r64[i].is_nan(), e64.is_nan()) && (r64[i].is_nan() || r64[i].to_bits() == e64.to_bits()), "{name}({}) f64: {} vs {e64}", p[0], r64[i]);
+            assert!(same(r32[i], e32, r32[i].is_nan(), e32.is_nan()) && (r32[i].is_nan() || r32[i].to_bits() == e32.to_bits()), "{name}({}) f32: {} vs {e32}", p[0], r32[i]);
+            for c in 0..3 {
+                let e = reference_unary(name, p[c]);
+                let got = r64[(1 + c) * n + i];
+                assert!(same(got, e, got.is_nan(), e.is_nan()), "{name} vec3[{c}]({}) f64: {got} vs {e}", p[c]);
+                let got = r32[(1 + c) * n + i];
+                assert!(same(got, e as f32, got.is_nan(), e.is_nan()), "{name} vec3[{c}]({}) f32: {got} vs {e}", p[c]);
+            }
+        }
+    }
+}
+
+#[test]
+fn binary_nodes_match_the_scalar_reference() {
+    let mut points = Vec::new();
+    for &a in &SPICY {
+        for &b in &SPICY {
+            points.push([a, b, 0.0]);
+        }
+    }
+    for name in BINARY {
+        let t = tape(&format!(
+            r#"Graph(nodes: {{ "p": Position, "q": Combine("p.y", "p.x", "p.y") }}, outputs: {{ "s": {name}("p.x", "p.y"), "v": {name}("p", "q") }})"#
+        ));
+        let (r32, r64) = run(&t, &points);
+        let n = points.len();
+        for (i, p) in points.iter().enumerate() {
+            let (a, b) = (p[0], p[1]);
+            let e64: f64 = binary_reference!(name, a, b);
+            let e32: f32 = binary_reference!(name, a as f32, b as f32);
+            assert!(same(r64[i], e64, r64[i].is_nan(), e64.is_nan()), "{name}({a}, {b}) f64: {} vs {e64}", r64[i]);
+            assert!(same(r32[i], e32, r32[i].is_nan(), e32.is_nan()), "{name}({a}, {b}) f32: {} vs {e32}", r32[i]);
+            // Vec3 path: component 0 is op(a, b) in f64, component 1 is op(b, a).
+            let v0: f64 = binary_reference!(name, a, b);
+            let v1: f64 = binary_reference!(name, b, a);
+            let (g0, g1) = (r64[n + i], r64[2 * n + i]);
+            assert!(same(g0, v0, g0.is_nan(), v0.is_nan()) && same(g1, v1, g1.is_nan(), v1.is_nan()), "{name} vec3 ({a}, {b})");
+            // On the f32 path "q" is built from f32 components, so b arrives rounded to f32.
+            let v0: f64 = binary_reference!(name, a, b as f32 as f64);
+            let g0 = r32[n + i];
+            assert!(same(g0, v0 as f32, g0.is_nan(), v0.is_nan()), "{name} vec3 f32 ({a}, {b}): {g0} vs {v0}");
+        }
+    }
+}
+
+#[test]
+fn ternary_nodes_match_the_scalar_reference() {
+    let values = [0.0, -1.0, 0.25, 1.0, 2.0, f64::INFINITY, f64::NEG_INFINITY, f64::NAN];
+    let mut points = Vec::new();
+    for &a in &values {
+        for &b in &values {
+            for &c in &values {
+                points.push([a, b, c]);
+            }
+        }
+    }
+    for name in TERNARY {
+        let t = tape(&format!(r#"Graph(nodes: {{ "p": Position }}, outputs: {{ "s": {name}("p.x", "p.y", "p.z"), "v": {name}("p", "p.y", "p.z") }})"#));
+        let (r32, r64) = run(&t, &points);
+        let n = points.len();
+        for (i, p) in points.iter().enumerate() {
+            let e64: f64 = ternary_reference!(name, p[0], p[1], p[2]);
+            let e32: f32 = ternary_reference!(name, p[0] as f32, p[1] as f32, p[2] as f32);
+            assert!(same(r64[i], e64, r64[i].is_nan(), e64.is_nan()), "{name}{p:?} f64: {} vs {e64}", r64[i]);
+            assert!(same(r32[i], e32, r32[i].is_nan(), e32.is_nan()), "{name}{p:?} f32: {} vs {e32}", r32[i]);
+            // Vec3 path, component 1: op(p.y, p.y, p.z).
+            let e: f64 = ternary_reference!(name, p[1], p[1], p[2]);
+            let g = r64[2 * n + i];
+            assert!(same(g, e, g.is_nan(), e.is_nan()), "{name} vec3 f64 at {p:?}: {g} vs {e}");
+        }
+    }
+}
+
+/// A constant expression is folded at compile time (in f64); the folded value equals the f64
+/// reference, and the f32 path returns it rounded once.
+#[test]
+fn folded_constants_equal_the_reference() {
+    let literal = |v: f64| -> String {
+        if v == f64::INFINITY {
+            "inf".into()
+        } else if v == f64::NEG_INFINITY {
+            "-inf".into()
+        } else {
+            format!("{v:?}")
+        }
+    };
+    let finite: Vec<f64> = SPICY.iter().copied().filter(|v| !v.is_nan()).collect();
+    for name in BINARY {
+        for &a in &finite {
+            for &b in &finite {
+                let t = tape(&format!(r#"Graph(outputs: {{ "s": {name}({}, {}) }})"#, literal(a), literal(b)));
+                assert!(t.instrs.is_empty(), "{name}({a}, {b}) was not folded");
+                let (r32, r64) = run(&t, &[[0.0; 3]]);
+                let e: f64 = binary_reference!(name, a, b);
+                assert!(same(r64[0], e, r64[0].is_nan(), e.is_nan()), "folded {name}({a}, {b}): {} vs {e}", r64[0]);
+                assert!(same(r32[0], e as f32, r32[0].is_nan(), e.is_nan()), "folded f32 {name}({a}, {b})");
+            }
+        }
+    }
+    for name in UNARY {
+        for &a in &finite {
+            let t = tape(&format!(r#"Graph(outputs: {{ "s": {name}({}) }})"#, literal(a)));
+            assert!(t.instrs.is_empty());
+            let (_, r64) = run(&t, &[[0.0; 3]]);
+            let e = reference_unary(name, a);
+            assert!(same(r64[0], e, r64[0].is_nan(), e.is_nan()), "folded {name}({a})");
+        }
+    }
+}
+
+#[test]
+fn shaping_nodes_match_their_definitions() {
+    let t = tape(
+        r#"Graph(nodes: { "p": Position }, outputs: {
+            "h": Hermite(input: "p.x", p0: 0.0, p1: 1.0, m0: 1e6, m1: -1e6),
+            "c": Curve(input: "p.x", points: [(0.0, 0.0), (0.5, 2.0), (0.5, -2.0), (1.0, 0.0)]),
+            "r": ColorRamp(input: "p.x", stops: [(0.0, (0.0, 0.0, 0.0)), (1.0, (1.0, 0.5, 0.25))], interpolation: Smooth),
+        })"#,
+    );
+    let xs = [-1.0, 0.0, 0.1, 0.25, 0.5, 0.75, 0.9, 1.0, 2.0, f64::NAN, f64::INFINITY];
+    let points: Vec<[f64; 3]> = xs.iter().map(|&x| [x, 0.0, 0.0]).collect();
+    let (_, r64) = run(&t, &points);
+    let n = points.len();
+    let hermite = texgraph::ops::Hermite { p0: 0.0, p1: 1.0, m0: 1e6, m1: -1e6 };
+    for (i, &x) in xs.iter().enumerate() {
+        let e = hermite.apply(x);
+        assert!(same(r64[i], e, r64[i].is_nan(), e.is_nan()), "hermite({x})");
+        // Plain Hermite basis.
+        if x.is_finite() {
+            let t = x.clamp(0.0, 1.0);
+            let plain = (t * t * t - 2.0 * t * t + t) * 1e6 + (-2.0 * t * t * t + 3.0 * t * t) + (t * t * t - t * t) * -1e6;
+            assert!((r64[i] - plain).abs() <= 1e-9 * plain.abs().max(1.0), "hermite({x}) = {} vs {plain}", r64[i]);
+        }
+    }
+    // Curve: linear, clamped, later point wins at a coinciding knot.
+    let curve: Vec<f64> = (0..n).map(|i| r64[n + i]).collect();
+    for (got, want) in curve[..9].iter().zip([0.0, 0.0, 0.4, 1.0, -2.0, -1.0, -0.4, 0.0, 0.0]) {
+        assert!((got - want).abs() < 1e-12, "curve: {curve:?}");
+    }
+    assert!(curve[9].is_nan());
+    assert_eq!(curve[10], 0.0);
+    // Ramp, smooth: u = 0.25 → 0.15625.
+    let red_at_quarter = r64[2 * n + 3];
+    assert_eq!(red_at_quarter, 0.15625);
+}
+
+#[test]
+fn noise_nodes_match_the_noise_library() {
+    let t = tape(
+        r#"Graph(nodes: { "p": Position }, outputs: {
+            "perlin": Noise(input: "p", basis: Perlin),
+            "gradient": Noise(input: "p", basis: Gradient, seed: 7),
+            "value": Noise(input: "p", basis: Value(interpolation: Smooth), seed: 3),
+            "fbm": Fbm(input: "p", basis: Perlin, octaves: 4.5, lacunarity: 1.9, gain: 0.6, first_octave: 1),
+            "turbulence": Turbulence(input: "p", basis: Gradient, octaves: 3.0),
+        })"#,
+    );
+    use texgraph::noise::{fractal, Basis, Interpolation, NoiseTable, Octaves};
+    let perlin = NoiseTable::new(Basis::Perlin, 0);
+    let gradient7 = NoiseTable::new(Basis::Gradient, 7);
+    let gradient0 = NoiseTable::new(Basis::Gradient, 0);
+    let value = NoiseTable::new(Basis::Value(Interpolation::Smooth), 3);
+    let points: Vec<[f64; 3]> = (0..300).map(|i| [i as f64 * 0.173 - 20.0, (i as f64 * 0.37).sin() * 9.0, -(i as f64) * 0.041]).collect();
+    let (r32, r64) = run(&t, &points);
+    let n = points.len();
+    for (i, p) in points.iter().enumerate() {
+        let expected = [
+            perlin.sample::<f64>(*p),
+            gradient7.sample::<f64>(*p),
+            value.sample::<f64>(*p),
+            fractal::<f64>(&perlin, &Octaves::new(4.5, 1.9, 0.6, 1), false, *p),
+            fractal::<f64>(&gradient0, &Octaves::new(3.0, 2.0, 0.5, 0), true, *p),
+        ];
+        for (c, e) in expected.iter().enumerate() {
+            assert_eq!(r64[c * n + i], *e, "output {c} at {p:?}");
+            assert!((r32[c * n + i] as f64 - e).abs() < 1e-5, "f32 output {c} at {p:?}");
+        }
+    }
+}

@@ -1,0 +1,259 @@
+//! Golden tests for every graph in `graphs/`.
+//!
+//! Each graph is evaluated on a fixed sample set — a 32×32 slice of the unit cube at z = 0.5
+//! (voxel centres) plus scattered points (negative, large, on lattice points and cell
+//! boundaries) — in f64 (the reference path) and in f32 (the fast path), and compared with the
+//! committed `tests/golden/NAME.txt`:
+//! - f64 values within 1e-9 absolute (room for last-bit differences of the platform's libm
+//!   sin/cos/pow/atan2; the noise itself is exactly reproducible),
+//! - f32 values within 1e-5 absolute (the same, for f32's libm).
+//!
+//! A 64×64 PNG of the same slice, `tests/golden/NAME.png`, shows a reviewer the texture (first
+//! vec3 output, else the first output as grey clamped to [0, 1]); it is compared pixel by pixel,
+//! within 1 of 255.
+//!
+//! Re-bless after an intended change: `TEXGRAPH_BLESS=1 cargo test --test golden`, then review
+//! the diff (`git diff tests/golden`).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use texgraph::{check, compile, CheckOptions, CompileOptions, SourceFile, Tape, Type, Workspace};
+
+const F64_TOLERANCE: f64 = 1e-9;
+const F32_TOLERANCE: f64 = 1e-5;
+const SLICE: usize = 32;
+const PICTURE: usize = 64;
+
+fn bless() -> bool {
+    std::env::var_os("TEXGRAPH_BLESS").is_some_and(|v| v == "1")
+}
+
+fn graph_files() -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir("graphs")
+        .expect("graphs/ exists")
+        .map(|e| e.expect("readable entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+        .collect();
+    files.sort();
+    files
+}
+
+fn load(path: &Path) -> Tape {
+    let text = std::fs::read_to_string(path).expect("readable graph");
+    let file = SourceFile::new(path.display().to_string(), text);
+    let graph = check(file, &CheckOptions::default()).unwrap_or_else(|e| panic!("{}", e.render_plain()));
+    compile(&graph, &CompileOptions::default()).unwrap_or_else(|e| panic!("{}", e.render_plain()))
+}
+
+/// The fixed sample set: slice points, then scattered points.
+fn sample_points() -> Vec<[f64; 3]> {
+    let mut points = Vec::new();
+    for j in 0..SLICE {
+        for i in 0..SLICE {
+            points.push([(i as f64 + 0.5) / SLICE as f64, (j as f64 + 0.5) / SLICE as f64, 0.5]);
+        }
+    }
+    points.extend([
+        [0.0, 0.0, 0.0],
+        [1.0, 2.0, 3.0],
+        [-1.0, -2.0, -3.0],
+        [0.5, -0.25, 0.125],
+        [-0.3, 0.7, -1.9],
+        [3.0, 3.0, 3.0],
+        [-4.2, 10.0, 6.0],
+        [3.14, 42.0, 7.0],
+        [12.75, -7.5, 0.001],
+        [100.5, 200.25, -300.125],
+        [-1234.567, 890.123, 4567.891],
+        [1.0e4 + 0.3, -1.0e4 - 0.7, 0.5],
+    ]);
+    // A deterministic scatter (SplitMix64) over [-8, 8)³.
+    let mut state: u64 = 0x5EED;
+    let mut next = || {
+        state = state.wrapping_add(0x9E3779B97F4A7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
+        z ^= z >> 31;
+        (z >> 11) as f64 / (1u64 << 53) as f64 * 16.0 - 8.0
+    };
+    for _ in 0..20 {
+        points.push([next(), next(), next()]);
+    }
+    points
+}
+
+fn evaluate<S: texgraph::Real>(tape: &Tape, points: &[[f64; 3]]) -> Vec<S> {
+    let x: Vec<f64> = points.iter().map(|p| p[0]).collect();
+    let y: Vec<f64> = points.iter().map(|p| p[1]).collect();
+    let z: Vec<f64> = points.iter().map(|p| p[2]).collect();
+    let mut out = vec![S::ZERO; tape.channels() * points.len()];
+    tape.eval_batch(&mut Workspace::<S>::new(), &x, &y, &z, &mut out);
+    out
+}
+
+/// The golden text: one line per point and precision, channels in output order.
+fn golden_text(path: &Path, tape: &Tape, points: &[[f64; 3]]) -> String {
+    let f64s = evaluate::<f64>(tape, points);
+    let f32s = evaluate::<f32>(tape, points);
+    let n = points.len();
+    let mut text = String::new();
+    let outputs: Vec<String> = tape.outputs.iter().map(|o| format!("{} ({})", o.name, o.ty)).collect();
+    let _ = writeln!(text, "# golden values of {}; outputs: {}", path.display(), outputs.join(", "));
+    let _ = writeln!(text, "# each point: `p x y z`, then `f64` and `f32` lines with every output channel in order");
+    let _ = writeln!(text, "# re-bless: TEXGRAPH_BLESS=1 cargo test --test golden");
+    for (i, p) in points.iter().enumerate() {
+        let _ = writeln!(text, "p {} {} {}", p[0], p[1], p[2]);
+        let channels = tape.channels();
+        let line64: Vec<String> = (0..channels).map(|c| f64s[c * n + i].to_string()).collect();
+        let line32: Vec<String> = (0..channels).map(|c| f32s[c * n + i].to_string()).collect();
+        let _ = writeln!(text, "f64 {}", line64.join(" "));
+        let _ = writeln!(text, "f32 {}", line32.join(" "));
+    }
+    text
+}
+
+fn numbers(line: &str) -> Vec<f64> {
+    line.split_whitespace().skip(1).map(|s| s.parse::<f64>().unwrap_or(f64::NAN)).collect()
+}
+
+fn same(a: f64, b: f64, tolerance: f64) -> bool {
+    (a.is_nan() && b.is_nan()) || a == b || (a - b).abs() <= tolerance
+}
+
+/// Compares actual and expected golden text; returns the first mismatches.
+fn compare(expected: &str, actual: &str) -> Vec<String> {
+    let mut problems = Vec::new();
+    let (e, a): (Vec<&str>, Vec<&str>) = (expected.lines().collect(), actual.lines().collect());
+    if e.len() != a.len() {
+        problems.push(format!("{} lines expected, {} produced", e.len(), a.len()));
+        return problems;
+    }
+    let mut point = "";
+    for (le, la) in e.iter().zip(&a) {
+        if le.starts_with('#') {
+            continue;
+        }
+        if le.starts_with("p ") {
+            point = le;
+            if le != la {
+                problems.push(format!("sample point changed: `{le}` vs `{la}`"));
+            }
+            continue;
+        }
+        let tolerance = if le.starts_with("f64") { F64_TOLERANCE } else { F32_TOLERANCE };
+        let (ve, va) = (numbers(le), numbers(la));
+        if ve.len() != va.len() || ve.iter().zip(&va).any(|(x, y)| !same(*x, *y, tolerance)) {
+            problems.push(format!("at {point}: expected `{le}`, got `{la}`"));
+        }
+        if problems.len() >= 5 {
+            break;
+        }
+    }
+    problems
+}
+
+/// 8-bit RGB picture of the slice: the first vec3 output, or the first output as grey.
+fn picture(tape: &Tape) -> image::RgbImage {
+    let mut points = Vec::with_capacity(PICTURE * PICTURE);
+    for j in 0..PICTURE {
+        for i in 0..PICTURE {
+            // Row 0 at the top shows y = 1 (y up).
+            points.push([(i as f64 + 0.5) / PICTURE as f64, 1.0 - (j as f64 + 0.5) / PICTURE as f64, 0.5]);
+        }
+    }
+    let values = evaluate::<f32>(tape, &points);
+    let n = points.len();
+    let output = tape.outputs.iter().find(|o| o.ty == Type::Vec3).unwrap_or(&tape.outputs[0]);
+    let to_byte = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8; // NaN clamps to NaN → 0
+    image::RgbImage::from_fn(PICTURE as u32, PICTURE as u32, |i, j| {
+        let k = j as usize * PICTURE + i as usize;
+        let channel = |c: usize| values[(output.first_channel + c.min(output.ty.channels() - 1)) * n + k];
+        image::Rgb([to_byte(channel(0)), to_byte(channel(1)), to_byte(channel(2))])
+    })
+}
+
+#[test]
+fn every_seed_graph_matches_its_golden_values_and_picture() {
+    let files = graph_files();
+    assert!(files.len() >= 20, "expected the seed library in graphs/, found {} files", files.len());
+    let points = sample_points();
+    let mut failures = Vec::new();
+    std::fs::create_dir_all("tests/golden").expect("tests/golden is writable");
+    for path in &files {
+        let stem = path.file_stem().and_then(|s| s.to_str()).expect("utf-8 file name");
+        let tape = load(path);
+        let text = golden_text(path, &tape, &points);
+        let values_path = PathBuf::from(format!("tests/golden/{stem}.txt"));
+        let picture_path = PathBuf::from(format!("tests/golden/{stem}.png"));
+        let image = picture(&tape);
+        if bless() {
+            std::fs::write(&values_path, &text).expect("write golden");
+            image.save(&picture_path).expect("write golden picture");
+            eprintln!("blessed {} and {}", values_path.display(), picture_path.display());
+            continue;
+        }
+        match std::fs::read_to_string(&values_path) {
+            Ok(expected) => {
+                for problem in compare(&expected, &text) {
+                    failures.push(format!("{}: {problem}", values_path.display()));
+                }
+            }
+            Err(_) => failures.push(format!("{} is missing: run TEXGRAPH_BLESS=1 cargo test --test golden", values_path.display())),
+        }
+        match image::open(&picture_path) {
+            Ok(expected) => {
+                let expected = expected.to_rgb8();
+                let differs = expected.dimensions() != image.dimensions()
+                    || expected.pixels().zip(image.pixels()).any(|(a, b)| a.0.iter().zip(b.0).any(|(x, y)| x.abs_diff(y) > 1));
+                if differs {
+                    failures.push(format!("{}: picture differs", picture_path.display()));
+                }
+            }
+            Err(_) => failures.push(format!("{} is missing: run TEXGRAPH_BLESS=1 cargo test --test golden", picture_path.display())),
+        }
+    }
+    assert!(failures.is_empty(), "golden mismatches:\n{}", failures.join("\n"));
+}
+
+#[test]
+fn no_golden_file_is_orphaned() {
+    let stems: Vec<String> = graph_files().iter().filter_map(|p| p.file_stem()?.to_str().map(String::from)).collect();
+    for entry in std::fs::read_dir("tests/golden").expect("tests/golden exists") {
+        let path = entry.expect("entry").path();
+        let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or_default().to_string();
+        assert!(stems.contains(&stem), "{} has no graph in graphs/; delete it", path.display());
+    }
+}
+
+#[test]
+fn point_and_batch_evaluation_agree_bit_for_bit_on_every_graph() {
+    let points = sample_points();
+    for path in graph_files() {
+        let tape = load(&path);
+        let batch32 = evaluate::<f32>(&tape, &points);
+        let batch64 = evaluate::<f64>(&tape, &points);
+        let (mut ws32, mut ws64) = (Workspace::<f32>::new(), Workspace::<f64>::new());
+        let n = points.len();
+        for (i, p) in points.iter().enumerate() {
+            let mut out32 = vec![0f32; tape.channels()];
+            let mut out64 = vec![0f64; tape.channels()];
+            tape.eval_point(&mut ws32, *p, &mut out32);
+            tape.eval_point(&mut ws64, *p, &mut out64);
+            for c in 0..tape.channels() {
+                assert_eq!(out32[c].to_bits(), batch32[c * n + i].to_bits(), "{} f32 at {p:?} channel {c}", path.display());
+                assert_eq!(out64[c].to_bits(), batch64[c * n + i].to_bits(), "{} f64 at {p:?} channel {c}", path.display());
+            }
+        }
+    }
+}
+
+#[test]
+fn every_seed_graph_is_valid_ron_for_the_ron_crate_too() {
+    // Our reader keeps spans; the files must still be plain RON for other tools.
+    for path in graph_files() {
+        let text = std::fs::read_to_string(&path).expect("readable");
+        let parsed: Result<ron::Value, _> = ron::from_str(&text);
+        assert!(parsed.is_ok(), "{}: {:?}", path.display(), parsed.err());
+    }
+}
