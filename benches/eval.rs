@@ -1,1 +1,288 @@
-fn main(){}
+//! Evaluation and compile benchmarks (criterion), named `stage/case`.
+//!
+//! `eval/marble/*`: the seed 003 marble vein |sin(π(1.3·x + 3·fbm8(p)))| with 8 Perlin octaves,
+//! on the 16 384 points of one z slice of the 128³ grid over [0, 8)³ (a fixed subset, so one
+//! iteration stays short), evaluated by texgraph per point and per batch (f32 and f64) and by a
+//! hand-written scalar Rust function of the same formula, so every ratio comes from one run.
+//! `compile/N`: check + compile of a generated graph of N nodes.
+//!
+//! Run: `cargo bench --bench eval` (add `-- eval/` or `-- compile/` to pick a group).
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use std::hint::black_box;
+use std::time::Duration;
+use texgraph::{check, compile, CheckOptions, CompileOptions, SourceFile, Tape, Workspace};
+
+/// The benchmark points: slice k = 5 of the 128³ voxel centres over [0, 8)³.
+fn points() -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let (mut x, mut y, mut z) = (Vec::new(), Vec::new(), Vec::new());
+    let step = 8.0 / 128.0;
+    for k in [5usize] {
+        for j in 0..128 {
+            for i in 0..128 {
+                x.push((i as f64 + 0.5) * step);
+                y.push((j as f64 + 0.5) * step);
+                z.push((k as f64 + 0.5) * step);
+            }
+        }
+    }
+    (x, y, z)
+}
+
+fn marble_tape() -> Tape {
+    let text =
+        std::fs::read_to_string("graphs/seed003_marble.ron").expect("run from the crate root");
+    let options = CheckOptions {
+        overrides: vec![
+            ("octaves".into(), 8.0),
+            ("period".into(), 1.3),
+            ("distortion".into(), 3.0),
+            ("scale".into(), 1.0),
+        ],
+    };
+    let graph = check(SourceFile::new("seed003_marble.ron", text), &options).expect("valid graph");
+    compile(
+        &graph,
+        &CompileOptions {
+            outputs: vec!["vein".into()],
+        },
+    )
+    .expect("compiles")
+}
+
+/// Hand-written scalar marble, the way one writes it without texgraph: f32 throughout, Ken
+/// Perlin's improved noise with the reference permutation, an 8-octave loop.
+mod handwritten {
+    const P: [u8; 256] = [
+        151, 160, 137, 91, 90, 15, 131, 13, 201, 95, 96, 53, 194, 233, 7, 225, 140, 36, 103, 30,
+        69, 142, 8, 99, 37, 240, 21, 10, 23, 190, 6, 148, 247, 120, 234, 75, 0, 26, 197, 62, 94,
+        252, 219, 203, 117, 35, 11, 32, 57, 177, 33, 88, 237, 149, 56, 87, 174, 20, 125, 136, 171,
+        168, 68, 175, 74, 165, 71, 134, 139, 48, 27, 166, 77, 146, 158, 231, 83, 111, 229, 122, 60,
+        211, 133, 230, 220, 105, 92, 41, 55, 46, 245, 40, 244, 102, 143, 54, 65, 25, 63, 161, 1,
+        216, 80, 73, 209, 76, 132, 187, 208, 89, 18, 169, 200, 196, 135, 130, 116, 188, 159, 86,
+        164, 100, 109, 198, 173, 186, 3, 64, 52, 217, 226, 250, 124, 123, 5, 202, 38, 147, 118,
+        126, 255, 82, 85, 212, 207, 206, 59, 227, 47, 16, 58, 17, 182, 189, 28, 42, 223, 183, 170,
+        213, 119, 248, 152, 2, 44, 154, 163, 70, 221, 153, 101, 155, 167, 43, 172, 9, 129, 22, 39,
+        253, 19, 98, 108, 110, 79, 113, 224, 232, 178, 185, 112, 104, 218, 246, 97, 228, 251, 34,
+        242, 193, 238, 210, 144, 12, 191, 179, 162, 241, 81, 51, 145, 235, 249, 14, 239, 107, 49,
+        192, 214, 31, 181, 199, 106, 157, 184, 84, 204, 176, 115, 121, 50, 45, 127, 4, 150, 254,
+        138, 236, 205, 93, 222, 114, 67, 29, 24, 72, 243, 141, 128, 195, 78, 66, 215, 61, 156, 180,
+    ];
+
+    #[inline(always)]
+    fn perm(i: usize) -> usize {
+        P[i & 255] as usize
+    }
+    #[inline(always)]
+    fn fade(t: f32) -> f32 {
+        t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
+    }
+    #[inline(always)]
+    fn lerp(t: f32, a: f32, b: f32) -> f32 {
+        a + t * (b - a)
+    }
+    /// Perlin's 12 edge gradients (+4 repeats) as a table: a dot product instead of the
+    /// reference's data-dependent branches, which mispredict on every lattice corner.
+    const GRADIENTS: [[f32; 3]; 16] = [
+        [1.0, 1.0, 0.0],
+        [-1.0, 1.0, 0.0],
+        [1.0, -1.0, 0.0],
+        [-1.0, -1.0, 0.0],
+        [1.0, 0.0, 1.0],
+        [-1.0, 0.0, 1.0],
+        [1.0, 0.0, -1.0],
+        [-1.0, 0.0, -1.0],
+        [0.0, 1.0, 1.0],
+        [0.0, -1.0, 1.0],
+        [0.0, 1.0, -1.0],
+        [0.0, -1.0, -1.0],
+        [1.0, 1.0, 0.0],
+        [0.0, -1.0, 1.0],
+        [-1.0, 1.0, 0.0],
+        [0.0, -1.0, -1.0],
+    ];
+
+    #[inline(always)]
+    fn grad(hash: usize, x: f32, y: f32, z: f32) -> f32 {
+        let g = GRADIENTS[hash & 15];
+        g[0] * x + g[1] * y + g[2] * z
+    }
+
+    /// The usual fast floor (truncate, then step down for negatives): `f32::floor` is a libm
+    /// call on baseline x86-64, and anyone tuning this function by hand replaces it.
+    #[inline(always)]
+    fn fast_floor(x: f32) -> i32 {
+        let t = x as i32;
+        if x < t as f32 {
+            t - 1
+        } else {
+            t
+        }
+    }
+
+    pub fn noise(x: f32, y: f32, z: f32) -> f32 {
+        let (ix, iy, iz) = (fast_floor(x), fast_floor(y), fast_floor(z));
+        let (fx, fy, fz) = (ix as f32, iy as f32, iz as f32);
+        let (xi, yi, zi) = (
+            (ix & 255) as usize,
+            (iy & 255) as usize,
+            (iz & 255) as usize,
+        );
+        let (x, y, z) = (x - fx, y - fy, z - fz);
+        let (u, v, w) = (fade(x), fade(y), fade(z));
+        let a = perm(xi) + yi;
+        let aa = perm(a) + zi;
+        let ab = perm(a + 1) + zi;
+        let b = perm(xi + 1) + yi;
+        let ba = perm(b) + zi;
+        let bb = perm(b + 1) + zi;
+        lerp(
+            w,
+            lerp(
+                v,
+                lerp(u, grad(perm(aa), x, y, z), grad(perm(ba), x - 1.0, y, z)),
+                lerp(
+                    u,
+                    grad(perm(ab), x, y - 1.0, z),
+                    grad(perm(bb), x - 1.0, y - 1.0, z),
+                ),
+            ),
+            lerp(
+                v,
+                lerp(
+                    u,
+                    grad(perm(aa + 1), x, y, z - 1.0),
+                    grad(perm(ba + 1), x - 1.0, y, z - 1.0),
+                ),
+                lerp(
+                    u,
+                    grad(perm(ab + 1), x, y - 1.0, z - 1.0),
+                    grad(perm(bb + 1), x - 1.0, y - 1.0, z - 1.0),
+                ),
+            ),
+        )
+    }
+
+    // 3.14159265 is the constant the graph file writes; the same number keeps the formulas equal.
+    #[allow(clippy::approx_constant, clippy::excessive_precision)]
+    pub fn vein(x: f32, y: f32, z: f32) -> f32 {
+        let mut fbm = 0.0;
+        let mut frequency = 1.0;
+        let mut amplitude = 1.0;
+        for _ in 0..8 {
+            fbm += amplitude * noise(x * frequency, y * frequency, z * frequency);
+            frequency *= 2.0;
+            amplitude *= 0.5;
+        }
+        (3.14159265 * (1.3 * x + 3.0 * fbm)).sin().abs()
+    }
+}
+
+fn eval_benches(c: &mut Criterion) {
+    let tape = marble_tape();
+    let (x, y, z) = points();
+    let n = x.len();
+    let mut group = c.benchmark_group("eval/marble");
+    group.throughput(Throughput::Elements(n as u64));
+    group
+        .sample_size(20)
+        .measurement_time(Duration::from_secs(4))
+        .warm_up_time(Duration::from_secs(1));
+
+    group.bench_function("handwritten_f32", |b| {
+        let mut out = vec![0f32; n];
+        b.iter(|| {
+            for i in 0..n {
+                out[i] = handwritten::vein(x[i] as f32, y[i] as f32, z[i] as f32);
+            }
+            black_box(&out);
+        })
+    });
+    group.bench_function("texgraph_point_f32", |b| {
+        let mut ws = Workspace::<f32>::new();
+        let mut out = vec![0f32; n];
+        b.iter(|| {
+            for i in 0..n {
+                tape.eval_point(&mut ws, [x[i], y[i], z[i]], &mut out[i..i + 1]);
+            }
+            black_box(&out);
+        })
+    });
+    group.bench_function("texgraph_batch_f32", |b| {
+        let mut ws = Workspace::<f32>::new();
+        let mut out = vec![0f32; n];
+        b.iter(|| {
+            tape.eval_batch(&mut ws, &x, &y, &z, &mut out);
+            black_box(&out);
+        })
+    });
+    group.bench_function("texgraph_batch_f64", |b| {
+        let mut ws = Workspace::<f64>::new();
+        let mut out = vec![0f64; n];
+        b.iter(|| {
+            tape.eval_batch(&mut ws, &x, &y, &z, &mut out);
+            black_box(&out);
+        })
+    });
+    group.finish();
+}
+
+/// A generated graph of `n` nodes: a chain of fbm, math and spline nodes with cross links.
+fn generated_graph(n: usize) -> String {
+    let mut nodes = String::from("\"n0\": Scale(input: Position, by: 1.5),\n");
+    for i in 1..n {
+        let line = match i % 5 {
+            0 => format!(
+                "\"n{i}\": Add(\"n{}\", Mul(0.5, \"n{}.x\")),\n",
+                i - 1,
+                i - i % 5
+            ),
+            1 => format!(
+                "\"n{i}\": Fbm(input: \"n{}\", basis: Perlin, octaves: 4.0),\n",
+                i - 1
+            ),
+            2 => format!(
+                "\"n{i}\": Translate(input: \"n{}\", by: \"n{}\"),\n",
+                i - 2,
+                i - 1
+            ),
+            3 => format!("\"n{i}\": Sin(Mul(\"n{}.y\", 3.0)),\n", i - 1),
+            _ => format!(
+                "\"n{i}\": Rotate(input: \"n{}\", axis: (0, 1, 0), degrees: Mul(\"n{}\", 90.0)),\n",
+                i - 4,
+                i - 1
+            ),
+        };
+        nodes.push_str(&line);
+    }
+    format!(
+        "Graph(nodes: {{ {nodes} }}, outputs: {{ \"out\": \"n{}\" }})",
+        n - 1
+    )
+}
+
+fn compile_benches(c: &mut Criterion) {
+    let mut group = c.benchmark_group("compile");
+    group
+        .sample_size(20)
+        .measurement_time(Duration::from_secs(3))
+        .warm_up_time(Duration::from_secs(1));
+    for n in [10usize, 100, 1000, 10_000] {
+        let text = generated_graph(n);
+        group.throughput(Throughput::Elements(n as u64));
+        group.bench_with_input(BenchmarkId::from_parameter(n), &text, |b, text| {
+            b.iter(|| {
+                let graph = check(
+                    SourceFile::new("generated.ron", text.clone()),
+                    &CheckOptions::default(),
+                )
+                .expect("valid");
+                black_box(compile(&graph, &CompileOptions::default()).expect("compiles"))
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, eval_benches, compile_benches);
+criterion_main!(benches);

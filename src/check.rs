@@ -6,11 +6,15 @@
 //! order found by an iterative depth-first search, so a chain of 10 000 nodes cannot overflow the
 //! stack; inline nesting is bounded by the parser's depth limit.
 
-use crate::diagnostic::{Diagnostic, DiagnosticClass as Class, Diagnostics, SourceFile, Span, Spanned};
-use crate::graph::{CheckedGraph, FractalParams, GraphBuilder, NodeId, Op, Origin, Output, TableKey, Type};
+use crate::diagnostic::{
+    Diagnostic, DiagnosticClass as Class, Diagnostics, SourceFile, Span, Spanned,
+};
+use crate::graph::{
+    CheckedGraph, FractalParams, GraphBuilder, NodeId, Op, Origin, Output, TableKey, Type,
+};
 use crate::limits;
-use crate::noise::{Basis, Interpolation};
 use crate::nodes::{self, ArgDef, ArgKind, DefaultValue, InputType, Kind, NodeDef, OutputType};
+use crate::noise::{Basis, Interpolation};
 use crate::ops::{self, BinaryOp, Curve, Hermite, Ramp, SplineInterpolation, TernaryOp, UnaryOp};
 use crate::syntax::{self, Value, ValueKind};
 use std::collections::HashMap;
@@ -27,7 +31,12 @@ pub struct CheckOptions {
 pub fn check(file: Arc<SourceFile>, options: &CheckOptions) -> Result<CheckedGraph, Diagnostics> {
     let root = match syntax::parse(&file.text) {
         Ok(root) => root,
-        Err(diagnostic) => return Err(Diagnostics { file, list: vec![diagnostic] }),
+        Err(diagnostic) => {
+            return Err(Diagnostics {
+                file,
+                list: vec![diagnostic],
+            })
+        }
     };
     let mut checker = Checker {
         builder: GraphBuilder::new(),
@@ -53,7 +62,10 @@ pub fn check(file: Arc<SourceFile>, options: &CheckOptions) -> Result<CheckedGra
             });
         }
     }
-    Err(Diagnostics { file, list: checker.diagnostics })
+    Err(Diagnostics {
+        file,
+        list: checker.diagnostics,
+    })
 }
 
 /// One argument after reading it through its [`ArgDef`].
@@ -87,7 +99,11 @@ impl Checker {
 
     fn graph(&mut self, root: &Value, options: &CheckOptions) -> Option<CheckedParts> {
         let fields = match &root.kind {
-            ValueKind::Struct { name, fields } if name.as_ref().is_none_or(|n| n.value == "Graph") => fields,
+            ValueKind::Struct { name, fields }
+                if name.as_ref().is_none_or(|n| n.value == "Graph") =>
+            {
+                fields
+            }
             _ => {
                 self.error(
                     Diagnostic::new(Class::Syntax, format!("expected `Graph(params: {{...}}, nodes: {{...}}, outputs: {{...}})`, found {}", root.kind.describe()))
@@ -106,10 +122,18 @@ impl Checker {
                 "nodes" => &mut nodes,
                 "outputs" => &mut outputs,
                 other => {
-                    let hint = nodes::suggest_from(other, ["params", "nodes", "outputs"].into_iter());
-                    let mut d = Diagnostic::new(Class::UnknownArgument, format!("unknown field `{other}` in Graph")).at(field.span).label("not a Graph field");
+                    let hint =
+                        nodes::suggest_from(other, ["params", "nodes", "outputs"].into_iter());
+                    let mut d = Diagnostic::new(
+                        Class::UnknownArgument,
+                        format!("unknown field `{other}` in Graph"),
+                    )
+                    .at(field.span)
+                    .label("not a Graph field");
                     d = d.help(match hint {
-                        Some(h) => format!("did you mean `{h}`? A graph has `params`, `nodes` and `outputs`"),
+                        Some(h) => format!(
+                            "did you mean `{h}`? A graph has `params`, `nodes` and `outputs`"
+                        ),
                         None => "a graph has `params`, `nodes` and `outputs`".into(),
                     });
                     self.error(d);
@@ -117,19 +141,35 @@ impl Checker {
                 }
             };
             if slot.is_some() {
-                self.error(Diagnostic::new(Class::DuplicateName, format!("field `{}` is given twice", field.value)).at(field.span).label("second time"));
+                self.error(
+                    Diagnostic::new(
+                        Class::DuplicateName,
+                        format!("field `{}` is given twice", field.value),
+                    )
+                    .at(field.span)
+                    .label("second time"),
+                );
             }
             *slot = Some(value);
         }
 
-        let empty = Value { kind: ValueKind::Map(Vec::new()), span: root.span };
+        let empty = Value {
+            kind: ValueKind::Map(Vec::new()),
+            span: root.span,
+        };
         self.params(params.unwrap_or(&empty), options);
         let node_entries = self.map_entries(nodes.unwrap_or(&empty), "nodes");
         let declared = node_entries.len();
         if declared > limits::MAX_NODES {
             self.error(
-                Diagnostic::new(Class::Limit, format!("the graph has {declared} nodes; at most {} are allowed", limits::MAX_NODES))
-                    .at(nodes.map_or(root.span, |n| n.span)),
+                Diagnostic::new(
+                    Class::Limit,
+                    format!(
+                        "the graph has {declared} nodes; at most {} are allowed",
+                        limits::MAX_NODES
+                    ),
+                )
+                .at(nodes.map_or(root.span, |n| n.span)),
             );
             return None;
         }
@@ -137,29 +177,46 @@ impl Checker {
         for (i, (id, _)) in node_entries.iter().enumerate() {
             if id.value.is_empty() || id.value.contains('.') {
                 self.error(
-                    Diagnostic::new(Class::BadParameter, format!("node id \"{}\" is not allowed", id.value))
-                        .at(id.span)
-                        .label("bad id")
-                        .help("ids are non-empty and contain no `.` (it selects components: \"id.x\")"),
+                    Diagnostic::new(
+                        Class::BadParameter,
+                        format!("node id \"{}\" is not allowed", id.value),
+                    )
+                    .at(id.span)
+                    .label("bad id")
+                    .help("ids are non-empty and contain no `.` (it selects components: \"id.x\")"),
                 );
             }
             if self.params.iter().any(|(p, _)| *p == id.value) {
                 self.error(
-                    Diagnostic::new(Class::DuplicateName, format!("\"{}\" is both a param and a node", id.value))
-                        .in_node(&id.value)
-                        .at(id.span)
-                        .label("also a param"),
+                    Diagnostic::new(
+                        Class::DuplicateName,
+                        format!("\"{}\" is both a param and a node", id.value),
+                    )
+                    .in_node(&id.value)
+                    .at(id.span)
+                    .label("also a param"),
                 );
             }
             if self.node_index.insert(id.value.clone(), i).is_some() {
-                self.error(Diagnostic::new(Class::DuplicateName, format!("node \"{}\" is defined twice", id.value)).in_node(&id.value).at(id.span).label("second definition"));
+                self.error(
+                    Diagnostic::new(
+                        Class::DuplicateName,
+                        format!("node \"{}\" is defined twice", id.value),
+                    )
+                    .in_node(&id.value)
+                    .at(id.span)
+                    .label("second definition"),
+                );
             }
         }
         self.lowered = vec![None; declared];
         let order = self.dependency_order(&node_entries);
         for i in order {
             let (id, value) = &node_entries[i];
-            let origin = Origin { node: id.value.clone(), span: value.span };
+            let origin = Origin {
+                node: id.value.clone(),
+                span: value.span,
+            };
             self.lowered[i] = self.expression(value, &origin);
         }
 
@@ -174,12 +231,26 @@ impl Checker {
         let mut result_outputs = Vec::new();
         for (name, value) in &output_entries {
             if result_outputs.iter().any(|o: &Output| o.name == name.value) {
-                self.error(Diagnostic::new(Class::DuplicateName, format!("output \"{}\" is defined twice", name.value)).at(name.span).label("second definition"));
+                self.error(
+                    Diagnostic::new(
+                        Class::DuplicateName,
+                        format!("output \"{}\" is defined twice", name.value),
+                    )
+                    .at(name.span)
+                    .label("second definition"),
+                );
                 continue;
             }
-            let origin = Origin { node: format!("outputs.{}", name.value), span: value.span };
+            let origin = Origin {
+                node: format!("outputs.{}", name.value),
+                span: value.span,
+            };
             if let Some(node) = self.expression(value, &origin) {
-                result_outputs.push(Output { name: name.value.clone(), node, span: value.span });
+                result_outputs.push(Output {
+                    name: name.value.clone(),
+                    node,
+                    span: value.span,
+                });
             }
         }
         let named = node_entries
@@ -191,23 +262,42 @@ impl Checker {
     }
 
     /// Reads a `{ "key": value, ... }` map with string keys.
-    fn map_entries<'v>(&mut self, value: &'v Value, what: &str) -> Vec<(Spanned<String>, &'v Value)> {
+    fn map_entries<'v>(
+        &mut self,
+        value: &'v Value,
+        what: &str,
+    ) -> Vec<(Spanned<String>, &'v Value)> {
         let ValueKind::Map(entries) = &value.kind else {
             self.error(
-                Diagnostic::new(Class::Syntax, format!("`{what}` must be a map `{{ \"name\": ..., }}`, found {}", value.kind.describe()))
-                    .at(value.span)
-                    .label("expected a map"),
+                Diagnostic::new(
+                    Class::Syntax,
+                    format!(
+                        "`{what}` must be a map `{{ \"name\": ..., }}`, found {}",
+                        value.kind.describe()
+                    ),
+                )
+                .at(value.span)
+                .label("expected a map"),
             );
             return Vec::new();
         };
         let mut out = Vec::with_capacity(entries.len());
         for (key, v) in entries {
             match &key.kind {
-                ValueKind::Str(s) => out.push((Spanned { value: s.clone(), span: key.span }, v)),
+                ValueKind::Str(s) => out.push((
+                    Spanned {
+                        value: s.clone(),
+                        span: key.span,
+                    },
+                    v,
+                )),
                 other => self.error(
-                    Diagnostic::new(Class::Syntax, format!("keys of `{what}` are strings, found {}", other.describe()))
-                        .at(key.span)
-                        .label("expected a \"quoted name\""),
+                    Diagnostic::new(
+                        Class::Syntax,
+                        format!("keys of `{what}` are strings, found {}", other.describe()),
+                    )
+                    .at(key.span)
+                    .label("expected a \"quoted name\""),
                 ),
             }
         }
@@ -217,28 +307,54 @@ impl Checker {
     fn params(&mut self, value: &Value, options: &CheckOptions) {
         let entries = self.map_entries(value, "params");
         if entries.len() > limits::MAX_PARAMS {
-            self.error(Diagnostic::new(Class::Limit, format!("the graph has {} params; at most {} are allowed", entries.len(), limits::MAX_PARAMS)).at(value.span));
+            self.error(
+                Diagnostic::new(
+                    Class::Limit,
+                    format!(
+                        "the graph has {} params; at most {} are allowed",
+                        entries.len(),
+                        limits::MAX_PARAMS
+                    ),
+                )
+                .at(value.span),
+            );
             return;
         }
         for (name, v) in entries {
             let node = format!("params.{}", name.value);
             if self.params.iter().any(|(p, _)| *p == name.value) {
-                self.error(Diagnostic::new(Class::DuplicateName, format!("param \"{}\" is defined twice", name.value)).in_node(node).at(name.span).label("second definition"));
+                self.error(
+                    Diagnostic::new(
+                        Class::DuplicateName,
+                        format!("param \"{}\" is defined twice", name.value),
+                    )
+                    .in_node(node)
+                    .at(name.span)
+                    .label("second definition"),
+                );
                 continue;
             }
             let number = match v.kind {
                 ValueKind::Number(n) if n.is_nan() => {
-                    self.error(Diagnostic::new(Class::BadParameter, "a param cannot be NaN").in_node(node).at(v.span).label("NaN"));
+                    self.error(
+                        Diagnostic::new(Class::BadParameter, "a param cannot be NaN")
+                            .in_node(node)
+                            .at(v.span)
+                            .label("NaN"),
+                    );
                     continue;
                 }
                 ValueKind::Number(n) => n,
                 ref other => {
                     self.error(
-                        Diagnostic::new(Class::Type, format!("a param is a number, found {}", other.describe()))
-                            .in_node(node)
-                            .at(v.span)
-                            .label("expected a number")
-                            .help("params are named scalars; put expressions in `nodes`"),
+                        Diagnostic::new(
+                            Class::Type,
+                            format!("a param is a number, found {}", other.describe()),
+                        )
+                        .in_node(node)
+                        .at(v.span)
+                        .label("expected a number")
+                        .help("params are named scalars; put expressions in `nodes`"),
                     );
                     continue;
                 }
@@ -247,12 +363,18 @@ impl Checker {
         }
         for (name, value) in &options.overrides {
             if value.is_nan() {
-                self.error(Diagnostic::new(Class::BadParameter, format!("--set {name}: a param cannot be NaN")));
+                self.error(Diagnostic::new(
+                    Class::BadParameter,
+                    format!("--set {name}: a param cannot be NaN"),
+                ));
             } else if let Some(slot) = self.params.iter_mut().find(|(p, _)| p == name) {
                 slot.1 = *value;
             } else {
                 let known: Vec<&str> = self.params.iter().map(|(p, _)| p.as_str()).collect();
-                let mut d = Diagnostic::new(Class::UnknownParam, format!("--set {name}: the graph has no param \"{name}\""));
+                let mut d = Diagnostic::new(
+                    Class::UnknownParam,
+                    format!("--set {name}: the graph has no param \"{name}\""),
+                );
                 d = d.help(match nodes::suggest_from(name, known.iter().copied()) {
                     Some(s) => format!("did you mean \"{s}\"?"),
                     None if known.is_empty() => "the graph has no params".to_string(),
@@ -302,17 +424,24 @@ impl Checker {
                         }
                         GREY => {
                             let start = stack.iter().position(|&(u, _)| u == w).unwrap_or(0);
-                            let cycle: Vec<usize> = stack[start..].iter().map(|&(u, _)| u).collect();
+                            let cycle: Vec<usize> =
+                                stack[start..].iter().map(|&(u, _)| u).collect();
                             if cycle.iter().all(|&u| !in_cycle[u]) {
-                                let mut names: Vec<String> = cycle.iter().map(|&u| format!("\"{}\"", entries[u].0.value)).collect();
+                                let mut names: Vec<String> = cycle
+                                    .iter()
+                                    .map(|&u| format!("\"{}\"", entries[u].0.value))
+                                    .collect();
                                 names.push(format!("\"{}\"", entries[w].0.value));
                                 let (id, value) = &entries[w];
                                 self.error(
-                                    Diagnostic::new(Class::Cycle, format!("the graph has a cycle: {}", names.join(" -> ")))
-                                        .in_node(&id.value)
-                                        .at(value.span)
-                                        .label("depends on itself through this expression")
-                                        .help("a node cannot use its own value; break the loop"),
+                                    Diagnostic::new(
+                                        Class::Cycle,
+                                        format!("the graph has a cycle: {}", names.join(" -> ")),
+                                    )
+                                    .in_node(&id.value)
+                                    .at(value.span)
+                                    .label("depends on itself through this expression")
+                                    .help("a node cannot use its own value; break the loop"),
                                 );
                             }
                             for u in cycle {
@@ -336,7 +465,10 @@ impl Checker {
     /// Lowers one input expression. `None` means it failed (and a diagnostic was recorded, here
     /// or for the node it refers to).
     fn expression(&mut self, value: &Value, origin: &Origin) -> Option<NodeId> {
-        let here = Origin { node: origin.node.clone(), span: value.span };
+        let here = Origin {
+            node: origin.node.clone(),
+            span: value.span,
+        };
         match &value.kind {
             ValueKind::Number(v) => {
                 if v.is_nan() {
@@ -355,27 +487,54 @@ impl Checker {
             ValueKind::Tuple { name: None, items } => {
                 if items.len() != 3 {
                     self.error(
-                        Diagnostic::new(Class::Type, format!("a vec3 literal has 3 components, this one has {}", items.len()))
-                            .in_node(&origin.node)
-                            .at(value.span)
-                            .label("expected (x, y, z)"),
+                        Diagnostic::new(
+                            Class::Type,
+                            format!(
+                                "a vec3 literal has 3 components, this one has {}",
+                                items.len()
+                            ),
+                        )
+                        .in_node(&origin.node)
+                        .at(value.span)
+                        .label("expected (x, y, z)"),
                     );
                     return None;
                 }
                 let mut components = Vec::with_capacity(3);
                 for item in items {
-                    components.push(self.typed_input(item, InputType::Scalar, "a vec3 component", origin));
+                    components.push(self.typed_input(
+                        item,
+                        InputType::Scalar,
+                        "a vec3 component",
+                        origin,
+                    ));
                 }
                 let components: Option<Vec<NodeId>> = components.into_iter().collect();
                 Some(self.builder.add(Op::Combine, components?, &here))
             }
-            ValueKind::Ident(kind_name) => self.node(kind_name, value.span, &[], &[], value, origin),
-            ValueKind::Tuple { name: Some(kind_name), items } => {
-                let positional: Vec<&Value> = items.iter().collect();
-                self.node(&kind_name.value, kind_name.span, &positional, &[], value, origin)
+            ValueKind::Ident(kind_name) => {
+                self.node(kind_name, value.span, &[], &[], value, origin)
             }
-            ValueKind::Struct { name: Some(kind_name), fields } => {
-                let named: Vec<(&Spanned<String>, &Value)> = fields.iter().map(|(f, v)| (f, v)).collect();
+            ValueKind::Tuple {
+                name: Some(kind_name),
+                items,
+            } => {
+                let positional: Vec<&Value> = items.iter().collect();
+                self.node(
+                    &kind_name.value,
+                    kind_name.span,
+                    &positional,
+                    &[],
+                    value,
+                    origin,
+                )
+            }
+            ValueKind::Struct {
+                name: Some(kind_name),
+                fields,
+            } => {
+                let named: Vec<(&Spanned<String>, &Value)> =
+                    fields.iter().map(|(f, v)| (f, v)).collect();
                 self.node(&kind_name.value, kind_name.span, &[], &named, value, origin)
             }
             other => {
@@ -391,7 +550,10 @@ impl Checker {
     }
 
     fn reference(&mut self, text: &str, span: Span, origin: &Origin) -> Option<NodeId> {
-        let here = Origin { node: origin.node.clone(), span };
+        let here = Origin {
+            node: origin.node.clone(),
+            span,
+        };
         let (base, component) = match text.split_once('.') {
             Some((b, c)) => (b, Some(c)),
             None => (text, None),
@@ -403,11 +565,19 @@ impl Checker {
             // Lowered already (dependency order) or failed with its own diagnostic.
             self.lowered.get(i).copied().flatten()
         } else {
-            let candidates: Vec<&str> = self.node_index.keys().map(|s| s.as_str()).chain(self.params.iter().map(|(p, _)| p.as_str())).collect();
-            let mut d = Diagnostic::new(Class::UnknownReference, format!("unknown reference \"{base}\""))
-                .in_node(&origin.node)
-                .at(span)
-                .label("no node or param has this name");
+            let candidates: Vec<&str> = self
+                .node_index
+                .keys()
+                .map(|s| s.as_str())
+                .chain(self.params.iter().map(|(p, _)| p.as_str()))
+                .collect();
+            let mut d = Diagnostic::new(
+                Class::UnknownReference,
+                format!("unknown reference \"{base}\""),
+            )
+            .in_node(&origin.node)
+            .at(span)
+            .label("no node or param has this name");
             if let Some(s) = nodes::suggest_from(base, candidates.iter().copied()) {
                 d = d.help(format!("did you mean \"{s}\"?"));
             } else if nodes::lookup(base).is_some() {
@@ -417,29 +587,37 @@ impl Checker {
             return None;
         };
         let target = target?;
-        let Some(component) = component else { return Some(target) };
+        let Some(component) = component else {
+            return Some(target);
+        };
         let axis = match component {
             "x" | "r" => 0,
             "y" | "g" => 1,
             "z" | "b" => 2,
             _ => {
                 self.error(
-                    Diagnostic::new(Class::WrongComponent, format!("\"{text}\": there is no component `{component}`"))
-                        .in_node(&origin.node)
-                        .at(span)
-                        .label("unknown component")
-                        .help("components are .x .y .z (or .r .g .b)"),
+                    Diagnostic::new(
+                        Class::WrongComponent,
+                        format!("\"{text}\": there is no component `{component}`"),
+                    )
+                    .in_node(&origin.node)
+                    .at(span)
+                    .label("unknown component")
+                    .help("components are .x .y .z (or .r .g .b)"),
                 );
                 return None;
             }
         };
         if self.builder.ty(target) != Type::Vec3 {
             self.error(
-                Diagnostic::new(Class::WrongComponent, format!("\"{text}\": \"{base}\" is a scalar and has no components"))
-                    .in_node(&origin.node)
-                    .at(span)
-                    .label("scalar")
-                    .help(format!("use \"{base}\" itself")),
+                Diagnostic::new(
+                    Class::WrongComponent,
+                    format!("\"{text}\": \"{base}\" is a scalar and has no components"),
+                )
+                .in_node(&origin.node)
+                .at(span)
+                .label("scalar")
+                .help(format!("use \"{base}\" itself")),
             );
             return None;
         }
@@ -448,7 +626,13 @@ impl Checker {
 
     /// Lowers an input and checks its type (a vec3 where a scalar is expected is an error; a
     /// scalar where a vec3 is expected is an error unless the type is `Any`).
-    fn typed_input(&mut self, value: &Value, ty: InputType, what: &str, origin: &Origin) -> Option<NodeId> {
+    fn typed_input(
+        &mut self,
+        value: &Value,
+        ty: InputType,
+        what: &str,
+        origin: &Origin,
+    ) -> Option<NodeId> {
         let id = self.expression(value, origin)?;
         let actual = self.builder.ty(id);
         let ok = match ty {
@@ -457,42 +641,72 @@ impl Checker {
             InputType::Vec3 => actual == Type::Vec3,
         };
         if !ok {
-            let expected = if ty == InputType::Scalar { "scalar" } else { "vec3" };
+            let expected = if ty == InputType::Scalar {
+                "scalar"
+            } else {
+                "vec3"
+            };
             let help = if ty == InputType::Scalar {
                 "pick one component with \"id.x\", or reduce the vector with Length or Dot"
             } else {
                 "build a point with Combine(x, y, z), or use Position"
             };
             self.error(
-                Diagnostic::new(Class::Type, format!("{what} must be a {expected}, found a {actual}"))
-                    .in_node(&origin.node)
-                    .at(value.span)
-                    .label(format!("this is a {actual}"))
-                    .help(help),
+                Diagnostic::new(
+                    Class::Type,
+                    format!("{what} must be a {expected}, found a {actual}"),
+                )
+                .in_node(&origin.node)
+                .at(value.span)
+                .label(format!("this is a {actual}"))
+                .help(help),
             );
             return None;
         }
         Some(id)
     }
 
-    fn constant_scalar(&mut self, value: &Value, arg: &ArgDef, range: nodes::Range, def: &NodeDef, origin: &Origin) -> Option<f64> {
-        let id = self.typed_input(value, InputType::Scalar, &format!("`{}` of {}", arg.name, def.name), origin)?;
+    fn constant_scalar(
+        &mut self,
+        value: &Value,
+        arg: &ArgDef,
+        range: nodes::Range,
+        def: &NodeDef,
+        origin: &Origin,
+    ) -> Option<f64> {
+        let id = self.typed_input(
+            value,
+            InputType::Scalar,
+            &format!("`{}` of {}", arg.name, def.name),
+            origin,
+        )?;
         let Some(v) = self.builder.const_scalar(id) else {
             self.error(
-                Diagnostic::new(Class::NotConstant, format!("`{}` of {} must be a constant", arg.name, def.name))
-                    .in_node(&origin.node)
-                    .at(value.span)
-                    .label("varies per point")
-                    .help("use a number, a param, or an expression of those"),
+                Diagnostic::new(
+                    Class::NotConstant,
+                    format!("`{}` of {} must be a constant", arg.name, def.name),
+                )
+                .in_node(&origin.node)
+                .at(value.span)
+                .label("varies per point")
+                .help("use a number, a param, or an expression of those"),
             );
             return None;
         };
         if !v.is_finite() || !range.contains(v) {
             self.error(
-                Diagnostic::new(Class::BadParameter, format!("`{}` of {} must be {}, got {v}", arg.name, def.name, range.describe()))
-                    .in_node(&origin.node)
-                    .at(value.span)
-                    .label("out of range"),
+                Diagnostic::new(
+                    Class::BadParameter,
+                    format!(
+                        "`{}` of {} must be {}, got {v}",
+                        arg.name,
+                        def.name,
+                        range.describe()
+                    ),
+                )
+                .in_node(&origin.node)
+                .at(value.span)
+                .label("out of range"),
             );
             return None;
         }
@@ -505,7 +719,12 @@ impl Checker {
         match v {
             Some(v) if v.iter().all(|c| c.is_finite()) => Some(v),
             Some(_) => {
-                self.error(Diagnostic::new(Class::BadParameter, format!("{what} must be finite")).in_node(&origin.node).at(value.span).label("not finite"));
+                self.error(
+                    Diagnostic::new(Class::BadParameter, format!("{what} must be finite"))
+                        .in_node(&origin.node)
+                        .at(value.span)
+                        .label("not finite"),
+                );
                 None
             }
             None => {
@@ -522,13 +741,29 @@ impl Checker {
     }
 
     /// A node expression `Kind`, `Kind(a, b)` or `Kind(name: a, ...)`.
-    fn node(&mut self, kind_name: &str, kind_span: Span, positional: &[&Value], named: &[(&Spanned<String>, &Value)], whole: &Value, origin: &Origin) -> Option<NodeId> {
+    fn node(
+        &mut self,
+        kind_name: &str,
+        kind_span: Span,
+        positional: &[&Value],
+        named: &[(&Spanned<String>, &Value)],
+        whole: &Value,
+        origin: &Origin,
+    ) -> Option<NodeId> {
         self.written += 1;
         let Some(def) = nodes::lookup(kind_name) else {
-            let mut d = Diagnostic::new(Class::UnknownKind, format!("unknown node kind `{kind_name}`")).in_node(&origin.node).at(kind_span).label("not a node kind");
+            let mut d = Diagnostic::new(
+                Class::UnknownKind,
+                format!("unknown node kind `{kind_name}`"),
+            )
+            .in_node(&origin.node)
+            .at(kind_span)
+            .label("not a node kind");
             if let Some(s) = nodes::suggest(kind_name) {
                 d = d.help(format!("did you mean `{s}`?"));
-            } else if self.node_index.contains_key(kind_name) || self.params.iter().any(|(p, _)| p == kind_name) {
+            } else if self.node_index.contains_key(kind_name)
+                || self.params.iter().any(|(p, _)| p == kind_name)
+            {
                 d = d.help(format!("references are strings: write \"{kind_name}\""));
             } else {
                 d = d.help("`texgraph nodes` lists every kind");
@@ -536,17 +771,28 @@ impl Checker {
             self.error(d);
             return None;
         };
-        let here = Origin { node: origin.node.clone(), span: whole.span };
+        let here = Origin {
+            node: origin.node.clone(),
+            span: whole.span,
+        };
 
         // Match the written arguments to the definition's.
         let mut given: Vec<Option<&Value>> = vec![None; def.args.len()];
         if positional.len() > def.args.len() {
             self.error(
-                Diagnostic::new(Class::UnknownArgument, format!("{} takes {} argument(s), found {}", def.name, def.args.len(), positional.len()))
-                    .in_node(&origin.node)
-                    .at(positional[def.args.len()].span)
-                    .label("extra argument")
-                    .help(signature(def)),
+                Diagnostic::new(
+                    Class::UnknownArgument,
+                    format!(
+                        "{} takes {} argument(s), found {}",
+                        def.name,
+                        def.args.len(),
+                        positional.len()
+                    ),
+                )
+                .in_node(&origin.node)
+                .at(positional[def.args.len()].span)
+                .label("extra argument")
+                .help(signature(def)),
             );
             return None;
         }
@@ -557,19 +803,32 @@ impl Checker {
         for (field, value) in named {
             match def.args.iter().position(|a| a.name == field.value) {
                 Some(i) if given[i].is_some() => {
-                    self.error(Diagnostic::new(Class::DuplicateName, format!("`{}` is given twice", field.value)).in_node(&origin.node).at(field.span).label("second time"));
+                    self.error(
+                        Diagnostic::new(
+                            Class::DuplicateName,
+                            format!("`{}` is given twice", field.value),
+                        )
+                        .in_node(&origin.node)
+                        .at(field.span)
+                        .label("second time"),
+                    );
                     ok = false;
                 }
                 Some(i) => given[i] = Some(value),
                 None => {
-                    let mut d = Diagnostic::new(Class::UnknownArgument, format!("{} has no argument `{}`", def.name, field.value))
-                        .in_node(&origin.node)
-                        .at(field.span)
-                        .label("unknown argument");
-                    d = d.help(match nodes::suggest_from(&field.value, def.args.iter().map(|a| a.name)) {
-                        Some(s) => format!("did you mean `{s}`? {}", signature(def)),
-                        None => signature(def),
-                    });
+                    let mut d = Diagnostic::new(
+                        Class::UnknownArgument,
+                        format!("{} has no argument `{}`", def.name, field.value),
+                    )
+                    .in_node(&origin.node)
+                    .at(field.span)
+                    .label("unknown argument");
+                    d = d.help(
+                        match nodes::suggest_from(&field.value, def.args.iter().map(|a| a.name)) {
+                            Some(s) => format!("did you mean `{s}`? {}", signature(def)),
+                            None => signature(def),
+                        },
+                    );
                     self.error(d);
                     ok = false;
                 }
@@ -583,11 +842,14 @@ impl Checker {
                     Some(default) => Some(self.default_argument(default, arg, &here)),
                     None => {
                         self.error(
-                            Diagnostic::new(Class::MissingArgument, format!("{} needs `{}`", def.name, arg.name))
-                                .in_node(&origin.node)
-                                .at(whole.span)
-                                .label(format!("`{}` missing", arg.name))
-                                .help(signature(def)),
+                            Diagnostic::new(
+                                Class::MissingArgument,
+                                format!("{} needs `{}`", def.name, arg.name),
+                            )
+                            .in_node(&origin.node)
+                            .at(whole.span)
+                            .label(format!("`{}` missing", arg.name))
+                            .help(signature(def)),
                         );
                         None
                     }
@@ -599,40 +861,67 @@ impl Checker {
         if !ok {
             return None;
         }
-        let args: Vec<Arg> = args.into_iter().map(|a| a.expect("all arguments read")).collect();
+        let args: Vec<Arg> = args
+            .into_iter()
+            .map(|a| a.expect("all arguments read"))
+            .collect();
         self.build(def, args, &given, whole, &here)
     }
 
     fn default_argument(&mut self, default: DefaultValue, arg: &ArgDef, here: &Origin) -> Arg {
         match (default, arg.kind) {
-            (DefaultValue::Number(v), ArgKind::Input(_)) => Arg::Input(self.builder.add(Op::ConstScalar(v), Vec::new(), here)),
+            (DefaultValue::Number(v), ArgKind::Input(_)) => {
+                Arg::Input(self.builder.add(Op::ConstScalar(v), Vec::new(), here))
+            }
             (DefaultValue::Number(v), _) => Arg::Const(v),
             (DefaultValue::Vec3(v), _) => Arg::Axis(v),
             (DefaultValue::Name(n), _) => Arg::Interpolation(n, false),
         }
     }
 
-    fn argument(&mut self, value: &Value, arg: &ArgDef, def: &NodeDef, origin: &Origin) -> Option<Arg> {
+    fn argument(
+        &mut self,
+        value: &Value,
+        arg: &ArgDef,
+        def: &NodeDef,
+        origin: &Origin,
+    ) -> Option<Arg> {
         match arg.kind {
-            ArgKind::Input(ty) => self.typed_input(value, ty, &format!("`{}` of {}", arg.name, def.name), origin).map(Arg::Input),
-            ArgKind::ConstScalar(range) => self.constant_scalar(value, arg, range, def, origin).map(Arg::Const),
+            ArgKind::Input(ty) => self
+                .typed_input(
+                    value,
+                    ty,
+                    &format!("`{}` of {}", arg.name, def.name),
+                    origin,
+                )
+                .map(Arg::Input),
+            ArgKind::ConstScalar(range) => self
+                .constant_scalar(value, arg, range, def, origin)
+                .map(Arg::Const),
             ArgKind::ConstAxis => {
-                let v = self.constant_vec3(value, &format!("`{}` of {}", arg.name, def.name), origin)?;
+                let v =
+                    self.constant_vec3(value, &format!("`{}` of {}", arg.name, def.name), origin)?;
                 match ops::normalise_axis(v) {
                     Some(axis) => Some(Arg::Axis(axis)),
                     None => {
                         self.error(
-                            Diagnostic::new(Class::BadParameter, format!("the rotation axis is zero: ({}, {}, {})", v[0], v[1], v[2]))
-                                .in_node(&origin.node)
-                                .at(value.span)
-                                .label("zero axis")
-                                .help("give the axis a direction, e.g. (0, 1, 0)"),
+                            Diagnostic::new(
+                                Class::BadParameter,
+                                format!(
+                                    "the rotation axis is zero: ({}, {}, {})",
+                                    v[0], v[1], v[2]
+                                ),
+                            )
+                            .in_node(&origin.node)
+                            .at(value.span)
+                            .label("zero axis")
+                            .help("give the axis a direction, e.g. (0, 1, 0)"),
                         );
                         None
                     }
                 }
             }
-            ArgKind::Basis => self.basis(value, origin).map(|b| Arg::Basis(b)),
+            ArgKind::Basis => self.basis(value, origin).map(Arg::Basis),
             ArgKind::Interpolation(allowed) => {
                 let name = match &value.kind {
                     ValueKind::Ident(n) => allowed.iter().find(|a| **a == n.as_str()).copied(),
@@ -642,10 +931,19 @@ impl Checker {
                     Some(n) => Some(Arg::Interpolation(n, true)),
                     None => {
                         self.error(
-                            Diagnostic::new(Class::BadParameter, format!("`{}` of {} must be one of {}, found {}", arg.name, def.name, allowed.join(", "), value.kind.describe()))
-                                .in_node(&origin.node)
-                                .at(value.span)
-                                .label("unknown interpolation"),
+                            Diagnostic::new(
+                                Class::BadParameter,
+                                format!(
+                                    "`{}` of {} must be one of {}, found {}",
+                                    arg.name,
+                                    def.name,
+                                    allowed.join(", "),
+                                    value.kind.describe()
+                                ),
+                            )
+                            .in_node(&origin.node)
+                            .at(value.span)
+                            .label("unknown interpolation"),
                         );
                         None
                     }
@@ -662,9 +960,17 @@ impl Checker {
             ArgKind::Points => {
                 let knots = self.knots(value, def, "points", "(x, y)", origin)?;
                 let mut points = Vec::with_capacity(knots.len());
-                let y_def = ArgDef { name: "y", kind: ArgKind::ConstScalar(nodes::Range::FINITE), default: None, doc: "" };
+                let y_def = ArgDef {
+                    name: "y",
+                    kind: ArgKind::ConstScalar(nodes::Range::FINITE),
+                    default: None,
+                    doc: "",
+                };
                 for (x, v) in knots {
-                    points.push((x, self.constant_scalar(v, &y_def, nodes::Range::FINITE, def, origin)?));
+                    points.push((
+                        x,
+                        self.constant_scalar(v, &y_def, nodes::Range::FINITE, def, origin)?,
+                    ));
                 }
                 Some(Arg::Points(points))
             }
@@ -672,48 +978,116 @@ impl Checker {
     }
 
     /// Reads `[(key, value), ...]`: constant, finite, sorted keys; the values are returned raw.
-    fn knots<'v>(&mut self, value: &'v Value, def: &NodeDef, what: &str, form: &str, origin: &Origin) -> Option<Vec<(f64, &'v Value)>> {
+    fn knots<'v>(
+        &mut self,
+        value: &'v Value,
+        def: &NodeDef,
+        what: &str,
+        form: &str,
+        origin: &Origin,
+    ) -> Option<Vec<(f64, &'v Value)>> {
         let ValueKind::List(items) = &value.kind else {
             self.error(
-                Diagnostic::new(Class::Type, format!("`{what}` of {} is a list [{form}, ...], found {}", def.name, value.kind.describe()))
-                    .in_node(&origin.node)
-                    .at(value.span)
-                    .label("expected a list"),
+                Diagnostic::new(
+                    Class::Type,
+                    format!(
+                        "`{what}` of {} is a list [{form}, ...], found {}",
+                        def.name,
+                        value.kind.describe()
+                    ),
+                )
+                .in_node(&origin.node)
+                .at(value.span)
+                .label("expected a list"),
             );
             return None;
         };
         if items.is_empty() {
-            self.error(Diagnostic::new(Class::BadParameter, format!("`{what}` of {} is empty", def.name)).in_node(&origin.node).at(value.span).label("needs at least one entry"));
+            self.error(
+                Diagnostic::new(
+                    Class::BadParameter,
+                    format!("`{what}` of {} is empty", def.name),
+                )
+                .in_node(&origin.node)
+                .at(value.span)
+                .label("needs at least one entry"),
+            );
             return None;
         }
         if items.len() > limits::MAX_RAMP_STOPS {
             self.error(
-                Diagnostic::new(Class::Limit, format!("`{what}` of {} has {} entries; at most {} are allowed", def.name, items.len(), limits::MAX_RAMP_STOPS))
-                    .in_node(&origin.node)
-                    .at(value.span),
+                Diagnostic::new(
+                    Class::Limit,
+                    format!(
+                        "`{what}` of {} has {} entries; at most {} are allowed",
+                        def.name,
+                        items.len(),
+                        limits::MAX_RAMP_STOPS
+                    ),
+                )
+                .in_node(&origin.node)
+                .at(value.span),
             );
             return None;
         }
-        let key_def = ArgDef { name: "t", kind: ArgKind::ConstScalar(nodes::Range::FINITE), default: None, doc: "" };
+        let key_def = ArgDef {
+            name: "t",
+            kind: ArgKind::ConstScalar(nodes::Range::FINITE),
+            default: None,
+            doc: "",
+        };
         let mut out: Vec<(f64, &Value)> = Vec::with_capacity(items.len());
         for item in items {
-            let ValueKind::Tuple { name: None, items: pair } = &item.kind else {
-                self.error(Diagnostic::new(Class::Type, format!("each entry of `{what}` is {form}, found {}", item.kind.describe())).in_node(&origin.node).at(item.span).label(format!("expected {form}")));
+            let ValueKind::Tuple {
+                name: None,
+                items: pair,
+            } = &item.kind
+            else {
+                self.error(
+                    Diagnostic::new(
+                        Class::Type,
+                        format!(
+                            "each entry of `{what}` is {form}, found {}",
+                            item.kind.describe()
+                        ),
+                    )
+                    .in_node(&origin.node)
+                    .at(item.span)
+                    .label(format!("expected {form}")),
+                );
                 return None;
             };
             if pair.len() != 2 {
-                self.error(Diagnostic::new(Class::Type, format!("each entry of `{what}` is {form}, this one has {} items", pair.len())).in_node(&origin.node).at(item.span).label(format!("expected {form}")));
+                self.error(
+                    Diagnostic::new(
+                        Class::Type,
+                        format!(
+                            "each entry of `{what}` is {form}, this one has {} items",
+                            pair.len()
+                        ),
+                    )
+                    .in_node(&origin.node)
+                    .at(item.span)
+                    .label(format!("expected {form}")),
+                );
                 return None;
             }
-            let key = self.constant_scalar(&pair[0], &key_def, nodes::Range::FINITE, def, origin)?;
+            let key =
+                self.constant_scalar(&pair[0], &key_def, nodes::Range::FINITE, def, origin)?;
             if let Some(&(previous, _)) = out.last() {
                 if key < previous {
                     self.error(
-                        Diagnostic::new(Class::BadParameter, format!("`{what}` of {} are not sorted: {key} comes after {previous}", def.name))
-                            .in_node(&origin.node)
-                            .at(pair[0].span)
-                            .label("smaller than the one before")
-                            .help("sort the entries by their first number"),
+                        Diagnostic::new(
+                            Class::BadParameter,
+                            format!(
+                                "`{what}` of {} are not sorted: {key} comes after {previous}",
+                                def.name
+                            ),
+                        )
+                        .in_node(&origin.node)
+                        .at(pair[0].span)
+                        .label("smaller than the one before")
+                        .help("sort the entries by their first number"),
                     );
                     return None;
                 }
@@ -726,14 +1100,28 @@ impl Checker {
     fn basis(&mut self, value: &Value, origin: &Origin) -> Option<Basis> {
         let (name, span, inner) = match &value.kind {
             ValueKind::Ident(n) => (n.as_str(), value.span, None),
-            ValueKind::Struct { name: Some(n), fields } => (n.value.as_str(), n.span, Some(fields.as_slice())),
-            ValueKind::Tuple { name: Some(n), items } if items.len() == 1 => {
+            ValueKind::Struct {
+                name: Some(n),
+                fields,
+            } => (n.value.as_str(), n.span, Some(fields.as_slice())),
+            ValueKind::Tuple {
+                name: Some(n),
+                items,
+            } if items.len() == 1 => {
                 // `Value(Smooth)`: positional interpolation.
                 let interpolation = match &items[0].kind {
                     ValueKind::Ident(i) if i == "Linear" => Interpolation::Linear,
                     ValueKind::Ident(i) if i == "Smooth" => Interpolation::Smooth,
                     _ => {
-                        self.error(Diagnostic::new(Class::BadParameter, "value noise interpolation is Linear or Smooth").in_node(&origin.node).at(items[0].span).label("unknown interpolation"));
+                        self.error(
+                            Diagnostic::new(
+                                Class::BadParameter,
+                                "value noise interpolation is Linear or Smooth",
+                            )
+                            .in_node(&origin.node)
+                            .at(items[0].span)
+                            .label("unknown interpolation"),
+                        );
                         return None;
                     }
                 };
@@ -751,8 +1139,12 @@ impl Checker {
                 let mut interpolation = Interpolation::Linear;
                 for (field, v) in inner.unwrap_or(&[]) {
                     match (field.value.as_str(), &v.kind) {
-                        ("interpolation", ValueKind::Ident(i)) if i == "Linear" => interpolation = Interpolation::Linear,
-                        ("interpolation", ValueKind::Ident(i)) if i == "Smooth" => interpolation = Interpolation::Smooth,
+                        ("interpolation", ValueKind::Ident(i)) if i == "Linear" => {
+                            interpolation = Interpolation::Linear
+                        }
+                        ("interpolation", ValueKind::Ident(i)) if i == "Smooth" => {
+                            interpolation = Interpolation::Smooth
+                        }
                         _ => {
                             self.error(
                                 Diagnostic::new(Class::BadParameter, "Value noise takes `interpolation: Linear` or `interpolation: Smooth`")
@@ -767,14 +1159,19 @@ impl Checker {
                 Basis::Value(interpolation)
             }
             _ => {
-                let mut d = Diagnostic::new(Class::BadParameter, format!("unknown noise basis {}", value.kind.describe()))
-                    .in_node(&origin.node)
-                    .at(span)
-                    .label("not a basis");
-                d = d.help(match nodes::suggest_from(name, ["Perlin", "Gradient", "Value"].into_iter()) {
-                    Some(s) if !name.is_empty() => format!("did you mean `{s}`?"),
-                    _ => "the bases are Perlin, Gradient and Value".into(),
-                });
+                let mut d = Diagnostic::new(
+                    Class::BadParameter,
+                    format!("unknown noise basis {}", value.kind.describe()),
+                )
+                .in_node(&origin.node)
+                .at(span)
+                .label("not a basis");
+                d = d.help(
+                    match nodes::suggest_from(name, ["Perlin", "Gradient", "Value"].into_iter()) {
+                        Some(s) if !name.is_empty() => format!("did you mean `{s}`?"),
+                        _ => "the bases are Perlin, Gradient and Value".into(),
+                    },
+                );
                 self.error(d);
                 return None;
             }
@@ -783,7 +1180,14 @@ impl Checker {
     }
 
     /// Turns a node's checked arguments into graph operations.
-    fn build(&mut self, def: &NodeDef, args: Vec<Arg>, given: &[Option<&Value>], whole: &Value, here: &Origin) -> Option<NodeId> {
+    fn build(
+        &mut self,
+        def: &NodeDef,
+        args: Vec<Arg>,
+        given: &[Option<&Value>],
+        whole: &Value,
+        here: &Origin,
+    ) -> Option<NodeId> {
         let input = |i: usize| match args[i] {
             Arg::Input(id) => id,
             _ => unreachable_arg(),
@@ -798,19 +1202,31 @@ impl Checker {
             Kind::Combine => (Op::Combine, vec![input(0), input(1), input(2)]),
             Kind::Scale | Kind::Translate => {
                 let by = self.builder.broadcast(input(1), Type::Vec3, here);
-                let op = if def.kind == Kind::Scale { BinaryOp::Mul } else { BinaryOp::Add };
+                let op = if def.kind == Kind::Scale {
+                    BinaryOp::Mul
+                } else {
+                    BinaryOp::Add
+                };
                 (Op::Binary(op), vec![input(0), by])
             }
             Kind::Rotate => {
-                let Arg::Axis(axis) = args[1] else { return None };
+                let Arg::Axis(axis) = args[1] else {
+                    return None;
+                };
                 (Op::Rotate { axis }, vec![input(0), input(2)])
             }
             Kind::Noise | Kind::Fbm | Kind::Turbulence => {
-                let Arg::Basis(basis) = args[1] else { return None };
+                let Arg::Basis(basis) = args[1] else {
+                    return None;
+                };
                 let interpolation_index = if def.kind == Kind::Noise { 3 } else { 7 };
                 let basis = match (basis, &args[interpolation_index]) {
-                    (Basis::Value(_), Arg::Interpolation("Smooth", true)) => Basis::Value(Interpolation::Smooth),
-                    (Basis::Value(_), Arg::Interpolation("Linear", true)) => Basis::Value(Interpolation::Linear),
+                    (Basis::Value(_), Arg::Interpolation("Smooth", true)) => {
+                        Basis::Value(Interpolation::Smooth)
+                    }
+                    (Basis::Value(_), Arg::Interpolation("Linear", true)) => {
+                        Basis::Value(Interpolation::Linear)
+                    }
                     (Basis::Value(i), _) => Basis::Value(i),
                     (other, Arg::Interpolation(_, true)) => {
                         let span = given[interpolation_index].map_or(whole.span, |v| v.span);
@@ -824,7 +1240,10 @@ impl Checker {
                     }
                     (other, _) => other,
                 };
-                let key = TableKey { basis, seed: constant(2) as u64 };
+                let key = TableKey {
+                    basis,
+                    seed: constant(2) as u64,
+                };
                 if def.kind == Kind::Noise {
                     (Op::Noise(key), vec![input(0)])
                 } else {
@@ -838,7 +1257,15 @@ impl Checker {
                     (Op::Fractal(key, params), vec![input(0)])
                 }
             }
-            Kind::Add | Kind::Sub | Kind::Mul | Kind::Div | Kind::Min | Kind::Max | Kind::Pow | Kind::Atan2 | Kind::Mod => {
+            Kind::Add
+            | Kind::Sub
+            | Kind::Mul
+            | Kind::Div
+            | Kind::Min
+            | Kind::Max
+            | Kind::Pow
+            | Kind::Atan2
+            | Kind::Mod => {
                 let op = match def.kind {
                     Kind::Add => BinaryOp::Add,
                     Kind::Sub => BinaryOp::Sub,
@@ -850,9 +1277,18 @@ impl Checker {
                     Kind::Atan2 => BinaryOp::Atan2,
                     _ => BinaryOp::Mod,
                 };
-                (Op::Binary(op), self.broadcast_all(&[input(0), input(1)], here))
+                (
+                    Op::Binary(op),
+                    self.broadcast_all(&[input(0), input(1)], here),
+                )
             }
-            Kind::Abs | Kind::Neg | Kind::Sin | Kind::Cos | Kind::Sqrt | Kind::Floor | Kind::Fract => {
+            Kind::Abs
+            | Kind::Neg
+            | Kind::Sin
+            | Kind::Cos
+            | Kind::Sqrt
+            | Kind::Floor
+            | Kind::Fract => {
                 let op = match def.kind {
                     Kind::Abs => UnaryOp::Abs,
                     Kind::Neg => UnaryOp::Neg,
@@ -872,9 +1308,20 @@ impl Checker {
                     Kind::Mix => TernaryOp::Mix,
                     _ => TernaryOp::Smoothstep,
                 };
-                (Op::Ternary(op), self.broadcast_all(&[input(0), input(1), input(2)], here))
+                (
+                    Op::Ternary(op),
+                    self.broadcast_all(&[input(0), input(1), input(2)], here),
+                )
             }
-            Kind::Hermite => (Op::Hermite(Hermite { p0: constant(1), p1: constant(2), m0: constant(3), m1: constant(4) }), vec![input(0)]),
+            Kind::Hermite => (
+                Op::Hermite(Hermite {
+                    p0: constant(1),
+                    p1: constant(2),
+                    m0: constant(3),
+                    m1: constant(4),
+                }),
+                vec![input(0)],
+            ),
             Kind::ColorRamp | Kind::Curve => {
                 let interpolation = match args[2] {
                     Arg::Interpolation("Smooth", _) => SplineInterpolation::Smooth,
@@ -883,11 +1330,19 @@ impl Checker {
                 };
                 match &args[1] {
                     Arg::Stops(stops) => {
-                        let ramp = Ramp::new(stops.iter().map(|s| s.0).collect(), stops.iter().map(|s| s.1).collect(), interpolation);
+                        let ramp = Ramp::new(
+                            stops.iter().map(|s| s.0).collect(),
+                            stops.iter().map(|s| s.1).collect(),
+                            interpolation,
+                        );
                         (Op::Ramp(Arc::new(ramp)), vec![input(0)])
                     }
                     Arg::Points(points) => {
-                        let curve = Curve::new(points.iter().map(|p| p.0).collect(), points.iter().map(|p| [p.1]).collect(), interpolation);
+                        let curve = Curve::new(
+                            points.iter().map(|p| p.0).collect(),
+                            points.iter().map(|p| [p.1]).collect(),
+                            interpolation,
+                        );
                         (Op::Curve(Arc::new(curve)), vec![input(0)])
                     }
                     _ => return None,
@@ -901,8 +1356,14 @@ impl Checker {
 
     /// Splats scalar operands when any operand is a vec3 (component-wise math).
     fn broadcast_all(&mut self, ids: &[NodeId], here: &Origin) -> Vec<NodeId> {
-        let ty = if ids.iter().any(|&id| self.builder.ty(id) == Type::Vec3) { Type::Vec3 } else { Type::Scalar };
-        ids.iter().map(|&id| self.builder.broadcast(id, ty, here)).collect()
+        let ty = if ids.iter().any(|&id| self.builder.ty(id) == Type::Vec3) {
+            Type::Vec3
+        } else {
+            Type::Scalar
+        };
+        ids.iter()
+            .map(|&id| self.builder.broadcast(id, ty, here))
+            .collect()
     }
 }
 
@@ -921,7 +1382,11 @@ fn signature(def: &NodeDef) -> String {
             Some(_) => format!("{}?", a.name),
         })
         .collect();
-    format!("{}({}); `texgraph nodes` explains each argument", def.name, args.join(", "))
+    format!(
+        "{}({}); `texgraph nodes` explains each argument",
+        def.name,
+        args.join(", ")
+    )
 }
 
 /// Calls `f` with every string in a value tree (strings are references in graph files).

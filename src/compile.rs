@@ -32,19 +32,31 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
         let mut errors = Vec::new();
         for name in &options.outputs {
             match graph.output(name) {
-                Some(o) if !selected.iter().any(|s: &&crate::graph::Output| s.name == *name) => selected.push(o),
+                Some(o)
+                    if !selected
+                        .iter()
+                        .any(|s: &&crate::graph::Output| s.name == *name) =>
+                {
+                    selected.push(o)
+                }
                 Some(_) => {}
                 None => {
                     let names: Vec<&str> = graph.outputs.iter().map(|o| o.name.as_str()).collect();
                     errors.push(
-                        Diagnostic::new(DiagnosticClass::UnknownOutput, format!("--output {name}: the graph has no output \"{name}\""))
-                            .help(format!("its outputs are: {}", names.join(", "))),
+                        Diagnostic::new(
+                            DiagnosticClass::UnknownOutput,
+                            format!("--output {name}: the graph has no output \"{name}\""),
+                        )
+                        .help(format!("its outputs are: {}", names.join(", "))),
                     );
                 }
             }
         }
         if !errors.is_empty() {
-            return Err(Diagnostics { file: graph.file.clone(), list: errors });
+            return Err(Diagnostics {
+                file: graph.file.clone(),
+                list: errors,
+            });
         }
         selected
     };
@@ -102,48 +114,126 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
         }
         // Allocate the destination before freeing dead arguments, so an instruction never
         // writes a slot it reads (the interpreter relies on it).
-        let dst = if vec3 { emitter.vec3s.alloc() } else { emitter.scalars.alloc() };
+        let dst = if vec3 {
+            emitter.vec3s.alloc()
+        } else {
+            emitter.scalars.alloc()
+        };
         let instr = match &node.op {
             Op::ConstScalar(_) | Op::ConstVec3(_) => unreachable_const(),
             Op::Position => Instr::Position { dst },
             Op::Splat => Instr::Splat { dst, src: arg(0) },
-            Op::Combine => Instr::Combine { dst, x: arg(0), y: arg(1), z: arg(2) },
-            Op::Component(axis) => Instr::Component { dst, src: arg(0), axis: *axis },
-            Op::Unary(op) if vec3 => Instr::UnaryVec3 { op: *op, dst, src: arg(0) },
-            Op::Unary(op) => Instr::UnaryScalar { op: *op, dst, src: arg(0) },
-            Op::Binary(op) if vec3 => Instr::BinaryVec3 { op: *op, dst, a: arg(0), b: arg(1) },
-            Op::Binary(op) => Instr::BinaryScalar { op: *op, dst, a: arg(0), b: arg(1) },
-            Op::Ternary(op) if vec3 => Instr::TernaryVec3 { op: *op, dst, a: arg(0), b: arg(1), c: arg(2) },
-            Op::Ternary(op) => Instr::TernaryScalar { op: *op, dst, a: arg(0), b: arg(1), c: arg(2) },
-            Op::Dot => Instr::Dot { dst, a: arg(0), b: arg(1) },
+            Op::Combine => Instr::Combine {
+                dst,
+                x: arg(0),
+                y: arg(1),
+                z: arg(2),
+            },
+            Op::Component(axis) => Instr::Component {
+                dst,
+                src: arg(0),
+                axis: *axis,
+            },
+            Op::Unary(op) if vec3 => Instr::UnaryVec3 {
+                op: *op,
+                dst,
+                src: arg(0),
+            },
+            Op::Unary(op) => Instr::UnaryScalar {
+                op: *op,
+                dst,
+                src: arg(0),
+            },
+            Op::Binary(op) if vec3 => Instr::BinaryVec3 {
+                op: *op,
+                dst,
+                a: arg(0),
+                b: arg(1),
+            },
+            Op::Binary(op) => Instr::BinaryScalar {
+                op: *op,
+                dst,
+                a: arg(0),
+                b: arg(1),
+            },
+            Op::Ternary(op) if vec3 => Instr::TernaryVec3 {
+                op: *op,
+                dst,
+                a: arg(0),
+                b: arg(1),
+                c: arg(2),
+            },
+            Op::Ternary(op) => Instr::TernaryScalar {
+                op: *op,
+                dst,
+                a: arg(0),
+                b: arg(1),
+                c: arg(2),
+            },
+            Op::Dot => Instr::Dot {
+                dst,
+                a: arg(0),
+                b: arg(1),
+            },
             Op::Length => Instr::Length { dst, src: arg(0) },
             Op::Rotate { axis } => match graph.nodes[node.args[1] as usize].op {
                 Op::ConstScalar(degrees) => {
                     emitter.matrices.push(ops::rotation_matrix(*axis, degrees));
-                    Instr::RotateConst { dst, src: arg(0), matrix: (emitter.matrices.len() - 1) as u32 }
+                    Instr::RotateConst {
+                        dst,
+                        src: arg(0),
+                        matrix: (emitter.matrices.len() - 1) as u32,
+                    }
                 }
                 _ => {
                     emitter.axes.push(*axis);
-                    Instr::RotateVarying { dst, src: arg(0), degrees: arg(1), axis: (emitter.axes.len() - 1) as u32 }
+                    Instr::RotateVarying {
+                        dst,
+                        src: arg(0),
+                        degrees: arg(1),
+                        axis: (emitter.axes.len() - 1) as u32,
+                    }
                 }
             },
-            Op::Noise(key) => Instr::Noise { dst, src: arg(0), table: emitter.table(*key) },
+            Op::Noise(key) => Instr::Noise {
+                dst,
+                src: arg(0),
+                table: emitter.table(*key),
+            },
             Op::Fractal(key, params) => {
                 let table = emitter.table(*key);
                 emitter.octaves.push(params.schedule());
-                Instr::Fractal { dst, src: arg(0), table, octaves: (emitter.octaves.len() - 1) as u32, turbulence: params.turbulence }
+                Instr::Fractal {
+                    dst,
+                    src: arg(0),
+                    table,
+                    octaves: (emitter.octaves.len() - 1) as u32,
+                    turbulence: params.turbulence,
+                }
             }
             Op::Hermite(h) => {
                 emitter.hermites.push(*h);
-                Instr::Hermite { dst, src: arg(0), spline: (emitter.hermites.len() - 1) as u32 }
+                Instr::Hermite {
+                    dst,
+                    src: arg(0),
+                    spline: (emitter.hermites.len() - 1) as u32,
+                }
             }
             Op::Ramp(r) => {
                 emitter.ramps.push(r.clone());
-                Instr::Ramp { dst, src: arg(0), ramp: (emitter.ramps.len() - 1) as u32 }
+                Instr::Ramp {
+                    dst,
+                    src: arg(0),
+                    ramp: (emitter.ramps.len() - 1) as u32,
+                }
             }
             Op::Curve(c) => {
                 emitter.curves.push(c.clone());
-                Instr::Curve { dst, src: arg(0), curve: (emitter.curves.len() - 1) as u32 }
+                Instr::Curve {
+                    dst,
+                    src: arg(0),
+                    curve: (emitter.curves.len() - 1) as u32,
+                }
             }
         };
         emitter.instrs.push(instr);
@@ -152,7 +242,10 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
         // Free arguments whose last use is this node (each once, even if used twice here).
         let mut freed: Vec<NodeId> = Vec::with_capacity(3);
         for &a in &node.args {
-            let pinned = matches!(graph.nodes[a as usize].op, Op::ConstScalar(_) | Op::ConstVec3(_));
+            let pinned = matches!(
+                graph.nodes[a as usize].op,
+                Op::ConstScalar(_) | Op::ConstVec3(_)
+            );
             if !pinned && last_use[a as usize] == id as usize && !freed.contains(&a) {
                 freed.push(a);
                 let slot = slot_of[&a];
@@ -168,7 +261,12 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
     let mut first_channel = 0;
     for output in selected {
         let ty = graph.nodes[output.node as usize].ty;
-        outputs.push(TapeOutput { name: output.name.clone(), ty, slot: slot_of[&output.node], first_channel });
+        outputs.push(TapeOutput {
+            name: output.name.clone(),
+            ty,
+            slot: slot_of[&output.node],
+            first_channel,
+        });
         first_channel += ty.channels();
     }
     // Pruned: nodes of the written graph (reachable from a named node or any output) that the
@@ -204,7 +302,11 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
         ramps: emitter.ramps,
         curves: emitter.curves,
         origins: emitter.origins,
-        stats: TapeStats { graph_nodes, live_nodes, pruned_nodes: graph_nodes.saturating_sub(live_nodes) },
+        stats: TapeStats {
+            graph_nodes,
+            live_nodes,
+            pruned_nodes: graph_nodes.saturating_sub(live_nodes),
+        },
     })
 }
 
@@ -264,7 +366,10 @@ impl Emitter {
         if let Some(i) = self.tables.iter().position(|(k, _)| *k == key) {
             return i as u32;
         }
-        self.tables.push((key, std::sync::Arc::new(crate::noise::NoiseTable::new(key.basis, key.seed))));
+        self.tables.push((
+            key,
+            std::sync::Arc::new(crate::noise::NoiseTable::new(key.basis, key.seed)),
+        ));
         (self.tables.len() - 1) as u32
     }
 }

@@ -256,14 +256,16 @@ impl miette::Diagnostic for MietteReport<'_> {
     }
 
     fn source_code(&self) -> Option<&dyn miette::SourceCode> {
-        self.diagnostic.span.map(|_| &self.file.text as &dyn miette::SourceCode)
+        self.diagnostic
+            .span
+            .map(|_| &self.file.text as &dyn miette::SourceCode)
     }
 
     fn labels(&self) -> Option<Box<dyn Iterator<Item = miette::LabeledSpan> + '_>> {
         let span = self.diagnostic.span?;
         let len = span.end.saturating_sub(span.start).max(1);
         let start = span.start.min(self.file.text.len());
-        let len = len.min(self.file.text.len().saturating_sub(start)).max(0);
+        let len = len.min(self.file.text.len().saturating_sub(start));
         let label = miette::LabeledSpan::new(self.diagnostic.label.clone(), start, len);
         Some(Box::new(std::iter::once(label)))
     }
@@ -287,14 +289,21 @@ mod tests {
         let file = SourceFile::new("g.ron", "Graph(\n  nodes: { \"a\": Sinn(1) },\n)\n");
         let diagnostics = Diagnostics {
             file,
-            list: vec![Diagnostic::new(DiagnosticClass::UnknownKind, "unknown node kind `Sinn`")
-                .in_node("a")
-                .at(Span::new(21, 25))
-                .label("not a node kind")
-                .help("did you mean `Sin`?")],
+            list: vec![
+                Diagnostic::new(DiagnosticClass::UnknownKind, "unknown node kind `Sinn`")
+                    .in_node("a")
+                    .at(Span::new(21, 25))
+                    .label("not a node kind")
+                    .help("did you mean `Sin`?"),
+            ],
         };
         let text = diagnostics.render_plain();
-        assert!(text.starts_with("error[unknown-kind]: g.ron:2:14: node \"a\": unknown node kind `Sinn`"), "{text}");
+        assert!(
+            text.starts_with(
+                "error[unknown-kind]: g.ron:2:14: node \"a\": unknown node kind `Sinn`"
+            ),
+            "{text}"
+        );
         assert!(text.contains("Sinn(1)"), "{text}");
         assert!(text.contains("did you mean `Sin`?"), "{text}");
     }

@@ -29,7 +29,11 @@ pub struct Workspace<S: Real> {
 
 impl<S: Real> Workspace<S> {
     pub fn new() -> Workspace<S> {
-        Workspace { bound_to: 0, scalars: Vec::new(), vec3s: Vec::new() }
+        Workspace {
+            bound_to: 0,
+            scalars: Vec::new(),
+            vec3s: Vec::new(),
+        }
     }
 
     /// Sizes the slots for `tape` and writes its constants; a no-op when already bound to it.
@@ -37,7 +41,9 @@ impl<S: Real> Workspace<S> {
         if self.bound_to == tape.id {
             return;
         }
-        self.scalars = (0..tape.scalar_slots).map(|_| vec![S::ZERO; LANES]).collect();
+        self.scalars = (0..tape.scalar_slots)
+            .map(|_| vec![S::ZERO; LANES])
+            .collect();
         self.vec3s = (0..tape.vec3_slots).map(|_| vec![0.0; 3 * LANES]).collect();
         for &(slot, v) in &tape.scalar_constants {
             self.scalars[slot as usize].fill(S::from_f64(v));
@@ -58,8 +64,17 @@ impl Tape {
     ///
     /// # Panics
     /// If `out.len() != self.channels()`.
-    pub fn eval_point<S: Real>(&self, workspace: &mut Workspace<S>, point: [f64; 3], out: &mut [S]) {
-        assert_eq!(out.len(), self.channels(), "eval_point: output buffer has the wrong length");
+    pub fn eval_point<S: Real>(
+        &self,
+        workspace: &mut Workspace<S>,
+        point: [f64; 3],
+        out: &mut [S],
+    ) {
+        assert_eq!(
+            out.len(),
+            self.channels(),
+            "eval_point: output buffer has the wrong length"
+        );
         workspace.bind(self);
         self.run_chunk(workspace, &[point[0]], &[point[1]], &[point[2]]);
         self.write_outputs(workspace, 1, 0, 1, out);
@@ -70,10 +85,24 @@ impl Tape {
     ///
     /// # Panics
     /// If the coordinate slices differ in length or `out.len() != self.channels() * x.len()`.
-    pub fn eval_batch<S: Real>(&self, workspace: &mut Workspace<S>, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
+    pub fn eval_batch<S: Real>(
+        &self,
+        workspace: &mut Workspace<S>,
+        x: &[f64],
+        y: &[f64],
+        z: &[f64],
+        out: &mut [S],
+    ) {
         let n = x.len();
-        assert!(y.len() == n && z.len() == n, "eval_batch: coordinate slices differ in length");
-        assert_eq!(out.len(), self.channels() * n, "eval_batch: output buffer has the wrong length");
+        assert!(
+            y.len() == n && z.len() == n,
+            "eval_batch: coordinate slices differ in length"
+        );
+        assert_eq!(
+            out.len(),
+            self.channels() * n,
+            "eval_batch: output buffer has the wrong length"
+        );
         workspace.bind(self);
         let mut start = 0;
         while start < n {
@@ -86,7 +115,14 @@ impl Tape {
 
     /// Copies the output slots of the current chunk (`len` lanes) to `out` at lane `offset` of a
     /// planar buffer with `stride` lanes per channel.
-    fn write_outputs<S: Real>(&self, ws: &Workspace<S>, len: usize, offset: usize, stride: usize, out: &mut [S]) {
+    fn write_outputs<S: Real>(
+        &self,
+        ws: &Workspace<S>,
+        len: usize,
+        offset: usize,
+        stride: usize,
+        out: &mut [S],
+    ) {
         for output in &self.outputs {
             let base = output.first_channel;
             match output.ty {
@@ -129,7 +165,12 @@ impl Tape {
                     }
                     ws.vec3s[dst as usize] = out;
                 }
-                Instr::Combine { dst, x: sx, y: sy, z: sz } => {
+                Instr::Combine {
+                    dst,
+                    x: sx,
+                    y: sy,
+                    z: sz,
+                } => {
                     let mut out = take(&mut ws.vec3s[dst as usize]);
                     for (plane, src) in out.chunks_exact_mut(LANES).zip([sx, sy, sz]) {
                         for (o, v) in plane[..n].iter_mut().zip(&ws.scalars[src as usize][..n]) {
@@ -159,21 +200,37 @@ impl Tape {
                 }
                 Instr::BinaryScalar { op, dst, a, b } => {
                     let mut out = take(&mut ws.scalars[dst as usize]);
-                    binary_lanes(op, &mut out[..n], &ws.scalars[a as usize][..n], &ws.scalars[b as usize][..n]);
+                    binary_lanes(
+                        op,
+                        &mut out[..n],
+                        &ws.scalars[a as usize][..n],
+                        &ws.scalars[b as usize][..n],
+                    );
                     ws.scalars[dst as usize] = out;
                 }
                 Instr::BinaryVec3 { op, dst, a, b } => {
                     let mut out = take(&mut ws.vec3s[dst as usize]);
                     let (a, b) = (&ws.vec3s[a as usize], &ws.vec3s[b as usize]);
                     for c in 0..3 {
-                        binary_lanes(op, &mut out[c * LANES..][..n], &a[c * LANES..][..n], &b[c * LANES..][..n]);
+                        binary_lanes(
+                            op,
+                            &mut out[c * LANES..][..n],
+                            &a[c * LANES..][..n],
+                            &b[c * LANES..][..n],
+                        );
                     }
                     ws.vec3s[dst as usize] = out;
                 }
                 Instr::TernaryScalar { op, dst, a, b, c } => {
                     let mut out = take(&mut ws.scalars[dst as usize]);
                     let s = &ws.scalars;
-                    ternary_lanes(op, &mut out[..n], &s[a as usize][..n], &s[b as usize][..n], &s[c as usize][..n]);
+                    ternary_lanes(
+                        op,
+                        &mut out[..n],
+                        &s[a as usize][..n],
+                        &s[b as usize][..n],
+                        &s[c as usize][..n],
+                    );
                     ws.scalars[dst as usize] = out;
                 }
                 Instr::TernaryVec3 { op, dst, a, b, c } => {
@@ -189,7 +246,9 @@ impl Tape {
                     let (a, b) = (&ws.vec3s[a as usize], &ws.vec3s[b as usize]);
                     let out = &mut ws.scalars[dst as usize][..n];
                     for (i, o) in out.iter_mut().enumerate() {
-                        let d = a[i] * b[i] + a[LANES + i] * b[LANES + i] + a[2 * LANES + i] * b[2 * LANES + i];
+                        let d = a[i] * b[i]
+                            + a[LANES + i] * b[LANES + i]
+                            + a[2 * LANES + i] * b[2 * LANES + i];
                         *o = S::from_f64(d);
                     }
                 }
@@ -213,7 +272,12 @@ impl Tape {
                     }
                     ws.vec3s[dst as usize] = out;
                 }
-                Instr::RotateVarying { dst, src, degrees, axis } => {
+                Instr::RotateVarying {
+                    dst,
+                    src,
+                    degrees,
+                    axis,
+                } => {
                     let axis = self.axes[axis as usize];
                     let mut out = take(&mut ws.vec3s[dst as usize]);
                     let a = &ws.vec3s[src as usize];
@@ -230,9 +294,20 @@ impl Tape {
                 Instr::Noise { dst, src, table } => {
                     let a = &ws.vec3s[src as usize];
                     let table = &self.tables[table as usize].1;
-                    table.sample_batch(&a[..n], &a[LANES..LANES + n], &a[2 * LANES..2 * LANES + n], &mut ws.scalars[dst as usize][..n]);
+                    table.sample_batch(
+                        &a[..n],
+                        &a[LANES..LANES + n],
+                        &a[2 * LANES..2 * LANES + n],
+                        &mut ws.scalars[dst as usize][..n],
+                    );
                 }
-                Instr::Fractal { dst, src, table, octaves, turbulence } => {
+                Instr::Fractal {
+                    dst,
+                    src,
+                    table,
+                    octaves,
+                    turbulence,
+                } => {
                     let a = &ws.vec3s[src as usize];
                     let table = &self.tables[table as usize].1;
                     noise::fractal_batch(

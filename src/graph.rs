@@ -81,7 +81,9 @@ pub enum Op {
     Dot,
     Length,
     /// args: point, degrees. The axis is unit length.
-    Rotate { axis: [f64; 3] },
+    Rotate {
+        axis: [f64; 3],
+    },
     Noise(TableKey),
     Fractal(TableKey, FractalParams),
     Hermite(Hermite),
@@ -113,7 +115,9 @@ impl Op {
             Op::Ternary(op) => out.extend([8, *op as u64]),
             Op::Dot => out.push(9),
             Op::Length => out.push(10),
-            Op::Rotate { axis } => out.extend([11, axis[0].to_bits(), axis[1].to_bits(), axis[2].to_bits()]),
+            Op::Rotate { axis } => {
+                out.extend([11, axis[0].to_bits(), axis[1].to_bits(), axis[2].to_bits()])
+            }
             Op::Noise(t) => out.extend([12, basis_code(t.basis), t.seed]),
             Op::Fractal(t, p) => out.extend([
                 13,
@@ -125,7 +129,13 @@ impl Op {
                 p.first_octave as u64,
                 p.turbulence as u64,
             ]),
-            Op::Hermite(h) => out.extend([14, h.p0.to_bits(), h.p1.to_bits(), h.m0.to_bits(), h.m1.to_bits()]),
+            Op::Hermite(h) => out.extend([
+                14,
+                h.p0.to_bits(),
+                h.p1.to_bits(),
+                h.m0.to_bits(),
+                h.m1.to_bits(),
+            ]),
             Op::Ramp(r) => {
                 out.extend([15, r.interpolation() as u64]);
                 for (k, v) in r.knots().iter().zip(r.values()) {
@@ -213,7 +223,12 @@ impl Default for GraphBuilder {
 
 impl GraphBuilder {
     pub fn new() -> GraphBuilder {
-        GraphBuilder { nodes: Vec::new(), interned: HashMap::new(), tables: HashMap::new(), stats: GraphStats::default() }
+        GraphBuilder {
+            nodes: Vec::new(),
+            interned: HashMap::new(),
+            tables: HashMap::new(),
+            stats: GraphStats::default(),
+        }
     }
 
     pub fn node(&self, id: NodeId) -> &Node {
@@ -270,23 +285,41 @@ impl GraphBuilder {
         }
         let ty = self.result_type(&op, &map_key.1);
         let id = self.nodes.len() as NodeId;
-        self.nodes.push(Node { op, args: map_key.1.clone(), ty, origin: origin.clone() });
+        self.nodes.push(Node {
+            op,
+            args: map_key.1.clone(),
+            ty,
+            origin: origin.clone(),
+        });
         self.interned.insert(map_key, id);
         id
     }
 
     fn result_type(&self, op: &Op, args: &[NodeId]) -> Type {
         match op {
-            Op::Position | Op::ConstVec3(_) | Op::Splat | Op::Combine | Op::Rotate { .. } | Op::Ramp(_) => Type::Vec3,
-            Op::ConstScalar(_) | Op::Component(_) | Op::Dot | Op::Length | Op::Noise(_) | Op::Fractal(..) | Op::Hermite(_) | Op::Curve(_) => {
-                Type::Scalar
+            Op::Position
+            | Op::ConstVec3(_)
+            | Op::Splat
+            | Op::Combine
+            | Op::Rotate { .. }
+            | Op::Ramp(_) => Type::Vec3,
+            Op::ConstScalar(_)
+            | Op::Component(_)
+            | Op::Dot
+            | Op::Length
+            | Op::Noise(_)
+            | Op::Fractal(..)
+            | Op::Hermite(_)
+            | Op::Curve(_) => Type::Scalar,
+            Op::Unary(_) | Op::Binary(_) | Op::Ternary(_) => {
+                args.first().map_or(Type::Scalar, |&a| self.ty(a))
             }
-            Op::Unary(_) | Op::Binary(_) | Op::Ternary(_) => args.first().map_or(Type::Scalar, |&a| self.ty(a)),
         }
     }
 
     fn is_one(&self, id: NodeId) -> bool {
-        matches!(self.node(id).op, Op::ConstScalar(v) if v == 1.0) || matches!(self.node(id).op, Op::ConstVec3(v) if v == [1.0; 3])
+        matches!(self.node(id).op, Op::ConstScalar(v) if v == 1.0)
+            || matches!(self.node(id).op, Op::ConstVec3(v) if v == [1.0; 3])
     }
 
     /// Makes `id` a vec3 by splatting a scalar (a constant splat folds to a vec3 constant).
@@ -299,7 +332,10 @@ impl GraphBuilder {
     }
 
     pub fn table(&mut self, key: TableKey) -> Arc<NoiseTable> {
-        self.tables.entry(key).or_insert_with(|| Arc::new(NoiseTable::new(key.basis, key.seed))).clone()
+        self.tables
+            .entry(key)
+            .or_insert_with(|| Arc::new(NoiseTable::new(key.basis, key.seed)))
+            .clone()
     }
 
     /// Evaluates `op` in f64 when every argument is a constant.
@@ -313,7 +349,10 @@ impl GraphBuilder {
                     _ => return None,
                 };
                 let degrees = self.const_scalar(args[1])?;
-                return Some(Op::ConstVec3(ops::apply_matrix(&ops::rotation_matrix(*axis, degrees), point)));
+                return Some(Op::ConstVec3(ops::apply_matrix(
+                    &ops::rotation_matrix(*axis, degrees),
+                    point,
+                )));
             }
             _ => {}
         }
@@ -346,15 +385,24 @@ impl GraphBuilder {
             Op::Binary(b) if all_vec3 => map3(&|c| b.apply(v[0][c], v[1][c])),
             Op::Ternary(t) if all_scalar => Op::ConstScalar(t.apply(s[0], s[1], s[2])),
             Op::Ternary(t) if all_vec3 => map3(&|c| t.apply(v[0][c], v[1][c], v[2][c])),
-            Op::Dot if all_vec3 => Op::ConstScalar(v[0][0] * v[1][0] + v[0][1] * v[1][1] + v[0][2] * v[1][2]),
-            Op::Length if all_vec3 => Op::ConstScalar((v[0][0] * v[0][0] + v[0][1] * v[0][1] + v[0][2] * v[0][2]).sqrt()),
+            Op::Dot if all_vec3 => {
+                Op::ConstScalar(v[0][0] * v[1][0] + v[0][1] * v[1][1] + v[0][2] * v[1][2])
+            }
+            Op::Length if all_vec3 => {
+                Op::ConstScalar((v[0][0] * v[0][0] + v[0][1] * v[0][1] + v[0][2] * v[0][2]).sqrt())
+            }
             Op::Noise(key) if all_vec3 => {
                 let table = self.table(*key);
                 Op::ConstScalar(table.sample::<f64>(v[0]))
             }
             Op::Fractal(key, params) if all_vec3 => {
                 let table = self.table(*key);
-                Op::ConstScalar(noise::fractal::<f64>(&table, &params.schedule(), params.turbulence, v[0]))
+                Op::ConstScalar(noise::fractal::<f64>(
+                    &table,
+                    &params.schedule(),
+                    params.turbulence,
+                    v[0],
+                ))
             }
             Op::Hermite(h) if all_scalar => Op::ConstScalar(h.apply(s[0])),
             Op::Ramp(r) if all_scalar => Op::ConstVec3(r.eval(s[0])),

@@ -28,17 +28,30 @@ pub enum LoadError {
 /// Reads a graph file as UTF-8, refusing files over [`limits::MAX_FILE_BYTES`] before reading
 /// them whole.
 pub fn read_source(path: &Path) -> Result<Arc<SourceFile>, LoadError> {
-    let io = |source| LoadError::Io { path: path.to_path_buf(), source };
+    let io = |source| LoadError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
     let file = std::fs::File::open(path).map_err(io)?;
     let mut bytes = Vec::new();
-    file.take(limits::MAX_FILE_BYTES as u64 + 1).read_to_end(&mut bytes).map_err(io)?;
+    file.take(limits::MAX_FILE_BYTES as u64 + 1)
+        .read_to_end(&mut bytes)
+        .map_err(io)?;
     if bytes.len() > limits::MAX_FILE_BYTES {
         return Err(io(std::io::Error::new(
             std::io::ErrorKind::InvalidData,
-            format!("the file is larger than {} bytes, the limit for graph files", limits::MAX_FILE_BYTES),
+            format!(
+                "the file is larger than {} bytes, the limit for graph files",
+                limits::MAX_FILE_BYTES
+            ),
         )));
     }
-    let text = String::from_utf8(bytes).map_err(|e| io(std::io::Error::new(std::io::ErrorKind::InvalidData, format!("not UTF-8 text: {e}"))))?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        io(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("not UTF-8 text: {e}"),
+        ))
+    })?;
     Ok(SourceFile::new(path.display().to_string(), text))
 }
 
@@ -49,7 +62,11 @@ pub fn load_graph(path: &Path, options: &CheckOptions) -> Result<CheckedGraph, L
 }
 
 /// Reads, checks and compiles a graph file.
-pub fn load_tape(path: &Path, check_options: &CheckOptions, compile_options: &CompileOptions) -> Result<(CheckedGraph, Tape), LoadError> {
+pub fn load_tape(
+    path: &Path,
+    check_options: &CheckOptions,
+    compile_options: &CompileOptions,
+) -> Result<(CheckedGraph, Tape), LoadError> {
     let graph = load_graph(path, check_options)?;
     let tape = compile(&graph, compile_options).map_err(LoadError::Invalid)?;
     Ok((graph, tape))

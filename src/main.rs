@@ -83,8 +83,13 @@ struct NodesArgs {
 }
 
 fn parse_set(text: &str) -> Result<(String, f64), String> {
-    let (name, value) = text.split_once('=').ok_or_else(|| format!("expected NAME=VALUE, found `{text}`"))?;
-    let value: f64 = value.trim().parse().map_err(|_| format!("`{value}` is not a number"))?;
+    let (name, value) = text
+        .split_once('=')
+        .ok_or_else(|| format!("expected NAME=VALUE, found `{text}`"))?;
+    let value: f64 = value
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{value}` is not a number"))?;
     Ok((name.trim().to_string(), value))
 }
 
@@ -100,7 +105,11 @@ fn main() -> ExitCode {
         Command::Check(args) => check(args),
         Command::Eval(args) => eval(args),
         Command::Nodes(args) => {
-            let text = if args.markdown { texgraph::nodes::catalogue_markdown() } else { texgraph::nodes::catalogue_text() };
+            let text = if args.markdown {
+                texgraph::nodes::catalogue_markdown()
+            } else {
+                texgraph::nodes::catalogue_text()
+            };
             write_stdout(|out| out.write_all(text.as_bytes()))
         }
     };
@@ -144,7 +153,14 @@ fn write_stdout(f: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result
 }
 
 fn options(graph: &GraphOptions) -> (CheckOptions, CompileOptions) {
-    (CheckOptions { overrides: graph.sets.clone() }, CompileOptions { outputs: graph.outputs.clone() })
+    (
+        CheckOptions {
+            overrides: graph.sets.clone(),
+        },
+        CompileOptions {
+            outputs: graph.outputs.clone(),
+        },
+    )
 }
 
 fn check(args: CheckArgs) -> Result<(), Failure> {
@@ -177,7 +193,8 @@ fn eval(args: EvalArgs) -> Result<(), Failure> {
         return Err(Failure::Usage);
     }
     let (check_options, compile_options) = options(&args.graph);
-    let (_, tape) = texgraph::load_tape(&args.file, &check_options, &compile_options).map_err(report)?;
+    let (_, tape) =
+        texgraph::load_tape(&args.file, &check_options, &compile_options).map_err(report)?;
     if args.double {
         eval_with::<f64>(&tape, &args)
     } else {
@@ -188,7 +205,11 @@ fn eval(args: EvalArgs) -> Result<(), Failure> {
 fn eval_with<S: Real>(tape: &Tape, args: &EvalArgs) -> Result<(), Failure> {
     let mut workspace = Workspace::<S>::new();
     let Some(points) = &args.points else {
-        let point = [args.coordinates[0], args.coordinates[1], args.coordinates[2]];
+        let point = [
+            args.coordinates[0],
+            args.coordinates[1],
+            args.coordinates[2],
+        ];
         let mut out = vec![S::ZERO; tape.channels()];
         tape.eval_point(&mut workspace, point, &mut out);
         return write_stdout(|w| write_lines(w, tape, &out, 1));
@@ -205,18 +226,26 @@ fn eval_with<S: Real>(tape: &Tape, args: &EvalArgs) -> Result<(), Failure> {
         texgraph::points::for_each_chunk(std::io::stdin().lock(), "<stdin>", 4096, &mut evaluate)
     } else {
         match std::fs::File::open(points) {
-            Ok(file) => texgraph::points::for_each_chunk(std::io::BufReader::new(file), &points.display().to_string(), 4096, &mut evaluate),
+            Ok(file) => texgraph::points::for_each_chunk(
+                std::io::BufReader::new(file),
+                &points.display().to_string(),
+                4096,
+                &mut evaluate,
+            ),
             Err(e) => {
                 eprintln!("error: {}: {e}", points.display());
                 return Err(Failure::Usage);
             }
         }
     };
-    drop(evaluate);
     let flushed = writer.flush();
     match result {
         Ok(()) => {}
-        Err(texgraph::points::PointsError::Io { error, .. }) if error.kind() == std::io::ErrorKind::BrokenPipe => return Ok(()),
+        Err(texgraph::points::PointsError::Io { error, .. })
+            if error.kind() == std::io::ErrorKind::BrokenPipe =>
+        {
+            return Ok(())
+        }
         Err(e @ texgraph::points::PointsError::Malformed { .. }) => {
             eprintln!("error: {e}");
             return Err(Failure::Invalid);
@@ -236,7 +265,12 @@ fn eval_with<S: Real>(tape: &Tape, args: &EvalArgs) -> Result<(), Failure> {
 }
 
 /// Writes `NAME v` / `NAME r g b` lines for `n` points of a planar output buffer.
-fn write_lines<S: Real>(w: &mut dyn Write, tape: &Tape, out: &[S], n: usize) -> std::io::Result<()> {
+fn write_lines<S: Real>(
+    w: &mut dyn Write,
+    tape: &Tape,
+    out: &[S],
+    n: usize,
+) -> std::io::Result<()> {
     for i in 0..n {
         for output in &tape.outputs {
             write!(w, "{}", output.name)?;

@@ -61,19 +61,36 @@ pub struct Range {
 }
 
 impl Range {
-    pub const FINITE: Range = Range { min: f64::MIN, max: f64::MAX, min_inclusive: true, integer: false };
+    pub const FINITE: Range = Range {
+        min: f64::MIN,
+        max: f64::MAX,
+        min_inclusive: true,
+        integer: false,
+    };
 
     pub fn contains(&self, v: f64) -> bool {
-        let above = if self.min_inclusive { v >= self.min } else { v > self.min };
+        let above = if self.min_inclusive {
+            v >= self.min
+        } else {
+            v > self.min
+        };
         above && v <= self.max && (!self.integer || v.fract() == 0.0)
     }
 
     pub fn describe(&self) -> String {
-        let kind = if self.integer { "an integer" } else { "a finite number" };
+        let kind = if self.integer {
+            "an integer"
+        } else {
+            "a finite number"
+        };
         if *self == Range::FINITE {
             return kind.to_string();
         }
-        let low = if self.min_inclusive { format!(">= {}", self.min) } else { format!("> {}", self.min) };
+        let low = if self.min_inclusive {
+            format!(">= {}", self.min)
+        } else {
+            format!("> {}", self.min)
+        };
         format!("{kind} {low} and <= {}", self.max)
     }
 }
@@ -130,41 +147,114 @@ pub struct NodeDef {
 }
 
 const fn input(name: &'static str, ty: InputType, doc: &'static str) -> ArgDef {
-    ArgDef { name, kind: ArgKind::Input(ty), default: None, doc }
+    ArgDef {
+        name,
+        kind: ArgKind::Input(ty),
+        default: None,
+        doc,
+    }
 }
 
 const fn input_or(name: &'static str, ty: InputType, default: f64, doc: &'static str) -> ArgDef {
-    ArgDef { name, kind: ArgKind::Input(ty), default: Some(DefaultValue::Number(default)), doc }
+    ArgDef {
+        name,
+        kind: ArgKind::Input(ty),
+        default: Some(DefaultValue::Number(default)),
+        doc,
+    }
 }
 
-const fn constant(name: &'static str, range: Range, default: Option<f64>, doc: &'static str) -> ArgDef {
+const fn constant(
+    name: &'static str,
+    range: Range,
+    default: Option<f64>,
+    doc: &'static str,
+) -> ArgDef {
     let default = match default {
         Some(v) => Some(DefaultValue::Number(v)),
         None => None,
     };
-    ArgDef { name, kind: ArgKind::ConstScalar(range), default, doc }
+    ArgDef {
+        name,
+        kind: ArgKind::ConstScalar(range),
+        default,
+        doc,
+    }
 }
 
 const ANY_X: &[ArgDef] = &[input("x", InputType::Any, "operand")];
-const ANY_AB: &[ArgDef] = &[input("a", InputType::Any, "left operand"), input("b", InputType::Any, "right operand")];
+const ANY_AB: &[ArgDef] = &[
+    input("a", InputType::Any, "left operand"),
+    input("b", InputType::Any, "right operand"),
+];
 
-const SEED: Range = Range { min: 0.0, max: limits::MAX_SEED, min_inclusive: true, integer: true };
-const OCTAVES: Range = Range { min: 0.0, max: limits::MAX_OCTAVES, min_inclusive: true, integer: false };
-const FIRST_OCTAVE: Range = Range { min: 0.0, max: limits::MAX_FIRST_OCTAVE, min_inclusive: true, integer: true };
-const LACUNARITY: Range = Range { min: 0.0, max: 1.0e6, min_inclusive: false, integer: false };
-const GAIN: Range = Range { min: -1.0e6, max: 1.0e6, min_inclusive: true, integer: false };
+const SEED: Range = Range {
+    min: 0.0,
+    max: limits::MAX_SEED,
+    min_inclusive: true,
+    integer: true,
+};
+const OCTAVES: Range = Range {
+    min: 0.0,
+    max: limits::MAX_OCTAVES,
+    min_inclusive: true,
+    integer: false,
+};
+const FIRST_OCTAVE: Range = Range {
+    min: 0.0,
+    max: limits::MAX_FIRST_OCTAVE,
+    min_inclusive: true,
+    integer: true,
+};
+const LACUNARITY: Range = Range {
+    min: 0.0,
+    max: 1.0e6,
+    min_inclusive: false,
+    integer: false,
+};
+const GAIN: Range = Range {
+    min: -1.0e6,
+    max: 1.0e6,
+    min_inclusive: true,
+    integer: false,
+};
 
 const NOISE_INTERPOLATION: &[&str] = &["Linear", "Smooth"];
 const RAMP_INTERPOLATION: &[&str] = &["Linear", "Smooth", "Constant"];
 
 const FRACTAL_ARGS: &[ArgDef] = &[
     input("input", InputType::Vec3, "the point to sample"),
-    ArgDef { name: "basis", kind: ArgKind::Basis, default: None, doc: "the noise summed: Perlin, Gradient or Value" },
-    constant("seed", SEED, Some(0.0), "selects the lattice tables; 0 is the reference table for Perlin"),
-    constant("octaves", OCTAVES, None, "how many octaves; a fraction weights the last, partial octave"),
-    constant("lacunarity", LACUNARITY, Some(2.0), "frequency ratio between octaves"),
+    ArgDef {
+        name: "basis",
+        kind: ArgKind::Basis,
+        default: None,
+        doc: "the noise summed: Perlin, Gradient or Value",
+    },
+    constant(
+        "seed",
+        SEED,
+        Some(0.0),
+        "selects the lattice tables; 0 is the reference table for Perlin",
+    ),
+    constant(
+        "octaves",
+        OCTAVES,
+        None,
+        "how many octaves; a fraction weights the last, partial octave",
+    ),
+    constant(
+        "lacunarity",
+        LACUNARITY,
+        Some(2.0),
+        "frequency ratio between octaves",
+    ),
     constant("gain", GAIN, Some(0.5), "amplitude ratio between octaves"),
-    constant("first_octave", FIRST_OCTAVE, Some(0.0), "index of the first octave summed (seed 004's n1)"),
+    constant(
+        "first_octave",
+        FIRST_OCTAVE,
+        Some(0.0),
+        "index of the first octave summed (seed 004's n1)",
+    ),
     ArgDef {
         name: "interpolation",
         kind: ArgKind::Interpolation(NOISE_INTERPOLATION),
@@ -344,7 +434,10 @@ pub fn lookup(name: &str) -> Option<&'static NodeDef> {
 
 pub fn def(kind: Kind) -> &'static NodeDef {
     // Every Kind has exactly one entry (pinned by a test), so the search always succeeds.
-    CATALOGUE.iter().find(|def| def.kind == kind).unwrap_or(&CATALOGUE[0])
+    CATALOGUE
+        .iter()
+        .find(|def| def.kind == kind)
+        .unwrap_or(&CATALOGUE[0])
 }
 
 /// The closest catalogue name to a misspelt one, for "did you mean" hints.
@@ -415,7 +508,12 @@ pub fn catalogue_text() -> String {
     let mut out = String::new();
     for def in CATALOGUE {
         let signature: Vec<&str> = def.args.iter().map(|a| a.name).collect();
-        out.push_str(&format!("{}({}) -> {}\n", def.name, signature.join(", "), describe_output(def.output)));
+        out.push_str(&format!(
+            "{}({}) -> {}\n",
+            def.name,
+            signature.join(", "),
+            describe_output(def.output)
+        ));
         out.push_str(&format!("    {}\n", def.doc));
         for arg in def.args {
             out.push_str(&format!(
@@ -438,9 +536,21 @@ pub fn catalogue_markdown() -> String {
         let args: Vec<String> = def
             .args
             .iter()
-            .map(|a| format!("`{}`: {} ({}) — {}", a.name, describe_arg(a), describe_default(a.default), a.doc))
+            .map(|a| {
+                format!(
+                    "`{}`: {} ({}) — {}",
+                    a.name,
+                    describe_arg(a),
+                    describe_default(a.default),
+                    a.doc
+                )
+            })
             .collect();
-        let args = if args.is_empty() { "—".to_string() } else { args.join("<br>") };
+        let args = if args.is_empty() {
+            "—".to_string()
+        } else {
+            args.join("<br>")
+        };
         out.push_str(&format!(
             "| `{}` | {} | {} | {} |\n",
             def.name,

@@ -40,7 +40,15 @@ pub enum TernaryOp {
 }
 
 impl UnaryOp {
-    pub const ALL: [UnaryOp; 7] = [UnaryOp::Abs, UnaryOp::Neg, UnaryOp::Sin, UnaryOp::Cos, UnaryOp::Sqrt, UnaryOp::Floor, UnaryOp::Fract];
+    pub const ALL: [UnaryOp; 7] = [
+        UnaryOp::Abs,
+        UnaryOp::Neg,
+        UnaryOp::Sin,
+        UnaryOp::Cos,
+        UnaryOp::Sqrt,
+        UnaryOp::Floor,
+        UnaryOp::Fract,
+    ];
 
     #[inline(always)]
     pub fn apply<S: Real>(self, x: S) -> S {
@@ -216,7 +224,10 @@ impl Hermite {
         let h10 = t3 - two * t2 + t;
         let h01 = three * t2 - two * t3;
         let h11 = t3 - t2;
-        h00 * S::from_f64(self.p0) + h10 * S::from_f64(self.m0) + h01 * S::from_f64(self.p1) + h11 * S::from_f64(self.m1)
+        h00 * S::from_f64(self.p0)
+            + h10 * S::from_f64(self.m0)
+            + h01 * S::from_f64(self.p1)
+            + h11 * S::from_f64(self.m1)
     }
 }
 
@@ -242,12 +253,27 @@ pub struct Spline<const N: usize> {
 
 impl<const N: usize> Spline<N> {
     /// `knots` sorted non-decreasing, finite, at least one; the checker guarantees it.
-    pub fn new(knots: Vec<f64>, values: Vec<[f64; N]>, interpolation: SplineInterpolation) -> Spline<N> {
+    pub fn new(
+        knots: Vec<f64>,
+        values: Vec<[f64; N]>,
+        interpolation: SplineInterpolation,
+    ) -> Spline<N> {
         let inverse_widths = knots
             .windows(2)
-            .map(|w| if w[1] > w[0] { 1.0 / (w[1] - w[0]) } else { 0.0 })
+            .map(|w| {
+                if w[1] > w[0] {
+                    1.0 / (w[1] - w[0])
+                } else {
+                    0.0
+                }
+            })
             .collect();
-        Spline { knots, values, inverse_widths, interpolation }
+        Spline {
+            knots,
+            values,
+            inverse_widths,
+            interpolation,
+        }
     }
 
     pub fn knots(&self) -> &[f64] {
@@ -339,7 +365,8 @@ pub fn apply_matrix(m: &[[f64; 3]; 3], p: [f64; 3]) -> [f64; 3] {
 /// Normalises a rotation axis; `None` for a zero or non-finite axis.
 pub fn normalise_axis(axis: [f64; 3]) -> Option<[f64; 3]> {
     let length = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
-    (length.is_finite() && length > 0.0).then(|| [axis[0] / length, axis[1] / length, axis[2] / length])
+    (length.is_finite() && length > 0.0)
+        .then(|| [axis[0] / length, axis[1] / length, axis[2] / length])
 }
 
 #[cfg(test)]
@@ -376,7 +403,12 @@ mod tests {
 
     #[test]
     fn hermite_hits_its_ends_and_slopes() {
-        let h = Hermite { p0: 0.0, p1: 1.0, m0: 3.0, m1: 0.0 };
+        let h = Hermite {
+            p0: 0.0,
+            p1: 1.0,
+            m0: 3.0,
+            m1: 0.0,
+        };
         assert_eq!(h.apply(0.0f64), 0.0);
         assert_eq!(h.apply(1.0f64), 1.0);
         assert_eq!(h.apply(-5.0f64), 0.0);
@@ -388,14 +420,22 @@ mod tests {
 
     #[test]
     fn spline_clamps_and_handles_coinciding_knots() {
-        let ramp = Ramp::new(vec![0.0, 0.5, 0.5, 1.0], vec![[0.0; 3], [1.0; 3], [2.0; 3], [3.0; 3]], SplineInterpolation::Linear);
+        let ramp = Ramp::new(
+            vec![0.0, 0.5, 0.5, 1.0],
+            vec![[0.0; 3], [1.0; 3], [2.0; 3], [3.0; 3]],
+            SplineInterpolation::Linear,
+        );
         assert_eq!(ramp.eval(-1.0), [0.0; 3]);
         assert_eq!(ramp.eval(0.25), [0.5; 3]);
         assert_eq!(ramp.eval(0.5), [2.0; 3]);
         assert_eq!(ramp.eval(0.75), [2.5; 3]);
         assert_eq!(ramp.eval(2.0), [3.0; 3]);
         assert!(ramp.eval(f64::NAN)[0].is_nan());
-        let constant = Curve::new(vec![0.0, 1.0], vec![[4.0], [5.0]], SplineInterpolation::Constant);
+        let constant = Curve::new(
+            vec![0.0, 1.0],
+            vec![[4.0], [5.0]],
+            SplineInterpolation::Constant,
+        );
         assert_eq!(constant.eval(0.99), [4.0]);
         assert_eq!(constant.eval(1.0), [5.0]);
         let single = Curve::new(vec![0.3], vec![[7.0]], SplineInterpolation::Smooth);

@@ -6,9 +6,16 @@ use std::io::BufRead;
 #[derive(Debug, thiserror::Error)]
 pub enum PointsError {
     #[error("{source_name}:{line}: expected three numbers `x y z`, found `{text}`")]
-    Malformed { source_name: String, line: usize, text: String },
+    Malformed {
+        source_name: String,
+        line: usize,
+        text: String,
+    },
     #[error("{source_name}: {error}")]
-    Io { source_name: String, error: std::io::Error },
+    Io {
+        source_name: String,
+        error: std::io::Error,
+    },
 }
 
 /// Reads points in chunks of up to `chunk` points, calling `f` with x, y and z planes.
@@ -20,15 +27,25 @@ pub fn for_each_chunk(
     chunk: usize,
     mut f: impl FnMut(&[f64], &[f64], &[f64]) -> std::io::Result<()>,
 ) -> Result<(), PointsError> {
-    let io = |error| PointsError::Io { source_name: source_name.to_string(), error };
-    let (mut xs, mut ys, mut zs) = (Vec::with_capacity(chunk), Vec::with_capacity(chunk), Vec::with_capacity(chunk));
+    let io = |error| PointsError::Io {
+        source_name: source_name.to_string(),
+        error,
+    };
+    let (mut xs, mut ys, mut zs) = (
+        Vec::with_capacity(chunk),
+        Vec::with_capacity(chunk),
+        Vec::with_capacity(chunk),
+    );
     for (index, line) in reader.lines().enumerate() {
         let line = line.map_err(io)?;
         let text = line.trim();
         if text.is_empty() || text.starts_with('#') {
             continue;
         }
-        let numbers: Vec<&str> = text.split(|c: char| c.is_whitespace() || c == ',').filter(|s| !s.is_empty()).collect();
+        let numbers: Vec<&str> = text
+            .split(|c: char| c.is_whitespace() || c == ',')
+            .filter(|s| !s.is_empty())
+            .collect();
         let parsed: Option<Vec<f64>> = numbers.iter().map(|s| s.parse::<f64>().ok()).collect();
         match parsed {
             Some(p) if p.len() == 3 => {

@@ -27,7 +27,11 @@ pub fn check_summary(graph: &CheckedGraph, tape: &Tape) -> String {
         tape.vec3_slots,
         tape.scalar_constants.len() + tape.vec3_constants.len()
     );
-    let outputs: Vec<String> = tape.outputs.iter().map(|o| format!("{} {}", o.name, o.ty)).collect();
+    let outputs: Vec<String> = tape
+        .outputs
+        .iter()
+        .map(|o| format!("{} {}", o.name, o.ty))
+        .collect();
     let _ = writeln!(s, "  outputs: {}", outputs.join(", "));
     for (origin, octaves) in tape.fractal_octaves() {
         let _ = writeln!(s, "  fractal \"{origin}\": {octaves} octaves kept");

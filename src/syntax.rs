@@ -8,6 +8,9 @@
 //! comments, trailing commas, `#![enable(...)]` headers); a test parses every file in `graphs/`
 //! with the `ron` crate too, so the files stay valid RON for other tools.
 
+// A syntax error ends parsing and is built once per file; boxing it would buy nothing.
+#![allow(clippy::result_large_err)]
+
 use crate::diagnostic::{Diagnostic, DiagnosticClass, Span, Spanned};
 use crate::limits;
 
@@ -94,8 +97,15 @@ struct Parser<'a> {
 }
 
 impl<'a> Parser<'a> {
-    fn error_at(&self, span: Span, message: impl Into<String>, label: impl Into<String>) -> Diagnostic {
-        Diagnostic::new(DiagnosticClass::Syntax, message).at(span).label(label)
+    fn error_at(
+        &self,
+        span: Span,
+        message: impl Into<String>,
+        label: impl Into<String>,
+    ) -> Diagnostic {
+        Diagnostic::new(DiagnosticClass::Syntax, message)
+            .at(span)
+            .label(label)
     }
 
     fn error_here(&self, message: impl Into<String>, label: impl Into<String>) -> Diagnostic {
@@ -172,7 +182,11 @@ impl<'a> Parser<'a> {
                 }
             }
             if self.bytes.get(self.pos - 1) != Some(&b']') {
-                return Err(self.error_at(Span::new(start, self.pos), "unterminated attribute", "expected `]`"));
+                return Err(self.error_at(
+                    Span::new(start, self.pos),
+                    "unterminated attribute",
+                    "expected `]`",
+                ));
             }
             self.skip_trivia()?;
         }
@@ -199,7 +213,11 @@ impl<'a> Parser<'a> {
         self.skip_trivia()?;
         let start = self.pos;
         let Some(c) = self.peek() else {
-            return Err(self.error_at(Span::new(start, start), "unexpected end of file, expected a value", "expected a value"));
+            return Err(self.error_at(
+                Span::new(start, start),
+                "unexpected end of file, expected a value",
+                "expected a value",
+            ));
         };
         match c {
             b'"' => {
@@ -224,17 +242,40 @@ impl<'a> Parser<'a> {
                 let name = self.identifier();
                 let name_span = Span::new(start, self.pos);
                 match name.as_str() {
-                    "true" => return Ok(Value { kind: ValueKind::Bool(true), span: name_span }),
-                    "false" => return Ok(Value { kind: ValueKind::Bool(false), span: name_span }),
-                    "inf" => return Ok(Value { kind: ValueKind::Number(f64::INFINITY), span: name_span }),
-                    "NaN" => return Ok(Value { kind: ValueKind::Number(f64::NAN), span: name_span }),
+                    "true" => {
+                        return Ok(Value {
+                            kind: ValueKind::Bool(true),
+                            span: name_span,
+                        })
+                    }
+                    "false" => {
+                        return Ok(Value {
+                            kind: ValueKind::Bool(false),
+                            span: name_span,
+                        })
+                    }
+                    "inf" => {
+                        return Ok(Value {
+                            kind: ValueKind::Number(f64::INFINITY),
+                            span: name_span,
+                        })
+                    }
+                    "NaN" => {
+                        return Ok(Value {
+                            kind: ValueKind::Number(f64::NAN),
+                            span: name_span,
+                        })
+                    }
                     _ => {}
                 }
                 // A name directly followed by `(` (whitespace allowed) is a named struct or tuple.
                 let save = self.pos;
                 self.skip_trivia()?;
                 if self.peek() == Some(b'(') {
-                    let name = Spanned { value: name, span: name_span };
+                    let name = Spanned {
+                        value: name,
+                        span: name_span,
+                    };
                     self.parenthesised(Some(name), start)
                 } else {
                     self.pos = save;
@@ -245,7 +286,10 @@ impl<'a> Parser<'a> {
                 }
             }
             _ => Err(self.error_here(
-                format!("unexpected character `{}`", &self.text[self.pos..self.next_char_end()]),
+                format!(
+                    "unexpected character `{}`",
+                    &self.text[self.pos..self.next_char_end()]
+                ),
                 "expected a value",
             )),
         }
@@ -256,7 +300,10 @@ impl<'a> Parser<'a> {
         if self.depth > limits::MAX_NESTING {
             return Err(Diagnostic::new(
                 DiagnosticClass::Limit,
-                format!("values are nested more than {} levels deep", limits::MAX_NESTING),
+                format!(
+                    "values are nested more than {} levels deep",
+                    limits::MAX_NESTING
+                ),
             )
             .at(Span::new(start, start + 1))
             .label("too deep")
@@ -291,26 +338,49 @@ impl<'a> Parser<'a> {
                 "inf" => f64::INFINITY,
                 "NaN" => f64::NAN,
                 _ => {
-                    return Err(self.error_at(Span::new(start, self.pos), format!("`{}` is not a number", &self.text[start..self.pos]), "expected a number"))
+                    return Err(self.error_at(
+                        Span::new(start, self.pos),
+                        format!("`{}` is not a number", &self.text[start..self.pos]),
+                        "expected a number",
+                    ))
                 }
             };
-            return Ok(Value { kind: ValueKind::Number(value), span: Span::new(start, self.pos) });
+            return Ok(Value {
+                kind: ValueKind::Number(value),
+                span: Span::new(start, self.pos),
+            });
         }
         while let Some(c) = self.peek() {
             let exponent_sign = matches!(c, b'-' | b'+')
                 && matches!(self.bytes.get(self.pos.wrapping_sub(1)), Some(b'e' | b'E'));
-            if c.is_ascii_digit() || c == b'.' || c == b'e' || c == b'E' || c == b'_' || exponent_sign {
+            if c.is_ascii_digit()
+                || c == b'.'
+                || c == b'e'
+                || c == b'E'
+                || c == b'_'
+                || exponent_sign
+            {
                 self.pos += 1;
             } else {
                 break;
             }
         }
         let span = Span::new(start, self.pos);
-        let lexeme: String = self.text[start..self.pos].chars().filter(|&c| c != '_').collect();
+        let lexeme: String = self.text[start..self.pos]
+            .chars()
+            .filter(|&c| c != '_')
+            .collect();
         let lexeme = lexeme.strip_prefix('+').unwrap_or(&lexeme);
         match lexeme.parse::<f64>() {
-            Ok(v) if !lexeme.is_empty() && lexeme != "-" => Ok(Value { kind: ValueKind::Number(v), span }),
-            _ => Err(self.error_at(span, format!("`{}` is not a number", &self.text[start..self.pos]), "expected a number")),
+            Ok(v) if !lexeme.is_empty() && lexeme != "-" => Ok(Value {
+                kind: ValueKind::Number(v),
+                span,
+            }),
+            _ => Err(self.error_at(
+                span,
+                format!("`{}` is not a number", &self.text[start..self.pos]),
+                "expected a number",
+            )),
         }
     }
 
@@ -320,7 +390,11 @@ impl<'a> Parser<'a> {
         let mut out = String::new();
         loop {
             let Some(c) = self.text[self.pos..].chars().next() else {
-                return Err(self.error_at(Span::new(start, start + 1), "unterminated string", "this string is never closed"));
+                return Err(self.error_at(
+                    Span::new(start, start + 1),
+                    "unterminated string",
+                    "this string is never closed",
+                ));
             };
             self.pos += c.len_utf8();
             match c {
@@ -328,7 +402,11 @@ impl<'a> Parser<'a> {
                 '\\' => {
                     let escape_start = self.pos - 1;
                     let Some(e) = self.text[self.pos..].chars().next() else {
-                        return Err(self.error_at(Span::new(start, start + 1), "unterminated string", "this string is never closed"));
+                        return Err(self.error_at(
+                            Span::new(start, start + 1),
+                            "unterminated string",
+                            "this string is never closed",
+                        ));
                     };
                     self.pos += e.len_utf8();
                     match e {
@@ -372,19 +450,30 @@ impl<'a> Parser<'a> {
                 self.pos += end + terminator.len();
                 Ok(s)
             }
-            None => Err(self.error_at(Span::new(start, start + 1), "unterminated raw string", "never closed")),
+            None => Err(self.error_at(
+                Span::new(start, start + 1),
+                "unterminated raw string",
+                "never closed",
+            )),
         }
     }
 
     /// After `(` (or `Name(`): a struct if the first item is `ident:`, else a tuple.
-    fn parenthesised(&mut self, name: Option<Spanned<String>>, start: usize) -> Result<Value, Diagnostic> {
+    fn parenthesised(
+        &mut self,
+        name: Option<Spanned<String>>,
+        start: usize,
+    ) -> Result<Value, Diagnostic> {
         self.enter(start)?;
         self.expect(b'(', "`(`")?;
         self.skip_trivia()?;
         let is_struct = {
             let save = self.pos;
             let mut struct_like = false;
-            if self.peek().is_some_and(|c| c.is_ascii_alphabetic() || c == b'_') {
+            if self
+                .peek()
+                .is_some_and(|c| c.is_ascii_alphabetic() || c == b'_')
+            {
                 self.identifier();
                 self.skip_trivia()?;
                 struct_like = self.peek() == Some(b':');
@@ -401,11 +490,17 @@ impl<'a> Parser<'a> {
                     break;
                 }
                 let field_start = self.pos;
-                if !self.peek().is_some_and(|c| c.is_ascii_alphabetic() || c == b'_') {
+                if !self
+                    .peek()
+                    .is_some_and(|c| c.is_ascii_alphabetic() || c == b'_')
+                {
                     return Err(self.error_here("expected a field name", "expected `name: value`"));
                 }
                 let field = self.identifier();
-                let field = Spanned { value: field, span: Span::new(field_start, self.pos) };
+                let field = Spanned {
+                    value: field,
+                    span: Span::new(field_start, self.pos),
+                };
                 self.expect(b':', "`:` after the field name")?;
                 let value = self.value()?;
                 fields.push((field, value));
@@ -422,7 +517,10 @@ impl<'a> Parser<'a> {
             ValueKind::Tuple { name, items }
         };
         self.depth -= 1;
-        Ok(Value { kind, span: Span::new(start, self.pos) })
+        Ok(Value {
+            kind,
+            span: Span::new(start, self.pos),
+        })
     }
 
     /// Comma-separated values up to `close` (trailing comma allowed); consumes `close`.
@@ -442,7 +540,10 @@ impl<'a> Parser<'a> {
                 None => {
                     return Err(self.error_at(
                         Span::new(self.pos, self.pos),
-                        format!("unexpected end of file, expected `,` or `{}`", close as char),
+                        format!(
+                            "unexpected end of file, expected `,` or `{}`",
+                            close as char
+                        ),
                         "file ends here",
                     ))
                 }
@@ -462,7 +563,10 @@ impl<'a> Parser<'a> {
         self.pos += 1;
         let items = self.sequence(b']')?;
         self.depth -= 1;
-        Ok(Value { kind: ValueKind::List(items), span: Span::new(start, self.pos) })
+        Ok(Value {
+            kind: ValueKind::List(items),
+            span: Span::new(start, self.pos),
+        })
     }
 
     fn map(&mut self) -> Result<Value, Diagnostic> {
@@ -485,13 +589,20 @@ impl<'a> Parser<'a> {
                 Some(b',') => self.pos += 1,
                 Some(b'}') => {}
                 None => {
-                    return Err(self.error_at(Span::new(self.pos, self.pos), "unexpected end of file, expected `,` or `}`", "file ends here"))
+                    return Err(self.error_at(
+                        Span::new(self.pos, self.pos),
+                        "unexpected end of file, expected `,` or `}`",
+                        "file ends here",
+                    ))
                 }
                 _ => return Err(self.error_here("expected `,` or `}`", "expected `,` or `}`")),
             }
         }
         self.depth -= 1;
-        Ok(Value { kind: ValueKind::Map(entries), span: Span::new(start, self.pos) })
+        Ok(Value {
+            kind: ValueKind::Map(entries),
+            span: Span::new(start, self.pos),
+        })
     }
 }
 
@@ -504,6 +615,7 @@ mod tests {
     }
 
     #[test]
+    #[allow(clippy::approx_constant)] // a literal as authors write it, not π
     fn numbers_round_trip() {
         assert_eq!(kind("1"), ValueKind::Number(1.0));
         assert_eq!(kind("-2.5e-3"), ValueKind::Number(-2.5e-3));
@@ -517,23 +629,37 @@ mod tests {
 
     #[test]
     fn named_struct_and_tuple() {
-        let ValueKind::Struct { name, fields } = kind("Scale(input: Position, by: 1.0)") else { panic!() };
+        let ValueKind::Struct { name, fields } = kind("Scale(input: Position, by: 1.0)") else {
+            panic!()
+        };
         assert_eq!(name.unwrap().value, "Scale");
         assert_eq!(fields[0].0.value, "input");
         assert_eq!(fields[0].1.kind, ValueKind::Ident("Position".into()));
-        let ValueKind::Tuple { name, items } = kind("Add(\"a\", (1, 2, 3),)") else { panic!() };
+        let ValueKind::Tuple { name, items } = kind("Add(\"a\", (1, 2, 3),)") else {
+            panic!()
+        };
         assert_eq!(name.unwrap().value, "Add");
         assert_eq!(items.len(), 2);
-        assert!(matches!(&items[1].kind, ValueKind::Tuple { name: None, items } if items.len() == 3));
+        assert!(
+            matches!(&items[1].kind, ValueKind::Tuple { name: None, items } if items.len() == 3)
+        );
     }
 
     #[test]
     fn comments_and_spans() {
         let text = "/* a /* nested */ comment */ { \"k\" : [1, 2], } // end";
         let value = parse(text).unwrap();
-        let ValueKind::Map(entries) = value.kind else { panic!() };
-        assert_eq!(&text[entries[0].0.span.start..entries[0].0.span.end], "\"k\"");
-        assert_eq!(&text[entries[0].1.span.start..entries[0].1.span.end], "[1, 2]");
+        let ValueKind::Map(entries) = value.kind else {
+            panic!()
+        };
+        assert_eq!(
+            &text[entries[0].0.span.start..entries[0].0.span.end],
+            "\"k\""
+        );
+        assert_eq!(
+            &text[entries[0].1.span.start..entries[0].1.span.end],
+            "[1, 2]"
+        );
     }
 
     #[test]

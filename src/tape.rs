@@ -25,31 +25,113 @@ pub type Slot = u32;
 #[derive(Clone, Debug, PartialEq)]
 pub enum Instr {
     /// dst(vec3) = the sample point.
-    Position { dst: Slot },
+    Position {
+        dst: Slot,
+    },
     /// dst(vec3) = (src, src, src).
-    Splat { dst: Slot, src: Slot },
+    Splat {
+        dst: Slot,
+        src: Slot,
+    },
     /// dst(vec3) = (x, y, z) from three scalar slots.
-    Combine { dst: Slot, x: Slot, y: Slot, z: Slot },
+    Combine {
+        dst: Slot,
+        x: Slot,
+        y: Slot,
+        z: Slot,
+    },
     /// dst(scalar) = src(vec3)[axis].
-    Component { dst: Slot, src: Slot, axis: u8 },
-    UnaryScalar { op: UnaryOp, dst: Slot, src: Slot },
-    UnaryVec3 { op: UnaryOp, dst: Slot, src: Slot },
-    BinaryScalar { op: BinaryOp, dst: Slot, a: Slot, b: Slot },
-    BinaryVec3 { op: BinaryOp, dst: Slot, a: Slot, b: Slot },
-    TernaryScalar { op: TernaryOp, dst: Slot, a: Slot, b: Slot, c: Slot },
-    TernaryVec3 { op: TernaryOp, dst: Slot, a: Slot, b: Slot, c: Slot },
-    Dot { dst: Slot, a: Slot, b: Slot },
-    Length { dst: Slot, src: Slot },
+    Component {
+        dst: Slot,
+        src: Slot,
+        axis: u8,
+    },
+    UnaryScalar {
+        op: UnaryOp,
+        dst: Slot,
+        src: Slot,
+    },
+    UnaryVec3 {
+        op: UnaryOp,
+        dst: Slot,
+        src: Slot,
+    },
+    BinaryScalar {
+        op: BinaryOp,
+        dst: Slot,
+        a: Slot,
+        b: Slot,
+    },
+    BinaryVec3 {
+        op: BinaryOp,
+        dst: Slot,
+        a: Slot,
+        b: Slot,
+    },
+    TernaryScalar {
+        op: TernaryOp,
+        dst: Slot,
+        a: Slot,
+        b: Slot,
+        c: Slot,
+    },
+    TernaryVec3 {
+        op: TernaryOp,
+        dst: Slot,
+        a: Slot,
+        b: Slot,
+        c: Slot,
+    },
+    Dot {
+        dst: Slot,
+        a: Slot,
+        b: Slot,
+    },
+    Length {
+        dst: Slot,
+        src: Slot,
+    },
     /// dst(vec3) = matrices[matrix] · src: a rotation whose angle is constant.
-    RotateConst { dst: Slot, src: Slot, matrix: u32 },
+    RotateConst {
+        dst: Slot,
+        src: Slot,
+        matrix: u32,
+    },
     /// dst(vec3) = rotation of src about `axes[axis]` by degrees(scalar slot), per lane.
-    RotateVarying { dst: Slot, src: Slot, degrees: Slot, axis: u32 },
-    Noise { dst: Slot, src: Slot, table: u32 },
+    RotateVarying {
+        dst: Slot,
+        src: Slot,
+        degrees: Slot,
+        axis: u32,
+    },
+    Noise {
+        dst: Slot,
+        src: Slot,
+        table: u32,
+    },
     /// Fbm (or turbulence) with the octave loop inside one instruction.
-    Fractal { dst: Slot, src: Slot, table: u32, octaves: u32, turbulence: bool },
-    Hermite { dst: Slot, src: Slot, spline: u32 },
-    Ramp { dst: Slot, src: Slot, ramp: u32 },
-    Curve { dst: Slot, src: Slot, curve: u32 },
+    Fractal {
+        dst: Slot,
+        src: Slot,
+        table: u32,
+        octaves: u32,
+        turbulence: bool,
+    },
+    Hermite {
+        dst: Slot,
+        src: Slot,
+        spline: u32,
+    },
+    Ramp {
+        dst: Slot,
+        src: Slot,
+        ramp: u32,
+    },
+    Curve {
+        dst: Slot,
+        src: Slot,
+        curve: u32,
+    },
 }
 
 /// Where an output's value lives at the end of the tape.
@@ -112,7 +194,9 @@ impl Tape {
             .iter()
             .zip(&self.origins)
             .filter_map(|(instr, origin)| match instr {
-                Instr::Fractal { octaves, .. } => Some((origin.clone(), self.octaves[*octaves as usize].len())),
+                Instr::Fractal { octaves, .. } => {
+                    Some((origin.clone(), self.octaves[*octaves as usize].len()))
+                }
                 _ => None,
             })
             .collect()
@@ -154,27 +238,57 @@ impl fmt::Display for Tape {
                 Instr::Position { dst } => format!("v{dst} = position"),
                 Instr::Splat { dst, src } => format!("v{dst} = splat s{src}"),
                 Instr::Combine { dst, x, y, z } => format!("v{dst} = combine s{x}, s{y}, s{z}"),
-                Instr::Component { dst, src, axis } => format!("s{dst} = v{src}.{}", ["x", "y", "z"][*axis as usize % 3]),
+                Instr::Component { dst, src, axis } => {
+                    format!("s{dst} = v{src}.{}", ["x", "y", "z"][*axis as usize % 3])
+                }
                 Instr::UnaryScalar { op, dst, src } => format!("s{dst} = {op} s{src}"),
                 Instr::UnaryVec3 { op, dst, src } => format!("v{dst} = {op} v{src}"),
                 Instr::BinaryScalar { op, dst, a, b } => format!("s{dst} = {op} s{a}, s{b}"),
                 Instr::BinaryVec3 { op, dst, a, b } => format!("v{dst} = {op} v{a}, v{b}"),
-                Instr::TernaryScalar { op, dst, a, b, c } => format!("s{dst} = {op} s{a}, s{b}, s{c}"),
-                Instr::TernaryVec3 { op, dst, a, b, c } => format!("v{dst} = {op} v{a}, v{b}, v{c}"),
+                Instr::TernaryScalar { op, dst, a, b, c } => {
+                    format!("s{dst} = {op} s{a}, s{b}, s{c}")
+                }
+                Instr::TernaryVec3 { op, dst, a, b, c } => {
+                    format!("v{dst} = {op} v{a}, v{b}, v{c}")
+                }
                 Instr::Dot { dst, a, b } => format!("s{dst} = dot v{a}, v{b}"),
                 Instr::Length { dst, src } => format!("s{dst} = length v{src}"),
                 Instr::RotateConst { dst, src, matrix } => {
                     let m = &self.matrices[*matrix as usize];
-                    format!("v{dst} = rotate v{src} matrix [{}, {}, {}]", vec3_text(&m[0]), vec3_text(&m[1]), vec3_text(&m[2]))
+                    format!(
+                        "v{dst} = rotate v{src} matrix [{}, {}, {}]",
+                        vec3_text(&m[0]),
+                        vec3_text(&m[1]),
+                        vec3_text(&m[2])
+                    )
                 }
-                Instr::RotateVarying { dst, src, degrees, axis } => {
-                    format!("v{dst} = rotate v{src} axis={} degrees=s{degrees}", vec3_text(&self.axes[*axis as usize]))
+                Instr::RotateVarying {
+                    dst,
+                    src,
+                    degrees,
+                    axis,
+                } => {
+                    format!(
+                        "v{dst} = rotate v{src} axis={} degrees=s{degrees}",
+                        vec3_text(&self.axes[*axis as usize])
+                    )
                 }
-                Instr::Noise { dst, src, table } => format!("s{dst} = noise v{src} {}", basis_name(&self.tables[*table as usize].0)),
-                Instr::Fractal { dst, src, table, octaves, turbulence } => {
+                Instr::Noise { dst, src, table } => format!(
+                    "s{dst} = noise v{src} {}",
+                    basis_name(&self.tables[*table as usize].0)
+                ),
+                Instr::Fractal {
+                    dst,
+                    src,
+                    table,
+                    octaves,
+                    turbulence,
+                } => {
                     let schedule = &self.octaves[*octaves as usize];
-                    let amplitudes: Vec<String> = schedule.amplitudes.iter().map(|a| a.to_string()).collect();
-                    let frequencies: Vec<String> = schedule.frequencies.iter().map(|a| a.to_string()).collect();
+                    let amplitudes: Vec<String> =
+                        schedule.amplitudes.iter().map(|a| a.to_string()).collect();
+                    let frequencies: Vec<String> =
+                        schedule.frequencies.iter().map(|a| a.to_string()).collect();
                     format!(
                         "s{dst} = {} v{src} {} octaves={} frequencies=[{}] amplitudes=[{}]",
                         if *turbulence { "turbulence" } else { "fbm" },
@@ -186,24 +300,49 @@ impl fmt::Display for Tape {
                 }
                 Instr::Hermite { dst, src, spline } => {
                     let h = &self.hermites[*spline as usize];
-                    format!("s{dst} = hermite s{src} p0={} p1={} m0={} m1={}", h.p0, h.p1, h.m0, h.m1)
+                    format!(
+                        "s{dst} = hermite s{src} p0={} p1={} m0={} m1={}",
+                        h.p0, h.p1, h.m0, h.m1
+                    )
                 }
                 Instr::Ramp { dst, src, ramp } => {
                     let r = &self.ramps[*ramp as usize];
-                    let stops: Vec<String> = r.knots().iter().zip(r.values()).map(|(t, c)| format!("({t}, {})", vec3_text(c))).collect();
-                    format!("v{dst} = ramp s{src} {:?} [{}]", r.interpolation(), stops.join(", "))
+                    let stops: Vec<String> = r
+                        .knots()
+                        .iter()
+                        .zip(r.values())
+                        .map(|(t, c)| format!("({t}, {})", vec3_text(c)))
+                        .collect();
+                    format!(
+                        "v{dst} = ramp s{src} {:?} [{}]",
+                        r.interpolation(),
+                        stops.join(", ")
+                    )
                 }
                 Instr::Curve { dst, src, curve } => {
                     let c = &self.curves[*curve as usize];
-                    let points: Vec<String> = c.knots().iter().zip(c.values()).map(|(x, y)| format!("({x}, {})", y[0])).collect();
-                    format!("s{dst} = curve s{src} {:?} [{}]", c.interpolation(), points.join(", "))
+                    let points: Vec<String> = c
+                        .knots()
+                        .iter()
+                        .zip(c.values())
+                        .map(|(x, y)| format!("({x}, {})", y[0]))
+                        .collect();
+                    format!(
+                        "s{dst} = curve s{src} {:?} [{}]",
+                        c.interpolation(),
+                        points.join(", ")
+                    )
                 }
             };
             writeln!(f, "{i:04}  {text:<48} ; {origin}")?;
         }
         for output in &self.outputs {
             let prefix = if output.ty == Type::Scalar { "s" } else { "v" };
-            writeln!(f, "output \"{}\": {} = {prefix}{}", output.name, output.ty, output.slot)?;
+            writeln!(
+                f,
+                "output \"{}\": {} = {prefix}{}",
+                output.name, output.ty, output.slot
+            )?;
         }
         Ok(())
     }

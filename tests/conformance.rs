@@ -26,7 +26,11 @@ const SPICY: [f64; 17] = [
 ];
 
 fn tape(source: &str) -> Tape {
-    let graph = check(SourceFile::new("conformance.ron", source), &CheckOptions::default()).unwrap_or_else(|e| panic!("{}\n{source}", e.render_plain()));
+    let graph = check(
+        SourceFile::new("conformance.ron", source),
+        &CheckOptions::default(),
+    )
+    .unwrap_or_else(|e| panic!("{}\n{source}", e.render_plain()));
     compile(&graph, &CompileOptions::default()).unwrap_or_else(|e| panic!("{}", e.render_plain()))
 }
 
@@ -147,7 +151,15 @@ macro_rules! ternary_reference {
                     }
                 } else {
                     let t = (c - a) / (b - a);
-                    let t = if t != t { t } else if t < 0.0 { 0.0 } else if t > 1.0 { 1.0 } else { t };
+                    let t = if t != t {
+                        t
+                    } else if t < 0.0 {
+                        0.0
+                    } else if t > 1.0 {
+                        1.0
+                    } else {
+                        t
+                    };
                     t * t * (3.0 - 2.0 * t)
                 }
             }
@@ -157,7 +169,9 @@ macro_rules! ternary_reference {
 }
 
 const UNARY: [&str; 7] = ["Abs", "Neg", "Sin", "Cos", "Sqrt", "Floor", "Fract"];
-const BINARY: [&str; 9] = ["Add", "Sub", "Mul", "Div", "Min", "Max", "Pow", "Atan2", "Mod"];
+const BINARY: [&str; 9] = [
+    "Add", "Sub", "Mul", "Div", "Min", "Max", "Pow", "Atan2", "Mod",
+];
 const TERNARY: [&str; 3] = ["Clamp", "Mix", "Smoothstep"];
 
 /// Evaluates a tape with outputs ("s" scalar, "v" vec3) at points, per point and per batch, in
@@ -179,8 +193,16 @@ fn run(tape: &Tape, points: &[[f64; 3]]) -> (Vec<f32>, Vec<f64>) {
         tape.eval_point(&mut ws32, *p, &mut p32);
         tape.eval_point(&mut ws64, *p, &mut p64);
         for c in 0..channels {
-            assert_eq!(p32[c].to_bits(), batch32[c * n + i].to_bits(), "point/batch f32 at {p:?}");
-            assert_eq!(p64[c].to_bits(), batch64[c * n + i].to_bits(), "point/batch f64 at {p:?}");
+            assert_eq!(
+                p32[c].to_bits(),
+                batch32[c * n + i].to_bits(),
+                "point/batch f32 at {p:?}"
+            );
+            assert_eq!(
+                p64[c].to_bits(),
+                batch64[c * n + i].to_bits(),
+                "point/batch f64 at {p:?}"
+            );
         }
     }
     (batch32, batch64)
@@ -191,21 +213,43 @@ fn unary_nodes_match_the_scalar_reference() {
     for name in UNARY {
         // Scalar operand: the x component (rounded to f32 on the fast path); vec3 operand: the
         // point itself (always f64).
-        let t = tape(&format!(r#"Graph(nodes: {{ "p": Position }}, outputs: {{ "s": {name}("p.x"), "v": {name}("p") }})"#));
+        let t = tape(&format!(
+            r#"Graph(nodes: {{ "p": Position }}, outputs: {{ "s": {name}("p.x"), "v": {name}("p") }})"#
+        ));
         let points: Vec<[f64; 3]> = SPICY.iter().map(|&a| [a, a, -a]).collect();
         let (r32, r64) = run(&t, &points);
         let n = points.len();
         for (i, p) in points.iter().enumerate() {
             let e64 = reference_unary(name, p[0]);
             let e32 = reference_unary32(name, p[0] as f32);
-            assert!(same(r64[i], e64, r64[i].is_nan(), e64.is_nan()) && (r64[i].is_nan() || r64[i].to_bits() == e64.to_bits()), "{name}({}) f64: {} vs {e64}", p[0], r64[i]);
-            assert!(same(r32[i], e32, r32[i].is_nan(), e32.is_nan()) && (r32[i].is_nan() || r32[i].to_bits() == e32.to_bits()), "{name}({}) f32: {} vs {e32}", p[0], r32[i]);
+            assert!(
+                same(r64[i], e64, r64[i].is_nan(), e64.is_nan())
+                    && (r64[i].is_nan() || r64[i].to_bits() == e64.to_bits()),
+                "{name}({}) f64: {} vs {e64}",
+                p[0],
+                r64[i]
+            );
+            assert!(
+                same(r32[i], e32, r32[i].is_nan(), e32.is_nan())
+                    && (r32[i].is_nan() || r32[i].to_bits() == e32.to_bits()),
+                "{name}({}) f32: {} vs {e32}",
+                p[0],
+                r32[i]
+            );
             for c in 0..3 {
                 let e = reference_unary(name, p[c]);
                 let got = r64[(1 + c) * n + i];
-                assert!(same(got, e, got.is_nan(), e.is_nan()), "{name} vec3[{c}]({}) f64: {got} vs {e}", p[c]);
+                assert!(
+                    same(got, e, got.is_nan(), e.is_nan()),
+                    "{name} vec3[{c}]({}) f64: {got} vs {e}",
+                    p[c]
+                );
                 let got = r32[(1 + c) * n + i];
-                assert!(same(got, e as f32, got.is_nan(), e.is_nan()), "{name} vec3[{c}]({}) f32: {got} vs {e}", p[c]);
+                assert!(
+                    same(got, e as f32, got.is_nan(), e.is_nan()),
+                    "{name} vec3[{c}]({}) f32: {got} vs {e}",
+                    p[c]
+                );
             }
         }
     }
@@ -229,24 +273,47 @@ fn binary_nodes_match_the_scalar_reference() {
             let (a, b) = (p[0], p[1]);
             let e64: f64 = binary_reference!(name, a, b);
             let e32: f32 = binary_reference!(name, a as f32, b as f32);
-            assert!(same(r64[i], e64, r64[i].is_nan(), e64.is_nan()), "{name}({a}, {b}) f64: {} vs {e64}", r64[i]);
-            assert!(same(r32[i], e32, r32[i].is_nan(), e32.is_nan()), "{name}({a}, {b}) f32: {} vs {e32}", r32[i]);
+            assert!(
+                same(r64[i], e64, r64[i].is_nan(), e64.is_nan()),
+                "{name}({a}, {b}) f64: {} vs {e64}",
+                r64[i]
+            );
+            assert!(
+                same(r32[i], e32, r32[i].is_nan(), e32.is_nan()),
+                "{name}({a}, {b}) f32: {} vs {e32}",
+                r32[i]
+            );
             // Vec3 path: component 0 is op(a, b) in f64, component 1 is op(b, a).
             let v0: f64 = binary_reference!(name, a, b);
             let v1: f64 = binary_reference!(name, b, a);
             let (g0, g1) = (r64[n + i], r64[2 * n + i]);
-            assert!(same(g0, v0, g0.is_nan(), v0.is_nan()) && same(g1, v1, g1.is_nan(), v1.is_nan()), "{name} vec3 ({a}, {b})");
+            assert!(
+                same(g0, v0, g0.is_nan(), v0.is_nan()) && same(g1, v1, g1.is_nan(), v1.is_nan()),
+                "{name} vec3 ({a}, {b})"
+            );
             // On the f32 path "q" is built from f32 components, so b arrives rounded to f32.
             let v0: f64 = binary_reference!(name, a, b as f32 as f64);
             let g0 = r32[n + i];
-            assert!(same(g0, v0 as f32, g0.is_nan(), v0.is_nan()), "{name} vec3 f32 ({a}, {b}): {g0} vs {v0}");
+            assert!(
+                same(g0, v0 as f32, g0.is_nan(), v0.is_nan()),
+                "{name} vec3 f32 ({a}, {b}): {g0} vs {v0}"
+            );
         }
     }
 }
 
 #[test]
 fn ternary_nodes_match_the_scalar_reference() {
-    let values = [0.0, -1.0, 0.25, 1.0, 2.0, f64::INFINITY, f64::NEG_INFINITY, f64::NAN];
+    let values = [
+        0.0,
+        -1.0,
+        0.25,
+        1.0,
+        2.0,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NAN,
+    ];
     let mut points = Vec::new();
     for &a in &values {
         for &b in &values {
@@ -256,18 +323,31 @@ fn ternary_nodes_match_the_scalar_reference() {
         }
     }
     for name in TERNARY {
-        let t = tape(&format!(r#"Graph(nodes: {{ "p": Position }}, outputs: {{ "s": {name}("p.x", "p.y", "p.z"), "v": {name}("p", "p.y", "p.z") }})"#));
+        let t = tape(&format!(
+            r#"Graph(nodes: {{ "p": Position }}, outputs: {{ "s": {name}("p.x", "p.y", "p.z"), "v": {name}("p", "p.y", "p.z") }})"#
+        ));
         let (r32, r64) = run(&t, &points);
         let n = points.len();
         for (i, p) in points.iter().enumerate() {
             let e64: f64 = ternary_reference!(name, p[0], p[1], p[2]);
             let e32: f32 = ternary_reference!(name, p[0] as f32, p[1] as f32, p[2] as f32);
-            assert!(same(r64[i], e64, r64[i].is_nan(), e64.is_nan()), "{name}{p:?} f64: {} vs {e64}", r64[i]);
-            assert!(same(r32[i], e32, r32[i].is_nan(), e32.is_nan()), "{name}{p:?} f32: {} vs {e32}", r32[i]);
+            assert!(
+                same(r64[i], e64, r64[i].is_nan(), e64.is_nan()),
+                "{name}{p:?} f64: {} vs {e64}",
+                r64[i]
+            );
+            assert!(
+                same(r32[i], e32, r32[i].is_nan(), e32.is_nan()),
+                "{name}{p:?} f32: {} vs {e32}",
+                r32[i]
+            );
             // Vec3 path, component 1: op(p.y, p.y, p.z).
             let e: f64 = ternary_reference!(name, p[1], p[1], p[2]);
             let g = r64[2 * n + i];
-            assert!(same(g, e, g.is_nan(), e.is_nan()), "{name} vec3 f64 at {p:?}: {g} vs {e}");
+            assert!(
+                same(g, e, g.is_nan(), e.is_nan()),
+                "{name} vec3 f64 at {p:?}: {g} vs {e}"
+            );
         }
     }
 }
@@ -289,22 +369,39 @@ fn folded_constants_equal_the_reference() {
     for name in BINARY {
         for &a in &finite {
             for &b in &finite {
-                let t = tape(&format!(r#"Graph(outputs: {{ "s": {name}({}, {}) }})"#, literal(a), literal(b)));
+                let t = tape(&format!(
+                    r#"Graph(outputs: {{ "s": {name}({}, {}) }})"#,
+                    literal(a),
+                    literal(b)
+                ));
                 assert!(t.instrs.is_empty(), "{name}({a}, {b}) was not folded");
                 let (r32, r64) = run(&t, &[[0.0; 3]]);
                 let e: f64 = binary_reference!(name, a, b);
-                assert!(same(r64[0], e, r64[0].is_nan(), e.is_nan()), "folded {name}({a}, {b}): {} vs {e}", r64[0]);
-                assert!(same(r32[0], e as f32, r32[0].is_nan(), e.is_nan()), "folded f32 {name}({a}, {b})");
+                assert!(
+                    same(r64[0], e, r64[0].is_nan(), e.is_nan()),
+                    "folded {name}({a}, {b}): {} vs {e}",
+                    r64[0]
+                );
+                assert!(
+                    same(r32[0], e as f32, r32[0].is_nan(), e.is_nan()),
+                    "folded f32 {name}({a}, {b})"
+                );
             }
         }
     }
     for name in UNARY {
         for &a in &finite {
-            let t = tape(&format!(r#"Graph(outputs: {{ "s": {name}({}) }})"#, literal(a)));
+            let t = tape(&format!(
+                r#"Graph(outputs: {{ "s": {name}({}) }})"#,
+                literal(a)
+            ));
             assert!(t.instrs.is_empty());
             let (_, r64) = run(&t, &[[0.0; 3]]);
             let e = reference_unary(name, a);
-            assert!(same(r64[0], e, r64[0].is_nan(), e.is_nan()), "folded {name}({a})");
+            assert!(
+                same(r64[0], e, r64[0].is_nan(), e.is_nan()),
+                "folded {name}({a})"
+            );
         }
     }
 }
@@ -318,24 +415,50 @@ fn shaping_nodes_match_their_definitions() {
             "r": ColorRamp(input: "p.x", stops: [(0.0, (0.0, 0.0, 0.0)), (1.0, (1.0, 0.5, 0.25))], interpolation: Smooth),
         })"#,
     );
-    let xs = [-1.0, 0.0, 0.1, 0.25, 0.5, 0.75, 0.9, 1.0, 2.0, f64::NAN, f64::INFINITY];
+    let xs = [
+        -1.0,
+        0.0,
+        0.1,
+        0.25,
+        0.5,
+        0.75,
+        0.9,
+        1.0,
+        2.0,
+        f64::NAN,
+        f64::INFINITY,
+    ];
     let points: Vec<[f64; 3]> = xs.iter().map(|&x| [x, 0.0, 0.0]).collect();
     let (_, r64) = run(&t, &points);
     let n = points.len();
-    let hermite = texgraph::ops::Hermite { p0: 0.0, p1: 1.0, m0: 1e6, m1: -1e6 };
+    let hermite = texgraph::ops::Hermite {
+        p0: 0.0,
+        p1: 1.0,
+        m0: 1e6,
+        m1: -1e6,
+    };
     for (i, &x) in xs.iter().enumerate() {
         let e = hermite.apply(x);
         assert!(same(r64[i], e, r64[i].is_nan(), e.is_nan()), "hermite({x})");
         // Plain Hermite basis.
         if x.is_finite() {
             let t = x.clamp(0.0, 1.0);
-            let plain = (t * t * t - 2.0 * t * t + t) * 1e6 + (-2.0 * t * t * t + 3.0 * t * t) + (t * t * t - t * t) * -1e6;
-            assert!((r64[i] - plain).abs() <= 1e-9 * plain.abs().max(1.0), "hermite({x}) = {} vs {plain}", r64[i]);
+            let plain = (t * t * t - 2.0 * t * t + t) * 1e6
+                + (-2.0 * t * t * t + 3.0 * t * t)
+                + (t * t * t - t * t) * -1e6;
+            assert!(
+                (r64[i] - plain).abs() <= 1e-9 * plain.abs().max(1.0),
+                "hermite({x}) = {} vs {plain}",
+                r64[i]
+            );
         }
     }
     // Curve: linear, clamped, later point wins at a coinciding knot.
     let curve: Vec<f64> = (0..n).map(|i| r64[n + i]).collect();
-    for (got, want) in curve[..9].iter().zip([0.0, 0.0, 0.4, 1.0, -2.0, -1.0, -0.4, 0.0, 0.0]) {
+    for (got, want) in curve[..9]
+        .iter()
+        .zip([0.0, 0.0, 0.4, 1.0, -2.0, -1.0, -0.4, 0.0, 0.0])
+    {
         assert!((got - want).abs() < 1e-12, "curve: {curve:?}");
     }
     assert!(curve[9].is_nan());
@@ -361,7 +484,15 @@ fn noise_nodes_match_the_noise_library() {
     let gradient7 = NoiseTable::new(Basis::Gradient, 7);
     let gradient0 = NoiseTable::new(Basis::Gradient, 0);
     let value = NoiseTable::new(Basis::Value(Interpolation::Smooth), 3);
-    let points: Vec<[f64; 3]> = (0..300).map(|i| [i as f64 * 0.173 - 20.0, (i as f64 * 0.37).sin() * 9.0, -(i as f64) * 0.041]).collect();
+    let points: Vec<[f64; 3]> = (0..300)
+        .map(|i| {
+            [
+                i as f64 * 0.173 - 20.0,
+                (i as f64 * 0.37).sin() * 9.0,
+                -(i as f64) * 0.041,
+            ]
+        })
+        .collect();
     let (r32, r64) = run(&t, &points);
     let n = points.len();
     for (i, p) in points.iter().enumerate() {
@@ -374,7 +505,10 @@ fn noise_nodes_match_the_noise_library() {
         ];
         for (c, e) in expected.iter().enumerate() {
             assert_eq!(r64[c * n + i], *e, "output {c} at {p:?}");
-            assert!((r32[c * n + i] as f64 - e).abs() < 1e-5, "f32 output {c} at {p:?}");
+            assert!(
+                (r32[c * n + i] as f64 - e).abs() < 1e-5,
+                "f32 output {c} at {p:?}"
+            );
         }
     }
 }

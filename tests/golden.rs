@@ -41,16 +41,23 @@ fn graph_files() -> Vec<PathBuf> {
 fn load(path: &Path) -> Tape {
     let text = std::fs::read_to_string(path).expect("readable graph");
     let file = SourceFile::new(path.display().to_string(), text);
-    let graph = check(file, &CheckOptions::default()).unwrap_or_else(|e| panic!("{}", e.render_plain()));
+    let graph =
+        check(file, &CheckOptions::default()).unwrap_or_else(|e| panic!("{}", e.render_plain()));
     compile(&graph, &CompileOptions::default()).unwrap_or_else(|e| panic!("{}", e.render_plain()))
 }
 
-/// The fixed sample set: slice points, then scattered points.
+/// The fixed sample set: slice points, then scattered points (3.14 is Perlin's reference point,
+/// not π).
+#[allow(clippy::approx_constant)]
 fn sample_points() -> Vec<[f64; 3]> {
     let mut points = Vec::new();
     for j in 0..SLICE {
         for i in 0..SLICE {
-            points.push([(i as f64 + 0.5) / SLICE as f64, (j as f64 + 0.5) / SLICE as f64, 0.5]);
+            points.push([
+                (i as f64 + 0.5) / SLICE as f64,
+                (j as f64 + 0.5) / SLICE as f64,
+                0.5,
+            ]);
         }
     }
     points.extend([
@@ -98,10 +105,25 @@ fn golden_text(path: &Path, tape: &Tape, points: &[[f64; 3]]) -> String {
     let f32s = evaluate::<f32>(tape, points);
     let n = points.len();
     let mut text = String::new();
-    let outputs: Vec<String> = tape.outputs.iter().map(|o| format!("{} ({})", o.name, o.ty)).collect();
-    let _ = writeln!(text, "# golden values of {}; outputs: {}", path.display(), outputs.join(", "));
-    let _ = writeln!(text, "# each point: `p x y z`, then `f64` and `f32` lines with every output channel in order");
-    let _ = writeln!(text, "# re-bless: TEXGRAPH_BLESS=1 cargo test --test golden");
+    let outputs: Vec<String> = tape
+        .outputs
+        .iter()
+        .map(|o| format!("{} ({})", o.name, o.ty))
+        .collect();
+    let _ = writeln!(
+        text,
+        "# golden values of {}; outputs: {}",
+        path.display(),
+        outputs.join(", ")
+    );
+    let _ = writeln!(
+        text,
+        "# each point: `p x y z`, then `f64` and `f32` lines with every output channel in order"
+    );
+    let _ = writeln!(
+        text,
+        "# re-bless: TEXGRAPH_BLESS=1 cargo test --test golden"
+    );
     for (i, p) in points.iter().enumerate() {
         let _ = writeln!(text, "p {} {} {}", p[0], p[1], p[2]);
         let channels = tape.channels();
@@ -114,7 +136,10 @@ fn golden_text(path: &Path, tape: &Tape, points: &[[f64; 3]]) -> String {
 }
 
 fn numbers(line: &str) -> Vec<f64> {
-    line.split_whitespace().skip(1).map(|s| s.parse::<f64>().unwrap_or(f64::NAN)).collect()
+    line.split_whitespace()
+        .skip(1)
+        .map(|s| s.parse::<f64>().unwrap_or(f64::NAN))
+        .collect()
 }
 
 fn same(a: f64, b: f64, tolerance: f64) -> bool {
@@ -141,7 +166,11 @@ fn compare(expected: &str, actual: &str) -> Vec<String> {
             }
             continue;
         }
-        let tolerance = if le.starts_with("f64") { F64_TOLERANCE } else { F32_TOLERANCE };
+        let tolerance = if le.starts_with("f64") {
+            F64_TOLERANCE
+        } else {
+            F32_TOLERANCE
+        };
         let (ve, va) = (numbers(le), numbers(la));
         if ve.len() != va.len() || ve.iter().zip(&va).any(|(x, y)| !same(*x, *y, tolerance)) {
             problems.push(format!("at {point}: expected `{le}`, got `{la}`"));
@@ -159,29 +188,49 @@ fn picture(tape: &Tape) -> image::RgbImage {
     for j in 0..PICTURE {
         for i in 0..PICTURE {
             // Row 0 at the top shows y = 1 (y up).
-            points.push([(i as f64 + 0.5) / PICTURE as f64, 1.0 - (j as f64 + 0.5) / PICTURE as f64, 0.5]);
+            points.push([
+                (i as f64 + 0.5) / PICTURE as f64,
+                1.0 - (j as f64 + 0.5) / PICTURE as f64,
+                0.5,
+            ]);
         }
     }
     let values = evaluate::<f32>(tape, &points);
     let n = points.len();
-    let output = tape.outputs.iter().find(|o| o.ty == Type::Vec3).unwrap_or(&tape.outputs[0]);
+    let output = tape
+        .outputs
+        .iter()
+        .find(|o| o.ty == Type::Vec3)
+        .unwrap_or(&tape.outputs[0]);
     let to_byte = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8; // NaN clamps to NaN → 0
     image::RgbImage::from_fn(PICTURE as u32, PICTURE as u32, |i, j| {
         let k = j as usize * PICTURE + i as usize;
-        let channel = |c: usize| values[(output.first_channel + c.min(output.ty.channels() - 1)) * n + k];
-        image::Rgb([to_byte(channel(0)), to_byte(channel(1)), to_byte(channel(2))])
+        let channel =
+            |c: usize| values[(output.first_channel + c.min(output.ty.channels() - 1)) * n + k];
+        image::Rgb([
+            to_byte(channel(0)),
+            to_byte(channel(1)),
+            to_byte(channel(2)),
+        ])
     })
 }
 
 #[test]
 fn every_seed_graph_matches_its_golden_values_and_picture() {
     let files = graph_files();
-    assert!(files.len() >= 20, "expected the seed library in graphs/, found {} files", files.len());
+    assert!(
+        files.len() >= 20,
+        "expected the seed library in graphs/, found {} files",
+        files.len()
+    );
     let points = sample_points();
     let mut failures = Vec::new();
     std::fs::create_dir_all("tests/golden").expect("tests/golden is writable");
     for path in &files {
-        let stem = path.file_stem().and_then(|s| s.to_str()).expect("utf-8 file name");
+        let stem = path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .expect("utf-8 file name");
         let tape = load(path);
         let text = golden_text(path, &tape, &points);
         let values_path = PathBuf::from(format!("tests/golden/{stem}.txt"));
@@ -190,7 +239,11 @@ fn every_seed_graph_matches_its_golden_values_and_picture() {
         if bless() {
             std::fs::write(&values_path, &text).expect("write golden");
             image.save(&picture_path).expect("write golden picture");
-            eprintln!("blessed {} and {}", values_path.display(), picture_path.display());
+            eprintln!(
+                "blessed {} and {}",
+                values_path.display(),
+                picture_path.display()
+            );
             continue;
         }
         match std::fs::read_to_string(&values_path) {
@@ -199,30 +252,54 @@ fn every_seed_graph_matches_its_golden_values_and_picture() {
                     failures.push(format!("{}: {problem}", values_path.display()));
                 }
             }
-            Err(_) => failures.push(format!("{} is missing: run TEXGRAPH_BLESS=1 cargo test --test golden", values_path.display())),
+            Err(_) => failures.push(format!(
+                "{} is missing: run TEXGRAPH_BLESS=1 cargo test --test golden",
+                values_path.display()
+            )),
         }
         match image::open(&picture_path) {
             Ok(expected) => {
                 let expected = expected.to_rgb8();
                 let differs = expected.dimensions() != image.dimensions()
-                    || expected.pixels().zip(image.pixels()).any(|(a, b)| a.0.iter().zip(b.0).any(|(x, y)| x.abs_diff(y) > 1));
+                    || expected
+                        .pixels()
+                        .zip(image.pixels())
+                        .any(|(a, b)| a.0.iter().zip(b.0).any(|(x, y)| x.abs_diff(y) > 1));
                 if differs {
                     failures.push(format!("{}: picture differs", picture_path.display()));
                 }
             }
-            Err(_) => failures.push(format!("{} is missing: run TEXGRAPH_BLESS=1 cargo test --test golden", picture_path.display())),
+            Err(_) => failures.push(format!(
+                "{} is missing: run TEXGRAPH_BLESS=1 cargo test --test golden",
+                picture_path.display()
+            )),
         }
     }
-    assert!(failures.is_empty(), "golden mismatches:\n{}", failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "golden mismatches:\n{}",
+        failures.join("\n")
+    );
 }
 
 #[test]
 fn no_golden_file_is_orphaned() {
-    let stems: Vec<String> = graph_files().iter().filter_map(|p| p.file_stem()?.to_str().map(String::from)).collect();
+    let stems: Vec<String> = graph_files()
+        .iter()
+        .filter_map(|p| p.file_stem()?.to_str().map(String::from))
+        .collect();
     for entry in std::fs::read_dir("tests/golden").expect("tests/golden exists") {
         let path = entry.expect("entry").path();
-        let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or_default().to_string();
-        assert!(stems.contains(&stem), "{} has no graph in graphs/; delete it", path.display());
+        let stem = path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or_default()
+            .to_string();
+        assert!(
+            stems.contains(&stem),
+            "{} has no graph in graphs/; delete it",
+            path.display()
+        );
     }
 }
 
@@ -241,8 +318,18 @@ fn point_and_batch_evaluation_agree_bit_for_bit_on_every_graph() {
             tape.eval_point(&mut ws32, *p, &mut out32);
             tape.eval_point(&mut ws64, *p, &mut out64);
             for c in 0..tape.channels() {
-                assert_eq!(out32[c].to_bits(), batch32[c * n + i].to_bits(), "{} f32 at {p:?} channel {c}", path.display());
-                assert_eq!(out64[c].to_bits(), batch64[c * n + i].to_bits(), "{} f64 at {p:?} channel {c}", path.display());
+                assert_eq!(
+                    out32[c].to_bits(),
+                    batch32[c * n + i].to_bits(),
+                    "{} f32 at {p:?} channel {c}",
+                    path.display()
+                );
+                assert_eq!(
+                    out64[c].to_bits(),
+                    batch64[c * n + i].to_bits(),
+                    "{} f64 at {p:?} channel {c}",
+                    path.display()
+                );
             }
         }
     }

@@ -6,7 +6,11 @@ use proptest::prelude::*;
 use texgraph::{check, compile, CheckOptions, CompileOptions, SourceFile, Tape, Workspace};
 
 fn tape(source: &str) -> Tape {
-    let graph = check(SourceFile::new("property.ron", source), &CheckOptions::default()).unwrap_or_else(|e| panic!("{}", e.render_plain()));
+    let graph = check(
+        SourceFile::new("property.ron", source),
+        &CheckOptions::default(),
+    )
+    .unwrap_or_else(|e| panic!("{}", e.render_plain()));
     compile(&graph, &CompileOptions::default()).unwrap_or_else(|e| panic!("{}", e.render_plain()))
 }
 
@@ -134,12 +138,20 @@ fn one_tape_is_shared_by_threads_without_locks() {
     fn assert_send_sync<T: Send + Sync>() {}
     assert_send_sync::<Tape>();
     let tape = marble();
-    let pts: Vec<[f64; 3]> = (0..5000).map(|i| [i as f64 * 0.001, (i % 77) as f64 * 0.01, 0.5]).collect();
+    let pts: Vec<[f64; 3]> = (0..5000)
+        .map(|i| [i as f64 * 0.001, (i % 77) as f64 * 0.01, 0.5])
+        .collect();
     let single = batch::<f32>(&tape, &pts);
     let n = pts.len();
     let halves: Vec<Vec<f32>> = std::thread::scope(|scope| {
-        let handles: Vec<_> = pts.chunks(n / 4 + 1).map(|chunk| scope.spawn(|| batch::<f32>(&tape, chunk))).collect();
-        handles.into_iter().map(|h| h.join().expect("thread")).collect()
+        let handles: Vec<_> = pts
+            .chunks(n / 4 + 1)
+            .map(|chunk| scope.spawn(|| batch::<f32>(&tape, chunk)))
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("thread"))
+            .collect()
     });
     // Reassemble the planar per-chunk outputs and compare bit for bit.
     let mut offset = 0;
@@ -147,7 +159,10 @@ fn one_tape_is_shared_by_threads_without_locks() {
         let m = chunk.len();
         for c in 0..tape.channels() {
             for i in 0..m {
-                assert_eq!(out[c * m + i].to_bits(), single[c * n + offset + i].to_bits());
+                assert_eq!(
+                    out[c * m + i].to_bits(),
+                    single[c * n + offset + i].to_bits()
+                );
             }
         }
         offset += m;
@@ -160,10 +175,16 @@ fn a_chain_of_ten_thousand_nodes_compiles_without_recursion() {
     let n = 10_000;
     let mut nodes = String::new();
     for i in (1..n).rev() {
-        nodes.push_str(&format!("\"n{i}\": Add(Mul(\"n{}\", 0.999), 0.001),\n", i - 1));
+        nodes.push_str(&format!(
+            "\"n{i}\": Add(Mul(\"n{}\", 0.999), 0.001),\n",
+            i - 1
+        ));
     }
     nodes.push_str("\"n0\": Noise(input: Position, basis: Perlin),\n");
-    let source = format!("Graph(nodes: {{ {nodes} }}, outputs: {{ \"out\": \"n{}\" }})", n - 1);
+    let source = format!(
+        "Graph(nodes: {{ {nodes} }}, outputs: {{ \"out\": \"n{}\" }})",
+        n - 1
+    );
     let tape = tape(&source);
     assert_eq!(tape.instrs.len(), 2 + 2 * (n - 1));
     // Slot reuse keeps the frame tiny however long the chain.
@@ -181,7 +202,11 @@ fn a_ten_thousand_node_cycle_is_reported_not_overflowed() {
         nodes.push_str(&format!("\"n{i}\": Sin(\"n{}\"),\n", (i + 1) % n));
     }
     let source = format!("Graph(nodes: {{ {nodes} }}, outputs: {{ \"out\": \"n0\" }})");
-    let error = check(SourceFile::new("cycle.ron", source), &CheckOptions::default()).expect_err("a cycle");
+    let error = check(
+        SourceFile::new("cycle.ron", source),
+        &CheckOptions::default(),
+    )
+    .expect_err("a cycle");
     assert_eq!(error.list.len(), 1);
     assert!(error.list[0].message.contains("cycle"));
 }
@@ -191,7 +216,13 @@ fn only_requested_outputs_are_compiled() {
     let text = std::fs::read_to_string("graphs/seed003_marble.ron").expect("seed 003 marble");
     let graph = check(SourceFile::new("m.ron", text), &CheckOptions::default()).expect("valid");
     let all = compile(&graph, &CompileOptions::default()).expect("compiles");
-    let vein = compile(&graph, &CompileOptions { outputs: vec!["vein".into()] }).expect("compiles");
+    let vein = compile(
+        &graph,
+        &CompileOptions {
+            outputs: vec!["vein".into()],
+        },
+    )
+    .expect("compiles");
     assert!(vein.instrs.len() < all.instrs.len());
     assert_eq!(vein.outputs.len(), 1);
     assert!(vein.stats.pruned_nodes >= 1);
@@ -214,7 +245,11 @@ fn identical_subgraphs_are_deduplicated_and_constants_folded() {
             "c": Add(Sin(Mul("k", 3.0)), Cos(0.5)),
         }, outputs: { "sum": Add("a", "b"), "c": "c" })"#,
     );
-    let fractals = t.instrs.iter().filter(|i| matches!(i, texgraph::tape::Instr::Fractal { .. })).count();
+    let fractals = t
+        .instrs
+        .iter()
+        .filter(|i| matches!(i, texgraph::tape::Instr::Fractal { .. }))
+        .count();
     assert_eq!(fractals, 1, "{t}");
     // "c" is a constant: no instruction computes it.
     assert_eq!(t.instrs.len(), 3, "{t}"); // position, fbm, add
