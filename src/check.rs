@@ -39,6 +39,8 @@ pub fn check(file: Arc<SourceFile>, options: &CheckOptions) -> Result<CheckedGra
         }
     };
     let mut checker = Checker {
+        file: file.clone(),
+        poisoned: Vec::new(),
         builder: GraphBuilder::new(),
         diagnostics: Vec::new(),
         params: Vec::new(),
@@ -62,6 +64,10 @@ pub fn check(file: Arc<SourceFile>, options: &CheckOptions) -> Result<CheckedGra
             });
         }
     }
+    // In file order, the way an author reads them (stable: same-place problems keep their order).
+    checker
+        .diagnostics
+        .sort_by_key(|d| d.span.map_or(usize::MAX, |s| s.start));
     Err(Diagnostics {
         file,
         list: checker.diagnostics,
@@ -73,13 +79,16 @@ enum Arg {
     Input(NodeId),
     Const(f64),
     Axis([f64; 3]),
-    Basis(Basis),
+    Basis(Basis, bool),
     Interpolation(&'static str, bool),
     Stops(Vec<(f64, [f64; 3])>),
     Points(Vec<(f64, f64)>),
 }
 
 struct Checker {
+    file: Arc<SourceFile>,
+    /// Params that failed their own check: references to them fail silently (no cascade).
+    poisoned: Vec<String>,
     builder: GraphBuilder,
     diagnostics: Vec<Diagnostic>,
     params: Vec<(String, f64)>,
@@ -98,11 +107,18 @@ impl Checker {
     }
 
     fn graph(&mut self, root: &Value, options: &CheckOptions) -> Option<CheckedParts> {
+        let no_fields = Vec::new();
         let fields = match &root.kind {
             ValueKind::Struct { name, fields }
                 if name.as_ref().is_none_or(|n| n.value == "Graph") =>
             {
                 fields
+            }
+            // `Graph()`: a graph with no fields (reported below as having no outputs).
+            ValueKind::Tuple { name, items }
+                if items.is_empty() && name.as_ref().is_none_or(|n| n.value == "Graph") =>
+            {
+                &no_fields
             }
             _ => {
                 self.error(
@@ -117,10 +133,8 @@ impl Checker {
         let mut nodes = None;
         let mut outputs = None;
         for (field, value) in fields {
-            let slot = match field.value.as_str() {
-                "params" => &mut params,
-                "nodes" => &mut nodes,
-                "outputs" => &mut outputs,
+            let known = match field.value.as_str() {
+                "params" | "nodes" | "outputs" => field.value.as_str(),
                 other => {
                     let hint =
                         nodes::suggest_from(other, ["params", "nodes", "outputs"].into_iter());
@@ -137,8 +151,18 @@ impl Checker {
                         None => "a graph has `params`, `nodes` and `outputs`".into(),
                     });
                     self.error(d);
-                    continue;
+                    // Read a near miss (`node:`) as what it was meant to be, so its contents are
+                    // still checked and its references do not cascade into more errors.
+                    match hint {
+                        Some(h) => h,
+                        None => continue,
+                    }
                 }
+            };
+            let slot = match known {
+                "params" => &mut params,
+                "nodes" => &mut nodes,
+                _ => &mut outputs,
             };
             if slot.is_some() {
                 self.error(
@@ -197,7 +221,8 @@ impl Checker {
                     .label("also a param"),
                 );
             }
-            if self.node_index.insert(id.value.clone(), i).is_some() {
+            if let Some(first) = self.node_index.insert(id.value.clone(), i) {
+                let (line, column) = self.file.line_col(node_entries[first].0.span.start);
                 self.error(
                     Diagnostic::new(
                         Class::DuplicateName,
@@ -205,8 +230,12 @@ impl Checker {
                     )
                     .in_node(&id.value)
                     .at(id.span)
-                    .label("second definition"),
+                    .label("second definition")
+                    .help(format!(
+                        "first defined at line {line}, column {column}; rename one of them"
+                    )),
                 );
+                self.node_index.insert(id.value.clone(), first);
             }
         }
         self.lowered = vec![None; declared];
@@ -334,6 +363,21 @@ impl Checker {
                 );
                 continue;
             }
+            if name.value.is_empty() || name.value.contains('.') {
+                self.error(
+                    Diagnostic::new(
+                        Class::BadParameter,
+                        format!("param name \"{}\" is not allowed", name.value),
+                    )
+                    .at(name.span)
+                    .label("bad name")
+                    .help(
+                        "names are non-empty and contain no `.` (it selects components: \"id.x\")",
+                    ),
+                );
+                self.poisoned.push(name.value.clone());
+                continue;
+            }
             let number = match v.kind {
                 ValueKind::Number(n) if n.is_nan() => {
                     self.error(
@@ -342,6 +386,7 @@ impl Checker {
                             .at(v.span)
                             .label("NaN"),
                     );
+                    self.poisoned.push(name.value.clone());
                     continue;
                 }
                 ValueKind::Number(n) => n,
@@ -356,6 +401,7 @@ impl Checker {
                         .label("expected a number")
                         .help("params are named scalars; put expressions in `nodes`"),
                     );
+                    self.poisoned.push(name.value.clone());
                     continue;
                 }
             };
@@ -554,10 +600,22 @@ impl Checker {
             node: origin.node.clone(),
             span,
         };
+        // A name that failed its own check (an id with a `.`, a bad param) resolves silently.
+        if self.poisoned.iter().any(|p| p == text)
+            || self
+                .node_index
+                .get(text)
+                .is_some_and(|_| text.contains('.'))
+        {
+            return None;
+        }
         let (base, component) = match text.split_once('.') {
             Some((b, c)) => (b, Some(c)),
             None => (text, None),
         };
+        if self.poisoned.iter().any(|p| p == base) {
+            return None;
+        }
         let target = if let Some((_, v)) = self.params.iter().find(|(p, _)| p == base) {
             let v = *v;
             Some(self.builder.add(Op::ConstScalar(v), Vec::new(), &here))
@@ -578,10 +636,10 @@ impl Checker {
             .in_node(&origin.node)
             .at(span)
             .label("no node or param has this name");
-            if let Some(s) = nodes::suggest_from(base, candidates.iter().copied()) {
-                d = d.help(format!("did you mean \"{s}\"?"));
-            } else if nodes::lookup(base).is_some() {
+            if nodes::lookup(base).is_some() {
                 d = d.help(format!("`{base}` is a node kind: write it without quotes"));
+            } else if let Some(s) = nodes::suggest_from(base, candidates.iter().copied()) {
+                d = d.help(format!("did you mean \"{s}\"?"));
             }
             self.error(d);
             return None;
@@ -694,19 +752,25 @@ impl Checker {
             return None;
         };
         if !v.is_finite() || !range.contains(v) {
+            let label = if v.is_finite() && range.integer && v.fract() != 0.0 {
+                "not an integer"
+            } else {
+                "out of range"
+            };
             self.error(
                 Diagnostic::new(
                     Class::BadParameter,
                     format!(
-                        "`{}` of {} must be {}, got {v}",
+                        "`{}` of {} must be {}, got {}",
                         arg.name,
                         def.name,
-                        range.describe()
+                        range.describe(),
+                        crate::diagnostic::number(v)
                     ),
                 )
                 .in_node(&origin.node)
                 .at(value.span)
-                .label("out of range"),
+                .label(label),
             );
             return None;
         }
@@ -751,6 +815,22 @@ impl Checker {
         origin: &Origin,
     ) -> Option<NodeId> {
         self.written += 1;
+        if self.written == limits::MAX_NODES + 1 {
+            self.error(
+                Diagnostic::new(
+                    Class::Limit,
+                    format!(
+                        "the graph has more than {} nodes (inline nodes included)",
+                        limits::MAX_NODES
+                    ),
+                )
+                .in_node(&origin.node)
+                .at(whole.span),
+            );
+        }
+        if self.written > limits::MAX_NODES {
+            return None;
+        }
         let Some(def) = nodes::lookup(kind_name) else {
             let mut d = Diagnostic::new(
                 Class::UnknownKind,
@@ -800,6 +880,8 @@ impl Checker {
             *slot = Some(value);
         }
         let mut ok = true;
+        // Arguments a misspelt name probably meant: not also reported as missing.
+        let mut meant: Vec<&str> = Vec::new();
         for (field, value) in named {
             match def.args.iter().position(|a| a.name == field.value) {
                 Some(i) if given[i].is_some() => {
@@ -823,12 +905,13 @@ impl Checker {
                     .in_node(&origin.node)
                     .at(field.span)
                     .label("unknown argument");
-                    d = d.help(
-                        match nodes::suggest_from(&field.value, def.args.iter().map(|a| a.name)) {
-                            Some(s) => format!("did you mean `{s}`? {}", signature(def)),
-                            None => signature(def),
-                        },
-                    );
+                    let suggestion =
+                        nodes::suggest_from(&field.value, def.args.iter().map(|a| a.name));
+                    meant.extend(suggestion);
+                    d = d.help(match suggestion {
+                        Some(s) => format!("did you mean `{s}`? {}", signature(def)),
+                        None => signature(def),
+                    });
                     self.error(d);
                     ok = false;
                 }
@@ -840,6 +923,7 @@ impl Checker {
                 Some(value) => self.argument(value, arg, def, origin),
                 None => match arg.default {
                     Some(default) => Some(self.default_argument(default, arg, &here)),
+                    None if meant.contains(&arg.name) => None,
                     None => {
                         self.error(
                             Diagnostic::new(
@@ -861,10 +945,7 @@ impl Checker {
         if !ok {
             return None;
         }
-        let args: Vec<Arg> = args
-            .into_iter()
-            .map(|a| a.expect("all arguments read"))
-            .collect();
+        let args: Vec<Arg> = args.into_iter().collect::<Option<_>>()?;
         self.build(def, args, &given, whole, &here)
     }
 
@@ -909,7 +990,9 @@ impl Checker {
                                 Class::BadParameter,
                                 format!(
                                     "the rotation axis is zero: ({}, {}, {})",
-                                    v[0], v[1], v[2]
+                                    crate::diagnostic::number(v[0]),
+                                    crate::diagnostic::number(v[1]),
+                                    crate::diagnostic::number(v[2])
                                 ),
                             )
                             .in_node(&origin.node)
@@ -921,7 +1004,9 @@ impl Checker {
                     }
                 }
             }
-            ArgKind::Basis => self.basis(value, origin).map(Arg::Basis),
+            ArgKind::Basis => self
+                .basis(value, origin)
+                .map(|(b, explicit)| Arg::Basis(b, explicit)),
             ArgKind::Interpolation(allowed) => {
                 let name = match &value.kind {
                     ValueKind::Ident(n) => allowed.iter().find(|a| **a == n.as_str()).copied(),
@@ -1097,7 +1182,8 @@ impl Checker {
         Some(out)
     }
 
-    fn basis(&mut self, value: &Value, origin: &Origin) -> Option<Basis> {
+    /// Reads a basis; the flag says whether it spelled out an interpolation (`Value(Smooth)`).
+    fn basis(&mut self, value: &Value, origin: &Origin) -> Option<(Basis, bool)> {
         let (name, span, inner) = match &value.kind {
             ValueKind::Ident(n) => (n.as_str(), value.span, None),
             ValueKind::Struct {
@@ -1126,15 +1212,28 @@ impl Checker {
                     }
                 };
                 if n.value == "Value" {
-                    return Some(Basis::Value(interpolation));
+                    return Some((Basis::Value(interpolation), true));
                 }
-                (n.value.as_str(), n.span, None)
+                (n.value.as_str(), n.span, Some([].as_slice()))
             }
             _ => ("", value.span, None),
         };
         let basis = match name {
             "Perlin" if inner.is_none() => Basis::Perlin,
             "Gradient" if inner.is_none() => Basis::Gradient,
+            "Perlin" | "Gradient" => {
+                self.error(
+                    Diagnostic::new(
+                        Class::BadParameter,
+                        format!("the {name} basis takes no arguments"),
+                    )
+                    .in_node(&origin.node)
+                    .at(value.span)
+                    .label("only Value noise has an interpolation")
+                    .help(format!("write `basis: {name}`")),
+                );
+                return None;
+            }
             "Value" => {
                 let mut interpolation = Interpolation::Linear;
                 for (field, v) in inner.unwrap_or(&[]) {
@@ -1156,7 +1255,10 @@ impl Checker {
                         }
                     }
                 }
-                Basis::Value(interpolation)
+                return Some((
+                    Basis::Value(interpolation),
+                    inner.is_some_and(|f| !f.is_empty()),
+                ));
             }
             _ => {
                 let mut d = Diagnostic::new(
@@ -1176,7 +1278,7 @@ impl Checker {
                 return None;
             }
         };
-        Some(basis)
+        Some((basis, false))
     }
 
     /// Turns a node's checked arguments into graph operations.
@@ -1216,11 +1318,27 @@ impl Checker {
                 (Op::Rotate { axis }, vec![input(0), input(2)])
             }
             Kind::Noise | Kind::Fbm | Kind::Turbulence => {
-                let Arg::Basis(basis) = args[1] else {
+                let Arg::Basis(basis, explicit) = args[1] else {
                     return None;
                 };
                 let interpolation_index = if def.kind == Kind::Noise { 3 } else { 7 };
                 let basis = match (basis, &args[interpolation_index]) {
+                    (Basis::Value(written), Arg::Interpolation(field, true))
+                        if explicit && written != interpolation_named(field) =>
+                    {
+                        let span = given[interpolation_index].map_or(whole.span, |v| v.span);
+                        self.error(
+                            Diagnostic::new(
+                                Class::BadParameter,
+                                "the interpolation is given twice, differently: in `basis` and in `interpolation`",
+                            )
+                            .in_node(&here.node)
+                            .at(span)
+                            .label("contradicts the basis")
+                            .help("give it once"),
+                        );
+                        return None;
+                    }
                     (Basis::Value(_), Arg::Interpolation("Smooth", true)) => {
                         Basis::Value(Interpolation::Smooth)
                     }
@@ -1254,6 +1372,30 @@ impl Checker {
                         first_octave: constant(6) as u32,
                         turbulence: def.kind == Kind::Turbulence,
                     };
+                    // Octave frequencies and amplitudes grow as powers: keep them finite.
+                    let schedule = params.schedule();
+                    let worst = schedule
+                        .frequencies
+                        .iter()
+                        .chain(&schedule.amplitudes)
+                        .fold(0.0f64, |m, v| m.max(v.abs()));
+                    if worst > limits::MAX_OCTAVE_SCALE {
+                        self.error(
+                            Diagnostic::new(
+                                Class::BadParameter,
+                                format!(
+                                    "octave frequencies or amplitudes reach {}, above the limit {}",
+                                    crate::diagnostic::number(worst),
+                                    crate::diagnostic::number(limits::MAX_OCTAVE_SCALE)
+                                ),
+                            )
+                            .in_node(&here.node)
+                            .at(whole.span)
+                            .label("lacunarity^i or gain^i too large")
+                            .help("use fewer octaves, a smaller first_octave, lacunarity or gain"),
+                        );
+                        return None;
+                    }
                     (Op::Fractal(key, params), vec![input(0)])
                 }
             }
@@ -1371,6 +1513,14 @@ fn unreachable_arg() -> NodeId {
     // `build` only asks for inputs at positions the catalogue declares as inputs; the catalogue
     // test pins that. Returning node 0 keeps this path panic-free should it ever be reached.
     0
+}
+
+fn interpolation_named(name: &str) -> Interpolation {
+    if name == "Smooth" {
+        Interpolation::Smooth
+    } else {
+        Interpolation::Linear
+    }
 }
 
 fn signature(def: &NodeDef) -> String {

@@ -7,6 +7,17 @@
 use std::fmt;
 use std::sync::Arc;
 
+/// Formats a number for a message: plain when short, scientific when huge or tiny, so that
+/// `1e300` does not print three hundred digits.
+pub fn number(v: f64) -> String {
+    let a = v.abs();
+    if v.is_finite() && a != 0.0 && !(1e-4..1e15).contains(&a) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 /// A half-open byte range `start..end` into a [`SourceFile`]'s text.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub struct Span {
@@ -151,7 +162,7 @@ impl Diagnostic {
         self
     }
 
-    fn headline(&self) -> String {
+    pub fn headline(&self) -> String {
         match &self.node {
             Some(node) => format!("node \"{node}\": {}", self.message),
             None => self.message.clone(),
@@ -201,12 +212,14 @@ impl Diagnostics {
             let report = MietteReport {
                 diagnostic,
                 file: &self.file,
+                source: WindowedSource(&self.file.text),
             };
             let mut body = String::new();
             // Rendering into a String cannot fail; if miette ever did, the headline above
             // already carries the location and message.
             let _ = handler.render_report(&mut body, &report);
-            // miette repeats the headline as its first line; drop it, keep the snippet.
+            // miette's headline is empty (ours, above, carries the message); drop its line and
+            // keep the snippet.
             let snippet: Vec<&str> = body.lines().skip(1).collect();
             let snippet = snippet.join("\n");
             let snippet = snippet.trim_matches('\n');
@@ -231,6 +244,7 @@ impl std::error::Error for Diagnostics {}
 struct MietteReport<'a> {
     diagnostic: &'a Diagnostic,
     file: &'a SourceFile,
+    source: WindowedSource<'a>,
 }
 
 impl fmt::Debug for MietteReport<'_> {
@@ -240,8 +254,10 @@ impl fmt::Debug for MietteReport<'_> {
 }
 
 impl fmt::Display for MietteReport<'_> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.diagnostic.headline())
+    fn fmt(&self, _: &mut fmt::Formatter<'_>) -> fmt::Result {
+        // Empty: our own headline line is printed before the snippet, and a long headline here
+        // would be wrapped by miette into several lines.
+        Ok(())
     }
 }
 
@@ -258,16 +274,63 @@ impl miette::Diagnostic for MietteReport<'_> {
     fn source_code(&self) -> Option<&dyn miette::SourceCode> {
         self.diagnostic
             .span
-            .map(|_| &self.file.text as &dyn miette::SourceCode)
+            .map(|_| &self.source as &dyn miette::SourceCode)
     }
 
     fn labels(&self) -> Option<Box<dyn Iterator<Item = miette::LabeledSpan> + '_>> {
         let span = self.diagnostic.span?;
-        let len = span.end.saturating_sub(span.start).max(1);
-        let start = span.start.min(self.file.text.len());
-        let len = len.min(self.file.text.len().saturating_sub(start));
-        let label = miette::LabeledSpan::new(self.diagnostic.label.clone(), start, len);
+        let text = &self.file.text;
+        let start = floor_char_boundary(text, span.start.min(text.len()));
+        // A label never runs past the end of its first line, nor past the window shown.
+        let line_end = text[start..].find('\n').map_or(text.len(), |i| start + i);
+        let end = span.end.max(start + 1).min(line_end).min(start + WINDOW);
+        let end = floor_char_boundary(text, end.max(start));
+        let label = miette::LabeledSpan::new(self.diagnostic.label.clone(), start, end - start);
         Some(Box::new(std::iter::once(label)))
+    }
+}
+
+/// Lines longer than this are shown as a window around the problem, not whole (a file of one
+/// megabyte-long line must not print a megabyte).
+const WINDOW: usize = 120;
+
+/// The file's text as miette reads it: whole lines, except that a long line is cut to a window
+/// around the span, with miette told the window's true line and column.
+struct WindowedSource<'a>(&'a str);
+
+impl miette::SourceCode for WindowedSource<'_> {
+    fn read_span<'a>(
+        &'a self,
+        span: &miette::SourceSpan,
+        before: usize,
+        after: usize,
+    ) -> Result<Box<dyn miette::SpanContents<'a> + 'a>, miette::MietteError> {
+        let text = self.0;
+        let start = floor_char_boundary(text, span.offset().min(text.len()));
+        let line_start = text[..start].rfind('\n').map_or(0, |i| i + 1);
+        let line_end = text[start..].find('\n').map_or(text.len(), |i| start + i);
+        // Context lines could be long too: only short neighbourhoods are shown whole.
+        let context_start = text[..line_start.saturating_sub(1)]
+            .rfind('\n')
+            .map_or(0, |i| i + 1);
+        let context_end = text[line_end..]
+            .get(1..)
+            .and_then(|rest| rest.find('\n'))
+            .map_or(text.len(), |i| line_end + 1 + i);
+        if context_end - context_start <= 4 * WINDOW {
+            return text.read_span(span, before, after);
+        }
+        let from = floor_char_boundary(text, start.saturating_sub(WINDOW / 2).max(line_start));
+        let to = floor_char_boundary(text, (start + WINDOW).min(line_end)).max(from);
+        let line = text[..line_start].matches('\n').count();
+        let column = text[line_start..from].chars().count();
+        Ok(Box::new(miette::MietteSpanContents::new(
+            &text.as_bytes()[from..to],
+            miette::SourceSpan::new(from.into(), to - from),
+            line,
+            column,
+            1,
+        )))
     }
 }
 
@@ -300,7 +363,7 @@ mod tests {
         let text = diagnostics.render_plain();
         assert!(
             text.starts_with(
-                "error[unknown-kind]: g.ron:2:14: node \"a\": unknown node kind `Sinn`"
+                "error[unknown-kind]: g.ron:2:15: node \"a\": unknown node kind `Sinn`"
             ),
             "{text}"
         );

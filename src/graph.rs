@@ -280,7 +280,14 @@ impl GraphBuilder {
         op.key(&mut key);
         let map_key = (key, args);
         if let Some(&id) = self.interned.get(&map_key) {
-            self.stats.deduplicated += 1;
+            // Constants are re-created at every use of a param or literal: only operations
+            // count as deduplicated subgraphs.
+            if !matches!(
+                self.nodes[id as usize].op,
+                Op::ConstScalar(_) | Op::ConstVec3(_)
+            ) {
+                self.stats.deduplicated += 1;
+            }
             return id;
         }
         let ty = self.result_type(&op, &map_key.1);

@@ -13,6 +13,9 @@ pub const MAX_PARAMS: usize = 10_000;
 pub const MAX_OCTAVES: f64 = 32.0;
 /// Highest first octave of Fbm or Turbulence.
 pub const MAX_FIRST_OCTAVE: f64 = 32.0;
+/// Largest octave frequency (lacunarity^i) or amplitude (gain^i) of an Fbm or Turbulence: beyond
+/// it positions or sums overflow to infinity.
+pub const MAX_OCTAVE_SCALE: f64 = 1e30;
 /// Most stops in a ColorRamp, points in a Curve.
 pub const MAX_RAMP_STOPS: usize = 4096;
 /// Largest noise seed (seeds are integers, exactly representable in f64).

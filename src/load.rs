@@ -38,13 +38,19 @@ pub fn read_source(path: &Path) -> Result<Arc<SourceFile>, LoadError> {
         .read_to_end(&mut bytes)
         .map_err(io)?;
     if bytes.len() > limits::MAX_FILE_BYTES {
-        return Err(io(std::io::Error::new(
-            std::io::ErrorKind::InvalidData,
+        // An oversized graph is invalid input (exit 1), like any other limit.
+        let file = SourceFile::new(path.display().to_string(), String::new());
+        let diagnostic = crate::diagnostic::Diagnostic::new(
+            crate::diagnostic::DiagnosticClass::Limit,
             format!(
                 "the file is larger than {} bytes, the limit for graph files",
                 limits::MAX_FILE_BYTES
             ),
-        )));
+        );
+        return Err(LoadError::Invalid(Diagnostics {
+            file,
+            list: vec![diagnostic],
+        }));
     }
     let text = String::from_utf8(bytes).map_err(|e| {
         io(std::io::Error::new(

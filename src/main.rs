@@ -63,7 +63,8 @@ struct EvalArgs {
     #[arg(value_name = "FILE")]
     file: PathBuf,
     /// The point: X Y Z.
-    #[arg(value_name = "X Y Z", num_args = 0..=3, allow_negative_numbers = true)]
+    /// (Negative numbers are fine: `eval g.ron -4.2 10 -1e-3`.)
+    #[arg(value_name = "X Y Z", num_args = 0..=3, allow_negative_numbers = true, value_parser = parse_coordinate)]
     coordinates: Vec<f64>,
     /// Read points from a file (`-` for standard input): one `x y z` per line.
     #[arg(long, value_name = "FILE", conflicts_with = "coordinates")]
@@ -80,6 +81,44 @@ struct NodesArgs {
     /// Print the catalogue as a Markdown table (as in docs/format.md).
     #[arg(long)]
     markdown: bool,
+}
+
+/// Marks a negative number that clap would mistake for a flag (see `protect_negative_numbers`).
+const MINUS: char = '\u{2212}';
+
+fn parse_coordinate(text: &str) -> Result<f64, String> {
+    let text = text.replacen(MINUS, "-", 1);
+    text.trim()
+        .parse()
+        .map_err(|_| format!("`{text}` is not a number"))
+}
+
+/// clap takes `-1e-3`, `-.5` and `-inf` for flags (its negative-number test knows only plain
+/// decimals), and letting the coordinates accept any hyphen value would swallow the flags that
+/// follow them. So numeric arguments that start with `-` (and are not an option's value) get a
+/// Unicode minus sign, which `parse_coordinate` turns back.
+fn protect_negative_numbers(
+    args: impl Iterator<Item = std::ffi::OsString>,
+) -> Vec<std::ffi::OsString> {
+    let mut out: Vec<std::ffi::OsString> = Vec::new();
+    for arg in args {
+        let previous_takes_value = out
+            .last()
+            .and_then(|p| p.to_str())
+            .is_some_and(|p| matches!(p, "--output" | "--set" | "--points"));
+        match arg.to_str() {
+            Some(t)
+                if !previous_takes_value
+                    && t.len() > 1
+                    && t.starts_with('-')
+                    && t.parse::<f64>().is_ok() =>
+            {
+                out.push(format!("{MINUS}{}", &t[1..]).into());
+            }
+            _ => out.push(arg),
+        }
+    }
+    out
 }
 
 fn parse_set(text: &str) -> Result<(String, f64), String> {
@@ -100,7 +139,7 @@ enum Failure {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = Cli::parse_from(protect_negative_numbers(std::env::args_os()));
     let result = match cli.command {
         Command::Check(args) => check(args),
         Command::Eval(args) => eval(args),

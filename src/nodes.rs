@@ -516,8 +516,10 @@ pub fn catalogue_text() -> String {
         ));
         out.push_str(&format!("    {}\n", def.doc));
         for arg in def.args {
+            // Name, type and default on one line, the meaning indented below: columns stay
+            // aligned however long a type is.
             out.push_str(&format!(
-                "    {:<14} {:<40} {:<16} {}\n",
+                "    {:<14} {} ({})\n                   {}\n",
                 arg.name,
                 describe_arg(arg),
                 describe_default(arg.default),

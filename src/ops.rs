@@ -173,7 +173,14 @@ pub fn fract<S: Real>(x: S) -> S {
 pub fn floored_mod<S: Real>(a: S, b: S) -> S {
     let r = a.rem(b);
     if r != S::ZERO && ((r < S::ZERO) != (b < S::ZERO)) {
-        r + b
+        let moved = r + b;
+        // A tiny remainder of the other sign rounds to b itself: keep the result inside
+        // [0, b) (or (b, 0]), as Fract keeps inside [0, 1).
+        if moved == b {
+            b * S::ONE_BELOW
+        } else {
+            moved
+        }
     } else {
         r
     }
@@ -364,9 +371,15 @@ pub fn apply_matrix(m: &[[f64; 3]; 3], p: [f64; 3]) -> [f64; 3] {
 
 /// Normalises a rotation axis; `None` for a zero or non-finite axis.
 pub fn normalise_axis(axis: [f64; 3]) -> Option<[f64; 3]> {
-    let length = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
-    (length.is_finite() && length > 0.0)
-        .then(|| [axis[0] / length, axis[1] / length, axis[2] / length])
+    // Scale by the largest component first, so tiny (1e-320) and huge (1e300) axes neither
+    // underflow nor overflow when squared.
+    let largest = axis.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+    if !(largest.is_finite() && largest > 0.0) {
+        return None;
+    }
+    let scaled = axis.map(|c| c / largest);
+    let length = (scaled[0] * scaled[0] + scaled[1] * scaled[1] + scaled[2] * scaled[2]).sqrt();
+    Some(scaled.map(|c| c / length))
 }
 
 #[cfg(test)]
@@ -380,6 +393,8 @@ mod tests {
         assert_eq!(floored_mod(7.0f32, 2.0), 1.0);
         assert!(floored_mod(1.0f64, 0.0).is_nan());
         assert!(floored_mod(f64::INFINITY, 2.0).is_nan());
+        assert!(floored_mod(-1e-20f64, 1.0) < 1.0);
+        assert!(floored_mod(1e-20f32, -1.0) > -1.0);
     }
 
     #[test]
@@ -450,5 +465,7 @@ mod tests {
         let m = rotation_matrix([0.0, 1.0, 0.0], -90.0);
         assert_eq!(apply_matrix(&m, [1.0, 0.0, 0.0]), [0.0, 0.0, 1.0]);
         assert!(normalise_axis([0.0, 0.0, 0.0]).is_none());
+        assert_eq!(normalise_axis([1e-320, 0.0, 0.0]), Some([1.0, 0.0, 0.0]));
+        assert_eq!(normalise_axis([0.0, 1e300, 0.0]), Some([0.0, 1.0, 0.0]));
     }
 }

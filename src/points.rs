@@ -54,11 +54,16 @@ pub fn for_each_chunk(
                 zs.push(p[2]);
             }
             _ => {
+                // Points before the bad line are still evaluated and printed, whatever the
+                // chunking: the output does not depend on where a chunk happens to end.
+                if !xs.is_empty() {
+                    f(&xs, &ys, &zs).map_err(io)?;
+                }
                 return Err(PointsError::Malformed {
                     source_name: source_name.to_string(),
                     line: index + 1,
                     text: text.chars().take(80).collect(),
-                })
+                });
             }
         }
         if xs.len() == chunk {

@@ -76,17 +76,44 @@ pub fn parse(text: &str) -> Result<Value, Diagnostic> {
     let mut parser = Parser {
         text,
         bytes: text.as_bytes(),
-        pos: 0,
+        // A UTF-8 byte-order mark, as some editors write, is not part of the graph.
+        pos: if text.starts_with('\u{feff}') { 3 } else { 0 },
         depth: 0,
     };
     parser.skip_trivia()?;
     parser.skip_attributes()?;
+    if parser.pos >= parser.bytes.len() {
+        return Err(Diagnostic::new(
+            DiagnosticClass::Syntax,
+            "the file holds no graph (only whitespace and comments)",
+        )
+        .at(Span::new(0, 0))
+        .label("a graph was expected")
+        .help("a graph file is `Graph(nodes: { ... }, outputs: { ... })`"));
+    }
     let value = parser.value()?;
     parser.skip_trivia()?;
     if parser.pos < parser.bytes.len() {
         return Err(parser.error_here("unexpected text after the graph", "expected end of file"));
     }
     Ok(value)
+}
+
+/// A character as a message shows it: in backticks, escaped when invisible or a control code.
+fn shown(text: &str) -> String {
+    let escaped: String = text.chars().flat_map(|c| c.escape_debug()).collect();
+    if escaped != text || text.chars().any(|c| c.is_whitespace() || c == '\u{feff}') {
+        format!(
+            "`{}` ({})",
+            escaped,
+            text.chars()
+                .map(|c| format!("U+{:04X}", c as u32))
+                .collect::<Vec<_>>()
+                .join(" ")
+        )
+    } else {
+        format!("`{text}`")
+    }
 }
 
 struct Parser<'a> {
@@ -193,6 +220,37 @@ impl<'a> Parser<'a> {
         Ok(())
     }
 
+    /// The error for a file that ends, or a wrong closing bracket that comes, before the bracket
+    /// opened at `open` is closed.
+    fn unclosed(&self, open: usize, close: u8) -> Diagnostic {
+        let opener = self.bytes.get(open).map_or('(', |&b| b as char);
+        let (line, column) = line_col(self.text, open);
+        match self.peek() {
+            None => self
+                .error_at(
+                    Span::new(open, open + 1),
+                    format!("unexpected end of file: this `{opener}` is never closed"),
+                    format!("expected a matching `{}`", close as char),
+                )
+                .help(format!(
+                    "add `{}` at the end of what `{opener}` opens",
+                    close as char
+                )),
+            Some(c) => self
+                .error_here(
+                    format!(
+                        "`{}` does not close the `{opener}` opened at line {line}, column {column}",
+                        c as char
+                    ),
+                    format!("expected `,` or `{}`", close as char),
+                )
+                .help(format!(
+                    "close the `{opener}` with `{}` first",
+                    close as char
+                )),
+        }
+    }
+
     fn expect(&mut self, byte: u8, what: &str) -> Result<(), Diagnostic> {
         self.skip_trivia()?;
         if self.peek() == Some(byte) {
@@ -285,10 +343,14 @@ impl<'a> Parser<'a> {
                     })
                 }
             }
+            b')' | b']' | b'}' => Err(self.error_here(
+                format!("unexpected `{}`, expected a value", c as char),
+                "expected a value here",
+            )),
             _ => Err(self.error_here(
                 format!(
-                    "unexpected character `{}`",
-                    &self.text[self.pos..self.next_char_end()]
+                    "unexpected character {}",
+                    shown(&self.text[self.pos..self.next_char_end()])
                 ),
                 "expected a value",
             )),
@@ -466,6 +528,7 @@ impl<'a> Parser<'a> {
     ) -> Result<Value, Diagnostic> {
         self.enter(start)?;
         self.expect(b'(', "`(`")?;
+        let open = self.pos - 1;
         self.skip_trivia()?;
         let is_struct = {
             let save = self.pos;
@@ -489,6 +552,9 @@ impl<'a> Parser<'a> {
                     self.pos += 1;
                     break;
                 }
+                if matches!(self.peek(), None | Some(b']' | b'}')) {
+                    return Err(self.unclosed(open, b')'));
+                }
                 let field_start = self.pos;
                 if !self
                     .peek()
@@ -508,12 +574,18 @@ impl<'a> Parser<'a> {
                 match self.peek() {
                     Some(b',') => self.pos += 1,
                     Some(b')') => {}
-                    _ => return Err(self.error_here("expected `,` or `)`", "expected `,` or `)`")),
+                    None | Some(b']' | b'}') => return Err(self.unclosed(open, b')')),
+                    _ => {
+                        return Err(self.error_here(
+                            "expected `,` or `)` after the field",
+                            "expected `,` or `)`",
+                        ))
+                    }
                 }
             }
             ValueKind::Struct { name, fields }
         } else {
-            let items = self.sequence(b')')?;
+            let items = self.sequence(open, b')')?;
             ValueKind::Tuple { name, items }
         };
         self.depth -= 1;
@@ -523,8 +595,9 @@ impl<'a> Parser<'a> {
         })
     }
 
-    /// Comma-separated values up to `close` (trailing comma allowed); consumes `close`.
-    fn sequence(&mut self, close: u8) -> Result<Vec<Value>, Diagnostic> {
+    /// Comma-separated values up to `close` (trailing comma allowed); consumes `close`. `open`
+    /// is where the bracket being closed was opened.
+    fn sequence(&mut self, open: usize, close: u8) -> Result<Vec<Value>, Diagnostic> {
         let mut items = Vec::new();
         loop {
             self.skip_trivia()?;
@@ -532,21 +605,15 @@ impl<'a> Parser<'a> {
                 self.pos += 1;
                 return Ok(items);
             }
+            if matches!(self.peek(), None | Some(b')' | b']' | b'}')) {
+                return Err(self.unclosed(open, close));
+            }
             items.push(self.value()?);
             self.skip_trivia()?;
             match self.peek() {
                 Some(b',') => self.pos += 1,
                 Some(c) if c == close => {}
-                None => {
-                    return Err(self.error_at(
-                        Span::new(self.pos, self.pos),
-                        format!(
-                            "unexpected end of file, expected `,` or `{}`",
-                            close as char
-                        ),
-                        "file ends here",
-                    ))
-                }
+                None | Some(b')' | b']' | b'}') => return Err(self.unclosed(open, close)),
                 _ => {
                     return Err(self.error_here(
                         format!("expected `,` or `{}`", close as char),
@@ -561,7 +628,7 @@ impl<'a> Parser<'a> {
         let start = self.pos;
         self.enter(start)?;
         self.pos += 1;
-        let items = self.sequence(b']')?;
+        let items = self.sequence(start, b']')?;
         self.depth -= 1;
         Ok(Value {
             kind: ValueKind::List(items),
@@ -580,6 +647,9 @@ impl<'a> Parser<'a> {
                 self.pos += 1;
                 break;
             }
+            if matches!(self.peek(), None | Some(b')' | b']')) {
+                return Err(self.unclosed(start, b'}'));
+            }
             let key = self.value()?;
             self.expect(b':', "`:` after the map key")?;
             let value = self.value()?;
@@ -588,13 +658,7 @@ impl<'a> Parser<'a> {
             match self.peek() {
                 Some(b',') => self.pos += 1,
                 Some(b'}') => {}
-                None => {
-                    return Err(self.error_at(
-                        Span::new(self.pos, self.pos),
-                        "unexpected end of file, expected `,` or `}`",
-                        "file ends here",
-                    ))
-                }
+                None | Some(b')' | b']') => return Err(self.unclosed(start, b'}')),
                 _ => return Err(self.error_here("expected `,` or `}`", "expected `,` or `}`")),
             }
         }
@@ -604,6 +668,16 @@ impl<'a> Parser<'a> {
             span: Span::new(start, self.pos),
         })
     }
+}
+
+fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before[before.rfind('\n').map_or(0, |i| i + 1)..]
+        .chars()
+        .count()
+        + 1;
+    (line, column)
 }
 
 #[cfg(test)]

@@ -108,10 +108,15 @@ macro_rules! binary_reference {
             "Pow" => a.powf(b),
             "Atan2" => a.atan2(b),
             "Mod" => {
-                // Floored: the sign of b. From the exact remainder.
+                // Floored: the sign of b, the result strictly inside [0, b) (or (b, 0]).
                 let r = a % b;
                 if r != 0.0 && ((r < 0.0) != (b < 0.0)) {
-                    r + b
+                    if r + b == b {
+                        // The largest magnitude below |b|: b scaled by 1 - epsilon/2.
+                        b * (1.0 - 0.5 * epsilon_of(b))
+                    } else {
+                        r + b
+                    }
                 } else {
                     r
                 }
@@ -166,6 +171,24 @@ macro_rules! ternary_reference {
             _ => unreachable!(),
         }
     }};
+}
+
+/// Machine epsilon of the operand's type (f32 or f64), for the references.
+trait Epsilon {
+    fn epsilon() -> Self;
+}
+impl Epsilon for f32 {
+    fn epsilon() -> f32 {
+        f32::EPSILON
+    }
+}
+impl Epsilon for f64 {
+    fn epsilon() -> f64 {
+        f64::EPSILON
+    }
+}
+fn epsilon_of<T: Epsilon>(_: T) -> T {
+    T::epsilon()
 }
 
 const UNARY: [&str; 7] = ["Abs", "Neg", "Sin", "Cos", "Sqrt", "Floor", "Fract"];

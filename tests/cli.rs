@@ -1,0 +1,1020 @@
+//! The `texgraph` command line, run as a user runs it: the built binary, real files, real exit
+//! codes (0 success; 1 invalid graph or input; 2 usage or I/O error; never 101, a panic).
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+const BIN: &str = env!("CARGO_BIN_EXE_texgraph");
+const MARBLE: &str = "graphs/seed003_marble.ron";
+const CHECKER: &str = "graphs/seed004_checker2d.ron";
+const PERLIN: &str =
+    r#"Graph(nodes: { "n": Noise(input: Position, basis: Perlin) }, outputs: { "n": "n" })"#;
+
+/// Every node kind the catalogue must list.
+const KINDS: &[&str] = &[
+    "Position",
+    "Combine",
+    "Scale",
+    "Translate",
+    "Rotate",
+    "Noise",
+    "Fbm",
+    "Turbulence",
+    "Add",
+    "Sub",
+    "Mul",
+    "Div",
+    "Min",
+    "Max",
+    "Pow",
+    "Atan2",
+    "Mod",
+    "Abs",
+    "Neg",
+    "Sin",
+    "Cos",
+    "Sqrt",
+    "Floor",
+    "Fract",
+    "Length",
+    "Dot",
+    "Clamp",
+    "Mix",
+    "Smoothstep",
+    "Hermite",
+    "ColorRamp",
+    "Curve",
+];
+
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn command(args: &[&str]) -> Command {
+    let mut c = Command::new(BIN);
+    c.args(args).current_dir(root()).env("NO_COLOR", "1");
+    c
+}
+
+/// Runs the binary in the crate root.
+fn run(args: &[&str]) -> Output {
+    command(args)
+        .stdin(Stdio::null())
+        .output()
+        .expect("run texgraph")
+}
+
+/// Runs the binary with `input` on standard input.
+fn run_stdin(args: &[&str], input: &[u8]) -> Output {
+    let mut child = command(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn texgraph");
+    let mut stdin = child.stdin.take().expect("stdin");
+    let input = input.to_vec();
+    // Write from a thread so a large input cannot deadlock against a full stdout pipe.
+    let writer = std::thread::spawn(move || {
+        let _ = stdin.write_all(&input);
+    });
+    let output = child.wait_with_output().expect("wait texgraph");
+    writer.join().expect("stdin writer");
+    output
+}
+
+fn code(output: &Output) -> i32 {
+    output.status.code().unwrap_or(-1)
+}
+
+fn stdout(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stdout).into_owned()
+}
+
+fn stderr(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+/// Everything a failing assertion needs to explain itself.
+fn show(args: &[&str], output: &Output) -> String {
+    format!(
+        "texgraph {}\nexit: {:?}\n--- stdout ---\n{}\n--- stderr ---\n{}",
+        args.join(" "),
+        output.status.code(),
+        truncate(&stdout(output)),
+        truncate(&stderr(output))
+    )
+}
+
+fn truncate(s: &str) -> String {
+    if s.len() <= 4000 {
+        s.to_string()
+    } else {
+        let mut end = 4000;
+        while !s.is_char_boundary(end) {
+            end -= 1;
+        }
+        format!("{}... ({} bytes)", &s[..end], s.len())
+    }
+}
+
+#[track_caller]
+fn expect_code(args: &[&str], expected: i32) -> Output {
+    let output = run(args);
+    assert_eq!(code(&output), expected, "{}", show(args, &output));
+    output
+}
+
+/// A fresh scratch directory for one test.
+fn scratch(name: &str) -> PathBuf {
+    static NEXT: AtomicUsize = AtomicUsize::new(0);
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!(
+        "cli-{}-{}-{name}",
+        std::process::id(),
+        NEXT.fetch_add(1, Ordering::Relaxed)
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("create scratch dir");
+    dir
+}
+
+fn write(dir: &Path, name: &str, contents: impl AsRef<[u8]>) -> String {
+    let path = dir.join(name);
+    std::fs::write(&path, contents).expect("write scratch file");
+    path.to_str().expect("UTF-8 scratch path").to_string()
+}
+
+// ---------------------------------------------------------------------------------------------
+// help
+
+#[test]
+fn help_explains_every_command() {
+    let out = expect_code(&["--help"], 0);
+    let text = stdout(&out);
+    for word in ["check", "eval", "nodes", "Exit codes"] {
+        assert!(
+            text.contains(word),
+            "`texgraph --help` does not mention {word}:\n{text}"
+        );
+    }
+    for (args, words) in [
+        (
+            &["help", "check"][..],
+            &["--tape", "--output", "--set", "FILE"][..],
+        ),
+        (
+            &["help", "eval"][..],
+            &["--points", "--f64", "--output", "--set", "X Y Z"][..],
+        ),
+        (&["help", "nodes"][..], &["--markdown"][..]),
+        (
+            &["check", "--help"][..],
+            &["--tape", "--output", "--set"][..],
+        ),
+        (&["eval", "--help"][..], &["--points", "--f64"][..]),
+    ] {
+        let out = expect_code(args, 0);
+        let text = stdout(&out);
+        for word in words {
+            assert!(
+                text.contains(word),
+                "`texgraph {}` does not mention {word}:\n{text}",
+                args.join(" ")
+            );
+        }
+    }
+}
+
+#[test]
+fn no_command_is_a_usage_error() {
+    expect_code(&[], 2);
+    expect_code(&["frobnicate"], 2);
+    expect_code(&["check"], 2);
+}
+
+// ---------------------------------------------------------------------------------------------
+// check
+
+/// One file's summary block from `check`'s output.
+struct Summary {
+    instructions: usize,
+    pruned: usize,
+    outputs: String,
+}
+
+fn summary(text: &str, file: &str) -> Summary {
+    let start = text
+        .find(&format!("{file}: ok\n"))
+        .unwrap_or_else(|| panic!("no `{file}: ok` in:\n{text}"));
+    let block: Vec<&str> = text[start..]
+        .lines()
+        .skip(1)
+        .take_while(|l| l.starts_with("  "))
+        .collect();
+    let line = |prefix: &str| -> &str {
+        block
+            .iter()
+            .find_map(|l| l.trim_start().strip_prefix(prefix))
+            .unwrap_or_else(|| panic!("no `{prefix}` line for {file} in:\n{text}"))
+    };
+    let nodes = line("nodes: ");
+    let pruned =
+        number_before(nodes, " pruned").unwrap_or_else(|| panic!("no pruned count: {nodes}"));
+    let tape = line("tape: ");
+    let instructions = number_before(tape, " instructions")
+        .unwrap_or_else(|| panic!("no instruction count: {tape}"));
+    assert!(tape.contains("slots:"), "no slot count for {file}: {tape}");
+    Summary {
+        instructions,
+        pruned,
+        outputs: line("outputs: ").to_string(),
+    }
+}
+
+/// The number written just before `word` in `text`.
+fn number_before(text: &str, word: &str) -> Option<usize> {
+    let end = text.find(word)?;
+    let digits: String = text[..end]
+        .chars()
+        .rev()
+        .take_while(|c| c.is_ascii_digit())
+        .collect();
+    digits.chars().rev().collect::<String>().parse().ok()
+}
+
+#[test]
+fn check_summarises_each_file() {
+    let files = [
+        MARBLE,
+        CHECKER,
+        "graphs/seed000_marble_cracks.ron",
+        "graphs/seed004_wood_grain.ron",
+    ];
+    let mut args = vec!["check"];
+    args.extend(files);
+    let out = expect_code(&args, 0);
+    let text = stdout(&out);
+    for file in files {
+        let s = summary(&text, file);
+        assert!(s.instructions > 0, "{file}: empty tape\n{text}");
+        assert_eq!(
+            s.pruned, 0,
+            "{file}: all outputs compiled, nothing should be pruned\n{text}"
+        );
+    }
+    assert_eq!(summary(&text, MARBLE).outputs, "colour vec3, vein scalar");
+    assert_eq!(summary(&text, CHECKER).outputs, "colour vec3, jump scalar");
+    assert!(
+        text.contains("fractal \"fractal\": 12 octaves"),
+        "the marble's fractal octaves are reported:\n{text}"
+    );
+    assert!(stderr(&out).is_empty(), "{}", show(&args, &out));
+}
+
+#[test]
+fn check_accepts_the_whole_seed_library() {
+    let mut files: Vec<String> = std::fs::read_dir(root().join("graphs"))
+        .expect("graphs/")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+        .map(|p| {
+            format!(
+                "graphs/{}",
+                p.file_name().and_then(|n| n.to_str()).expect("name")
+            )
+        })
+        .collect();
+    files.sort();
+    assert!(files.len() >= 20, "{files:?}");
+    let mut args = vec!["check"];
+    args.extend(files.iter().map(|s| s.as_str()));
+    let out = expect_code(&args, 0);
+    let text = stdout(&out);
+    for file in &files {
+        let s = summary(&text, file);
+        assert!(s.outputs.contains("colour vec3"), "{file}: {}", s.outputs);
+    }
+}
+
+/// The `NNNN  ...` instruction lines of a disassembly.
+fn instruction_lines(text: &str) -> Vec<&str> {
+    text.lines()
+        .filter(|l| {
+            l.len() > 5 && l[..4].bytes().all(|b| b.is_ascii_digit()) && l[4..].starts_with("  ")
+        })
+        .collect()
+}
+
+#[test]
+fn check_tape_prints_a_numbered_disassembly() {
+    let args = ["check", "--tape", CHECKER];
+    let out = expect_code(&args, 0);
+    let text = stdout(&out);
+    let s = summary(&text, CHECKER);
+    let lines = instruction_lines(&text);
+    assert_eq!(
+        lines.len(),
+        s.instructions,
+        "one numbered line per instruction:\n{text}"
+    );
+    for (i, line) in lines.iter().enumerate() {
+        assert!(
+            line.starts_with(&format!("{i:04}  ")),
+            "instructions are numbered from 0000 in order: {line}\n{text}"
+        );
+    }
+    assert!(text.contains("output \"colour\""), "{text}");
+    assert!(text.contains("output \"jump\""), "{text}");
+    // Stable: the same file disassembles to the same text.
+    assert_eq!(stdout(&expect_code(&args, 0)), text);
+    // Without --tape, no disassembly.
+    assert!(instruction_lines(&stdout(&expect_code(&["check", CHECKER], 0))).is_empty());
+}
+
+#[test]
+fn check_output_selects_and_prunes() {
+    for (file, output, ty) in [
+        (CHECKER, "jump", "scalar"),
+        (MARBLE, "vein", "scalar"),
+        (MARBLE, "colour", "vec3"),
+    ] {
+        let all = summary(&stdout(&expect_code(&["check", file], 0)), file);
+        let args = ["check", "--tape", "--output", output, file];
+        let out = expect_code(&args, 0);
+        let text = stdout(&out);
+        let one = summary(&text, file);
+        assert_eq!(
+            one.outputs,
+            format!("{output} {ty}"),
+            "{}",
+            show(&args, &out)
+        );
+        assert!(
+            one.instructions <= all.instructions,
+            "{file} --output {output}: {} > {} instructions",
+            one.instructions,
+            all.instructions
+        );
+        assert_eq!(instruction_lines(&text).len(), one.instructions, "{text}");
+        assert!(
+            !text.contains("output \"colour\"") || output == "colour",
+            "{text}"
+        );
+        if output != "colour" {
+            assert!(
+                one.pruned > 0,
+                "{file} --output {output}: the colour nodes should be pruned\n{text}"
+            );
+            assert!(
+                one.instructions < all.instructions,
+                "{file} --output {output}: the colour instructions should be gone\n{text}"
+            );
+        }
+    }
+}
+
+#[test]
+fn check_reports_bad_files_and_still_summarises_good_ones() {
+    let bad = "tests/errors/cycle_two.ron";
+    let args = ["check", MARBLE, bad, CHECKER];
+    let out = expect_code(&args, 1);
+    let text = stdout(&out);
+    summary(&text, MARBLE);
+    summary(&text, CHECKER);
+    assert!(
+        !text.contains(&format!("{bad}: ok")),
+        "{}",
+        show(&args, &out)
+    );
+    let err = stderr(&out);
+    assert!(
+        err.contains(&format!("error[cycle]: {bad}:6:17")),
+        "{}",
+        show(&args, &out)
+    );
+}
+
+#[test]
+fn check_missing_file_is_an_io_error() {
+    let args = ["check", "graphs/no_such_graph.ron"];
+    let out = expect_code(&args, 2);
+    assert!(
+        stderr(&out).contains("graphs/no_such_graph.ron"),
+        "{}",
+        show(&args, &out)
+    );
+    // I/O beats invalid: a missing file among bad and good ones still exits 2, and the good one
+    // is still summarised.
+    let args = [
+        "check",
+        MARBLE,
+        "tests/errors/cycle_self.ron",
+        "graphs/no_such_graph.ron",
+    ];
+    let out = expect_code(&args, 2);
+    summary(&stdout(&out), MARBLE);
+}
+
+#[test]
+fn check_a_directory_or_non_utf8_file_is_an_io_error() {
+    let dir = scratch("io");
+    expect_code(&["check", dir.to_str().expect("path")], 2);
+    let file = write(
+        &dir,
+        "latin1.ron",
+        b"Graph(nodes: { \"caf\xe9\": Position }, outputs: { \"c\": \"caf\xe9\" })",
+    );
+    let out = expect_code(&["check", &file], 2);
+    assert!(stderr(&out).contains("UTF-8"), "{}", stderr(&out));
+}
+
+// ---------------------------------------------------------------------------------------------
+// eval
+
+/// `NAME v` or `NAME r g b` lines parsed as (name, values).
+fn parse_lines<T: std::str::FromStr + std::fmt::Display>(text: &str) -> Vec<(String, Vec<T>)> {
+    text.lines()
+        .map(|line| {
+            let mut words = line.split(' ');
+            let name = words.next().expect("a name").to_string();
+            let values: Vec<T> = words
+                .map(|w| {
+                    let v: T = w
+                        .parse()
+                        .unwrap_or_else(|_| panic!("`{w}` in `{line}` is not a number"));
+                    // Printed with `{}`, so printing the parsed value gives the same text.
+                    assert_eq!(v.to_string(), w, "`{w}` in `{line}` does not round-trip");
+                    v
+                })
+                .collect();
+            assert!(
+                values.len() == 1 || values.len() == 3,
+                "`{line}`: one value or r g b"
+            );
+            (name, values)
+        })
+        .collect()
+}
+
+#[test]
+fn eval_prints_one_line_per_output() {
+    for point in [
+        ["0.3", "0.5", "0.7"],
+        ["-4.2", "10", "6"],
+        ["0", "-0", "-0.001"],
+        ["-100.25", "-3", "-7.5"],
+    ] {
+        let mut args = vec!["eval", MARBLE];
+        args.extend(point);
+        let out = expect_code(&args, 0);
+        let lines = parse_lines::<f32>(&stdout(&out));
+        assert_eq!(lines.len(), 2, "{}", show(&args, &out));
+        assert_eq!(lines[0].0, "colour");
+        assert_eq!(lines[0].1.len(), 3);
+        assert_eq!(lines[1].0, "vein");
+        assert_eq!(lines[1].1.len(), 1);
+        let vein = lines[1].1[0];
+        assert!(
+            (0.0..=1.0).contains(&vein),
+            "|sin| is in [0, 1]: {}",
+            show(&args, &out)
+        );
+
+        args.push("--f64");
+        let out = expect_code(&args, 0);
+        let wide = parse_lines::<f64>(&stdout(&out));
+        assert_eq!(wide.len(), 2, "{}", show(&args, &out));
+        assert!(
+            (wide[1].1[0] - f64::from(vein)).abs() < 1e-3,
+            "f32 {vein} vs f64 {}",
+            wide[1].1[0]
+        );
+    }
+}
+
+#[test]
+fn eval_perlin_reference_values() {
+    let dir = scratch("perlin");
+    let file = write(&dir, "perlin.ron", PERLIN);
+    let out = expect_code(&["eval", &file, "3.14", "42", "7", "--f64"], 0);
+    assert_eq!(stdout(&out), "n 0.13691995878400012\n");
+    let out = expect_code(&["eval", &file, "-4.2", "10", "6", "--f64"], 0);
+    assert_eq!(stdout(&out), "n 0.14208000000000043\n");
+    // The f32 path is close to the reference.
+    let out = expect_code(&["eval", &file, "3.14", "42", "7"], 0);
+    let v = parse_lines::<f32>(&stdout(&out))[0].1[0];
+    assert!(
+        (f64::from(v) - 0.13691995878400012).abs() < 1e-5,
+        "f32 Perlin {v}"
+    );
+    // Options may come before the file and the point.
+    let out = expect_code(&["eval", "--f64", &file, "3.14", "42", "7"], 0);
+    assert_eq!(stdout(&out), "n 0.13691995878400012\n");
+}
+
+#[test]
+fn eval_output_selects_lines() {
+    let out = expect_code(
+        &["eval", MARBLE, "0.3", "0.5", "0.7", "--output", "vein"],
+        0,
+    );
+    let lines = parse_lines::<f32>(&stdout(&out));
+    assert_eq!(lines.len(), 1);
+    assert_eq!(lines[0].0, "vein");
+    let all = parse_lines::<f32>(&stdout(&expect_code(
+        &["eval", MARBLE, "0.3", "0.5", "0.7"],
+        0,
+    )));
+    assert_eq!(lines[0].1, all[1].1, "pruning does not change a value");
+    // Order follows the --output flags.
+    let out = expect_code(
+        &[
+            "eval", MARBLE, "0.3", "0.5", "0.7", "--output", "vein", "--output", "colour",
+        ],
+        0,
+    );
+    let names: Vec<String> = parse_lines::<f32>(&stdout(&out))
+        .into_iter()
+        .map(|l| l.0)
+        .collect();
+    assert_eq!(names, ["vein", "colour"]);
+}
+
+const POINTS: &[[&str; 3]] = &[
+    ["0.3", "0.5", "0.7"],
+    ["-4.2", "10", "6"],
+    ["0", "0", "0"],
+    ["12.5", "-0.125", "3"],
+    ["1e-7", "2", "-9"],
+];
+
+/// The single-point evaluation of each of POINTS, concatenated.
+fn single_point_lines(file: &str, extra: &[&str]) -> String {
+    let mut expected = String::new();
+    for p in POINTS {
+        let mut args = vec!["eval", file, p[0], p[1], p[2]];
+        args.extend(extra);
+        expected.push_str(&stdout(&expect_code(&args, 0)));
+    }
+    expected
+}
+
+#[test]
+fn eval_points_file_and_stdin_match_single_points() {
+    let dir = scratch("points");
+    let mut text = String::from("# x y z\n\n");
+    for (i, p) in POINTS.iter().enumerate() {
+        // Whitespace, tabs and commas all separate numbers; comment and blank lines are skipped.
+        match i % 3 {
+            0 => text.push_str(&format!("{} {} {}\n", p[0], p[1], p[2])),
+            1 => text.push_str(&format!("  {}\t{}  {}  \n   \n", p[0], p[1], p[2])),
+            _ => text.push_str(&format!("{}, {}, {}\n# between\n", p[0], p[1], p[2])),
+        }
+    }
+    let points = write(&dir, "points.txt", &text);
+    for extra in [&[][..], &["--f64"][..], &["--output", "vein"][..]] {
+        let expected = single_point_lines(MARBLE, extra);
+        let mut args = vec!["eval", MARBLE, "--points", &points];
+        args.extend(extra);
+        let from_file = expect_code(&args, 0);
+        assert_eq!(
+            stdout(&from_file),
+            expected,
+            "--points FILE vs single points ({extra:?})"
+        );
+        let mut args = vec!["eval", MARBLE, "--points", "-"];
+        args.extend(extra);
+        let from_stdin = run_stdin(&args, text.as_bytes());
+        assert_eq!(code(&from_stdin), 0, "{}", show(&args, &from_stdin));
+        assert_eq!(
+            stdout(&from_stdin),
+            expected,
+            "--points - vs single points ({extra:?})"
+        );
+    }
+}
+
+#[test]
+fn eval_points_across_batch_boundaries_match_single_points() {
+    // More points than one batch chunk (4096), so several batches and a partial last one.
+    let n = 9000;
+    let point = |i: usize| {
+        [
+            format!("{}", i as f64 * 0.0137 - 40.0),
+            format!("{}", (i % 97) as f64 * 0.31),
+            format!("{}", -(i as f64) * 0.002),
+        ]
+    };
+    let text: String = (0..n).map(|i| point(i).join(" ") + "\n").collect();
+    for extra in [&[][..], &["--f64"][..]] {
+        let mut args = vec!["eval", MARBLE, "--points", "-"];
+        args.extend(extra);
+        let out = run_stdin(&args, text.as_bytes());
+        assert_eq!(code(&out), 0, "{}", show(&args, &out));
+        let lines: Vec<String> = stdout(&out).lines().map(str::to_string).collect();
+        assert_eq!(lines.len(), 2 * n, "two outputs per point");
+        for i in [0, 1, 4095, 4096, 4097, 8191, 8192, 8999] {
+            let p = point(i);
+            let mut single = vec!["eval", MARBLE, &p[0], &p[1], &p[2]];
+            single.extend(extra);
+            let expected = stdout(&expect_code(&single, 0));
+            let got = format!("{}\n{}\n", lines[2 * i], lines[2 * i + 1]);
+            assert_eq!(
+                got, expected,
+                "point {i} ({p:?}, {extra:?}): batch and single-point results differ"
+            );
+        }
+    }
+}
+
+#[test]
+fn eval_points_malformed_line_names_its_number() {
+    let dir = scratch("malformed");
+    let text = "0 0 0\n# comment\n\n1 2\n3 3 3\n";
+    let points = write(&dir, "bad.txt", text);
+    let args = ["eval", MARBLE, "--points", &points];
+    let out = expect_code(&args, 1);
+    let err = stderr(&out);
+    assert!(
+        err.contains(&format!("{points}:4")),
+        "the message names the file and line 4: {}",
+        show(&args, &out)
+    );
+    let out = run_stdin(&["eval", MARBLE, "--points", "-"], text.as_bytes());
+    assert_eq!(code(&out), 1, "{}", show(&args, &out));
+    assert!(stderr(&out).contains(":4"), "{}", show(&args, &out));
+    for bad in ["1 2 3 4\n", "x y z\n", "1 2 three\n", "1,,2\n"] {
+        let out = run_stdin(&["eval", MARBLE, "--points", "-"], bad.as_bytes());
+        assert_eq!(code(&out), 1, "points {bad:?}: {}", show(&args, &out));
+        assert!(
+            stderr(&out).contains(":1"),
+            "points {bad:?}: {}",
+            stderr(&out)
+        );
+    }
+}
+
+#[test]
+fn eval_points_missing_file_is_an_io_error() {
+    expect_code(&["eval", MARBLE, "--points", "no/such/points.txt"], 2);
+}
+
+#[test]
+fn eval_points_empty_input_prints_nothing() {
+    let out = run_stdin(&["eval", MARBLE, "--points", "-"], b"# nothing\n\n");
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    assert!(stdout(&out).is_empty(), "{}", stdout(&out));
+}
+
+#[test]
+fn eval_points_non_finite_positions_do_not_crash() {
+    let text = "nan 0 0\ninf 1 2\n-inf -inf -inf\nNaN inf -inf\n1e308 -1e308 1e308\n0.5 0.5 0.5\n";
+    for graph in [
+        MARBLE,
+        CHECKER,
+        "graphs/seed004_wood_grain.ron",
+        "graphs/seed002_woodgrain.ron",
+        "graphs/seed000_wood.ron",
+    ] {
+        for extra in [&[][..], &["--f64"][..]] {
+            let mut args = vec!["eval", graph, "--points", "-"];
+            args.extend(extra);
+            let out = run_stdin(&args, text.as_bytes());
+            assert_eq!(code(&out), 0, "{}", show(&args, &out));
+            let lines = stdout(&out);
+            assert_eq!(lines.lines().count(), 12, "{}", show(&args, &out));
+            assert!(
+                lines.contains("NaN"),
+                "a NaN position gives NaN: {}",
+                show(&args, &out)
+            );
+        }
+    }
+}
+
+#[test]
+fn eval_set_overrides_a_param() {
+    let base = stdout(&expect_code(&["eval", MARBLE, "0.3", "0.5", "0.7"], 0));
+    let set = stdout(&expect_code(
+        &["eval", MARBLE, "0.3", "0.5", "0.7", "--set", "period=2"],
+        0,
+    ));
+    assert_ne!(base, set, "--set period=2 changes the marble");
+    // Setting a param to its own value changes nothing.
+    let same = stdout(&expect_code(
+        &["eval", MARBLE, "0.3", "0.5", "0.7", "--set", "period=1.3"],
+        0,
+    ));
+    assert_eq!(base, same);
+    // Several --set, and the check summary honours them too.
+    let out = expect_code(
+        &["check", MARBLE, "--set", "octaves=3", "--set", "scale=2"],
+        0,
+    );
+    assert!(stdout(&out).contains("3 octaves"), "{}", stdout(&out));
+}
+
+#[test]
+fn eval_usage_and_input_errors_have_their_exit_codes() {
+    let out = expect_code(&["eval", MARBLE, "1", "2", "3", "--set", "nosuch=1"], 1);
+    assert!(stderr(&out).contains("nosuch"), "{}", stderr(&out));
+    expect_code(&["eval", MARBLE, "1", "2", "3", "--set", "bad"], 2);
+    expect_code(&["eval", MARBLE, "1", "2", "3", "--set", "period=abc"], 2);
+    let out = expect_code(&["eval", MARBLE, "1", "2", "3", "--output", "nosuch"], 1);
+    assert!(stderr(&out).contains("nosuch"), "{}", stderr(&out));
+    expect_code(&["check", MARBLE, "--output", "nosuch"], 1);
+    expect_code(&["eval", MARBLE], 2);
+    expect_code(&["eval", MARBLE, "1"], 2);
+    expect_code(&["eval", MARBLE, "1", "2"], 2);
+    expect_code(&["eval", MARBLE, "1", "2", "3", "4"], 2);
+    expect_code(&["eval", MARBLE, "1", "two", "3"], 2);
+    expect_code(&["eval", MARBLE, "1", "2", "3", "--points", "-"], 2);
+    expect_code(&["eval", "graphs/no_such_graph.ron", "1", "2", "3"], 2);
+    let out = expect_code(&["eval", "tests/errors/cycle_three.ron", "1", "2", "3"], 1);
+    assert!(stderr(&out).contains("error[cycle]"), "{}", stderr(&out));
+    assert!(stdout(&out).is_empty());
+}
+
+// ---------------------------------------------------------------------------------------------
+// nodes
+
+#[test]
+fn nodes_lists_every_kind_with_defaults() {
+    let out = expect_code(&["nodes"], 0);
+    let text = stdout(&out);
+    for kind in KINDS {
+        assert!(
+            text.lines().any(|l| l.starts_with(&format!("{kind}("))),
+            "`texgraph nodes` does not list {kind}:\n{text}"
+        );
+    }
+    let headings = text
+        .lines()
+        .filter(|l| !l.starts_with(' ') && l.contains(") -> "))
+        .count();
+    assert_eq!(headings, KINDS.len(), "exactly the known kinds:\n{text}");
+    for needle in [
+        "default 2",
+        "default 0.5",
+        "default Linear",
+        "default (0, 0, 1)",
+        "required",
+        "octaves",
+        "lacunarity",
+        "first_octave",
+        "stops",
+    ] {
+        assert!(text.contains(needle), "`texgraph nodes` lacks `{needle}`");
+    }
+}
+
+#[test]
+fn nodes_markdown_is_a_table() {
+    let out = expect_code(&["nodes", "--markdown"], 0);
+    let text = stdout(&out);
+    let rows: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert!(rows[0].starts_with("| node |"), "{text}");
+    assert!(rows[1].starts_with("|---"), "{text}");
+    let columns = rows[0].matches(" | ").count();
+    for kind in KINDS {
+        let row = rows
+            .iter()
+            .find(|r| r.starts_with(&format!("| `{kind}` |")))
+            .unwrap_or_else(|| panic!("no row for {kind}:\n{text}"));
+        // Escaped pipes (\|) inside cells do not count as column separators.
+        assert_eq!(
+            row.replace("\\|", "").matches(" | ").count(),
+            columns,
+            "row of {kind} has the header's columns: {row}"
+        );
+    }
+    assert_eq!(rows.len(), KINDS.len() + 2);
+}
+
+// ---------------------------------------------------------------------------------------------
+// robustness
+
+#[test]
+fn nothing_panics_on_nasty_input() {
+    let dir = scratch("nasty");
+    let mut files = vec![
+        write(&dir, "empty.ron", ""),
+        write(&dir, "spaces.ron", "   \n\t\n"),
+        write(&dir, "comment.ron", "// only a comment"),
+        write(&dir, "parens.ron", "(".repeat(1 << 20)),
+        write(&dir, "closers.ron", ")".repeat(1 << 16)),
+        write(&dir, "brackets.ron", "[".repeat(1 << 16)),
+        write(&dir, "nodes_deep.ron", format!("Graph(nodes: {{ \"a\": {}1{} }}, outputs: {{ \"a\": \"a\" }})", "Sin(".repeat(5000), ")".repeat(5000))),
+        write(&dir, "non_utf8.ron", b"Graph(nodes: { \"\xff\xfe\": Position }, outputs: { \"o\": \"\xff\xfe\" })"),
+        write(&dir, "nul.ron", b"Graph(\0)"),
+        write(&dir, "bom.ron", "\u{feff}Graph(nodes: { \"n\": Position }, outputs: { \"n\": \"n\" })"),
+        write(&dir, "unicode.ron", "Graph(nodes: { \"ä\": Sin(\"ö\") }, outputs: { \"ü\": \"ä\" }) ✓"),
+        write(&dir, "crlf.ron", "Graph(\r\n  nodes: { \"n\": Sinn(1) },\r\n  outputs: { \"n\": \"n\" },\r\n)\r\n"),
+        write(&dir, "eof_in_string.ron", "Graph(nodes: { \"n"),
+        write(&dir, "eof_in_escape.ron", "Graph(nodes: { \"n\\"),
+        write(&dir, "eof_in_raw.ron", "Graph(nodes: { r#\"n"),
+        write(&dir, "attribute.ron", "#![enable(implicit_some"),
+        write(&dir, "minus.ron", "Graph(nodes: { \"n\": Mul(-, 1) }, outputs: { \"n\": \"n\" })"),
+        write(&dir, "huge_number.ron", format!("Graph(nodes: {{ \"n\": Mul(1{}, Length(Position)) }}, outputs: {{ \"n\": \"n\" }})", "0".repeat(400))),
+        write(&dir, "inf_literals.ron", "Graph(nodes: { \"n\": Fbm(input: Scale(input: Position, by: inf), basis: Value, octaves: inf, seed: -inf) }, outputs: { \"n\": \"n\" })"),
+        write(&dir, "huge_seed.ron", "Graph(nodes: { \"n\": Noise(input: Position, basis: Gradient, seed: 1e300) }, outputs: { \"n\": \"n\" })"),
+        write(&dir, "max_seed.ron", "Graph(nodes: { \"n\": Noise(input: Position, basis: Gradient, seed: 9007199254740991) }, outputs: { \"n\": \"n\" })"),
+        write(&dir, "max_octaves.ron", "Graph(nodes: { \"n\": Turbulence(input: Position, basis: Value, octaves: 32, first_octave: 32, lacunarity: 1000000) }, outputs: { \"n\": \"n\" })"),
+        write(&dir, "ramp_one_stop.ron", "Graph(nodes: { \"c\": ColorRamp(input: Length(Position), stops: [(0.5, (1, 0, 0))]) }, outputs: { \"c\": \"c\" })"),
+        write(&dir, "ramp_equal_stops.ron", "Graph(nodes: { \"c\": ColorRamp(input: Length(Position), stops: [(0.5, (1, 0, 0)), (0.5, (0, 1, 0))], interpolation: Smooth) }, outputs: { \"c\": \"c\" })"),
+        write(&dir, "curve_equal_points.ron", "Graph(nodes: { \"c\": Curve(input: Length(Position), points: [(0.5, 0), (0.5, 1), (0.5, 2)], interpolation: Constant) }, outputs: { \"c\": \"c\" })"),
+        write(&dir, "tiny_axis.ron", "Graph(nodes: { \"r\": Rotate(input: Position, axis: (1e-320, 0, 0), degrees: 1e308) }, outputs: { \"r\": \"r\" })"),
+        write(&dir, "mod_zero.ron", "Graph(nodes: { \"m\": Mod(Floor(Position), 0), \"d\": Div(Position, 0), \"p\": Pow(-8, 0.5) }, outputs: { \"m\": \"m\", \"d\": \"d\", \"p\": \"p\" })"),
+        write(&dir, "empty_graph.ron", "Graph()"),
+        write(&dir, "nodes_not_map.ron", "Graph(nodes: [1, 2], outputs: 3, params: \"x\")"),
+        write(&dir, "keys_not_strings.ron", "Graph(nodes: { 1: Position, Sin: 2 }, outputs: { (1, 2): \"n\" })"),
+        write(&dir, "nested_positions.ron", "Graph(nodes: { \"n\": Position(Position(Position)) }, outputs: { \"n\": \"n\" })"),
+        write(&dir, "basis_forms.ron", "Graph(nodes: { \"a\": Noise(input: Position, basis: Value(Cubic)), \"b\": Noise(input: Position, basis: Value(interpolation: 3)), \"c\": Noise(input: Position, basis: \"Perlin\"), \"d\": Noise(input: Position, basis: Perlin(1, 2)) }, outputs: { \"a\": \"a\" })"),
+        write(&dir, "cycle_via_output.ron", "Graph(nodes: { \"a\": \"b\", \"b\": \"a.x\" }, outputs: { \"o\": \"a\" })"),
+        write(&dir, "self_component.ron", "Graph(nodes: { \"a\": Combine(\"a.x\", \"a.y\", 1) }, outputs: { \"o\": \"a.z\" })"),
+        write(&dir, "empty_id.ron", "Graph(nodes: { \"\": Position, \".\": Position }, outputs: { \"\": \"\", \"o\": \".x\" })"),
+    ];
+    std::fs::create_dir_all(dir.join("dir.ron")).expect("mkdir");
+    files.push(dir.join("dir.ron").to_str().expect("path").to_string());
+    files.push(dir.join("missing.ron").to_str().expect("path").to_string());
+    let mut garbage = Vec::with_capacity(1 << 16);
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    for _ in 0..(1 << 16) {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        garbage.push((state >> 32) as u8);
+    }
+    files.push(write(&dir, "garbage.ron", &garbage));
+    const ALPHABET: &[u8] = b"(){}[]:,\"' abcXYZ019.-+_/*#\n";
+    let ascii: Vec<u8> = garbage
+        .iter()
+        .map(|b| ALPHABET[*b as usize % ALPHABET.len()])
+        .collect();
+    files.push(write(&dir, "ascii_garbage.ron", &ascii));
+    let points = write(
+        &dir,
+        "points.txt",
+        "nan nan nan\n1e308 1e308 1e308\n-1e308 0 5\n\u{0}\n",
+    );
+    let perlin = write(&dir, "perlin.ron", PERLIN);
+    files.push(perlin.clone());
+    files.push(MARBLE.to_string());
+
+    let mut failures = String::new();
+    let mut check = |args: Vec<&str>, stdin: Option<&[u8]>| {
+        let out = match stdin {
+            Some(input) => run_stdin(&args, input),
+            None => run(&args),
+        };
+        let c = code(&out);
+        if !(0..=2).contains(&c) || stderr(&out).contains("panicked") {
+            failures.push_str(&show(&args, &out));
+            failures.push('\n');
+        }
+    };
+    for file in &files {
+        check(vec!["check", file], None);
+        check(vec!["check", "--tape", file], None);
+        check(vec!["eval", file, "1", "2", "3"], None);
+        check(
+            vec!["eval", file, "1e308", "-1e308", "1e308", "--f64"],
+            None,
+        );
+        check(vec!["eval", file, "--", "-inf", "inf", "nan"], None);
+        check(vec!["eval", file, "--points", &points, "--f64"], None);
+        check(vec!["eval", file, "--points", "-"], Some(&garbage));
+    }
+    // Huge, tiny and non-finite coordinates through every graph of the library, both precisions.
+    let mut graphs: Vec<String> = std::fs::read_dir(root().join("graphs"))
+        .expect("graphs/")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+        .map(|p| p.to_str().expect("path").to_string())
+        .collect();
+    graphs.sort();
+    let nasty = "1e308 -1e308 1e308\n-inf inf nan\n3.4e38 -3.4e38 1e39\n1e-320 -1e-320 0\n-0 -0 -0\n9007199254740993 -9007199254740993 4294967296.5\n";
+    for graph in &graphs {
+        check(vec!["eval", graph, "--points", "-"], Some(nasty.as_bytes()));
+        check(
+            vec!["eval", graph, "--points", "-", "--f64"],
+            Some(nasty.as_bytes()),
+        );
+        check(vec!["eval", graph, "-1e308", "1e308", "-1e308"], None);
+    }
+    assert!(
+        failures.is_empty(),
+        "exit codes outside 0..=2 or panics:\n{failures}"
+    );
+}
+
+#[test]
+fn huge_and_non_finite_coordinates_evaluate() {
+    let dir = scratch("huge");
+    let perlin = write(&dir, "perlin.ron", PERLIN);
+    for args in [
+        vec!["eval", perlin.as_str(), "1e308", "1e308", "1e308"],
+        vec!["eval", perlin.as_str(), "1e308", "1e308", "1e308", "--f64"],
+        vec!["eval", perlin.as_str(), "-1e308", "-5", "1e300", "--f64"],
+        vec!["eval", perlin.as_str(), "--", "-inf", "inf", "nan"],
+        vec!["eval", MARBLE, "--", "-inf", "1", "2"],
+    ] {
+        let out = expect_code(&args, 0);
+        let lines = parse_lines::<f64>(&stdout(&out));
+        assert!(!lines.is_empty(), "{}", show(&args, &out));
+    }
+}
+
+/// `-.5`, `-1e-3`, `-inf` are numbers like `-4.2` (Rust parses them, and `--points` accepts
+/// them), but as coordinates the argument parser takes them for options: `texgraph eval g.ron
+/// 0 0 -1e-3` is a usage error (exit 2, "unexpected argument '-1' found") unless written after
+/// `--`. clap's `allow_negative_numbers` only recognises `-DIGITS[.DIGITS][eDIGITS]`.
+#[test]
+fn eval_accepts_every_negative_float_as_a_coordinate() {
+    let dir = scratch("neg-floats");
+    let perlin = write(&dir, "perlin.ron", PERLIN);
+    let mut failures = Vec::new();
+    for coordinate in ["-.5", "-1e-3", "-1E-3", "-1.5e+3", "-inf", "-NaN"] {
+        let out = run(&["eval", &perlin, "0.25", "0.5", coordinate]);
+        if code(&out) != 0 {
+            failures.push(format!(
+                "{coordinate}: exit {:?}: {}",
+                out.status.code(),
+                stderr(&out).lines().next().unwrap_or("")
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+/// A diagnostic shows the offending line; for a 1 MB one-line file that is 1 MB of stderr.
+#[test]
+fn diagnostics_on_huge_lines_stay_short() {
+    let dir = scratch("long-line");
+    let file = write(&dir, "parens.ron", "(".repeat(1 << 20));
+    let out = expect_code(&["check", &file], 1);
+    assert!(
+        out.stderr.len() < 16 << 10,
+        "{} bytes of stderr",
+        out.stderr.len()
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// the error goldens through the binary
+
+#[test]
+fn check_every_error_case_through_the_binary() {
+    let mut cases: Vec<String> = std::fs::read_dir(root().join("tests/errors"))
+        .expect("tests/errors")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+        .map(|p| {
+            format!(
+                "tests/errors/{}",
+                p.file_name().and_then(|n| n.to_str()).expect("name")
+            )
+        })
+        .collect();
+    cases.sort();
+    assert!(cases.len() >= 30);
+    let mut args = vec!["check"];
+    args.extend(cases.iter().map(|s| s.as_str()));
+    let out = expect_code(&args, 1);
+    assert!(
+        stdout(&out).is_empty(),
+        "no error case checks fine:\n{}",
+        stdout(&out)
+    );
+    let err = stderr(&out);
+    assert!(
+        !err.contains('\u{1b}'),
+        "no colour when stderr is not a terminal"
+    );
+    for case in &cases {
+        let located = err
+            .lines()
+            .any(|l| l.starts_with("error[") && l.contains(&format!("]: {case}:")));
+        assert!(
+            located,
+            "no `error[...]: {case}:LINE:COL` headline in:\n{}",
+            truncate(&err)
+        );
+        // What the binary prints is what the golden holds.
+        let golden = std::fs::read_to_string(root().join(case).with_extension("txt"))
+            .unwrap_or_default()
+            .replace("\r\n", "\n");
+        if !golden.is_empty() {
+            assert!(
+                err.contains(&golden),
+                "{case}: the binary's diagnostic differs from its golden"
+            );
+        }
+    }
+    // Each file on its own exits 1 too.
+    for case in &cases {
+        expect_code(&["check", case], 1);
+    }
+}
