@@ -235,7 +235,7 @@ fn generated_graph(n: usize) -> String {
             0 => format!(
                 "\"n{i}\": Add(\"n{}\", Mul(0.5, \"n{}.x\")),\n",
                 i - 1,
-                i - i % 5
+                i - 5
             ),
             1 => format!(
                 "\"n{i}\": Fbm(input: \"n{}\", basis: Perlin, octaves: 4.0),\n",

@@ -16,6 +16,7 @@
 //! assert_eq!(out[0], 0.13691995878400012); // Ken Perlin's reference implementation
 //! ```
 
+pub mod bake;
 pub mod check;
 pub mod compile;
 pub mod diagnostic;

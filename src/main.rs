@@ -5,6 +5,8 @@ use clap::{Args, Parser, Subcommand};
 use std::io::{BufWriter, IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use texgraph::{CheckOptions, CompileOptions, LoadError, Real, Tape, Workspace};
 
 #[derive(Parser)]
@@ -33,6 +35,100 @@ enum Command {
     Eval(EvalArgs),
     /// List every node kind: its arguments with types and defaults, its output, its meaning.
     Nodes(NodesArgs),
+    /// Bake graphs to voxel volumes: EXR files, PNG slices (or an atlas), raw volumes.
+    ///
+    /// Voxel (i, j, k) samples the centre of its cell: region_min + (index + 0.5) ·
+    /// (region_max − region_min) / size. Each output of each graph goes to its own file(s) in
+    /// --out, named GRAPH.OUTPUT.*; files appear only when complete, and existing ones are kept
+    /// unless --force. Prints min, max, mean and non-finite counts per output. Exit code 1 if a
+    /// graph is invalid, 2 if a bake was refused or failed to write; the other graphs still bake.
+    Bake(BakeArgs),
+}
+
+#[derive(Args)]
+struct BakeArgs {
+    /// Graph files to bake.
+    #[arg(required = true, value_name = "FILE")]
+    files: Vec<PathBuf>,
+    /// Voxels per axis: N (a cube) or NX,NY,NZ.
+    #[arg(long, value_name = "N|NX,NY,NZ", default_value = "64", value_parser = parse_size)]
+    size: [usize; 3],
+    /// The box baked, X0,Y0,Z0:X1,Y1,Z1 (default: the unit cube 0,0,0:1,1,1).
+    #[arg(long, value_name = "X0,Y0,Z0:X1,Y1,Z1", value_parser = parse_region, allow_hyphen_values = true)]
+    region: Option<texgraph::bake::Region>,
+    /// File format.
+    #[arg(long, value_enum, default_value_t)]
+    format: texgraph::bake::Format,
+    /// Folder the files go to (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "baked")]
+    out: PathBuf,
+    /// Worker threads (default: one per core).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    threads: usize,
+    /// Overwrite existing outputs.
+    #[arg(long)]
+    force: bool,
+    /// EXR: 16-bit half floats instead of 32-bit.
+    #[arg(long)]
+    half: bool,
+    /// PNG: bits per sample.
+    #[arg(long, value_name = "BITS", default_value_t = 8, value_parser = parse_depth)]
+    depth: u8,
+    /// PNG: one tiled atlas image per output instead of a folder of slices.
+    #[arg(long)]
+    atlas: bool,
+    /// Raw: sample type.
+    #[arg(long = "raw-type", value_enum, default_value_t)]
+    raw_type: texgraph::bake::RawSampleType,
+    /// Raw: add an opaque alpha channel (RGBA).
+    #[arg(long)]
+    alpha: bool,
+    /// How colours are encoded in 8/16-bit files (scalars are always linear).
+    #[arg(long, value_enum, default_value_t)]
+    transfer: texgraph::bake::Transfer,
+    /// Evaluate with the f64 reference path (values still stored as f32 or less).
+    #[arg(long = "f64")]
+    double: bool,
+    /// No progress bar.
+    #[arg(long, short)]
+    quiet: bool,
+    /// Bake even if the files would exceed the 16 GiB size limit.
+    #[arg(long = "allow-large")]
+    allow_large: bool,
+    #[command(flatten)]
+    graph: GraphOptions,
+}
+
+fn parse_depth(text: &str) -> Result<u8, String> {
+    match text.trim() {
+        "8" => Ok(8),
+        "16" => Ok(16),
+        _ => Err(format!("PNG depth is 8 or 16, found `{text}`")),
+    }
+}
+
+fn parse_size(text: &str) -> Result<[usize; 3], String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let numbers: Result<Vec<usize>, _> = parts.iter().map(|p| p.parse::<usize>()).collect();
+    match numbers.as_deref() {
+        Ok([n]) if *n > 0 => Ok([*n; 3]),
+        Ok([x, y, z]) if *x > 0 && *y > 0 && *z > 0 => Ok([*x, *y, *z]),
+        _ => Err(format!("expected N or NX,NY,NZ with positive integers, found `{text}`")),
+    }
+}
+
+fn parse_region(text: &str) -> Result<texgraph::bake::Region, String> {
+    let text = text.replace(MINUS, "-");
+    let corner = |part: &str| -> Option<[f64; 3]> {
+        let v: Vec<f64> = part.split(',').map(|p| p.trim().parse::<f64>().ok()).collect::<Option<_>>()?;
+        (v.len() == 3 && v.iter().all(|c| c.is_finite())).then(|| [v[0], v[1], v[2]])
+    };
+    let (lo, hi) = text.split_once(':').ok_or_else(|| format!("expected X0,Y0,Z0:X1,Y1,Z1, found `{text}`"))?;
+    match (corner(lo), corner(hi)) {
+        (Some(min), Some(max)) if (0..3).all(|a| min[a] <= max[a]) => Ok(texgraph::bake::Region { min, max }),
+        (Some(_), Some(_)) => Err(format!("each minimum must be at most its maximum in `{text}`")),
+        _ => Err(format!("expected X0,Y0,Z0:X1,Y1,Z1 with finite numbers, found `{text}`")),
+    }
 }
 
 #[derive(Args)]
@@ -105,7 +201,7 @@ fn protect_negative_numbers(
         let previous_takes_value = out
             .last()
             .and_then(|p| p.to_str())
-            .is_some_and(|p| matches!(p, "--output" | "--set" | "--points"));
+            .is_some_and(|p| matches!(p, "--output" | "--set" | "--points" | "--out"));
         match arg.to_str() {
             Some(t)
                 if !previous_takes_value
@@ -136,6 +232,7 @@ fn parse_set(text: &str) -> Result<(String, f64), String> {
 enum Failure {
     Invalid,
     Usage,
+    Interrupted,
 }
 
 fn main() -> ExitCode {
@@ -143,6 +240,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Check(args) => check(args),
         Command::Eval(args) => eval(args),
+        Command::Bake(args) => bake(args),
         Command::Nodes(args) => {
             let text = if args.markdown {
                 texgraph::nodes::catalogue_markdown()
@@ -156,6 +254,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(Failure::Invalid) => ExitCode::from(1),
         Err(Failure::Usage) => ExitCode::from(2),
+        Err(Failure::Interrupted) => ExitCode::from(130),
     }
 }
 
@@ -320,4 +419,152 @@ fn write_lines<S: Real>(
         }
     }
     Ok(())
+}
+
+fn bake(args: BakeArgs) -> Result<(), Failure> {
+    use texgraph::bake::{bake_files, BakeError, BakeFileOptions, BakeOptions, Grid, Precision};
+    let cancel = Arc::new(AtomicBool::new(false));
+    {
+        // Ctrl-C stops between windows; temporary files are removed and nothing is renamed
+        // into place. A second Ctrl-C is left to the default (the flag is already set).
+        let cancel = cancel.clone();
+        let _ = ctrlc::set_handler(move || cancel.store(true, Ordering::Relaxed));
+    }
+    let (check_options, compile_options) = options(&args.graph);
+    let grid = Grid { size: args.size, region: args.region.unwrap_or_default() };
+    let show_progress = !args.quiet && std::io::stderr().is_terminal();
+    let mut worst: Option<Failure> = None;
+    let fail = |worst: &mut Option<Failure>, f: Failure| {
+        *worst = match (worst.take(), f) {
+            (Some(Failure::Usage), _) | (_, Failure::Usage) => Some(Failure::Usage),
+            _ => Some(Failure::Invalid),
+        };
+    };
+    let (mut total_voxels, mut total_seconds, mut baked) = (0u64, 0f64, 0usize);
+    for file in &args.files {
+        let (graph, tape) = match texgraph::load_tape(file, &check_options, &compile_options) {
+            Ok(loaded) => loaded,
+            Err(error) => {
+                let failure = report(error);
+                fail(&mut worst, failure);
+                continue;
+            }
+        };
+        let stem = file.file_stem().and_then(|s| s.to_str()).unwrap_or("graph").to_string();
+        let mut options = BakeFileOptions::new(stem, &args.out);
+        options.bake = BakeOptions { grid, threads: args.threads, precision: if args.double { Precision::F64 } else { Precision::F32 }, cancel: Some(cancel.clone()) };
+        options.format = args.format;
+        options.force = args.force;
+        options.half = args.half;
+        options.depth16 = args.depth == 16;
+        options.atlas = args.atlas;
+        options.raw_type = args.raw_type;
+        options.alpha = args.alpha;
+        options.transfer = args.transfer;
+        options.graph_path = file.display().to_string();
+        options.params = graph.params.clone();
+        if args.allow_large {
+            options.max_bytes = u64::MAX;
+        }
+        let voxels = grid.voxels().unwrap_or(u64::MAX);
+        let bar = if show_progress {
+            let bar = indicatif::ProgressBar::new(voxels);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {percent:>3}% {human_pos}/{human_len} voxels, {eta} left")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+                    .progress_chars("=> "),
+            );
+            bar.set_message(file.display().to_string());
+            Some(bar)
+        } else {
+            None
+        };
+        let result = bake_files(&tape, &options, &mut |done| {
+            if let Some(bar) = &bar {
+                bar.set_position(done);
+            }
+        });
+        if let Some(bar) = &bar {
+            bar.finish_and_clear();
+        }
+        match result {
+            Ok(report) => {
+                baked += 1;
+                total_voxels += report.voxels;
+                total_seconds += report.seconds;
+                let text = bake_report(file, &grid, &report, args.threads);
+                write_stdout(|out| out.write_all(text.as_bytes()))?;
+                for stats in &report.stats {
+                    if stats.non_finite() > 0 {
+                        eprintln!("warning: {}: output \"{}\" has {} non-finite voxel values (see the counts above)", file.display(), stats.name, stats.non_finite());
+                    }
+                }
+            }
+            Err(BakeError::Cancelled) => {
+                eprintln!("error: {}: interrupted; no output was written", file.display());
+                return Err(Failure::Interrupted);
+            }
+            Err(error) => {
+                eprintln!("error: {}: {error}", file.display());
+                fail(&mut worst, Failure::Usage);
+            }
+        }
+    }
+    if args.files.len() > 1 {
+        let failed = args.files.len() - baked;
+        let rate = if total_seconds > 0.0 { total_voxels as f64 / total_seconds / 1e6 } else { 0.0 };
+        let line = format!("baked {baked} of {} graphs: {total_voxels} voxels in {total_seconds:.3} s, {rate:.2} Mvoxels/s{}\n", args.files.len(), if failed > 0 { format!("; {failed} failed") } else { String::new() });
+        write_stdout(|out| out.write_all(line.as_bytes()))?;
+    }
+    worst.map_or(Ok(()), Err)
+}
+
+/// The per-graph report: files, statistics per output, and the speed line.
+fn bake_report(file: &Path, grid: &texgraph::bake::Grid, report: &texgraph::bake::BakeReport, threads: usize) -> String {
+    let [nx, ny, nz] = grid.size;
+    let (lo, hi) = (grid.region.min, grid.region.max);
+    let mut text = format!("{}: {nx}×{ny}×{nz} voxels over [{}, {}, {}]..[{}, {}, {}]\n", file.display(), lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
+    for baked in &report.files {
+        text.push_str(&format!("  {} -> {} ({})\n", baked.output, baked.path.display(), baked.description));
+    }
+    let list = |values: Vec<f64>| -> String {
+        // f32 precision is plenty for a report; scientific notation keeps tiny values short.
+        let short = |v: f64| {
+            let v = v as f32;
+            if v != 0.0 && v.is_finite() && !(1e-4..1e7).contains(&v.abs()) {
+                format!("{v:e}")
+            } else {
+                v.to_string()
+            }
+        };
+        let parts: Vec<String> = values.iter().map(|v| short(*v)).collect();
+        if parts.len() == 1 {
+            parts[0].clone()
+        } else {
+            format!("({})", parts.join(", "))
+        }
+    };
+    for stats in &report.stats {
+        let c = &stats.channels;
+        let non_finite = stats.non_finite();
+        let detail = if non_finite > 0 {
+            let nan: u64 = c.iter().map(|s| s.nan).sum();
+            let pos: u64 = c.iter().map(|s| s.pos_inf).sum();
+            let neg: u64 = c.iter().map(|s| s.neg_inf).sum();
+            format!("{non_finite} (NaN {nan}, +inf {pos}, -inf {neg})")
+        } else {
+            "0".to_string()
+        };
+        text.push_str(&format!(
+            "  {}: min {} max {} mean {}; non-finite {detail}\n",
+            stats.name,
+            list(c.iter().map(|s| s.min).collect()),
+            list(c.iter().map(|s| s.max).collect()),
+            list(c.iter().map(|s| s.mean).collect()),
+        ));
+    }
+    let rate = if report.seconds > 0.0 { report.voxels as f64 / report.seconds / 1e6 } else { 0.0 };
+    let threads = if threads == 0 { rayon::current_num_threads() } else { threads };
+    text.push_str(&format!("  {} voxels in {:.3} s: {rate:.2} Mvoxels/s on {threads} thread(s)\n", report.voxels, report.seconds));
+    text
 }

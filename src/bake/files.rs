@@ -1,0 +1,436 @@
+//! Baking one graph to files: names, size limits, overwrite refusal, temporary files renamed into
+//! place only when complete.
+//!
+//! Output names: `DIR/STEM.OUTPUT.exr`, `DIR/STEM.OUTPUT/zNNNN.png` (slices) or
+//! `DIR/STEM.OUTPUT.png` (atlas), `DIR/STEM.OUTPUT.raw` with `DIR/STEM.OUTPUT.json`. While a bake
+//! runs, each goes to a hidden `.STEM.OUTPUT.*.partial` next to its final place; an interrupted
+//! or failed bake removes it (or, if the process is killed, leaves only that hidden name behind,
+//! which never looks finished).
+
+use super::sinks::{Exr, PngAtlas, PngSlices, Raw, RawSamples};
+use super::{bake_into, BakeError, BakeOptions, Grid, OutputStats, Sink, Window};
+use crate::graph::Type;
+use crate::tape::Tape;
+use std::path::{Path, PathBuf};
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    /// One OpenEXR file per output: 32-bit float (or half), slices stacked vertically.
+    Exr,
+    /// PNG slices in a folder per output (or one atlas image with --atlas).
+    #[default]
+    Png,
+    /// Packed voxels (x fastest, then y, then z) with a JSON sidecar.
+    Raw,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Transfer {
+    /// Colour outputs are linear and get the sRGB transfer function in 8/16-bit files.
+    #[default]
+    Srgb,
+    /// Colour values are written as they are (clamped and scaled).
+    Linear,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum RawSampleType {
+    /// One byte per channel, 0..=255 (colours through --transfer).
+    #[default]
+    U8,
+    /// Little-endian 32-bit floats, values as evaluated.
+    F32,
+}
+
+/// Everything a file bake needs besides the tape.
+#[derive(Clone, Debug)]
+pub struct BakeFileOptions {
+    pub bake: BakeOptions,
+    pub format: Format,
+    pub out_dir: PathBuf,
+    /// The name files are derived from (a graph file's stem).
+    pub stem: String,
+    /// Overwrite existing outputs.
+    pub force: bool,
+    /// EXR: 16-bit half floats instead of 32-bit.
+    pub half: bool,
+    /// PNG: 16-bit samples instead of 8-bit.
+    pub depth16: bool,
+    /// PNG: one tiled atlas image instead of a folder of slices.
+    pub atlas: bool,
+    pub raw_type: RawSampleType,
+    /// Raw: add an opaque alpha channel (RGBA / grey+alpha).
+    pub alpha: bool,
+    pub transfer: Transfer,
+    /// Refuse a bake whose files would exceed this many bytes (uncompressed estimate).
+    pub max_bytes: u64,
+    /// Recorded in the raw sidecar.
+    pub graph_path: String,
+    pub params: Vec<(String, f64)>,
+}
+
+/// Default for [`BakeFileOptions::max_bytes`]: 16 GiB.
+pub const DEFAULT_MAX_BAKE_BYTES: u64 = 16 << 30;
+
+impl BakeFileOptions {
+    pub fn new(stem: impl Into<String>, out_dir: impl Into<PathBuf>) -> BakeFileOptions {
+        BakeFileOptions {
+            bake: BakeOptions::default(),
+            format: Format::Png,
+            out_dir: out_dir.into(),
+            stem: stem.into(),
+            force: false,
+            half: false,
+            depth16: false,
+            atlas: false,
+            raw_type: RawSampleType::U8,
+            alpha: false,
+            transfer: Transfer::Srgb,
+            max_bytes: DEFAULT_MAX_BAKE_BYTES,
+            graph_path: String::new(),
+            params: Vec::new(),
+        }
+    }
+
+    /// Bytes per voxel of one output in the chosen format (uncompressed).
+    fn bytes_per_voxel(&self, ty: Type) -> u64 {
+        let channels = ty.channels() as u64;
+        match self.format {
+            Format::Exr => channels * if self.half { 2 } else { 4 },
+            Format::Png => channels * if self.depth16 { 2 } else { 1 },
+            Format::Raw => (channels + u64::from(self.alpha)) * if self.raw_type == RawSampleType::F32 { 4 } else { 1 },
+        }
+    }
+}
+
+/// A file (or folder of slices) a bake wrote.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BakedFile {
+    pub output: String,
+    pub path: PathBuf,
+    /// What it is, for the report: "EXR 64×64×64 RGB f32", "64 PNG slices", ...
+    pub description: String,
+}
+
+/// What one file bake did.
+#[derive(Clone, Debug)]
+pub struct BakeReport {
+    pub files: Vec<BakedFile>,
+    pub stats: Vec<OutputStats>,
+    pub voxels: u64,
+    pub seconds: f64,
+}
+
+/// The final path of each output's file (or slice folder), in output order.
+pub fn planned_outputs(tape: &Tape, options: &BakeFileOptions) -> Vec<PathBuf> {
+    tape.outputs
+        .iter()
+        .map(|o| {
+            let base = format!("{}.{}", options.stem, o.name);
+            let name = match options.format {
+                Format::Exr => format!("{base}.exr"),
+                Format::Png if options.atlas => format!("{base}.png"),
+                Format::Png => base,
+                Format::Raw => format!("{base}.raw"),
+            };
+            options.out_dir.join(name)
+        })
+        .collect()
+}
+
+fn sidecar_path(raw: &Path) -> PathBuf {
+    raw.with_extension("json")
+}
+
+fn io(path: &Path) -> impl Fn(std::io::Error) -> BakeError + '_ {
+    move |source| BakeError::Io { path: path.display().to_string(), source }
+}
+
+/// One output's writer while the bake runs, with its temporary file or folder.
+enum Pending {
+    Exr { sink: Exr, temp: tempfile::NamedTempFile },
+    Slices { sink: PngSlices, temp: tempfile::TempDir },
+    Atlas { sink: PngAtlas, temp: tempfile::NamedTempFile },
+    Raw { sink: Raw, temp: tempfile::NamedTempFile },
+}
+
+impl Pending {
+    fn sink(&mut self) -> &mut dyn Sink {
+        match self {
+            Pending::Exr { sink, .. } => sink,
+            Pending::Slices { sink, .. } => sink,
+            Pending::Atlas { sink, .. } => sink,
+            Pending::Raw { sink, .. } => sink,
+        }
+    }
+}
+
+struct Fanout<'a>(&'a mut [Pending]);
+
+impl Sink for Fanout<'_> {
+    fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
+        for pending in self.0.iter_mut() {
+            pending.sink().window(window)?;
+        }
+        Ok(())
+    }
+}
+
+/// Makes a hidden temporary next to `final_path` with `make` (a file or a folder). They get the
+/// usual 0644 (0755 for folders), less the umask, instead of tempfile's private 0600: they become
+/// the user's files.
+fn make_temp<T>(final_path: &Path, folder: bool, make: impl FnOnce(&tempfile::Builder<'_, '_>) -> std::io::Result<T>) -> std::io::Result<T> {
+    let name = final_path.file_name().and_then(|n| n.to_str()).unwrap_or("bake");
+    let prefix = format!(".{name}.");
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix).suffix(".partial");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        builder.permissions(std::fs::Permissions::from_mode(if folder { 0o755 } else { 0o644 }));
+    }
+    #[cfg(not(unix))]
+    let _ = folder;
+    make(&builder)
+}
+
+fn temp_file(dir: &Path, final_path: &Path) -> Result<tempfile::NamedTempFile, BakeError> {
+    make_temp(final_path, false, |b| b.tempfile_in(dir)).map_err(io(dir))
+}
+
+/// Bakes every output of `tape` to files. Checks everything that can be checked first (sizes,
+/// limits, existing files), then bakes into temporary files and renames them into place only
+/// when all of them are complete. On any error (or cancellation) no final file is created or
+/// replaced.
+pub fn bake_files(tape: &Tape, options: &BakeFileOptions, progress: &mut dyn FnMut(u64)) -> Result<BakeReport, BakeError> {
+    let grid = options.bake.grid;
+    validate_grid(&grid)?;
+    let voxels = grid.voxels().ok_or_else(|| BakeError::Refused("the grid has too many voxels to count".into()))?;
+    let estimate: u64 = tape.outputs.iter().map(|o| voxels.saturating_mul(options.bytes_per_voxel(o.ty))).fold(0u64, |a, b| a.saturating_add(b));
+    if estimate > options.max_bytes {
+        return Err(BakeError::Refused(format!(
+            "the bake would write about {} ({} voxels × {} output(s)), more than the limit of {}; pass --allow-large to bake it anyway",
+            human_bytes(estimate),
+            voxels,
+            tape.outputs.len(),
+            human_bytes(options.max_bytes)
+        )));
+    }
+    let finals = planned_outputs(tape, options);
+    if !options.force {
+        for path in &finals {
+            let exists = path.exists() || (options.format == Format::Raw && sidecar_path(path).exists());
+            if exists {
+                return Err(BakeError::Refused(format!("{} exists; pass --force to overwrite it", path.display())));
+            }
+        }
+    }
+    std::fs::create_dir_all(&options.out_dir).map_err(io(&options.out_dir))?;
+
+    let srgb = options.transfer == Transfer::Srgb;
+    let digits = grid.size[2].saturating_sub(1).to_string().len().max(4);
+    let mut pending = Vec::with_capacity(finals.len());
+    for (index, (output, final_path)) in tape.outputs.iter().zip(&finals).enumerate() {
+        pending.push(match options.format {
+            Format::Exr => Pending::Exr {
+                sink: Exr { output: index, ty: output.ty, data: Vec::new(), scratch: Vec::new() },
+                temp: temp_file(&options.out_dir, final_path)?,
+            },
+            Format::Png if options.atlas => {
+                let temp = temp_file(&options.out_dir, final_path)?;
+                let file = temp.reopen().map_err(io(temp.path()))?;
+                let sink = PngAtlas::create(temp.path(), file, &grid, index, output.ty, options.depth16, srgb)?;
+                Pending::Atlas { sink, temp }
+            }
+            Format::Png => {
+                let temp = make_temp(final_path, true, |b| b.tempdir_in(&options.out_dir)).map_err(io(&options.out_dir))?;
+                let sink = PngSlices { folder: temp.path().to_path_buf(), output: index, ty: output.ty, depth16: options.depth16, srgb, digits };
+                Pending::Slices { sink, temp }
+            }
+            Format::Raw => {
+                let temp = temp_file(&options.out_dir, final_path)?;
+                let file = temp.reopen().map_err(io(temp.path()))?;
+                let samples = match options.raw_type {
+                    RawSampleType::U8 => RawSamples::U8 { srgb, alpha: options.alpha },
+                    RawSampleType::F32 => RawSamples::F32 { alpha: options.alpha },
+                };
+                let sink = Raw { path: temp.path().to_path_buf(), writer: std::io::BufWriter::new(file), output: index, ty: output.ty, samples, scratch: Vec::new(), bytes: Vec::new() };
+                Pending::Raw { sink, temp }
+            }
+        });
+    }
+
+    let started = std::time::Instant::now();
+    let stats = bake_into(tape, &options.bake, &mut Fanout(&mut pending), progress)?;
+    let seconds = started.elapsed().as_secs_f64();
+
+    // Finish every temporary first; only then rename them all into place.
+    let mut ready: Vec<(Ready, BakedFile)> = Vec::with_capacity(pending.len());
+    for ((entry, final_path), output) in pending.into_iter().zip(&finals).zip(&tape.outputs) {
+        let [nx, ny, nz] = grid.size;
+        let described = |what: String| BakedFile { output: output.name.clone(), path: final_path.clone(), description: what };
+        let kind = if output.ty == Type::Vec3 { "RGB" } else { "grey" };
+        ready.push(match entry {
+            Pending::Exr { sink, temp } => {
+                let file = temp.reopen().map_err(io(temp.path()))?;
+                let attributes = exr_attributes(&grid, options, &output.name);
+                let attributes: Vec<(&str, String)> = attributes.iter().map(|(k, v)| (*k, v.clone())).collect();
+                sink.write(temp.path(), file, &grid, options.half, &attributes)?;
+                let depth = if options.half { "f16" } else { "f32" };
+                (Ready::File(temp, None), described(format!("EXR {nx}×{ny}×{nz} {kind} {depth}, slices stacked ({} rows)", ny * nz)))
+            }
+            Pending::Slices { temp, .. } => {
+                let bits = if options.depth16 { 16 } else { 8 };
+                (Ready::Dir(temp), described(format!("{nz} PNG slices {nx}×{ny} {kind} {bits}-bit")))
+            }
+            Pending::Atlas { sink, temp } => {
+                let columns = sink.columns;
+                sink.finish(&grid)?;
+                let bits = if options.depth16 { 16 } else { 8 };
+                (Ready::File(temp, None), described(format!("PNG atlas of {nz} slices, {columns} per row, {kind} {bits}-bit")))
+            }
+            Pending::Raw { mut sink, temp } => {
+                use std::io::Write;
+                sink.writer.flush().map_err(io(temp.path()))?;
+                sink.writer.get_ref().sync_all().map_err(io(temp.path()))?;
+                let sidecar = raw_sidecar(&grid, options, output, &stats, final_path);
+                let sidecar_temp = temp_file(&options.out_dir, &sidecar_path(final_path))?;
+                std::fs::write(sidecar_temp.path(), sidecar).map_err(io(sidecar_temp.path()))?;
+                let sample = match options.raw_type {
+                    RawSampleType::U8 => "u8",
+                    RawSampleType::F32 => "f32",
+                };
+                let channels = output.ty.channels() + usize::from(options.alpha);
+                (Ready::File(temp, Some(sidecar_temp)), described(format!("raw {nx}×{ny}×{nz} × {channels} {sample}, x fastest (+ .json sidecar)")))
+            }
+        });
+    }
+    let mut files = Vec::with_capacity(ready.len());
+    for (ready, baked) in ready {
+        ready.commit(&baked.path)?;
+        files.push(baked);
+    }
+    Ok(BakeReport { files, stats, voxels, seconds })
+}
+
+/// A finished temporary, waiting to be renamed into place.
+enum Ready {
+    /// A file, and for raw volumes its sidecar (renamed after the volume: a sidecar marks a
+    /// complete volume).
+    File(tempfile::NamedTempFile, Option<tempfile::NamedTempFile>),
+    Dir(tempfile::TempDir),
+}
+
+impl Ready {
+    fn commit(self, final_path: &Path) -> Result<(), BakeError> {
+        match self {
+            Ready::File(temp, sidecar) => {
+                temp.persist(final_path).map_err(|e| BakeError::Io { path: final_path.display().to_string(), source: e.error })?;
+                if let Some(sidecar) = sidecar {
+                    let path = sidecar_path(final_path);
+                    sidecar.persist(&path).map_err(|e| BakeError::Io { path: path.display().to_string(), source: e.error })?;
+                }
+                Ok(())
+            }
+            Ready::Dir(temp) => {
+                // A folder cannot be renamed over another: move the old one aside first, and
+                // delete it only once the new one is in place.
+                let parent = final_path.parent().unwrap_or(Path::new("."));
+                let old = if final_path.exists() {
+                    let aside = tempfile::Builder::new().prefix(".replaced.").tempdir_in(parent).map_err(io(parent))?;
+                    let aside_path = aside.path().join("old");
+                    std::fs::rename(final_path, &aside_path).map_err(io(final_path))?;
+                    Some(aside)
+                } else {
+                    None
+                };
+                let temp_path = temp.keep();
+                if let Err(e) = std::fs::rename(&temp_path, final_path) {
+                    let _ = std::fs::remove_dir_all(&temp_path);
+                    return Err(BakeError::Io { path: final_path.display().to_string(), source: e });
+                }
+                drop(old); // removes the replaced folder
+                Ok(())
+            }
+        }
+    }
+}
+
+fn validate_grid(grid: &Grid) -> Result<(), BakeError> {
+    if grid.size.contains(&0) {
+        return Err(BakeError::Refused(format!("the grid size {:?} has a zero dimension", grid.size)));
+    }
+    for axis in 0..3 {
+        let (lo, hi) = (grid.region.min[axis], grid.region.max[axis]);
+        if !lo.is_finite() || !hi.is_finite() || lo > hi {
+            return Err(BakeError::Refused(format!("the region's {} range [{lo}, {hi}] is not a finite interval", ["x", "y", "z"][axis])));
+        }
+    }
+    Ok(())
+}
+
+fn exr_attributes(grid: &Grid, options: &BakeFileOptions, output: &str) -> Vec<(&'static str, String)> {
+    vec![
+        ("size", format!("{} {} {}", grid.size[0], grid.size[1], grid.size[2])),
+        ("region", format!("{} {} {} : {} {} {}", grid.region.min[0], grid.region.min[1], grid.region.min[2], grid.region.max[0], grid.region.max[1], grid.region.max[2])),
+        ("layout", "slices stacked: row k*ny + j holds voxel row (j, k); voxel centres at min + (index + 0.5) * (max - min) / size".into()),
+        ("graph", options.graph_path.clone()),
+        ("output", output.to_string()),
+        ("version", env!("CARGO_PKG_VERSION").to_string()),
+    ]
+}
+
+fn raw_sidecar(grid: &Grid, options: &BakeFileOptions, output: &crate::tape::TapeOutput, stats: &[OutputStats], final_path: &Path) -> String {
+    let channels: Vec<&str> = match (output.ty, options.alpha) {
+        (Type::Vec3, false) => vec!["r", "g", "b"],
+        (Type::Vec3, true) => vec!["r", "g", "b", "a"],
+        (Type::Scalar, false) => vec!["value"],
+        (Type::Scalar, true) => vec!["value", "a"],
+    };
+    let sample = match options.raw_type {
+        RawSampleType::U8 => "u8",
+        RawSampleType::F32 => "f32",
+    };
+    let transfer = match (options.raw_type, output.ty, options.transfer) {
+        (RawSampleType::F32, _, _) => "none (values as evaluated)",
+        (RawSampleType::U8, Type::Scalar, _) => "linear: clamp to [0, 1], x 255, round; NaN -> 0",
+        (RawSampleType::U8, Type::Vec3, Transfer::Srgb) => "srgb: clamp to [0, 1], sRGB transfer (IEC 61966-2-1), x 255, round; NaN -> 0",
+        (RawSampleType::U8, Type::Vec3, Transfer::Linear) => "linear: clamp to [0, 1], x 255, round; NaN -> 0",
+    };
+    let params: serde_json::Map<String, serde_json::Value> = options.params.iter().map(|(k, v)| (k.clone(), serde_json::json!(v))).collect();
+    let stats = stats.iter().find(|s| s.name == output.name);
+    let json = serde_json::json!({
+        "texgraph_version": env!("CARGO_PKG_VERSION"),
+        "file": final_path.file_name().and_then(|n| n.to_str()).unwrap_or_default(),
+        "graph": options.graph_path,
+        "output": output.name,
+        "size": grid.size,
+        "region": grid.region,
+        "voxel_centre": "region.min + (index + 0.5) * (region.max - region.min) / size",
+        "layout": "x fastest, then y, then z; channels interleaved (glTexImage3D order)",
+        "channels": channels,
+        "type": sample,
+        "byte_order": "little-endian",
+        "transfer": transfer,
+        "bytes": grid.voxels().unwrap_or(0) * (channels.len() as u64) * if sample == "f32" { 4 } else { 1 },
+        "params": params,
+        "stats": stats,
+    });
+    serde_json::to_string_pretty(&json).unwrap_or_default() + "\n"
+}
+
+/// "1.5 GiB", "640 KiB".
+pub fn human_bytes(bytes: u64) -> String {
+    const UNITS: [&str; 5] = ["B", "KiB", "MiB", "GiB", "TiB"];
+    let mut value = bytes as f64;
+    let mut unit = 0;
+    while value >= 1024.0 && unit < UNITS.len() - 1 {
+        value /= 1024.0;
+        unit += 1;
+    }
+    if unit == 0 {
+        format!("{bytes} B")
+    } else {
+        format!("{value:.1} {}", UNITS[unit])
+    }
+}

@@ -1,0 +1,304 @@
+//! Sinks that write a bake's windows to files: EXR (whole volume, stacked slices), PNG (one file
+//! per slice, or one atlas), raw (packed voxels). Each writes into a temporary file or folder;
+//! `files.rs` renames it into place when the bake completed.
+
+use super::{BakeError, Grid, Sink, Window};
+use crate::graph::Type;
+use rayon::prelude::*;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// The sRGB transfer function (IEC 61966-2-1): linear [0, 1] → encoded [0, 1].
+#[inline]
+pub fn srgb_encode(linear: f32) -> f32 {
+    if linear <= 0.003_130_8 {
+        12.92 * linear
+    } else {
+        1.055 * linear.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// Clamp to [0, 1] (NaN → 0), apply the transfer if asked, scale to 0..=255 and round.
+#[inline]
+pub fn encode_u8(v: f32, srgb: bool) -> u8 {
+    let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+    let v = if srgb { srgb_encode(v) } else { v };
+    (v * 255.0).round() as u8
+}
+
+/// As [`encode_u8`], to 0..=65535.
+#[inline]
+pub fn encode_u16(v: f32, srgb: bool) -> u16 {
+    let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+    let v = if srgb { srgb_encode(v) } else { v };
+    (v * 65535.0).round() as u16
+}
+
+fn io(path: &Path) -> impl Fn(std::io::Error) -> BakeError + '_ {
+    move |source| BakeError::Io { path: path.display().to_string(), source }
+}
+
+/// Bytes of one PNG image: `samples` interleaved, `width` × `height`, 8 or 16 bits.
+pub(super) fn png_bytes(samples: &[f32], width: usize, height: usize, ty: Type, depth16: bool, srgb: bool) -> Result<Vec<u8>, String> {
+    let mut bytes = Vec::new();
+    {
+        let mut encoder = png::Encoder::new(&mut bytes, width as u32, height as u32);
+        encoder.set_color(if ty == Type::Vec3 { png::ColorType::Rgb } else { png::ColorType::Grayscale });
+        encoder.set_depth(if depth16 { png::BitDepth::Sixteen } else { png::BitDepth::Eight });
+        if srgb && ty == Type::Vec3 {
+            encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+        }
+        let mut writer = encoder.write_header().map_err(|e| e.to_string())?;
+        writer.write_image_data(&encode_samples(samples, ty, depth16, srgb)).map_err(|e| e.to_string())?;
+        writer.finish().map_err(|e| e.to_string())?;
+    }
+    Ok(bytes)
+}
+
+/// Samples to PNG sample bytes (16-bit big-endian). The transfer applies to colours only;
+/// scalars are data, mapped linearly.
+fn encode_samples(samples: &[f32], ty: Type, depth16: bool, srgb: bool) -> Vec<u8> {
+    let srgb = srgb && ty == Type::Vec3;
+    if depth16 {
+        samples.iter().flat_map(|&v| encode_u16(v, srgb).to_be_bytes()).collect()
+    } else {
+        samples.iter().map(|&v| encode_u8(v, srgb)).collect()
+    }
+}
+
+/// One PNG per z slice, `z0000.png`, … in a folder.
+pub(super) struct PngSlices {
+    pub folder: PathBuf,
+    pub output: usize,
+    pub ty: Type,
+    pub depth16: bool,
+    pub srgb: bool,
+    pub digits: usize,
+}
+
+impl Sink for PngSlices {
+    fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
+        let [nx, ny, _] = window.grid.size;
+        // Slices of a window are independent files: encode them in parallel.
+        (0..window.depth).into_par_iter().try_for_each(|k| {
+            let mut samples = Vec::new();
+            window.slice_interleaved(self.output, k, &mut samples);
+            let path = self.folder.join(format!("z{:0width$}.png", window.z_start + k, width = self.digits));
+            let bytes = png_bytes(&samples, nx, ny, self.ty, self.depth16, self.srgb).map_err(|message| BakeError::Encode { path: path.display().to_string(), message })?;
+            std::fs::write(&path, bytes).map_err(io(&path))
+        })
+    }
+}
+
+/// All slices tiled into one PNG: `columns` tiles per row, row-major in z; streamed one row of
+/// tiles at a time.
+pub(super) struct PngAtlas {
+    pub path: PathBuf,
+    pub writer: png::StreamWriter<'static, std::fs::File>,
+    /// A second handle on the file, to sync it once the encoder is done with it.
+    pub file: std::fs::File,
+    pub output: usize,
+    pub ty: Type,
+    pub depth16: bool,
+    pub srgb: bool,
+    pub columns: usize,
+    /// Encoded bytes of the current row of tiles: `ny` image rows.
+    pub pending: Vec<u8>,
+    pub tiles_in_row: usize,
+}
+
+impl PngAtlas {
+    pub fn create(path: &Path, file: std::fs::File, grid: &Grid, output: usize, ty: Type, depth16: bool, srgb: bool) -> Result<PngAtlas, BakeError> {
+        let [nx, ny, nz] = grid.size;
+        let columns = (nz as f64).sqrt().ceil().max(1.0) as usize;
+        let rows = nz.div_ceil(columns);
+        let handle = file.try_clone().map_err(io(path))?;
+        // Unbuffered: the png encoder writes whole compressed chunks, and a write error then
+        // surfaces at once instead of in a buffer's drop.
+        let mut encoder = png::Encoder::new(file, (columns * nx) as u32, (rows * ny) as u32);
+        encoder.set_color(if ty == Type::Vec3 { png::ColorType::Rgb } else { png::ColorType::Grayscale });
+        encoder.set_depth(if depth16 { png::BitDepth::Sixteen } else { png::BitDepth::Eight });
+        if srgb && ty == Type::Vec3 {
+            encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+        }
+        let encode_error = |e: png::EncodingError| BakeError::Encode { path: path.display().to_string(), message: e.to_string() };
+        let writer = encoder.write_header().map_err(encode_error)?.into_stream_writer().map_err(encode_error)?;
+        Ok(PngAtlas { path: path.to_path_buf(), writer, file: handle, output, ty, depth16, srgb, columns, pending: Vec::new(), tiles_in_row: 0 })
+    }
+
+    fn bytes_per_pixel(&self) -> usize {
+        self.ty.channels() * if self.depth16 { 2 } else { 1 }
+    }
+
+    fn flush_row(&mut self, grid: &Grid) -> Result<(), BakeError> {
+        if self.tiles_in_row == 0 {
+            return Ok(());
+        }
+        // Pad the row with black tiles, then stream its image rows.
+        let [nx, ny, _] = grid.size;
+        let tile_row_bytes = nx * self.bytes_per_pixel();
+        let full = self.columns * tile_row_bytes * ny;
+        let mut rows = vec![0u8; full];
+        for t in 0..self.tiles_in_row {
+            for j in 0..ny {
+                let src = &self.pending[(t * ny + j) * tile_row_bytes..][..tile_row_bytes];
+                rows[(j * self.columns + t) * tile_row_bytes..][..tile_row_bytes].copy_from_slice(src);
+            }
+        }
+        self.writer.write_all(&rows).map_err(io(&self.path))?;
+        self.pending.clear();
+        self.tiles_in_row = 0;
+        Ok(())
+    }
+
+    pub fn finish(mut self, grid: &Grid) -> Result<(), BakeError> {
+        self.flush_row(grid)?;
+        let path = self.path.clone();
+        self.writer.finish().map_err(|e| BakeError::Encode { path: path.display().to_string(), message: e.to_string() })?;
+        self.file.sync_all().map_err(io(&path))
+    }
+}
+
+impl Sink for PngAtlas {
+    fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
+        let mut samples = Vec::new();
+        for k in 0..window.depth {
+            window.slice_interleaved(self.output, k, &mut samples);
+            self.pending.extend(encode_samples(&samples, self.ty, self.depth16, self.srgb));
+            self.tiles_in_row += 1;
+            if self.tiles_in_row == self.columns {
+                self.flush_row(window.grid)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Sample type of a raw volume.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum RawSamples {
+    /// u8, sRGB-encoded colours when `srgb`, optional opaque alpha.
+    U8 { srgb: bool, alpha: bool },
+    /// f32 little-endian, optional alpha 1.0.
+    F32 { alpha: bool },
+}
+
+/// Tightly packed voxels, x fastest, then y, then z, channels interleaved: streamed.
+pub(super) struct Raw {
+    pub path: PathBuf,
+    pub writer: std::io::BufWriter<std::fs::File>,
+    pub output: usize,
+    pub ty: Type,
+    pub samples: RawSamples,
+    pub scratch: Vec<f32>,
+    pub bytes: Vec<u8>,
+}
+
+impl Sink for Raw {
+    fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
+        let width = self.ty.channels();
+        for k in 0..window.depth {
+            window.slice_interleaved(self.output, k, &mut self.scratch);
+            self.bytes.clear();
+            for voxel in self.scratch.chunks_exact(width) {
+                match self.samples {
+                    RawSamples::U8 { srgb, alpha } => {
+                        let srgb = srgb && self.ty == Type::Vec3;
+                        self.bytes.extend(voxel.iter().map(|&v| encode_u8(v, srgb)));
+                        if alpha {
+                            self.bytes.push(255);
+                        }
+                    }
+                    RawSamples::F32 { alpha } => {
+                        for v in voxel {
+                            self.bytes.extend(v.to_le_bytes());
+                        }
+                        if alpha {
+                            self.bytes.extend(1.0f32.to_le_bytes());
+                        }
+                    }
+                }
+            }
+            self.writer.write_all(&self.bytes).map_err(io(&self.path))?;
+        }
+        Ok(())
+    }
+}
+
+/// Collects the whole volume (the exr writer needs the complete image), then writes one EXR:
+/// slices stacked vertically, `ny · nz` rows, row `k · ny + j` holding voxel row (j, k).
+pub(super) struct Exr {
+    pub output: usize,
+    pub ty: Type,
+    pub data: Vec<f32>,
+    pub scratch: Vec<f32>,
+}
+
+impl Sink for Exr {
+    fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
+        for k in 0..window.depth {
+            window.slice_interleaved(self.output, k, &mut self.scratch);
+            self.data.extend_from_slice(&self.scratch);
+        }
+        Ok(())
+    }
+}
+
+impl Exr {
+    /// Writes the EXR to `file` (32-bit float, or 16-bit half when `half`), with the grid in
+    /// the header as custom attributes.
+    pub fn write(&self, path: &Path, file: std::fs::File, grid: &Grid, half: bool, attributes: &[(&str, String)]) -> Result<(), BakeError> {
+        use exr::prelude::*;
+        let [nx, ny, nz] = grid.size;
+        let size = (nx, ny * nz);
+        let mut layer_attributes = LayerAttributes::named("texgraph");
+        for (key, value) in attributes {
+            layer_attributes.other.insert(Text::from(format!("texgraph:{key}").as_str()), AttributeValue::Text(Text::from(value.as_str())));
+        }
+        let encode = |e: exr::error::Error| BakeError::Encode { path: path.display().to_string(), message: e.to_string() };
+        let writer = std::io::BufWriter::new(file);
+        let data = &self.data;
+        match (self.ty, half) {
+            (Type::Vec3, false) => {
+                let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
+                    let i = (p.y() * nx + p.x()) * 3;
+                    (data[i], data[i + 1], data[i + 2])
+                });
+                Image::from_layer(Layer::new(size, layer_attributes, Encoding::FAST_LOSSLESS, channels)).write().to_buffered(writer).map_err(encode)
+            }
+            (Type::Vec3, true) => {
+                let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
+                    let i = (p.y() * nx + p.x()) * 3;
+                    (f16::from_f32(data[i]), f16::from_f32(data[i + 1]), f16::from_f32(data[i + 2]))
+                });
+                Image::from_layer(Layer::new(size, layer_attributes, Encoding::FAST_LOSSLESS, channels)).write().to_buffered(writer).map_err(encode)
+            }
+            (Type::Scalar, false) => {
+                let channels = SpecificChannels::build().with_channel("Y").with_pixel_fn(|p: Vec2<usize>| (data[p.y() * nx + p.x()],));
+                Image::from_layer(Layer::new(size, layer_attributes, Encoding::FAST_LOSSLESS, channels)).write().to_buffered(writer).map_err(encode)
+            }
+            (Type::Scalar, true) => {
+                let channels = SpecificChannels::build().with_channel("Y").with_pixel_fn(|p: Vec2<usize>| (f16::from_f32(data[p.y() * nx + p.x()]),));
+                Image::from_layer(Layer::new(size, layer_attributes, Encoding::FAST_LOSSLESS, channels)).write().to_buffered(writer).map_err(encode)
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_transfer_hits_its_anchor_points() {
+        assert_eq!(encode_u8(0.0, true), 0);
+        assert_eq!(encode_u8(1.0, true), 255);
+        assert_eq!(encode_u8(0.5, false), 128);
+        // Linear 0.5 is sRGB 188 (0.7354).
+        assert_eq!(encode_u8(0.5, true), 188);
+        assert_eq!(encode_u8(f32::NAN, true), 0);
+        assert_eq!(encode_u8(7.0, false), 255);
+        assert_eq!(encode_u16(1.0, false), 65535);
+        assert!((srgb_encode(0.0031308) - 0.04045).abs() < 1e-4);
+    }
+}
