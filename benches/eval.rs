@@ -45,6 +45,7 @@ fn marble_tape() -> Tape {
         &graph,
         &CompileOptions {
             outputs: vec!["vein".into()],
+            ..Default::default()
         },
     )
     .expect("compiles")

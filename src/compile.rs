@@ -19,6 +19,10 @@ use std::sync::atomic::{AtomicU64, Ordering};
 pub struct CompileOptions {
     /// Outputs to compile, by name, in this order; empty means all, in file order.
     pub outputs: Vec<String>,
+    /// Footprint level of detail: the sample spacing in world units (a bake's voxel size, a
+    /// render's pixel footprint). Fbm/turbulence octaves above the Nyquist limit of this spacing
+    /// are left out (see `lod.rs`). `None`: every octave is kept.
+    pub spacing: Option<f64>,
 }
 
 static NEXT_TAPE_ID: AtomicU64 = AtomicU64::new(1);
@@ -88,6 +92,7 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
     }
 
     let mut emitter = Emitter::default();
+    let mut stretches: Option<Vec<Option<f64>>> = None;
     let mut slot_of: HashMap<NodeId, Slot> = HashMap::new();
     let live_nodes = live.iter().filter(|&&l| l).count();
     for (id, node) in graph.nodes.iter().enumerate() {
@@ -202,13 +207,35 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
             },
             Op::Fractal(key, params) => {
                 let table = emitter.table(*key);
-                emitter.octaves.push(params.schedule());
+                let lod = match options.spacing {
+                    Some(spacing) => {
+                        let stretches =
+                            stretches.get_or_insert_with(|| crate::lod::stretches(graph));
+                        crate::lod::fractal_lod(
+                            *key,
+                            params,
+                            stretches[node.args[0] as usize],
+                            spacing,
+                        )
+                    }
+                    None => crate::lod::FractalLod {
+                        octaves: params.octaves,
+                        bias: 0.0,
+                    },
+                };
+                let kept = crate::graph::FractalParams {
+                    octaves: lod.octaves,
+                    ..*params
+                };
+                emitter.octaves.push(kept.schedule());
+                emitter.octave_counts.push((params.octaves, lod.octaves));
                 Instr::Fractal {
                     dst,
                     src: arg(0),
                     table,
                     octaves: (emitter.octaves.len() - 1) as u32,
                     turbulence: params.turbulence,
+                    bias: lod.bias,
                 }
             }
             Op::Hermite(h) => {
@@ -296,6 +323,7 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
         outputs,
         tables: emitter.tables,
         octaves: emitter.octaves,
+        octave_counts: emitter.octave_counts,
         matrices: emitter.matrices,
         axes: emitter.axes,
         hermites: emitter.hermites,
@@ -354,6 +382,7 @@ struct Emitter {
     vec3_constants: Vec<(Slot, [f64; 3])>,
     tables: Vec<(TableKey, std::sync::Arc<crate::noise::NoiseTable>)>,
     octaves: Vec<crate::noise::Octaves>,
+    octave_counts: Vec<(f64, f64)>,
     matrices: Vec<[[f64; 3]; 3]>,
     axes: Vec<[f64; 3]>,
     hermites: Vec<ops::Hermite>,

@@ -307,6 +307,7 @@ impl Tape {
                     table,
                     octaves,
                     turbulence,
+                    bias,
                 } => {
                     let a = &ws.vec3s[src as usize];
                     let table = &self.tables[table as usize].1;
@@ -319,6 +320,12 @@ impl Tape {
                         &a[2 * LANES..2 * LANES + n],
                         &mut ws.scalars[dst as usize][..n],
                     );
+                    if bias != 0.0 {
+                        let bias = S::from_f64(bias);
+                        for v in &mut ws.scalars[dst as usize][..n] {
+                            *v = *v + bias;
+                        }
+                    }
                 }
                 Instr::Hermite { dst, src, spline } => {
                     let h = self.hermites[spline as usize];

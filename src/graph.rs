@@ -189,7 +189,7 @@ pub struct GraphStats {
 
 /// A graph that passed checking: typed, acyclic, deduplicated and constant-folded. Compiling it
 /// cannot fail except for a request naming an output it does not have.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct CheckedGraph {
     pub file: Arc<SourceFile>,
     pub nodes: Vec<Node>,
@@ -204,6 +204,19 @@ pub struct CheckedGraph {
 impl CheckedGraph {
     pub fn output(&self, name: &str) -> Option<&Output> {
         self.outputs.iter().find(|o| o.name == name)
+    }
+
+    /// The same graph with every named node (not folded to a constant) as an output, in file
+    /// order: for probing each node, as the stability report does.
+    pub fn with_node_outputs(&self) -> CheckedGraph {
+        let mut graph = self.clone();
+        graph.outputs = self
+            .named
+            .iter()
+            .filter(|(_, id)| !matches!(self.nodes[*id as usize].op, Op::ConstScalar(_) | Op::ConstVec3(_)))
+            .map(|(name, id)| Output { name: name.clone(), node: *id, span: self.nodes[*id as usize].origin.span })
+            .collect();
+        graph
     }
 }
 

@@ -1,5 +1,5 @@
 //! The `texgraph` command line: parse arguments, call the library, print, set the exit code.
-//! Exit codes: 0 success; 1 a graph or input is invalid; 2 usage or I/O error.
+//! Exit codes: 0 success; 1 a graph or input is invalid; 2 usage or I/O error; 130 a bake interrupted by Ctrl-C.
 
 use clap::{Args, Parser, Subcommand};
 use std::io::{BufWriter, IsTerminal, Write};
@@ -14,7 +14,7 @@ use texgraph::{CheckOptions, CompileOptions, LoadError, Real, Tape, Workspace};
     name = "texgraph",
     version,
     about = "Procedural solid textures from RON node graphs",
-    long_about = "Procedural solid textures from RON node graphs.\n\nA graph file describes a texture as nodes (noise, fbm, turbulence, math, splines, colour ramps, domain transforms). texgraph checks it, compiles the outputs you ask for to a flat instruction tape, and evaluates that tape per point or per batch. docs/format.md describes the format; `texgraph nodes` lists every node kind.\n\nExit codes: 0 success, 1 invalid graph or input, 2 usage or I/O error."
+    long_about = "Procedural solid textures from RON node graphs.\n\nA graph file describes a texture as nodes (noise, fbm, turbulence, math, splines, colour ramps, domain transforms). texgraph checks it, compiles the outputs you ask for to a flat instruction tape, and evaluates that tape per point or per batch. docs/format.md describes the format; `texgraph nodes` lists every node kind.\n\nExit codes: 0 success, 1 invalid graph or input, 2 usage or I/O error (130: a bake interrupted by Ctrl-C)."
 )]
 struct Cli {
     #[command(subcommand)]
@@ -41,8 +41,53 @@ enum Command {
     /// (region_max − region_min) / size. Each output of each graph goes to its own file(s) in
     /// --out, named GRAPH.OUTPUT.*; files appear only when complete, and existing ones are kept
     /// unless --force. Prints min, max, mean and non-finite counts per output. Exit code 1 if a
-    /// graph is invalid, 2 if a bake was refused or failed to write; the other graphs still bake.
+    /// graph is invalid, 2 if a bake was refused or failed to write (the other graphs still
+    /// bake), 130 if interrupted by Ctrl-C (nothing of the interrupted graph is written).
     Bake(BakeArgs),
+    /// Measure error against run time: every evaluation strategy against the f64 reference.
+    ///
+    /// For each output: the f64 reference, f32 per point and per batch, f32 with footprint level
+    /// of detail at spacings 1/64, 1/128, 1/256, and baked volumes at 64³, 128³, 256³ sampled back
+    /// trilinearly — time per million points (median of --runs), speed-up, max abs and RMS error,
+    /// PSNR, non-finite count, memory. --stability instead surveys every node at coordinates
+    /// ±1 … ±2^31 (f32 error, continuity, non-finite values).
+    Report(ReportArgs),
+}
+
+#[derive(Args)]
+struct ReportArgs {
+    /// Graph files.
+    #[arg(required = true, value_name = "FILE")]
+    files: Vec<PathBuf>,
+    /// Random sample points in the region (a 16³ grid is added).
+    #[arg(long, value_name = "N", default_value_t = 50_000)]
+    points: usize,
+    /// Timed runs per strategy (the median is reported).
+    #[arg(long, value_name = "N", default_value_t = 5)]
+    runs: usize,
+    /// The region sampled (default the unit cube).
+    #[arg(long, value_name = "X0,Y0,Z0:X1,Y1,Z1", value_parser = parse_region, allow_hyphen_values = true)]
+    region: Option<texgraph::bake::Region>,
+    /// Print JSON (an array of rows) instead of a table.
+    #[arg(long)]
+    json: bool,
+    /// Print the Markdown document docs/accuracy.md: the explanation, then per graph the
+    /// table and the stability survey.
+    #[arg(long, conflicts_with_all = ["json", "stability"])]
+    markdown: bool,
+    /// Also draw error (log) against time per point, Pareto front marked, to this PNG.
+    #[arg(long, value_name = "PNG")]
+    plot: Option<PathBuf>,
+    /// Survey stability instead: every node at |p| = 1 … 2^31, both signs, lattice points and
+    /// cell boundaries.
+    #[arg(long)]
+    stability: bool,
+    /// Report only this output (repeatable).
+    #[arg(long = "output", value_name = "NAME")]
+    outputs: Vec<String>,
+    /// Override a param of the graph (repeatable).
+    #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
+    sets: Vec<(String, f64)>,
 }
 
 #[derive(Args)]
@@ -92,11 +137,22 @@ struct BakeArgs {
     /// No progress bar.
     #[arg(long, short)]
     quiet: bool,
+    /// Level of detail from the voxel size: leave out fbm octaves finer than the grid resolves
+    /// (the spacing is the smallest voxel side; --spacing overrides it).
+    #[arg(long)]
+    lod: bool,
     /// Bake even if the files would exceed the 16 GiB size limit.
     #[arg(long = "allow-large")]
     allow_large: bool,
     #[command(flatten)]
     graph: GraphOptions,
+}
+
+fn parse_spacing(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(h) if h > 0.0 && h.is_finite() => Ok(h),
+        _ => Err(format!("the spacing is a positive number, found `{text}`")),
+    }
 }
 
 fn parse_depth(text: &str) -> Result<u8, String> {
@@ -113,21 +169,34 @@ fn parse_size(text: &str) -> Result<[usize; 3], String> {
     match numbers.as_deref() {
         Ok([n]) if *n > 0 => Ok([*n; 3]),
         Ok([x, y, z]) if *x > 0 && *y > 0 && *z > 0 => Ok([*x, *y, *z]),
-        _ => Err(format!("expected N or NX,NY,NZ with positive integers, found `{text}`")),
+        _ => Err(format!(
+            "expected N or NX,NY,NZ with positive integers, found `{text}`"
+        )),
     }
 }
 
 fn parse_region(text: &str) -> Result<texgraph::bake::Region, String> {
     let text = text.replace(MINUS, "-");
     let corner = |part: &str| -> Option<[f64; 3]> {
-        let v: Vec<f64> = part.split(',').map(|p| p.trim().parse::<f64>().ok()).collect::<Option<_>>()?;
+        let v: Vec<f64> = part
+            .split(',')
+            .map(|p| p.trim().parse::<f64>().ok())
+            .collect::<Option<_>>()?;
         (v.len() == 3 && v.iter().all(|c| c.is_finite())).then(|| [v[0], v[1], v[2]])
     };
-    let (lo, hi) = text.split_once(':').ok_or_else(|| format!("expected X0,Y0,Z0:X1,Y1,Z1, found `{text}`"))?;
+    let (lo, hi) = text
+        .split_once(':')
+        .ok_or_else(|| format!("expected X0,Y0,Z0:X1,Y1,Z1, found `{text}`"))?;
     match (corner(lo), corner(hi)) {
-        (Some(min), Some(max)) if (0..3).all(|a| min[a] <= max[a]) => Ok(texgraph::bake::Region { min, max }),
-        (Some(_), Some(_)) => Err(format!("each minimum must be at most its maximum in `{text}`")),
-        _ => Err(format!("expected X0,Y0,Z0:X1,Y1,Z1 with finite numbers, found `{text}`")),
+        (Some(min), Some(max)) if (0..3).all(|a| min[a] <= max[a]) => {
+            Ok(texgraph::bake::Region { min, max })
+        }
+        (Some(_), Some(_)) => Err(format!(
+            "each minimum must be at most its maximum in `{text}`"
+        )),
+        _ => Err(format!(
+            "expected X0,Y0,Z0:X1,Y1,Z1 with finite numbers, found `{text}`"
+        )),
     }
 }
 
@@ -136,6 +205,10 @@ struct GraphOptions {
     /// Compile only this output (repeatable); default: all outputs, in file order.
     #[arg(long = "output", value_name = "NAME")]
     outputs: Vec<String>,
+    /// Level of detail: leave out the fbm/turbulence octaves finer than samples this far apart
+    /// can resolve (Nyquist), fading the last one kept. Default: keep every octave.
+    #[arg(long, value_name = "H", value_parser = parse_spacing)]
+    spacing: Option<f64>,
     /// Override a param of the graph (repeatable).
     #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
     sets: Vec<(String, f64)>,
@@ -241,6 +314,7 @@ fn main() -> ExitCode {
         Command::Check(args) => check(args),
         Command::Eval(args) => eval(args),
         Command::Bake(args) => bake(args),
+        Command::Report(args) => report_command(args),
         Command::Nodes(args) => {
             let text = if args.markdown {
                 texgraph::nodes::catalogue_markdown()
@@ -297,6 +371,7 @@ fn options(graph: &GraphOptions) -> (CheckOptions, CompileOptions) {
         },
         CompileOptions {
             outputs: graph.outputs.clone(),
+            spacing: graph.spacing,
         },
     )
 }
@@ -430,8 +505,15 @@ fn bake(args: BakeArgs) -> Result<(), Failure> {
         let cancel = cancel.clone();
         let _ = ctrlc::set_handler(move || cancel.store(true, Ordering::Relaxed));
     }
-    let (check_options, compile_options) = options(&args.graph);
-    let grid = Grid { size: args.size, region: args.region.unwrap_or_default() };
+    let (check_options, mut compile_options) = options(&args.graph);
+    let grid = Grid {
+        size: args.size,
+        region: args.region.unwrap_or_default(),
+    };
+    if args.lod && compile_options.spacing.is_none() {
+        let spacing = grid.spacing().into_iter().fold(f64::INFINITY, f64::min);
+        compile_options.spacing = (spacing > 0.0 && spacing.is_finite()).then_some(spacing);
+    }
     let show_progress = !args.quiet && std::io::stderr().is_terminal();
     let mut worst: Option<Failure> = None;
     let fail = |worst: &mut Option<Failure>, f: Failure| {
@@ -441,6 +523,7 @@ fn bake(args: BakeArgs) -> Result<(), Failure> {
         };
     };
     let (mut total_voxels, mut total_seconds, mut baked) = (0u64, 0f64, 0usize);
+    let mut produced: std::collections::HashSet<PathBuf> = std::collections::HashSet::new();
     for file in &args.files {
         let (graph, tape) = match texgraph::load_tape(file, &check_options, &compile_options) {
             Ok(loaded) => loaded,
@@ -450,9 +533,22 @@ fn bake(args: BakeArgs) -> Result<(), Failure> {
                 continue;
             }
         };
-        let stem = file.file_stem().and_then(|s| s.to_str()).unwrap_or("graph").to_string();
+        let stem = file
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .unwrap_or("graph")
+            .to_string();
         let mut options = BakeFileOptions::new(stem, &args.out);
-        options.bake = BakeOptions { grid, threads: args.threads, precision: if args.double { Precision::F64 } else { Precision::F32 }, cancel: Some(cancel.clone()) };
+        options.bake = BakeOptions {
+            grid,
+            threads: args.threads,
+            precision: if args.double {
+                Precision::F64
+            } else {
+                Precision::F32
+            },
+            cancel: Some(cancel.clone()),
+        };
         options.format = args.format;
         options.force = args.force;
         options.half = args.half;
@@ -466,13 +562,22 @@ fn bake(args: BakeArgs) -> Result<(), Failure> {
         if args.allow_large {
             options.max_bytes = u64::MAX;
         }
+        // Two graphs with the same file name (a/x.ron, b/x.ron) would write the same files.
+        let planned = texgraph::bake::planned_outputs(&tape, &options);
+        if let Some(clash) = planned.iter().find(|p| produced.contains(*p)) {
+            eprintln!("error: {}: {} was already written by an earlier graph of this batch (same file name); bake them into different --out folders", file.display(), clash.display());
+            fail(&mut worst, Failure::Usage);
+            continue;
+        }
         let voxels = grid.voxels().unwrap_or(u64::MAX);
         let bar = if show_progress {
             let bar = indicatif::ProgressBar::new(voxels);
             bar.set_style(
-                indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {percent:>3}% {human_pos}/{human_len} voxels, {eta} left")
-                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-                    .progress_chars("=> "),
+                indicatif::ProgressStyle::with_template(
+                    "{msg} [{bar:30}] {percent:>3}% {human_pos}/{human_len} voxels, {eta} left",
+                )
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+                .progress_chars("=> "),
             );
             bar.set_message(file.display().to_string());
             Some(bar)
@@ -489,6 +594,7 @@ fn bake(args: BakeArgs) -> Result<(), Failure> {
         }
         match result {
             Ok(report) => {
+                produced.extend(planned);
                 baked += 1;
                 total_voxels += report.voxels;
                 total_seconds += report.seconds;
@@ -501,7 +607,10 @@ fn bake(args: BakeArgs) -> Result<(), Failure> {
                 }
             }
             Err(BakeError::Cancelled) => {
-                eprintln!("error: {}: interrupted; no output was written", file.display());
+                eprintln!(
+                    "error: {}: interrupted; no output was written",
+                    file.display()
+                );
                 return Err(Failure::Interrupted);
             }
             Err(error) => {
@@ -512,7 +621,11 @@ fn bake(args: BakeArgs) -> Result<(), Failure> {
     }
     if args.files.len() > 1 {
         let failed = args.files.len() - baked;
-        let rate = if total_seconds > 0.0 { total_voxels as f64 / total_seconds / 1e6 } else { 0.0 };
+        let rate = if total_seconds > 0.0 {
+            total_voxels as f64 / total_seconds / 1e6
+        } else {
+            0.0
+        };
         let line = format!("baked {baked} of {} graphs: {total_voxels} voxels in {total_seconds:.3} s, {rate:.2} Mvoxels/s{}\n", args.files.len(), if failed > 0 { format!("; {failed} failed") } else { String::new() });
         write_stdout(|out| out.write_all(line.as_bytes()))?;
     }
@@ -520,12 +633,31 @@ fn bake(args: BakeArgs) -> Result<(), Failure> {
 }
 
 /// The per-graph report: files, statistics per output, and the speed line.
-fn bake_report(file: &Path, grid: &texgraph::bake::Grid, report: &texgraph::bake::BakeReport, threads: usize) -> String {
+fn bake_report(
+    file: &Path,
+    grid: &texgraph::bake::Grid,
+    report: &texgraph::bake::BakeReport,
+    threads: usize,
+) -> String {
     let [nx, ny, nz] = grid.size;
     let (lo, hi) = (grid.region.min, grid.region.max);
-    let mut text = format!("{}: {nx}×{ny}×{nz} voxels over [{}, {}, {}]..[{}, {}, {}]\n", file.display(), lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
+    let mut text = format!(
+        "{}: {nx}×{ny}×{nz} voxels over [{}, {}, {}]..[{}, {}, {}]\n",
+        file.display(),
+        lo[0],
+        lo[1],
+        lo[2],
+        hi[0],
+        hi[1],
+        hi[2]
+    );
     for baked in &report.files {
-        text.push_str(&format!("  {} -> {} ({})\n", baked.output, baked.path.display(), baked.description));
+        text.push_str(&format!(
+            "  {} -> {} ({})\n",
+            baked.output,
+            baked.path.display(),
+            baked.description
+        ));
     }
     let list = |values: Vec<f64>| -> String {
         // f32 precision is plenty for a report; scientific notation keeps tiny values short.
@@ -563,8 +695,105 @@ fn bake_report(file: &Path, grid: &texgraph::bake::Grid, report: &texgraph::bake
             list(c.iter().map(|s| s.mean).collect()),
         ));
     }
-    let rate = if report.seconds > 0.0 { report.voxels as f64 / report.seconds / 1e6 } else { 0.0 };
-    let threads = if threads == 0 { rayon::current_num_threads() } else { threads };
-    text.push_str(&format!("  {} voxels in {:.3} s: {rate:.2} Mvoxels/s on {threads} thread(s)\n", report.voxels, report.seconds));
+    let rate = if report.seconds > 0.0 {
+        report.voxels as f64 / report.seconds / 1e6
+    } else {
+        0.0
+    };
+    let threads = if threads == 0 {
+        rayon::current_num_threads()
+    } else {
+        threads
+    };
+    text.push_str(&format!(
+        "  {} voxels in {:.3} s: {rate:.2} Mvoxels/s on {threads} thread(s)\n",
+        report.voxels, report.seconds
+    ));
     text
+}
+
+fn report_command(args: ReportArgs) -> Result<(), Failure> {
+    let check_options = CheckOptions { overrides: args.sets.clone() };
+    let mut worst: Option<Failure> = None;
+    let mut json_rows: Vec<serde_json::Value> = Vec::new();
+    if args.markdown {
+        write_stdout(|out| out.write_all(texgraph::report::MARKDOWN_HEADER.as_bytes()))?;
+    }
+    for file in &args.files {
+        let graph = match texgraph::load_graph(file, &check_options) {
+            Ok(graph) => graph,
+            Err(error) => {
+                let failure = report(error);
+                worst = Some(match (worst, failure) {
+                    (Some(Failure::Usage), _) | (_, Failure::Usage) => Failure::Usage,
+                    _ => Failure::Invalid,
+                });
+                continue;
+            }
+        };
+        let text = if args.markdown {
+            let options = texgraph::report::ReportOptions { points: args.points, runs: args.runs, region: args.region.unwrap_or_default(), ..Default::default() };
+            let rows = texgraph::report::accuracy_report(&graph, &args.outputs, &options).map_err(|d| report(LoadError::Invalid(d)))?;
+            let stability = texgraph::stability::stability_report(&graph).map_err(|d| report(LoadError::Invalid(d)))?;
+            format!(
+                "\n## `{}`\n\nTape length: {}.\n{}\nStability:\n\n```text\n{}```\n",
+                file.display(),
+                tape_lengths(&graph),
+                texgraph::report::table_markdown(&rows),
+                texgraph::stability::stability_text(&stability)
+            )
+        } else if args.stability {
+            let rows = texgraph::stability::stability_report(&graph).map_err(|d| report(LoadError::Invalid(d)))?;
+            if args.json {
+                json_rows.extend(rows.iter().map(|r| serde_json::json!({ "graph": file.display().to_string(), "row": r })));
+                continue;
+            }
+            format!("{}: stability\n{}", file.display(), texgraph::stability::stability_text(&rows))
+        } else {
+            let options = texgraph::report::ReportOptions { points: args.points, runs: args.runs, region: args.region.unwrap_or_default(), ..Default::default() };
+            let rows = texgraph::report::accuracy_report(&graph, &args.outputs, &options).map_err(|d| report(LoadError::Invalid(d)))?;
+            if let Some(path) = &args.plot {
+                if let Err(e) = texgraph::report::plot(&rows, &file.display().to_string(), path) {
+                    eprintln!("error: {}: {e}", path.display());
+                    worst = Some(Failure::Usage);
+                }
+            }
+            if args.json {
+                json_rows.extend(rows.iter().map(|r| {
+                    let mut value = serde_json::to_value(r).unwrap_or_default();
+                    if let Some(object) = value.as_object_mut() {
+                        object.insert("graph".into(), serde_json::json!(file.display().to_string()));
+                    }
+                    value
+                }));
+                continue;
+            }
+            let tapes = tape_lengths(&graph);
+            format!("{}: {} points in [{}], median of {} runs, one thread; tape length {tapes}\n{}", file.display(), args.points + 4096, region_text(&options.region), args.runs, texgraph::report::table_text(&rows))
+        };
+        write_stdout(|out| out.write_all(text.as_bytes()))?;
+    }
+    if args.json {
+        let text = serde_json::to_string_pretty(&json_rows).unwrap_or_default() + "\n";
+        write_stdout(|out| out.write_all(text.as_bytes()))?;
+    }
+    worst.map_or(Ok(()), Err)
+}
+
+/// "all outputs 10, colour 10, vein 8": tape length per output set.
+fn tape_lengths(graph: &texgraph::CheckedGraph) -> String {
+    let mut parts = Vec::new();
+    if let Ok(tape) = texgraph::compile(graph, &CompileOptions::default()) {
+        parts.push(format!("all outputs {}", tape.instrs.len()));
+    }
+    for output in &graph.outputs {
+        if let Ok(tape) = texgraph::compile(graph, &CompileOptions { outputs: vec![output.name.clone()], spacing: None }) {
+            parts.push(format!("{} {}", output.name, tape.instrs.len()));
+        }
+    }
+    parts.join(", ")
+}
+
+fn region_text(region: &texgraph::bake::Region) -> String {
+    format!("{}, {}, {} .. {}, {}, {}", region.min[0], region.min[1], region.min[2], region.max[0], region.max[1], region.max[2])
 }

@@ -33,8 +33,15 @@ pub fn check_summary(graph: &CheckedGraph, tape: &Tape) -> String {
         .map(|o| format!("{} {}", o.name, o.ty))
         .collect();
     let _ = writeln!(s, "  outputs: {}", outputs.join(", "));
-    for (origin, octaves) in tape.fractal_octaves() {
-        let _ = writeln!(s, "  fractal \"{origin}\": {octaves} octaves kept");
+    for (origin, written, kept) in tape.fractal_octaves() {
+        if written == kept {
+            let _ = writeln!(s, "  fractal \"{origin}\": {kept} octaves kept");
+        } else {
+            let _ = writeln!(
+                s,
+                "  fractal \"{origin}\": {kept:.3} of {written} octaves kept (level of detail)"
+            );
+        }
     }
     s
 }

@@ -109,13 +109,15 @@ pub enum Instr {
         src: Slot,
         table: u32,
     },
-    /// Fbm (or turbulence) with the octave loop inside one instruction.
+    /// Fbm (or turbulence) with the octave loop inside one instruction, plus `bias` (the
+    /// average of the octaves level of detail left out; 0 without).
     Fractal {
         dst: Slot,
         src: Slot,
         table: u32,
         octaves: u32,
         turbulence: bool,
+        bias: f64,
     },
     Hermite {
         dst: Slot,
@@ -168,6 +170,8 @@ pub struct Tape {
     pub outputs: Vec<TapeOutput>,
     pub tables: Vec<(TableKey, Arc<NoiseTable>)>,
     pub octaves: Vec<Octaves>,
+    /// For each octave schedule: the octaves written and those kept by level of detail.
+    pub octave_counts: Vec<(f64, f64)>,
     pub matrices: Vec<[[f64; 3]; 3]>,
     pub axes: Vec<[f64; 3]>,
     pub hermites: Vec<Hermite>,
@@ -189,13 +193,14 @@ impl Tape {
     }
 
     /// Most octaves any fbm/turbulence instruction sums (after level of detail).
-    pub fn fractal_octaves(&self) -> Vec<(String, usize)> {
+    pub fn fractal_octaves(&self) -> Vec<(String, f64, f64)> {
         self.instrs
             .iter()
             .zip(&self.origins)
             .filter_map(|(instr, origin)| match instr {
                 Instr::Fractal { octaves, .. } => {
-                    Some((origin.clone(), self.octaves[*octaves as usize].len()))
+                    let (written, kept) = self.octave_counts[*octaves as usize];
+                    Some((origin.clone(), written, kept))
                 }
                 _ => None,
             })
@@ -283,8 +288,14 @@ impl fmt::Display for Tape {
                     table,
                     octaves,
                     turbulence,
+                    bias,
                 } => {
                     let schedule = &self.octaves[*octaves as usize];
+                    let bias = if *bias != 0.0 {
+                        format!(" bias={bias}")
+                    } else {
+                        String::new()
+                    };
                     let amplitudes: Vec<String> =
                         schedule.amplitudes.iter().map(|a| a.to_string()).collect();
                     let frequencies: Vec<String> =
@@ -295,8 +306,8 @@ impl fmt::Display for Tape {
                         basis_name(&self.tables[*table as usize].0),
                         schedule.len(),
                         frequencies.join(", "),
-                        amplitudes.join(", ")
-                    )
+                        amplitudes.join(", "),
+                    ) + &bias
                 }
                 Instr::Hermite { dst, src, spline } => {
                     let h = &self.hermites[*spline as usize];

@@ -220,6 +220,7 @@ fn only_requested_outputs_are_compiled() {
         &graph,
         &CompileOptions {
             outputs: vec!["vein".into()],
+            ..Default::default()
         },
     )
     .expect("compiles");

@@ -98,7 +98,14 @@ impl BakeFileOptions {
         match self.format {
             Format::Exr => channels * if self.half { 2 } else { 4 },
             Format::Png => channels * if self.depth16 { 2 } else { 1 },
-            Format::Raw => (channels + u64::from(self.alpha)) * if self.raw_type == RawSampleType::F32 { 4 } else { 1 },
+            Format::Raw => {
+                (channels + u64::from(self.alpha))
+                    * if self.raw_type == RawSampleType::F32 {
+                        4
+                    } else {
+                        1
+                    }
+            }
         }
     }
 }
@@ -143,15 +150,32 @@ fn sidecar_path(raw: &Path) -> PathBuf {
 }
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> BakeError + '_ {
-    move |source| BakeError::Io { path: path.display().to_string(), source }
+    move |source| BakeError::Io {
+        path: path.display().to_string(),
+        source,
+    }
 }
 
-/// One output's writer while the bake runs, with its temporary file or folder.
+/// One output's writer while the bake runs, with its temporary file or folder. (One per
+/// output, never in a hot loop: the size difference between variants does not matter.)
+#[allow(clippy::large_enum_variant)]
 enum Pending {
-    Exr { sink: Exr, temp: tempfile::NamedTempFile },
-    Slices { sink: PngSlices, temp: tempfile::TempDir },
-    Atlas { sink: PngAtlas, temp: tempfile::NamedTempFile },
-    Raw { sink: Raw, temp: tempfile::NamedTempFile },
+    Exr {
+        sink: Exr,
+        temp: tempfile::NamedTempFile,
+    },
+    Slices {
+        sink: PngSlices,
+        temp: tempfile::TempDir,
+    },
+    Atlas {
+        sink: PngAtlas,
+        temp: tempfile::NamedTempFile,
+    },
+    Raw {
+        sink: Raw,
+        temp: tempfile::NamedTempFile,
+    },
 }
 
 impl Pending {
@@ -179,15 +203,26 @@ impl Sink for Fanout<'_> {
 /// Makes a hidden temporary next to `final_path` with `make` (a file or a folder). They get the
 /// usual 0644 (0755 for folders), less the umask, instead of tempfile's private 0600: they become
 /// the user's files.
-fn make_temp<T>(final_path: &Path, folder: bool, make: impl FnOnce(&tempfile::Builder<'_, '_>) -> std::io::Result<T>) -> std::io::Result<T> {
-    let name = final_path.file_name().and_then(|n| n.to_str()).unwrap_or("bake");
+fn make_temp<T>(
+    final_path: &Path,
+    folder: bool,
+    make: impl FnOnce(&tempfile::Builder<'_, '_>) -> std::io::Result<T>,
+) -> std::io::Result<T> {
+    let name = final_path
+        .file_name()
+        .and_then(|n| n.to_str())
+        .unwrap_or("bake");
     let prefix = format!(".{name}.");
     let mut builder = tempfile::Builder::new();
     builder.prefix(&prefix).suffix(".partial");
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
-        builder.permissions(std::fs::Permissions::from_mode(if folder { 0o755 } else { 0o644 }));
+        builder.permissions(std::fs::Permissions::from_mode(if folder {
+            0o755
+        } else {
+            0o644
+        }));
     }
     #[cfg(not(unix))]
     let _ = folder;
@@ -202,14 +237,24 @@ fn temp_file(dir: &Path, final_path: &Path) -> Result<tempfile::NamedTempFile, B
 /// limits, existing files), then bakes into temporary files and renames them into place only
 /// when all of them are complete. On any error (or cancellation) no final file is created or
 /// replaced.
-pub fn bake_files(tape: &Tape, options: &BakeFileOptions, progress: &mut dyn FnMut(u64)) -> Result<BakeReport, BakeError> {
+pub fn bake_files(
+    tape: &Tape,
+    options: &BakeFileOptions,
+    progress: &mut dyn FnMut(u64),
+) -> Result<BakeReport, BakeError> {
     let grid = options.bake.grid;
     validate_grid(&grid)?;
-    let voxels = grid.voxels().ok_or_else(|| BakeError::Refused("the grid has too many voxels to count".into()))?;
-    let estimate: u64 = tape.outputs.iter().map(|o| voxels.saturating_mul(options.bytes_per_voxel(o.ty))).fold(0u64, |a, b| a.saturating_add(b));
+    let voxels = grid
+        .voxels()
+        .ok_or_else(|| BakeError::Refused("the grid has too many voxels to count".into()))?;
+    let estimate: u64 = tape
+        .outputs
+        .iter()
+        .map(|o| voxels.saturating_mul(options.bytes_per_voxel(o.ty)))
+        .fold(0u64, |a, b| a.saturating_add(b));
     if estimate > options.max_bytes {
         return Err(BakeError::Refused(format!(
-            "the bake would write about {} ({} voxels × {} output(s)), more than the limit of {}; pass --allow-large to bake it anyway",
+            "the bake would write about {} ({} voxels × {} output(s)), more than the limit of {}; raise the limit to bake it anyway (the command line's --allow-large)",
             human_bytes(estimate),
             voxels,
             tape.outputs.len(),
@@ -219,42 +264,97 @@ pub fn bake_files(tape: &Tape, options: &BakeFileOptions, progress: &mut dyn FnM
     let finals = planned_outputs(tape, options);
     if !options.force {
         for path in &finals {
-            let exists = path.exists() || (options.format == Format::Raw && sidecar_path(path).exists());
+            let exists =
+                path.exists() || (options.format == Format::Raw && sidecar_path(path).exists());
             if exists {
-                return Err(BakeError::Refused(format!("{} exists; pass --force to overwrite it", path.display())));
+                return Err(BakeError::Refused(format!(
+                    "{} exists; pass --force to overwrite it",
+                    path.display()
+                )));
             }
         }
     }
+    let created_out_dir = !options.out_dir.exists();
     std::fs::create_dir_all(&options.out_dir).map_err(io(&options.out_dir))?;
+    let result = bake_into_files(tape, options, &finals, voxels, progress);
+    if result.is_err() && created_out_dir {
+        // Leave no trace of a bake that did not happen (only if the folder is still empty).
+        let _ = std::fs::remove_dir(&options.out_dir);
+    }
+    result
+}
+
+fn bake_into_files(
+    tape: &Tape,
+    options: &BakeFileOptions,
+    finals: &[PathBuf],
+    voxels: u64,
+    progress: &mut dyn FnMut(u64),
+) -> Result<BakeReport, BakeError> {
+    let grid = options.bake.grid;
 
     let srgb = options.transfer == Transfer::Srgb;
     let digits = grid.size[2].saturating_sub(1).to_string().len().max(4);
     let mut pending = Vec::with_capacity(finals.len());
-    for (index, (output, final_path)) in tape.outputs.iter().zip(&finals).enumerate() {
+    for (index, (output, final_path)) in tape.outputs.iter().zip(finals).enumerate() {
         pending.push(match options.format {
             Format::Exr => Pending::Exr {
-                sink: Exr { output: index, ty: output.ty, data: Vec::new(), scratch: Vec::new() },
+                sink: Exr {
+                    output: index,
+                    ty: output.ty,
+                    data: Vec::new(),
+                    scratch: Vec::new(),
+                },
                 temp: temp_file(&options.out_dir, final_path)?,
             },
             Format::Png if options.atlas => {
                 let temp = temp_file(&options.out_dir, final_path)?;
                 let file = temp.reopen().map_err(io(temp.path()))?;
-                let sink = PngAtlas::create(temp.path(), file, &grid, index, output.ty, options.depth16, srgb)?;
+                let sink = PngAtlas::create(
+                    temp.path(),
+                    file,
+                    &grid,
+                    index,
+                    output.ty,
+                    options.depth16,
+                    srgb,
+                )?;
                 Pending::Atlas { sink, temp }
             }
             Format::Png => {
-                let temp = make_temp(final_path, true, |b| b.tempdir_in(&options.out_dir)).map_err(io(&options.out_dir))?;
-                let sink = PngSlices { folder: temp.path().to_path_buf(), output: index, ty: output.ty, depth16: options.depth16, srgb, digits };
+                let temp = make_temp(final_path, true, |b| b.tempdir_in(&options.out_dir))
+                    .map_err(io(&options.out_dir))?;
+                let sink = PngSlices {
+                    folder: temp.path().to_path_buf(),
+                    output: index,
+                    ty: output.ty,
+                    depth16: options.depth16,
+                    srgb,
+                    digits,
+                };
                 Pending::Slices { sink, temp }
             }
             Format::Raw => {
                 let temp = temp_file(&options.out_dir, final_path)?;
                 let file = temp.reopen().map_err(io(temp.path()))?;
                 let samples = match options.raw_type {
-                    RawSampleType::U8 => RawSamples::U8 { srgb, alpha: options.alpha },
-                    RawSampleType::F32 => RawSamples::F32 { alpha: options.alpha },
+                    RawSampleType::U8 => RawSamples::U8 {
+                        srgb,
+                        alpha: options.alpha,
+                    },
+                    RawSampleType::F32 => RawSamples::F32 {
+                        alpha: options.alpha,
+                    },
                 };
-                let sink = Raw { path: temp.path().to_path_buf(), writer: std::io::BufWriter::new(file), output: index, ty: output.ty, samples, scratch: Vec::new(), bytes: Vec::new() };
+                let sink = Raw {
+                    path: temp.path().to_path_buf(),
+                    writer: std::io::BufWriter::new(file),
+                    output: index,
+                    ty: output.ty,
+                    samples,
+                    scratch: Vec::new(),
+                    bytes: Vec::new(),
+                };
                 Pending::Raw { sink, temp }
             }
         });
@@ -264,30 +364,40 @@ pub fn bake_files(tape: &Tape, options: &BakeFileOptions, progress: &mut dyn FnM
     let stats = bake_into(tape, &options.bake, &mut Fanout(&mut pending), progress)?;
     let seconds = started.elapsed().as_secs_f64();
 
-    // Finish every temporary first; only then rename them all into place.
-    let mut ready: Vec<(Ready, BakedFile)> = Vec::with_capacity(pending.len());
-    for ((entry, final_path), output) in pending.into_iter().zip(&finals).zip(&tape.outputs) {
+    // Finish every temporary first; only then move them all into place, as one transaction.
+    let mut staged: Vec<(Staged, PathBuf)> = Vec::with_capacity(pending.len() * 2);
+    let mut files = Vec::with_capacity(pending.len());
+    for ((entry, final_path), output) in pending.into_iter().zip(finals).zip(&tape.outputs) {
         let [nx, ny, nz] = grid.size;
-        let described = |what: String| BakedFile { output: output.name.clone(), path: final_path.clone(), description: what };
-        let kind = if output.ty == Type::Vec3 { "RGB" } else { "grey" };
-        ready.push(match entry {
+        let kind = if output.ty == Type::Vec3 {
+            "RGB"
+        } else {
+            "grey"
+        };
+        let bits = if options.depth16 { 16 } else { 8 };
+        let description = match entry {
             Pending::Exr { sink, temp } => {
                 let file = temp.reopen().map_err(io(temp.path()))?;
                 let attributes = exr_attributes(&grid, options, &output.name);
-                let attributes: Vec<(&str, String)> = attributes.iter().map(|(k, v)| (*k, v.clone())).collect();
+                let attributes: Vec<(&str, String)> =
+                    attributes.iter().map(|(k, v)| (*k, v.clone())).collect();
                 sink.write(temp.path(), file, &grid, options.half, &attributes)?;
+                staged.push((Staged::File(temp.into_temp_path()), final_path.clone()));
                 let depth = if options.half { "f16" } else { "f32" };
-                (Ready::File(temp, None), described(format!("EXR {nx}×{ny}×{nz} {kind} {depth}, slices stacked ({} rows)", ny * nz)))
+                format!(
+                    "EXR {nx}×{ny}×{nz} {kind} {depth}, slices stacked ({} rows)",
+                    ny * nz
+                )
             }
             Pending::Slices { temp, .. } => {
-                let bits = if options.depth16 { 16 } else { 8 };
-                (Ready::Dir(temp), described(format!("{nz} PNG slices {nx}×{ny} {kind} {bits}-bit")))
+                staged.push((Staged::Dir(temp), final_path.clone()));
+                format!("{nz} PNG slices {nx}×{ny} {kind} {bits}-bit")
             }
             Pending::Atlas { sink, temp } => {
                 let columns = sink.columns;
                 sink.finish(&grid)?;
-                let bits = if options.depth16 { 16 } else { 8 };
-                (Ready::File(temp, None), described(format!("PNG atlas of {nz} slices, {columns} per row, {kind} {bits}-bit")))
+                staged.push((Staged::File(temp.into_temp_path()), final_path.clone()));
+                format!("PNG atlas of {nz} slices, {columns} per row, {kind} {bits}-bit")
             }
             Pending::Raw { mut sink, temp } => {
                 use std::io::Write;
@@ -296,80 +406,122 @@ pub fn bake_files(tape: &Tape, options: &BakeFileOptions, progress: &mut dyn FnM
                 let sidecar = raw_sidecar(&grid, options, output, &stats, final_path);
                 let sidecar_temp = temp_file(&options.out_dir, &sidecar_path(final_path))?;
                 std::fs::write(sidecar_temp.path(), sidecar).map_err(io(sidecar_temp.path()))?;
+                // The volume first, its sidecar after: a sidecar marks a complete volume.
+                staged.push((Staged::File(temp.into_temp_path()), final_path.clone()));
+                staged.push((
+                    Staged::File(sidecar_temp.into_temp_path()),
+                    sidecar_path(final_path),
+                ));
                 let sample = match options.raw_type {
                     RawSampleType::U8 => "u8",
                     RawSampleType::F32 => "f32",
                 };
                 let channels = output.ty.channels() + usize::from(options.alpha);
-                (Ready::File(temp, Some(sidecar_temp)), described(format!("raw {nx}×{ny}×{nz} × {channels} {sample}, x fastest (+ .json sidecar)")))
+                format!("raw {nx}×{ny}×{nz} × {channels} {sample}, x fastest (+ .json sidecar)")
             }
+        };
+        files.push(BakedFile {
+            output: output.name.clone(),
+            path: final_path.clone(),
+            description,
         });
     }
-    let mut files = Vec::with_capacity(ready.len());
-    for (ready, baked) in ready {
-        ready.commit(&baked.path)?;
-        files.push(baked);
-    }
-    Ok(BakeReport { files, stats, voxels, seconds })
+    commit(staged, &options.out_dir)?;
+    Ok(BakeReport {
+        files,
+        stats,
+        voxels,
+        seconds,
+    })
 }
 
-/// A finished temporary, waiting to be renamed into place.
-enum Ready {
-    /// A file, and for raw volumes its sidecar (renamed after the volume: a sidecar marks a
-    /// complete volume).
-    File(tempfile::NamedTempFile, Option<tempfile::NamedTempFile>),
+/// A finished temporary, waiting to be moved into place (deleted if dropped).
+enum Staged {
+    File(tempfile::TempPath),
     Dir(tempfile::TempDir),
 }
 
-impl Ready {
-    fn commit(self, final_path: &Path) -> Result<(), BakeError> {
-        match self {
-            Ready::File(temp, sidecar) => {
-                temp.persist(final_path).map_err(|e| BakeError::Io { path: final_path.display().to_string(), source: e.error })?;
-                if let Some(sidecar) = sidecar {
-                    let path = sidecar_path(final_path);
-                    sidecar.persist(&path).map_err(|e| BakeError::Io { path: path.display().to_string(), source: e.error })?;
-                }
-                Ok(())
+/// Moves every staged temporary to its final path, all or nothing: existing finals are moved
+/// aside first; if any move fails, the ones already made are undone and the old files put back.
+fn commit(staged: Vec<(Staged, PathBuf)>, out_dir: &Path) -> Result<(), BakeError> {
+    let aside_dir = tempfile::Builder::new()
+        .prefix(".replaced.")
+        .tempdir_in(out_dir)
+        .map_err(io(out_dir))?;
+    let mut moved_aside: Vec<(PathBuf, PathBuf)> = Vec::new();
+    let mut placed: Vec<PathBuf> = Vec::new();
+    let undo = |placed: &[PathBuf], moved_aside: &[(PathBuf, PathBuf)]| {
+        for path in placed {
+            let _ = if path.is_dir() {
+                std::fs::remove_dir_all(path)
+            } else {
+                std::fs::remove_file(path)
+            };
+        }
+        for (final_path, aside) in moved_aside {
+            let _ = std::fs::rename(aside, final_path);
+        }
+    };
+    for (index, (_, final_path)) in staged.iter().enumerate() {
+        if std::fs::symlink_metadata(final_path).is_ok() {
+            let aside = aside_dir.path().join(index.to_string());
+            if let Err(e) = std::fs::rename(final_path, &aside) {
+                undo(&placed, &moved_aside);
+                return Err(BakeError::Io {
+                    path: final_path.display().to_string(),
+                    source: e,
+                });
             }
-            Ready::Dir(temp) => {
-                // A folder cannot be renamed over another: move the old one aside first, and
-                // delete it only once the new one is in place.
-                let parent = final_path.parent().unwrap_or(Path::new("."));
-                let old = if final_path.exists() {
-                    let aside = tempfile::Builder::new().prefix(".replaced.").tempdir_in(parent).map_err(io(parent))?;
-                    let aside_path = aside.path().join("old");
-                    std::fs::rename(final_path, &aside_path).map_err(io(final_path))?;
-                    Some(aside)
-                } else {
-                    None
-                };
-                let temp_path = temp.keep();
-                if let Err(e) = std::fs::rename(&temp_path, final_path) {
-                    let _ = std::fs::remove_dir_all(&temp_path);
-                    return Err(BakeError::Io { path: final_path.display().to_string(), source: e });
-                }
-                drop(old); // removes the replaced folder
-                Ok(())
-            }
+            moved_aside.push((final_path.clone(), aside));
         }
     }
+    for (entry, final_path) in staged {
+        let result = match entry {
+            Staged::File(temp) => temp.persist(&final_path).map_err(|e| e.error),
+            Staged::Dir(temp) => {
+                let temp_path = temp.keep();
+                std::fs::rename(&temp_path, &final_path).inspect_err(|_| {
+                    let _ = std::fs::remove_dir_all(&temp_path);
+                })
+            }
+        };
+        if let Err(e) = result {
+            undo(&placed, &moved_aside);
+            return Err(BakeError::Io {
+                path: final_path.display().to_string(),
+                source: e,
+            });
+        }
+        placed.push(final_path);
+    }
+    drop(aside_dir); // deletes what was replaced
+    Ok(())
 }
 
 fn validate_grid(grid: &Grid) -> Result<(), BakeError> {
     if grid.size.contains(&0) {
-        return Err(BakeError::Refused(format!("the grid size {:?} has a zero dimension", grid.size)));
+        return Err(BakeError::Refused(format!(
+            "the grid size {:?} has a zero dimension",
+            grid.size
+        )));
     }
     for axis in 0..3 {
         let (lo, hi) = (grid.region.min[axis], grid.region.max[axis]);
         if !lo.is_finite() || !hi.is_finite() || lo > hi {
-            return Err(BakeError::Refused(format!("the region's {} range [{lo}, {hi}] is not a finite interval", ["x", "y", "z"][axis])));
+            return Err(BakeError::Refused(format!(
+                "the region's {} range [{lo}, {hi}] is not a finite interval",
+                ["x", "y", "z"][axis]
+            )));
         }
     }
     Ok(())
 }
 
-fn exr_attributes(grid: &Grid, options: &BakeFileOptions, output: &str) -> Vec<(&'static str, String)> {
+fn exr_attributes(
+    grid: &Grid,
+    options: &BakeFileOptions,
+    output: &str,
+) -> Vec<(&'static str, String)> {
     vec![
         ("size", format!("{} {} {}", grid.size[0], grid.size[1], grid.size[2])),
         ("region", format!("{} {} {} : {} {} {}", grid.region.min[0], grid.region.min[1], grid.region.min[2], grid.region.max[0], grid.region.max[1], grid.region.max[2])),
@@ -380,7 +532,13 @@ fn exr_attributes(grid: &Grid, options: &BakeFileOptions, output: &str) -> Vec<(
     ]
 }
 
-fn raw_sidecar(grid: &Grid, options: &BakeFileOptions, output: &crate::tape::TapeOutput, stats: &[OutputStats], final_path: &Path) -> String {
+fn raw_sidecar(
+    grid: &Grid,
+    options: &BakeFileOptions,
+    output: &crate::tape::TapeOutput,
+    stats: &[OutputStats],
+    final_path: &Path,
+) -> String {
     let channels: Vec<&str> = match (output.ty, options.alpha) {
         (Type::Vec3, false) => vec!["r", "g", "b"],
         (Type::Vec3, true) => vec!["r", "g", "b", "a"],
@@ -394,10 +552,18 @@ fn raw_sidecar(grid: &Grid, options: &BakeFileOptions, output: &crate::tape::Tap
     let transfer = match (options.raw_type, output.ty, options.transfer) {
         (RawSampleType::F32, _, _) => "none (values as evaluated)",
         (RawSampleType::U8, Type::Scalar, _) => "linear: clamp to [0, 1], x 255, round; NaN -> 0",
-        (RawSampleType::U8, Type::Vec3, Transfer::Srgb) => "srgb: clamp to [0, 1], sRGB transfer (IEC 61966-2-1), x 255, round; NaN -> 0",
-        (RawSampleType::U8, Type::Vec3, Transfer::Linear) => "linear: clamp to [0, 1], x 255, round; NaN -> 0",
+        (RawSampleType::U8, Type::Vec3, Transfer::Srgb) => {
+            "srgb: clamp to [0, 1], sRGB transfer (IEC 61966-2-1), x 255, round; NaN -> 0"
+        }
+        (RawSampleType::U8, Type::Vec3, Transfer::Linear) => {
+            "linear: clamp to [0, 1], x 255, round; NaN -> 0"
+        }
     };
-    let params: serde_json::Map<String, serde_json::Value> = options.params.iter().map(|(k, v)| (k.clone(), serde_json::json!(v))).collect();
+    let params: serde_json::Map<String, serde_json::Value> = options
+        .params
+        .iter()
+        .map(|(k, v)| (k.clone(), serde_json::json!(v)))
+        .collect();
     let stats = stats.iter().find(|s| s.name == output.name);
     let json = serde_json::json!({
         "texgraph_version": env!("CARGO_PKG_VERSION"),
@@ -432,5 +598,42 @@ pub fn human_bytes(bytes: u64) -> String {
         format!("{bytes} B")
     } else {
         format!("{value:.1} {}", UNITS[unit])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A move that fails half-way through the commit undoes the moves already made and puts the
+    /// replaced files back.
+    #[test]
+    fn a_failed_commit_is_undone() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path();
+        std::fs::write(out.join("a.raw"), b"old a").unwrap();
+        let staged_file = |text: &[u8]| {
+            let temp = tempfile::NamedTempFile::new_in(out).unwrap();
+            std::fs::write(temp.path(), text).unwrap();
+            Staged::File(temp.into_temp_path())
+        };
+        let staged = vec![
+            (staged_file(b"new a"), out.join("a.raw")),
+            (staged_file(b"new b"), out.join("b.raw")),
+            // Its folder does not exist: this move fails.
+            (staged_file(b"new c"), out.join("missing").join("c.raw")),
+        ];
+        assert!(commit(staged, out).is_err());
+        assert_eq!(std::fs::read(out.join("a.raw")).unwrap(), b"old a");
+        assert!(!out.join("b.raw").exists());
+        let left: Vec<_> = std::fs::read_dir(out)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(
+            left,
+            vec![std::ffi::OsString::from("a.raw")],
+            "temporaries and the aside folder are gone"
+        );
     }
 }

@@ -14,7 +14,10 @@
 mod files;
 mod sinks;
 
-pub use files::{bake_files, human_bytes, planned_outputs, BakeFileOptions, BakeReport, BakedFile, Format, RawSampleType, Transfer, DEFAULT_MAX_BAKE_BYTES};
+pub use files::{
+    bake_files, human_bytes, planned_outputs, BakeFileOptions, BakeReport, BakedFile, Format,
+    RawSampleType, Transfer, DEFAULT_MAX_BAKE_BYTES,
+};
 pub use sinks::{encode_u16, encode_u8, srgb_encode};
 
 use crate::graph::Type;
@@ -34,7 +37,10 @@ pub struct Region {
 
 impl Default for Region {
     fn default() -> Self {
-        Region { min: [0.0; 3], max: [1.0; 3] }
+        Region {
+            min: [0.0; 3],
+            max: [1.0; 3],
+        }
     }
 }
 
@@ -48,12 +54,17 @@ pub struct Grid {
 
 impl Grid {
     pub fn cube(n: usize) -> Grid {
-        Grid { size: [n; 3], region: Region::default() }
+        Grid {
+            size: [n; 3],
+            region: Region::default(),
+        }
     }
 
     /// Total voxels; `None` if the count overflows u64.
     pub fn voxels(&self) -> Option<u64> {
-        self.size.iter().try_fold(1u64, |acc, &n| acc.checked_mul(n as u64))
+        self.size
+            .iter()
+            .try_fold(1u64, |acc, &n| acc.checked_mul(n as u64))
     }
 
     /// The centre coordinate of voxel `index` along `axis`.
@@ -90,7 +101,12 @@ pub struct BakeOptions {
 
 impl Default for BakeOptions {
     fn default() -> Self {
-        BakeOptions { grid: Grid::cube(64), threads: 0, precision: Precision::F32, cancel: None }
+        BakeOptions {
+            grid: Grid::cube(64),
+            threads: 0,
+            precision: Precision::F32,
+            cancel: None,
+        }
     }
 }
 
@@ -113,7 +129,7 @@ pub enum BakeError {
 /// Statistics of one channel over the whole grid. NaN and infinities are counted, not mixed in.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct ChannelStats {
-    /// Over the finite values; +inf / -inf when there are none.
+    /// Over the finite values; +inf / -inf when there are none (`null` in JSON sidecars).
     pub min: f64,
     pub max: f64,
     /// Mean of the finite values; NaN when there are none.
@@ -129,7 +145,16 @@ pub struct ChannelStats {
 
 impl Default for ChannelStats {
     fn default() -> Self {
-        ChannelStats { min: f64::INFINITY, max: f64::NEG_INFINITY, mean: f64::NAN, nan: 0, pos_inf: 0, neg_inf: 0, sum: 0.0, finite: 0 }
+        ChannelStats {
+            min: f64::INFINITY,
+            max: f64::NEG_INFINITY,
+            mean: f64::NAN,
+            nan: 0,
+            pos_inf: 0,
+            neg_inf: 0,
+            sum: 0.0,
+            finite: 0,
+        }
     }
 }
 
@@ -159,7 +184,11 @@ impl ChannelStats {
         self.nan += other.nan;
         self.pos_inf += other.pos_inf;
         self.neg_inf += other.neg_inf;
-        self.mean = if self.finite > 0 { self.sum / self.finite as f64 } else { f64::NAN };
+        self.mean = if self.finite > 0 {
+            self.sum / self.finite as f64
+        } else {
+            f64::NAN
+        };
     }
 
     pub fn non_finite(&self) -> u64 {
@@ -275,11 +304,23 @@ impl Sink for VolumeSink {
 /// Bakes into memory. Needs `voxels × channels × 4` bytes.
 pub fn bake_volume(tape: &Tape, options: &BakeOptions) -> Result<Volume, BakeError> {
     let mut sink = VolumeSink {
-        outputs: tape.outputs.iter().map(|o| VolumeOutput { name: o.name.clone(), ty: o.ty, data: Vec::new() }).collect(),
+        outputs: tape
+            .outputs
+            .iter()
+            .map(|o| VolumeOutput {
+                name: o.name.clone(),
+                ty: o.ty,
+                data: Vec::new(),
+            })
+            .collect(),
         scratch: Vec::new(),
     };
     let stats = bake_into(tape, options, &mut sink, &mut |_| {})?;
-    Ok(Volume { grid: options.grid, outputs: sink.outputs, stats })
+    Ok(Volume {
+        grid: options.grid,
+        outputs: sink.outputs,
+        stats,
+    })
 }
 
 /// Voxels per window per thread: large enough that a task switch is noise, small enough that a
@@ -288,36 +329,66 @@ const VOXELS_PER_THREAD: usize = 64 * 1024;
 
 /// Bakes `tape` over the grid into `sink`, window by window in z order; calls `progress` with
 /// the voxels done so far after each window. Returns per-output statistics.
-pub fn bake_into(tape: &Tape, options: &BakeOptions, sink: &mut dyn Sink, progress: &mut dyn FnMut(u64)) -> Result<Vec<OutputStats>, BakeError> {
+pub fn bake_into(
+    tape: &Tape,
+    options: &BakeOptions,
+    sink: &mut dyn Sink,
+    progress: &mut dyn FnMut(u64),
+) -> Result<Vec<OutputStats>, BakeError> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(options.threads)
         .build()
-        .map_err(|e| BakeError::Refused(format!("cannot start {} worker threads: {e}", options.threads)))?;
+        .map_err(|e| {
+            BakeError::Refused(format!(
+                "cannot start {} worker threads: {e}",
+                options.threads
+            ))
+        })?;
     match options.precision {
         Precision::F32 => bake_with::<f32>(tape, options, &pool, sink, progress),
         Precision::F64 => bake_with::<f64>(tape, options, &pool, sink, progress),
     }
 }
 
-fn bake_with<S: Real>(tape: &Tape, options: &BakeOptions, pool: &rayon::ThreadPool, sink: &mut dyn Sink, progress: &mut dyn FnMut(u64)) -> Result<Vec<OutputStats>, BakeError> {
+fn bake_with<S: Real>(
+    tape: &Tape,
+    options: &BakeOptions,
+    pool: &rayon::ThreadPool,
+    sink: &mut dyn Sink,
+    progress: &mut dyn FnMut(u64),
+) -> Result<Vec<OutputStats>, BakeError> {
     let threads = pool.current_num_threads();
     let grid = &options.grid;
     let [nx, ny, nz] = grid.size;
     let channels = tape.channels();
-    let outputs: Vec<WindowOutput> = tape.outputs.iter().map(|o| WindowOutput { name: o.name.clone(), ty: o.ty, first_channel: o.first_channel }).collect();
+    let outputs: Vec<WindowOutput> = tape
+        .outputs
+        .iter()
+        .map(|o| WindowOutput {
+            name: o.name.clone(),
+            ty: o.ty,
+            first_channel: o.first_channel,
+        })
+        .collect();
     let mut stats: Vec<ChannelStats> = vec![ChannelStats::default(); channels];
     if nx == 0 || ny == 0 || nz == 0 || channels == 0 {
         return Ok(collect_stats(tape, &stats));
     }
     let slice_voxels = nx * ny;
-    let depth = (2 * threads * VOXELS_PER_THREAD).div_ceil(slice_voxels).clamp(1, nz);
+    let depth = (2 * threads * VOXELS_PER_THREAD)
+        .div_ceil(slice_voxels)
+        .clamp(1, nz);
     let xs: Vec<f64> = (0..nx).map(|i| grid.centre(0, i)).collect();
     let row_len = channels * nx;
     let mut buffer = vec![0f32; depth * ny * row_len];
     let mut done = 0u64;
     let mut z_start = 0;
     while z_start < nz {
-        if options.cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed)) {
+        if options
+            .cancel
+            .as_ref()
+            .is_some_and(|c| c.load(Ordering::Relaxed))
+        {
             return Err(BakeError::Cancelled);
         }
         let window_depth = depth.min(nz - z_start);
@@ -325,32 +396,49 @@ fn bake_with<S: Real>(tape: &Tape, options: &BakeOptions, pool: &rayon::ThreadPo
         // One task per row; each returns its channel statistics, merged below in row order.
         let row_stats: Vec<Vec<ChannelStats>> = pool.install(|| {
             data.par_chunks_mut(row_len)
-            .enumerate()
-            .map_init(
-                || (Workspace::<S>::new(), vec![0f64; nx], vec![0f64; nx], vec![S::ZERO; row_len]),
-                |(workspace, ys, zs, out), (row, target)| {
-                    let (k, j) = (z_start + row / ny, row % ny);
-                    ys.fill(grid.centre(1, j));
-                    zs.fill(grid.centre(2, k));
-                    tape.eval_batch(workspace, &xs, ys, zs, out);
-                    let mut row_stats = vec![ChannelStats::default(); channels];
-                    for (c, stat) in row_stats.iter_mut().enumerate() {
-                        for (t, v) in target[c * nx..(c + 1) * nx].iter_mut().zip(&out[c * nx..(c + 1) * nx]) {
-                            *t = v.to_f64() as f32;
-                            stat.add(*t);
+                .enumerate()
+                .map_init(
+                    || {
+                        (
+                            Workspace::<S>::new(),
+                            vec![0f64; nx],
+                            vec![0f64; nx],
+                            vec![S::ZERO; row_len],
+                        )
+                    },
+                    |(workspace, ys, zs, out), (row, target)| {
+                        let (k, j) = (z_start + row / ny, row % ny);
+                        ys.fill(grid.centre(1, j));
+                        zs.fill(grid.centre(2, k));
+                        tape.eval_batch(workspace, &xs, ys, zs, out);
+                        let mut row_stats = vec![ChannelStats::default(); channels];
+                        for (c, stat) in row_stats.iter_mut().enumerate() {
+                            for (t, v) in target[c * nx..(c + 1) * nx]
+                                .iter_mut()
+                                .zip(&out[c * nx..(c + 1) * nx])
+                            {
+                                *t = v.to_f64() as f32;
+                                stat.add(*t);
+                            }
                         }
-                    }
-                    row_stats
-                },
-            )
-            .collect()
+                        row_stats
+                    },
+                )
+                .collect()
         });
         for row in &row_stats {
             for (total, part) in stats.iter_mut().zip(row) {
                 total.merge(part);
             }
         }
-        let window = Window { grid, z_start, depth: window_depth, channels, outputs: &outputs, data };
+        let window = Window {
+            grid,
+            z_start,
+            depth: window_depth,
+            channels,
+            outputs: &outputs,
+            data,
+        };
         // Inside the pool, so a sink that encodes in parallel (PNG slices) uses its threads.
         pool.install(|| sink.window(&window))?;
         done += (window_depth * slice_voxels) as u64;
@@ -363,7 +451,10 @@ fn bake_with<S: Real>(tape: &Tape, options: &BakeOptions, pool: &rayon::ThreadPo
 fn collect_stats(tape: &Tape, stats: &[ChannelStats]) -> Vec<OutputStats> {
     tape.outputs
         .iter()
-        .map(|o| OutputStats { name: o.name.clone(), channels: stats[o.first_channel..o.first_channel + o.ty.channels()].to_vec() })
+        .map(|o| OutputStats {
+            name: o.name.clone(),
+            channels: stats[o.first_channel..o.first_channel + o.ty.channels()].to_vec(),
+        })
         .collect()
 }
 

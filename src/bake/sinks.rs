@@ -35,21 +35,43 @@ pub fn encode_u16(v: f32, srgb: bool) -> u16 {
 }
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> BakeError + '_ {
-    move |source| BakeError::Io { path: path.display().to_string(), source }
+    move |source| BakeError::Io {
+        path: path.display().to_string(),
+        source,
+    }
 }
 
 /// Bytes of one PNG image: `samples` interleaved, `width` × `height`, 8 or 16 bits.
-pub(super) fn png_bytes(samples: &[f32], width: usize, height: usize, ty: Type, depth16: bool, srgb: bool) -> Result<Vec<u8>, String> {
+pub(super) fn png_bytes(
+    samples: &[f32],
+    width: usize,
+    height: usize,
+    ty: Type,
+    depth16: bool,
+    srgb: bool,
+) -> Result<Vec<u8>, String> {
     let mut bytes = Vec::new();
     {
         let mut encoder = png::Encoder::new(&mut bytes, width as u32, height as u32);
-        encoder.set_color(if ty == Type::Vec3 { png::ColorType::Rgb } else { png::ColorType::Grayscale });
-        encoder.set_depth(if depth16 { png::BitDepth::Sixteen } else { png::BitDepth::Eight });
+        // fdeflate's fast mode: several times faster than the default, files within ~10-20%.
+        encoder.set_compression(png::Compression::Fast);
+        encoder.set_color(if ty == Type::Vec3 {
+            png::ColorType::Rgb
+        } else {
+            png::ColorType::Grayscale
+        });
+        encoder.set_depth(if depth16 {
+            png::BitDepth::Sixteen
+        } else {
+            png::BitDepth::Eight
+        });
         if srgb && ty == Type::Vec3 {
             encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
         }
         let mut writer = encoder.write_header().map_err(|e| e.to_string())?;
-        writer.write_image_data(&encode_samples(samples, ty, depth16, srgb)).map_err(|e| e.to_string())?;
+        writer
+            .write_image_data(&encode_samples(samples, ty, depth16, srgb))
+            .map_err(|e| e.to_string())?;
         writer.finish().map_err(|e| e.to_string())?;
     }
     Ok(bytes)
@@ -60,7 +82,10 @@ pub(super) fn png_bytes(samples: &[f32], width: usize, height: usize, ty: Type, 
 fn encode_samples(samples: &[f32], ty: Type, depth16: bool, srgb: bool) -> Vec<u8> {
     let srgb = srgb && ty == Type::Vec3;
     if depth16 {
-        samples.iter().flat_map(|&v| encode_u16(v, srgb).to_be_bytes()).collect()
+        samples
+            .iter()
+            .flat_map(|&v| encode_u16(v, srgb).to_be_bytes())
+            .collect()
     } else {
         samples.iter().map(|&v| encode_u8(v, srgb)).collect()
     }
@@ -83,8 +108,17 @@ impl Sink for PngSlices {
         (0..window.depth).into_par_iter().try_for_each(|k| {
             let mut samples = Vec::new();
             window.slice_interleaved(self.output, k, &mut samples);
-            let path = self.folder.join(format!("z{:0width$}.png", window.z_start + k, width = self.digits));
-            let bytes = png_bytes(&samples, nx, ny, self.ty, self.depth16, self.srgb).map_err(|message| BakeError::Encode { path: path.display().to_string(), message })?;
+            let path = self.folder.join(format!(
+                "z{:0width$}.png",
+                window.z_start + k,
+                width = self.digits
+            ));
+            let bytes = png_bytes(&samples, nx, ny, self.ty, self.depth16, self.srgb).map_err(
+                |message| BakeError::Encode {
+                    path: path.display().to_string(),
+                    message,
+                },
+            )?;
             std::fs::write(&path, bytes).map_err(io(&path))
         })
     }
@@ -108,7 +142,15 @@ pub(super) struct PngAtlas {
 }
 
 impl PngAtlas {
-    pub fn create(path: &Path, file: std::fs::File, grid: &Grid, output: usize, ty: Type, depth16: bool, srgb: bool) -> Result<PngAtlas, BakeError> {
+    pub fn create(
+        path: &Path,
+        file: std::fs::File,
+        grid: &Grid,
+        output: usize,
+        ty: Type,
+        depth16: bool,
+        srgb: bool,
+    ) -> Result<PngAtlas, BakeError> {
         let [nx, ny, nz] = grid.size;
         let columns = (nz as f64).sqrt().ceil().max(1.0) as usize;
         let rows = nz.div_ceil(columns);
@@ -116,14 +158,41 @@ impl PngAtlas {
         // Unbuffered: the png encoder writes whole compressed chunks, and a write error then
         // surfaces at once instead of in a buffer's drop.
         let mut encoder = png::Encoder::new(file, (columns * nx) as u32, (rows * ny) as u32);
-        encoder.set_color(if ty == Type::Vec3 { png::ColorType::Rgb } else { png::ColorType::Grayscale });
-        encoder.set_depth(if depth16 { png::BitDepth::Sixteen } else { png::BitDepth::Eight });
+        encoder.set_compression(png::Compression::Fast);
+        encoder.set_color(if ty == Type::Vec3 {
+            png::ColorType::Rgb
+        } else {
+            png::ColorType::Grayscale
+        });
+        encoder.set_depth(if depth16 {
+            png::BitDepth::Sixteen
+        } else {
+            png::BitDepth::Eight
+        });
         if srgb && ty == Type::Vec3 {
             encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
         }
-        let encode_error = |e: png::EncodingError| BakeError::Encode { path: path.display().to_string(), message: e.to_string() };
-        let writer = encoder.write_header().map_err(encode_error)?.into_stream_writer().map_err(encode_error)?;
-        Ok(PngAtlas { path: path.to_path_buf(), writer, file: handle, output, ty, depth16, srgb, columns, pending: Vec::new(), tiles_in_row: 0 })
+        let encode_error = |e: png::EncodingError| BakeError::Encode {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        };
+        let writer = encoder
+            .write_header()
+            .map_err(encode_error)?
+            .into_stream_writer()
+            .map_err(encode_error)?;
+        Ok(PngAtlas {
+            path: path.to_path_buf(),
+            writer,
+            file: handle,
+            output,
+            ty,
+            depth16,
+            srgb,
+            columns,
+            pending: Vec::new(),
+            tiles_in_row: 0,
+        })
     }
 
     fn bytes_per_pixel(&self) -> usize {
@@ -142,7 +211,8 @@ impl PngAtlas {
         for t in 0..self.tiles_in_row {
             for j in 0..ny {
                 let src = &self.pending[(t * ny + j) * tile_row_bytes..][..tile_row_bytes];
-                rows[(j * self.columns + t) * tile_row_bytes..][..tile_row_bytes].copy_from_slice(src);
+                rows[(j * self.columns + t) * tile_row_bytes..][..tile_row_bytes]
+                    .copy_from_slice(src);
             }
         }
         self.writer.write_all(&rows).map_err(io(&self.path))?;
@@ -154,7 +224,10 @@ impl PngAtlas {
     pub fn finish(mut self, grid: &Grid) -> Result<(), BakeError> {
         self.flush_row(grid)?;
         let path = self.path.clone();
-        self.writer.finish().map_err(|e| BakeError::Encode { path: path.display().to_string(), message: e.to_string() })?;
+        self.writer.finish().map_err(|e| BakeError::Encode {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })?;
         self.file.sync_all().map_err(io(&path))
     }
 }
@@ -164,7 +237,8 @@ impl Sink for PngAtlas {
         let mut samples = Vec::new();
         for k in 0..window.depth {
             window.slice_interleaved(self.output, k, &mut samples);
-            self.pending.extend(encode_samples(&samples, self.ty, self.depth16, self.srgb));
+            self.pending
+                .extend(encode_samples(&samples, self.ty, self.depth16, self.srgb));
             self.tiles_in_row += 1;
             if self.tiles_in_row == self.columns {
                 self.flush_row(window.grid)?;
@@ -247,15 +321,28 @@ impl Sink for Exr {
 impl Exr {
     /// Writes the EXR to `file` (32-bit float, or 16-bit half when `half`), with the grid in
     /// the header as custom attributes.
-    pub fn write(&self, path: &Path, file: std::fs::File, grid: &Grid, half: bool, attributes: &[(&str, String)]) -> Result<(), BakeError> {
+    pub fn write(
+        &self,
+        path: &Path,
+        file: std::fs::File,
+        grid: &Grid,
+        half: bool,
+        attributes: &[(&str, String)],
+    ) -> Result<(), BakeError> {
         use exr::prelude::*;
         let [nx, ny, nz] = grid.size;
         let size = (nx, ny * nz);
         let mut layer_attributes = LayerAttributes::named("texgraph");
         for (key, value) in attributes {
-            layer_attributes.other.insert(Text::from(format!("texgraph:{key}").as_str()), AttributeValue::Text(Text::from(value.as_str())));
+            layer_attributes.other.insert(
+                Text::from(format!("texgraph:{key}").as_str()),
+                AttributeValue::Text(Text::from(value.as_str())),
+            );
         }
-        let encode = |e: exr::error::Error| BakeError::Encode { path: path.display().to_string(), message: e.to_string() };
+        let encode = |e: exr::error::Error| BakeError::Encode {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        };
         let writer = std::io::BufWriter::new(file);
         let data = &self.data;
         match (self.ty, half) {
@@ -264,22 +351,62 @@ impl Exr {
                     let i = (p.y() * nx + p.x()) * 3;
                     (data[i], data[i + 1], data[i + 2])
                 });
-                Image::from_layer(Layer::new(size, layer_attributes, Encoding::FAST_LOSSLESS, channels)).write().to_buffered(writer).map_err(encode)
+                Image::from_layer(Layer::new(
+                    size,
+                    layer_attributes,
+                    Encoding::FAST_LOSSLESS,
+                    channels,
+                ))
+                .write()
+                .to_buffered(writer)
+                .map_err(encode)
             }
             (Type::Vec3, true) => {
                 let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
                     let i = (p.y() * nx + p.x()) * 3;
-                    (f16::from_f32(data[i]), f16::from_f32(data[i + 1]), f16::from_f32(data[i + 2]))
+                    (
+                        f16::from_f32(data[i]),
+                        f16::from_f32(data[i + 1]),
+                        f16::from_f32(data[i + 2]),
+                    )
                 });
-                Image::from_layer(Layer::new(size, layer_attributes, Encoding::FAST_LOSSLESS, channels)).write().to_buffered(writer).map_err(encode)
+                Image::from_layer(Layer::new(
+                    size,
+                    layer_attributes,
+                    Encoding::FAST_LOSSLESS,
+                    channels,
+                ))
+                .write()
+                .to_buffered(writer)
+                .map_err(encode)
             }
             (Type::Scalar, false) => {
-                let channels = SpecificChannels::build().with_channel("Y").with_pixel_fn(|p: Vec2<usize>| (data[p.y() * nx + p.x()],));
-                Image::from_layer(Layer::new(size, layer_attributes, Encoding::FAST_LOSSLESS, channels)).write().to_buffered(writer).map_err(encode)
+                let channels = SpecificChannels::build()
+                    .with_channel("Y")
+                    .with_pixel_fn(|p: Vec2<usize>| (data[p.y() * nx + p.x()],));
+                Image::from_layer(Layer::new(
+                    size,
+                    layer_attributes,
+                    Encoding::FAST_LOSSLESS,
+                    channels,
+                ))
+                .write()
+                .to_buffered(writer)
+                .map_err(encode)
             }
             (Type::Scalar, true) => {
-                let channels = SpecificChannels::build().with_channel("Y").with_pixel_fn(|p: Vec2<usize>| (f16::from_f32(data[p.y() * nx + p.x()]),));
-                Image::from_layer(Layer::new(size, layer_attributes, Encoding::FAST_LOSSLESS, channels)).write().to_buffered(writer).map_err(encode)
+                let channels = SpecificChannels::build()
+                    .with_channel("Y")
+                    .with_pixel_fn(|p: Vec2<usize>| (f16::from_f32(data[p.y() * nx + p.x()]),));
+                Image::from_layer(Layer::new(
+                    size,
+                    layer_attributes,
+                    Encoding::FAST_LOSSLESS,
+                    channels,
+                ))
+                .write()
+                .to_buffered(writer)
+                .map_err(encode)
             }
         }
     }

@@ -1,6 +1,6 @@
 //! Fractal sums of one basis over an octave schedule: fBm and turbulence.
 
-use super::{Basis, GradientKernel, Interpolation, Kernel, NoiseTable, PerlinKernel, ValueKernel};
+use super::{batch, Basis, GradientKernel, Interpolation, NoiseTable, PerlinKernel, ValueKernel};
 use crate::real::Real;
 
 /// Octave schedule of Fbm / Turbulence, precomputed at compile time.
@@ -82,7 +82,8 @@ impl Octaves {
 }
 
 /// Σ amp_i · basis(p · freq_i) (or Σ amp_i · |basis(...)| when `turbulence`), summed in S in
-/// octave order, starting from `S::ZERO`: `sum = sum + S::from_f64(amp) * n`. Scaling p · freq is
+/// octave order, starting from `S::ZERO`: `sum = sum + S::from_f64(amp) * n`; a NaN sum is
+/// returned as the canonical NaN (see `canonical_nan` in `noise`). Scaling p · freq is
 /// done in f64, so high octaves keep their lattice cell exact.
 pub fn fractal<S: Real>(table: &NoiseTable, octaves: &Octaves, turbulence: bool, p: [f64; 3]) -> S {
     let mut sum = S::ZERO;
@@ -91,12 +92,13 @@ pub fn fractal<S: Real>(table: &NoiseTable, octaves: &Octaves, turbulence: bool,
         let n = if turbulence { n.abs() } else { n };
         sum = sum + S::from_f64(a) * n;
     }
-    sum
+    super::canonical_nan(sum)
 }
 
 /// Per-lane bit-identical to [`fractal`]: the octave loop is outside the lane loop (so the basis
-/// and turbulence dispatch happen once per octave, not per lane), but each lane still sees the
-/// same additions in the same order, starting from `S::ZERO`.
+/// and turbulence dispatch happen once per batch, and the lanes of one octave vectorise; see
+/// `batch.rs`), but each lane still sees the same additions in the same order, starting from
+/// `S::ZERO`.
 ///
 /// Panics if the slices' lengths differ (a caller bug).
 pub fn fractal_batch<S: Real>(
@@ -109,33 +111,12 @@ pub fn fractal_batch<S: Real>(
     out: &mut [S],
 ) {
     super::check_lengths(x, y, z, out.len());
-    out.fill(S::ZERO);
-    for (f, a) in octaves.pairs() {
-        let amp = S::from_f64(a);
-        with_kernel!(table, k => {
-            if turbulence {
-                accumulate::<S, _, true>(&k, f, amp, x, y, z, out)
-            } else {
-                accumulate::<S, _, false>(&k, f, amp, x, y, z, out)
-            }
-        });
-    }
-}
-
-/// One octave over all lanes: `out = out + amp * basis(p * f)` (|basis| when `TURB`).
-#[inline(always)]
-fn accumulate<S: Real, K: Kernel, const TURB: bool>(
-    k: &K,
-    f: f64,
-    amp: S,
-    x: &[f64],
-    y: &[f64],
-    z: &[f64],
-    out: &mut [S],
-) {
-    for (((o, &x), &y), &z) in out.iter_mut().zip(x).zip(y).zip(z) {
-        let n: S = k.eval([x * f, y * f, z * f]);
-        let n = if TURB { n.abs() } else { n };
-        *o = *o + amp * n;
-    }
+    let (f, a) = (&octaves.frequencies[..], &octaves.amplitudes[..]);
+    with_kernel!(table, k => {
+        if turbulence {
+            batch::fractal::<S, _, true>(&k, f, a, x, y, z, out)
+        } else {
+            batch::fractal::<S, _, false>(&k, f, a, x, y, z, out)
+        }
+    });
 }

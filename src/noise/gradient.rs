@@ -2,7 +2,7 @@
 //! a seeded table of unit vectors on the sphere, hashed per lattice point through a seeded
 //! permutation, and smoothed trilinear interpolation of the eight corner dot products.
 
-use super::lattice::{corner_hashes, lattice, lerp, smoothstep};
+use super::lattice::{corner_hashes, corner_hashes_paired, lattice, lerp, smoothstep};
 use super::rng::SplitMix64;
 use crate::real::Real;
 
@@ -55,6 +55,29 @@ pub(super) fn sample<S: Real>(perm: &[u8; 512], grads: &[[f32; 3]; 256], p: [f64
     let (wx, wy, wz) = (smoothstep(fx0), smoothstep(fy0), smoothstep(fz0));
     // Hash values are u8 widened, so `& 255` is a no-op the optimizer uses to drop bounds checks.
     let g = |i: usize| &grads[h[i] & 255];
+    let vy0 = lerp(wx, dot(g(0), fx0, fy0, fz0), dot(g(1), fx1, fy0, fz0));
+    let vy1 = lerp(wx, dot(g(2), fx0, fy1, fz0), dot(g(3), fx1, fy1, fz0));
+    let vz0 = lerp(wy, vy0, vy1);
+    let vy0 = lerp(wx, dot(g(4), fx0, fy0, fz1), dot(g(5), fx1, fy0, fz1));
+    let vy1 = lerp(wx, dot(g(6), fx0, fy1, fz1), dot(g(7), fx1, fy1, fz1));
+    let vz1 = lerp(wy, vy0, vy1);
+    lerp(wz, vz0, vz1)
+}
+
+/// [`sample`]'s interior for the batch kernels, from the lattice step's cell indices and
+/// fractions: the same hashes ([`corner_hashes_paired`]) and the same arithmetic in the same order.
+#[inline(always)]
+pub(super) fn sample_lane<S: Real>(
+    pairs: &[i32; 512],
+    grads: &[[f32; 3]; 256],
+    cell: [i32; 3],
+    frac: [S; 3],
+) -> S {
+    let h = corner_hashes_paired(pairs, cell);
+    let [fx0, fy0, fz0] = frac;
+    let (fx1, fy1, fz1) = (fx0 - S::ONE, fy0 - S::ONE, fz0 - S::ONE);
+    let (wx, wy, wz) = (smoothstep(fx0), smoothstep(fy0), smoothstep(fz0));
+    let g = |i: usize| &grads[(h[i] & 255) as usize];
     let vy0 = lerp(wx, dot(g(0), fx0, fy0, fz0), dot(g(1), fx1, fy0, fz0));
     let vy1 = lerp(wx, dot(g(2), fx0, fy1, fz0), dot(g(3), fx1, fy1, fz0));
     let vz0 = lerp(wy, vy0, vy1);

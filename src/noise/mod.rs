@@ -16,8 +16,14 @@ mod rng;
 
 /// The lattice noise function of one basis, as one monomorphic kernel per basis, so the batch
 /// loops can dispatch on the basis once per batch instead of once per lane.
-trait Kernel {
+///
+/// Two formulations of one function: `eval` is the readable per-point reference; `eval_lane` is
+/// its interior after the lattice step (cell indices mod 256 and fractions already computed, see
+/// `batch.rs`), written without branches or byte tables so that a loop over lanes vectorises.
+/// Both give the same bits for every input (proved by the tests, not assumed).
+trait Kernel: Sync {
     fn eval<S: Real>(&self, p: [f64; 3]) -> S;
+    fn eval_lane<S: Real>(&self, cell: [i32; 3], frac: [S; 3]) -> S;
 }
 
 /// Runs `$body` with `$k` bound to the [`Kernel`] of `$table`'s basis.
@@ -26,12 +32,16 @@ macro_rules! with_kernel {
         let t: &NoiseTable = $table;
         match t.basis {
             Basis::Perlin => {
-                let $k = PerlinKernel { perm: &t.perm };
+                let $k = PerlinKernel {
+                    perm: &t.perm,
+                    pairs: &t.pairs,
+                };
                 $body
             }
             Basis::Gradient => {
                 let $k = GradientKernel {
                     perm: &t.perm,
+                    pairs: &t.pairs,
                     grads: &t.grads,
                 };
                 $body
@@ -39,6 +49,7 @@ macro_rules! with_kernel {
             Basis::Value(Interpolation::Linear) => {
                 let $k = ValueKernel::<false> {
                     perm: &t.perm,
+                    pairs: &t.pairs,
                     values: &t.values,
                 };
                 $body
@@ -46,6 +57,7 @@ macro_rules! with_kernel {
             Basis::Value(Interpolation::Smooth) => {
                 let $k = ValueKernel::<true> {
                     perm: &t.perm,
+                    pairs: &t.pairs,
                     values: &t.values,
                 };
                 $body
@@ -54,6 +66,7 @@ macro_rules! with_kernel {
     }};
 }
 
+mod batch;
 mod fractal;
 mod gradient;
 mod perlin;
@@ -88,7 +101,7 @@ pub enum Interpolation {
 /// Immutable lattice tables for one (basis, seed); Send + Sync; built once at compile time.
 ///
 /// Every table is kept even when the basis does not read it (zeros then): the struct is small
-/// (about 4.6 KB) and a fixed layout keeps all indexing free of bounds checks.
+/// (about 6.6 KB) and a fixed layout keeps all indexing free of bounds checks.
 #[derive(Clone)]
 pub struct NoiseTable {
     basis: Basis,
@@ -96,6 +109,10 @@ pub struct NoiseTable {
     /// The permutation of 0..=255, doubled to 512 entries so that a hash plus an index <= 255
     /// needs no wrap.
     perm: [u8; 512],
+    /// `perm[i] | perm[i + 1] << 8` (`perm[0]` after the last entry) as i32: the batch kernels'
+    /// form of the permutation. Every hash step reads two neighbouring entries, so one 32-bit
+    /// table read (a SIMD gather) serves both; see `lattice::corner_hashes_paired`.
+    pairs: [i32; 512],
     /// Gradient basis: unit vectors (f32 precision, see the module docs).
     grads: [[f32; 3]; 256],
     /// Value basis: lattice values in [0, 1] (f32 precision).
@@ -136,10 +153,12 @@ impl NoiseTable {
             Basis::Value(_) => value::values(seed ^ rng::VALUE_SALT),
             _ => [0.0; 256],
         };
+        let pairs = std::array::from_fn(|i| perm[i] as i32 | (perm[(i + 1) % 512] as i32) << 8);
         NoiseTable {
             basis,
             seed,
             perm,
+            pairs,
             grads,
             values,
         }
@@ -163,17 +182,14 @@ impl NoiseTable {
         with_kernel!(self, k => k.eval(p))
     }
 
-    /// `out[i] = sample(x[i], y[i], z[i])` bit for bit (one basis dispatch per batch, then a
-    /// straight loop over the lanes running the same kernel as [`NoiseTable::sample`]).
+    /// `out[i] = sample(x[i], y[i], z[i])` bit for bit: one basis dispatch per batch, then the
+    /// SIMD lane kernels of `batch.rs` (runtime CPU feature detection), or for a handful of lanes
+    /// or a CPU without SSE4.1 a straight loop running [`NoiseTable::sample`]'s kernel.
     ///
     /// Panics only if the slices' lengths differ (a caller bug).
     pub fn sample_batch<S: Real>(&self, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
         check_lengths(x, y, z, out.len());
-        with_kernel!(self, k => {
-            for (((o, &x), &y), &z) in out.iter_mut().zip(x).zip(y).zip(z) {
-                *o = k.eval([x, y, z]);
-            }
-        });
+        with_kernel!(self, k => batch::sample(&k, x, y, z, out));
     }
 
     /// Guaranteed `[min, max]` of [`NoiseTable::sample`] for finite input, in f32 and in f64,
@@ -253,40 +269,70 @@ fn check_lengths(x: &[f64], y: &[f64], z: &[f64], n: usize) {
     );
 }
 
+/// NaN as the one canonical NaN, `S::NAN` (positive, quiet, zero payload); other values as they
+/// are. Every noise result and fractal sum passes through it, so that a non-finite input gives
+/// the same bits on the point and the batch paths: IEEE 754 and Rust leave the sign and payload
+/// of a NaN result unspecified, and LLVM may order an addition's operands differently in scalar
+/// and in vectorised code (Perlin's `grad` adds `±x + ±y` of two NaNs of opposite signs, and x86
+/// returns the first operand's NaN). One compare and one blend per lane in SIMD.
+#[inline(always)]
+pub(super) fn canonical_nan<S: Real>(v: S) -> S {
+    if v.is_nan() {
+        S::NAN
+    } else {
+        v
+    }
+}
+
 /// [`Basis::Perlin`]'s kernel.
 struct PerlinKernel<'a> {
     perm: &'a [u8; 512],
+    pairs: &'a [i32; 512],
 }
 
 impl Kernel for PerlinKernel<'_> {
     #[inline(always)]
     fn eval<S: Real>(&self, p: [f64; 3]) -> S {
-        perlin::sample(self.perm, p)
+        canonical_nan(perlin::sample(self.perm, p))
+    }
+    #[inline(always)]
+    fn eval_lane<S: Real>(&self, cell: [i32; 3], frac: [S; 3]) -> S {
+        canonical_nan(perlin::sample_lane(self.pairs, cell, frac))
     }
 }
 
 /// [`Basis::Gradient`]'s kernel.
 struct GradientKernel<'a> {
     perm: &'a [u8; 512],
+    pairs: &'a [i32; 512],
     grads: &'a [[f32; 3]; 256],
 }
 
 impl Kernel for GradientKernel<'_> {
     #[inline(always)]
     fn eval<S: Real>(&self, p: [f64; 3]) -> S {
-        gradient::sample(self.perm, self.grads, p)
+        canonical_nan(gradient::sample(self.perm, self.grads, p))
+    }
+    #[inline(always)]
+    fn eval_lane<S: Real>(&self, cell: [i32; 3], frac: [S; 3]) -> S {
+        canonical_nan(gradient::sample_lane(self.pairs, self.grads, cell, frac))
     }
 }
 
 /// [`Basis::Value`]'s kernel; `SMOOTH` selects [`Interpolation::Smooth`].
 struct ValueKernel<'a, const SMOOTH: bool> {
     perm: &'a [u8; 512],
+    pairs: &'a [i32; 512],
     values: &'a [f32; 256],
 }
 
 impl<const SMOOTH: bool> Kernel for ValueKernel<'_, SMOOTH> {
     #[inline(always)]
     fn eval<S: Real>(&self, p: [f64; 3]) -> S {
-        value::sample::<S, SMOOTH>(self.perm, self.values, p)
+        canonical_nan(value::sample::<S, SMOOTH>(self.perm, self.values, p))
+    }
+    #[inline(always)]
+    fn eval_lane<S: Real>(&self, cell: [i32; 3], frac: [S; 3]) -> S {
+        canonical_nan(value::sample_lane::<S, SMOOTH>(self.pairs, self.values, cell, frac))
     }
 }

@@ -28,7 +28,7 @@ pub(super) const REFERENCE_PERMUTATION: [u8; 256] = [
 
 /// The reference's `fade(t) = t^3 (t (6t - 15) + 10)`, in its association order.
 #[inline(always)]
-fn fade<S: Real>(t: S) -> S {
+pub(super) fn fade<S: Real>(t: S) -> S {
     t * t * t * (t * (t * S::from_f64(6.0) - S::from_f64(15.0)) + S::from_f64(10.0))
 }
 
@@ -92,6 +92,74 @@ pub(super) fn sample<S: Real>(p: &[u8; 512], pos: [f64; 3]) -> S {
                 u,
                 grad(p[(ab + 1) & 511], x, y1, z1),
                 grad(p[(bb + 1) & 511], x1, y1, z1),
+            ),
+        ),
+    )
+}
+
+/// [`grad`] for the batch kernels: the same choice of `u`, `v` and signs, as selects (blends
+/// under SIMD) instead of table lookups, and the same single addition `u + v`, so the bits
+/// (the sign of a zero, a NaN) are the same.
+#[inline(always)]
+fn grad_select<S: Real>(hash: i32, x: S, y: S, z: S) -> S {
+    let h = hash & 15;
+    let u = if h < 8 { x } else { y };
+    let v = if h < 4 {
+        y
+    } else if h == 12 || h == 14 {
+        x
+    } else {
+        z
+    };
+    let u = if h & 1 != 0 { -u } else { u };
+    let v = if h & 2 != 0 { -v } else { v };
+    u + v
+}
+
+/// [`sample`]'s interior for the batch kernels, from the lattice step's cell indices (mod 256)
+/// and fractions (already in S). The hashes come from the paired table
+/// (`pairs[i] = p[i] | p[i + 1] << 8`): the reference reads p at A and A + 1, B and B + 1, AA and
+/// AA + 1, and so on, always neighbours, so seven 32-bit reads give all fourteen (every index is
+/// at most 510, so the neighbour is in the doubled table). The arithmetic is the reference's,
+/// expression for expression.
+#[inline(always)]
+pub(super) fn sample_lane<S: Real>(pairs: &[i32; 512], cell: [i32; 3], frac: [S; 3]) -> S {
+    let [xi, yi, zi] = cell;
+    let [x, y, z] = frac;
+    let at = |i: i32| pairs[(i & 511) as usize];
+    let px = at(xi); // p[xi], p[xi + 1]
+    let a = (px & 255) + yi;
+    let b = (px >> 8) + yi;
+    let pa = at(a); // p[A], p[A + 1]
+    let pb = at(b); // p[B], p[B + 1]
+    let aa = (pa & 255) + zi;
+    let ab = (pa >> 8) + zi;
+    let ba = (pb & 255) + zi;
+    let bb = (pb >> 8) + zi;
+    let (haa, hab, hba, hbb) = (at(aa), at(ab), at(ba), at(bb)); // p[AA], p[AA + 1] etc.
+    let u = fade(x);
+    let v = fade(y);
+    let w = fade(z);
+    let one = S::ONE;
+    let (x1, y1, z1) = (x - one, y - one, z - one);
+    lerp(
+        w,
+        lerp(
+            v,
+            lerp(u, grad_select(haa, x, y, z), grad_select(hba, x1, y, z)),
+            lerp(u, grad_select(hab, x, y1, z), grad_select(hbb, x1, y1, z)),
+        ),
+        lerp(
+            v,
+            lerp(
+                u,
+                grad_select(haa >> 8, x, y, z1),
+                grad_select(hba >> 8, x1, y, z1),
+            ),
+            lerp(
+                u,
+                grad_select(hab >> 8, x, y1, z1),
+                grad_select(hbb >> 8, x1, y1, z1),
             ),
         ),
     )

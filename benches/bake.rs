@@ -1,0 +1,68 @@
+//! Bake benchmarks (criterion): `bake/marble_128/threads_N` bakes the seed 003 marble (its
+//! defaults: 12 octaves, both outputs) over 128³ voxels into memory-free sinks with 1 and 2
+//! worker threads, so the ratio of the two is the parallel scaling; `bake/marble_128_png` writes
+//! the PNG slices as `texgraph bake --format png` does.
+//!
+//! Run: `cargo bench --bench bake`.
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use std::time::Duration;
+use texgraph::bake::{
+    bake_files, bake_into, BakeError, BakeFileOptions, BakeOptions, Grid, Precision, Sink, Window,
+};
+use texgraph::{CheckOptions, CompileOptions};
+
+/// Receives windows and keeps nothing: measures evaluation and the engine alone.
+struct Discard;
+
+impl Sink for Discard {
+    fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
+        std::hint::black_box(window.depth);
+        Ok(())
+    }
+}
+
+fn benches(c: &mut Criterion) {
+    let (_, tape) = texgraph::load_tape(
+        "graphs/seed003_marble.ron".as_ref(),
+        &CheckOptions::default(),
+        &CompileOptions::default(),
+    )
+    .expect("run from the crate root");
+    let grid = Grid::cube(128);
+    let mut group = c.benchmark_group("bake");
+    group.throughput(Throughput::Elements(grid.voxels().unwrap_or(0)));
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(12))
+        .warm_up_time(Duration::from_secs(2));
+    for threads in [1usize, 2] {
+        let options = BakeOptions {
+            grid,
+            threads,
+            precision: Precision::F32,
+            cancel: None,
+        };
+        group.bench_function(format!("marble_128/threads_{threads}"), |b| {
+            b.iter(|| bake_into(&tape, &options, &mut Discard, &mut |_| {}).expect("bakes"))
+        });
+    }
+    let out = tempfile::tempdir().expect("temp dir");
+    group.bench_function("marble_128_png/threads_2", |b| {
+        b.iter(|| {
+            let mut options = BakeFileOptions::new("marble", out.path());
+            options.bake = BakeOptions {
+                grid,
+                threads: 2,
+                precision: Precision::F32,
+                cancel: None,
+            };
+            options.force = true;
+            bake_files(&tape, &options, &mut |_| {}).expect("bakes")
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(bake, benches);
+criterion_main!(bake);
