@@ -17,7 +17,8 @@ use crate::nodes::{self, ArgDef, ArgKind, DefaultValue, InputType, Kind, NodeDef
 use crate::noise::{Basis, Interpolation};
 use crate::ops::{self, BinaryOp, Curve, Hermite, Ramp, SplineInterpolation, TernaryOp, UnaryOp};
 use crate::syntax::{self, Value, ValueKind};
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
+use smallvec::SmallVec;
 use std::sync::Arc;
 
 /// Options for checking one graph.
@@ -44,7 +45,7 @@ pub fn check(file: Arc<SourceFile>, options: &CheckOptions) -> Result<CheckedGra
         builder: GraphBuilder::new(),
         diagnostics: Vec::new(),
         params: Vec::new(),
-        node_index: HashMap::new(),
+        node_index: HashMap::default(),
         lowered: Vec::new(),
         written: 0,
     };
@@ -243,7 +244,7 @@ impl Checker {
         for i in order {
             let (id, value) = &node_entries[i];
             let origin = Origin {
-                node: id.value.clone(),
+                node: Arc::from(id.value.as_str()),
                 span: value.span,
             };
             self.lowered[i] = self.expression(value, &origin);
@@ -271,7 +272,7 @@ impl Checker {
                 continue;
             }
             let origin = Origin {
-                node: format!("outputs.{}", name.value),
+                node: Arc::from(format!("outputs.{}", name.value).as_str()),
                 span: value.span,
             };
             if let Some(node) = self.expression(value, &origin) {
@@ -520,7 +521,7 @@ impl Checker {
                 if v.is_nan() {
                     self.error(
                         Diagnostic::new(Class::BadParameter, "NaN is not allowed as a literal")
-                            .in_node(&origin.node)
+                            .in_node(&*origin.node)
                             .at(value.span)
                             .label("NaN")
                             .help("a NaN literal would make every result NaN"),
@@ -540,7 +541,7 @@ impl Checker {
                                 items.len()
                             ),
                         )
-                        .in_node(&origin.node)
+                        .in_node(&*origin.node)
                         .at(value.span)
                         .label("expected (x, y, z)"),
                     );
@@ -551,7 +552,7 @@ impl Checker {
                     components.push(self.typed_input(
                         item,
                         InputType::Scalar,
-                        "a vec3 component",
+                        &"a vec3 component",
                         origin,
                     ));
                 }
@@ -564,29 +565,15 @@ impl Checker {
             ValueKind::Tuple {
                 name: Some(kind_name),
                 items,
-            } => {
-                let positional: Vec<&Value> = items.iter().collect();
-                self.node(
-                    &kind_name.value,
-                    kind_name.span,
-                    &positional,
-                    &[],
-                    value,
-                    origin,
-                )
-            }
+            } => self.node(&kind_name.value, kind_name.span, items, &[], value, origin),
             ValueKind::Struct {
                 name: Some(kind_name),
                 fields,
-            } => {
-                let named: Vec<(&Spanned<String>, &Value)> =
-                    fields.iter().map(|(f, v)| (f, v)).collect();
-                self.node(&kind_name.value, kind_name.span, &[], &named, value, origin)
-            }
+            } => self.node(&kind_name.value, kind_name.span, &[], fields, value, origin),
             other => {
                 self.error(
                     Diagnostic::new(Class::Type, format!("expected an input (a \"reference\", a number, a vec3 (x, y, z) or a node), found {}", other.describe()))
-                        .in_node(&origin.node)
+                        .in_node(&*origin.node)
                         .at(value.span)
                         .label("not an input"),
                 );
@@ -633,7 +620,7 @@ impl Checker {
                 Class::UnknownReference,
                 format!("unknown reference \"{base}\""),
             )
-            .in_node(&origin.node)
+            .in_node(&*origin.node)
             .at(span)
             .label("no node or param has this name");
             if nodes::lookup(base).is_some() {
@@ -658,7 +645,7 @@ impl Checker {
                         Class::WrongComponent,
                         format!("\"{text}\": there is no component `{component}`"),
                     )
-                    .in_node(&origin.node)
+                    .in_node(&*origin.node)
                     .at(span)
                     .label("unknown component")
                     .help("components are .x .y .z (or .r .g .b)"),
@@ -672,7 +659,7 @@ impl Checker {
                     Class::WrongComponent,
                     format!("\"{text}\": \"{base}\" is a scalar and has no components"),
                 )
-                .in_node(&origin.node)
+                .in_node(&*origin.node)
                 .at(span)
                 .label("scalar")
                 .help(format!("use \"{base}\" itself")),
@@ -688,7 +675,7 @@ impl Checker {
         &mut self,
         value: &Value,
         ty: InputType,
-        what: &str,
+        what: &dyn std::fmt::Display,
         origin: &Origin,
     ) -> Option<NodeId> {
         let id = self.expression(value, origin)?;
@@ -714,7 +701,7 @@ impl Checker {
                     Class::Type,
                     format!("{what} must be a {expected}, found a {actual}"),
                 )
-                .in_node(&origin.node)
+                .in_node(&*origin.node)
                 .at(value.span)
                 .label(format!("this is a {actual}"))
                 .help(help),
@@ -735,7 +722,7 @@ impl Checker {
         let id = self.typed_input(
             value,
             InputType::Scalar,
-            &format!("`{}` of {}", arg.name, def.name),
+            &ArgName(arg.name, def.name),
             origin,
         )?;
         let Some(v) = self.builder.const_scalar(id) else {
@@ -744,7 +731,7 @@ impl Checker {
                     Class::NotConstant,
                     format!("`{}` of {} must be a constant", arg.name, def.name),
                 )
-                .in_node(&origin.node)
+                .in_node(&*origin.node)
                 .at(value.span)
                 .label("varies per point")
                 .help("use a number, a param, or an expression of those"),
@@ -768,7 +755,7 @@ impl Checker {
                         crate::diagnostic::number(v)
                     ),
                 )
-                .in_node(&origin.node)
+                .in_node(&*origin.node)
                 .at(value.span)
                 .label(label),
             );
@@ -777,7 +764,12 @@ impl Checker {
         Some(v)
     }
 
-    fn constant_vec3(&mut self, value: &Value, what: &str, origin: &Origin) -> Option<[f64; 3]> {
+    fn constant_vec3(
+        &mut self,
+        value: &Value,
+        what: &dyn std::fmt::Display,
+        origin: &Origin,
+    ) -> Option<[f64; 3]> {
         let id = self.expression(value, origin)?;
         let v = self.builder.const_vec3(id);
         match v {
@@ -785,7 +777,7 @@ impl Checker {
             Some(_) => {
                 self.error(
                     Diagnostic::new(Class::BadParameter, format!("{what} must be finite"))
-                        .in_node(&origin.node)
+                        .in_node(&*origin.node)
                         .at(value.span)
                         .label("not finite"),
                 );
@@ -794,7 +786,7 @@ impl Checker {
             None => {
                 self.error(
                     Diagnostic::new(Class::NotConstant, format!("{what} must be a constant"))
-                        .in_node(&origin.node)
+                        .in_node(&*origin.node)
                         .at(value.span)
                         .label("varies per point")
                         .help("use (r, g, b) numbers or params"),
@@ -809,8 +801,8 @@ impl Checker {
         &mut self,
         kind_name: &str,
         kind_span: Span,
-        positional: &[&Value],
-        named: &[(&Spanned<String>, &Value)],
+        positional: &[Value],
+        named: &[(Spanned<String>, Value)],
         whole: &Value,
         origin: &Origin,
     ) -> Option<NodeId> {
@@ -824,7 +816,7 @@ impl Checker {
                         limits::MAX_NODES
                     ),
                 )
-                .in_node(&origin.node)
+                .in_node(&*origin.node)
                 .at(whole.span),
             );
         }
@@ -836,7 +828,7 @@ impl Checker {
                 Class::UnknownKind,
                 format!("unknown node kind `{kind_name}`"),
             )
-            .in_node(&origin.node)
+            .in_node(&*origin.node)
             .at(kind_span)
             .label("not a node kind");
             if let Some(s) = nodes::suggest(kind_name) {
@@ -857,7 +849,9 @@ impl Checker {
         };
 
         // Match the written arguments to the definition's.
-        let mut given: Vec<Option<&Value>> = vec![None; def.args.len()];
+        // Inline vectors: every node expression passes through here (no kind has more than 8
+        // arguments).
+        let mut given: SmallVec<[Option<&Value>; 8]> = smallvec::smallvec![None; def.args.len()];
         if positional.len() > def.args.len() {
             self.error(
                 Diagnostic::new(
@@ -869,7 +863,7 @@ impl Checker {
                         positional.len()
                     ),
                 )
-                .in_node(&origin.node)
+                .in_node(&*origin.node)
                 .at(positional[def.args.len()].span)
                 .label("extra argument")
                 .help(signature(def)),
@@ -890,7 +884,7 @@ impl Checker {
                             Class::DuplicateName,
                             format!("`{}` is given twice", field.value),
                         )
-                        .in_node(&origin.node)
+                        .in_node(&*origin.node)
                         .at(field.span)
                         .label("second time"),
                     );
@@ -902,7 +896,7 @@ impl Checker {
                         Class::UnknownArgument,
                         format!("{} has no argument `{}`", def.name, field.value),
                     )
-                    .in_node(&origin.node)
+                    .in_node(&*origin.node)
                     .at(field.span)
                     .label("unknown argument");
                     let suggestion =
@@ -917,7 +911,7 @@ impl Checker {
                 }
             }
         }
-        let mut args: Vec<Option<Arg>> = Vec::with_capacity(def.args.len());
+        let mut args: SmallVec<[Option<Arg>; 8]> = SmallVec::new();
         for (arg, value) in def.args.iter().zip(&given) {
             let read = match value {
                 Some(value) => self.argument(value, arg, def, origin),
@@ -930,7 +924,7 @@ impl Checker {
                                 Class::MissingArgument,
                                 format!("{} needs `{}`", def.name, arg.name),
                             )
-                            .in_node(&origin.node)
+                            .in_node(&*origin.node)
                             .at(whole.span)
                             .label(format!("`{}` missing", arg.name))
                             .help(signature(def)),
@@ -945,7 +939,7 @@ impl Checker {
         if !ok {
             return None;
         }
-        let args: Vec<Arg> = args.into_iter().collect::<Option<_>>()?;
+        let args: SmallVec<[Arg; 8]> = args.into_iter().collect::<Option<_>>()?;
         self.build(def, args, &given, whole, &here)
     }
 
@@ -969,19 +963,13 @@ impl Checker {
     ) -> Option<Arg> {
         match arg.kind {
             ArgKind::Input(ty) => self
-                .typed_input(
-                    value,
-                    ty,
-                    &format!("`{}` of {}", arg.name, def.name),
-                    origin,
-                )
+                .typed_input(value, ty, &ArgName(arg.name, def.name), origin)
                 .map(Arg::Input),
             ArgKind::ConstScalar(range) => self
                 .constant_scalar(value, arg, range, def, origin)
                 .map(Arg::Const),
             ArgKind::ConstAxis => {
-                let v =
-                    self.constant_vec3(value, &format!("`{}` of {}", arg.name, def.name), origin)?;
+                let v = self.constant_vec3(value, &ArgName(arg.name, def.name), origin)?;
                 match ops::normalise_axis(v) {
                     Some(axis) => Some(Arg::Axis(axis)),
                     None => {
@@ -995,7 +983,7 @@ impl Checker {
                                     crate::diagnostic::number(v[2])
                                 ),
                             )
-                            .in_node(&origin.node)
+                            .in_node(&*origin.node)
                             .at(value.span)
                             .label("zero axis")
                             .help("give the axis a direction, e.g. (0, 1, 0)"),
@@ -1026,7 +1014,7 @@ impl Checker {
                                     value.kind.describe()
                                 ),
                             )
-                            .in_node(&origin.node)
+                            .in_node(&*origin.node)
                             .at(value.span)
                             .label("unknown interpolation"),
                         );
@@ -1038,7 +1026,7 @@ impl Checker {
                 let knots = self.knots(value, def, "stops", "(t, (r, g, b))", origin)?;
                 let mut stops = Vec::with_capacity(knots.len());
                 for (t, v) in knots {
-                    stops.push((t, self.constant_vec3(v, "a stop's colour", origin)?));
+                    stops.push((t, self.constant_vec3(v, &"a stop's colour", origin)?));
                 }
                 Some(Arg::Stops(stops))
             }
@@ -1081,7 +1069,7 @@ impl Checker {
                         value.kind.describe()
                     ),
                 )
-                .in_node(&origin.node)
+                .in_node(&*origin.node)
                 .at(value.span)
                 .label("expected a list"),
             );
@@ -1093,7 +1081,7 @@ impl Checker {
                     Class::BadParameter,
                     format!("`{what}` of {} is empty", def.name),
                 )
-                .in_node(&origin.node)
+                .in_node(&*origin.node)
                 .at(value.span)
                 .label("needs at least one entry"),
             );
@@ -1110,7 +1098,7 @@ impl Checker {
                         limits::MAX_RAMP_STOPS
                     ),
                 )
-                .in_node(&origin.node)
+                .in_node(&*origin.node)
                 .at(value.span),
             );
             return None;
@@ -1136,7 +1124,7 @@ impl Checker {
                             item.kind.describe()
                         ),
                     )
-                    .in_node(&origin.node)
+                    .in_node(&*origin.node)
                     .at(item.span)
                     .label(format!("expected {form}")),
                 );
@@ -1151,7 +1139,7 @@ impl Checker {
                             pair.len()
                         ),
                     )
-                    .in_node(&origin.node)
+                    .in_node(&*origin.node)
                     .at(item.span)
                     .label(format!("expected {form}")),
                 );
@@ -1169,7 +1157,7 @@ impl Checker {
                                 def.name
                             ),
                         )
-                        .in_node(&origin.node)
+                        .in_node(&*origin.node)
                         .at(pair[0].span)
                         .label("smaller than the one before")
                         .help("sort the entries by their first number"),
@@ -1204,7 +1192,7 @@ impl Checker {
                                 Class::BadParameter,
                                 "value noise interpolation is Linear or Smooth",
                             )
-                            .in_node(&origin.node)
+                            .in_node(&*origin.node)
                             .at(items[0].span)
                             .label("unknown interpolation"),
                         );
@@ -1227,7 +1215,7 @@ impl Checker {
                         Class::BadParameter,
                         format!("the {name} basis takes no arguments"),
                     )
-                    .in_node(&origin.node)
+                    .in_node(&*origin.node)
                     .at(value.span)
                     .label("only Value noise has an interpolation")
                     .help(format!("write `basis: {name}`")),
@@ -1247,7 +1235,7 @@ impl Checker {
                         _ => {
                             self.error(
                                 Diagnostic::new(Class::BadParameter, "Value noise takes `interpolation: Linear` or `interpolation: Smooth`")
-                                    .in_node(&origin.node)
+                                    .in_node(&*origin.node)
                                     .at(field.span.to(v.span))
                                     .label("not understood"),
                             );
@@ -1265,7 +1253,7 @@ impl Checker {
                     Class::BadParameter,
                     format!("unknown noise basis {}", value.kind.describe()),
                 )
-                .in_node(&origin.node)
+                .in_node(&*origin.node)
                 .at(span)
                 .label("not a basis");
                 d = d.help(
@@ -1285,7 +1273,7 @@ impl Checker {
     fn build(
         &mut self,
         def: &NodeDef,
-        args: Vec<Arg>,
+        args: SmallVec<[Arg; 8]>,
         given: &[Option<&Value>],
         whole: &Value,
         here: &Origin,
@@ -1332,7 +1320,7 @@ impl Checker {
                                 Class::BadParameter,
                                 "the interpolation is given twice, differently: in `basis` and in `interpolation`",
                             )
-                            .in_node(&here.node)
+                            .in_node(&*here.node)
                             .at(span)
                             .label("contradicts the basis")
                             .help("give it once"),
@@ -1350,7 +1338,7 @@ impl Checker {
                         let span = given[interpolation_index].map_or(whole.span, |v| v.span);
                         self.error(
                             Diagnostic::new(Class::BadParameter, format!("`interpolation` applies to the Value basis only, not {other:?}"))
-                                .in_node(&here.node)
+                                .in_node(&*here.node)
                                 .at(span)
                                 .label("not used by this basis"),
                         );
@@ -1389,7 +1377,7 @@ impl Checker {
                                     crate::diagnostic::number(limits::MAX_OCTAVE_SCALE)
                                 ),
                             )
-                            .in_node(&here.node)
+                            .in_node(&*here.node)
                             .at(whole.span)
                             .label("lacunarity^i or gain^i too large")
                             .help("use fewer octaves, a smaller first_octave, lacunarity or gain"),
@@ -1513,6 +1501,16 @@ fn unreachable_arg() -> NodeId {
     // `build` only asks for inputs at positions the catalogue declares as inputs; the catalogue
     // test pins that. Returning node 0 keeps this path panic-free should it ever be reached.
     0
+}
+
+/// "`octaves` of Fbm", formatted only when a message needs it (checking builds none on the
+/// happy path).
+struct ArgName(&'static str, &'static str);
+
+impl std::fmt::Display for ArgName {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "`{}` of {}", self.0, self.1)
+    }
 }
 
 fn interpolation_named(name: &str) -> Interpolation {

@@ -11,7 +11,7 @@ use crate::diagnostic::{Diagnostic, DiagnosticClass, Diagnostics};
 use crate::graph::{CheckedGraph, NodeId, Op, TableKey, Type};
 use crate::ops;
 use crate::tape::{Instr, Slot, Tape, TapeOutput, TapeStats};
-use std::collections::{BTreeSet, HashMap};
+use std::collections::BTreeSet;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// What to compile.
@@ -93,26 +93,27 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
 
     let mut emitter = Emitter::default();
     let mut stretches: Option<Vec<Option<f64>>> = None;
-    let mut slot_of: HashMap<NodeId, Slot> = HashMap::new();
+    // The slot of each live node, indexed by node id (only live ones are ever read).
+    let mut slot_of: Vec<Slot> = vec![0; graph.nodes.len()];
     let live_nodes = live.iter().filter(|&&l| l).count();
     for (id, node) in graph.nodes.iter().enumerate() {
         if !live[id] {
             continue;
         }
         let id = id as NodeId;
-        let arg = |i: usize| slot_of[&node.args[i]];
+        let arg = |i: usize| slot_of[node.args[i] as usize];
         let vec3 = node.ty == Type::Vec3;
         match &node.op {
             Op::ConstScalar(v) => {
                 let slot = emitter.scalars.pin();
                 emitter.scalar_constants.push((slot, *v));
-                slot_of.insert(id, slot);
+                slot_of[id as usize] = slot;
                 continue;
             }
             Op::ConstVec3(v) => {
                 let slot = emitter.vec3s.pin();
                 emitter.vec3_constants.push((slot, *v));
-                slot_of.insert(id, slot);
+                slot_of[id as usize] = slot;
                 continue;
             }
             _ => {}
@@ -265,7 +266,7 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
         };
         emitter.instrs.push(instr);
         emitter.origins.push(node.origin.node.clone());
-        slot_of.insert(id, dst);
+        slot_of[id as usize] = dst;
         // Free arguments whose last use is this node (each once, even if used twice here).
         let mut freed: Vec<NodeId> = Vec::with_capacity(3);
         for &a in &node.args {
@@ -275,7 +276,7 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
             );
             if !pinned && last_use[a as usize] == id as usize && !freed.contains(&a) {
                 freed.push(a);
-                let slot = slot_of[&a];
+                let slot = slot_of[a as usize];
                 match graph.nodes[a as usize].ty {
                     Type::Vec3 => emitter.vec3s.free(slot),
                     Type::Scalar => emitter.scalars.free(slot),
@@ -291,7 +292,7 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
         outputs.push(TapeOutput {
             name: output.name.clone(),
             ty,
-            slot: slot_of[&output.node],
+            slot: slot_of[output.node as usize],
             first_channel,
         });
         first_channel += ty.channels();
@@ -375,7 +376,7 @@ impl SlotFile {
 #[derive(Default)]
 struct Emitter {
     instrs: Vec<Instr>,
-    origins: Vec<String>,
+    origins: Vec<std::sync::Arc<str>>,
     scalars: SlotFile,
     vec3s: SlotFile,
     scalar_constants: Vec<(Slot, f64)>,

@@ -9,7 +9,8 @@
 use crate::diagnostic::{SourceFile, Span};
 use crate::noise::{self, Basis, NoiseTable, Octaves};
 use crate::ops::{self, BinaryOp, Curve, Hermite, Ramp, TernaryOp, UnaryOp};
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
+use smallvec::SmallVec;
 use std::fmt;
 use std::sync::Arc;
 
@@ -94,7 +95,7 @@ pub enum Op {
 impl Op {
     /// Encodes the operation (not its arguments) for hash-consing; floats by their bits so that
     /// NaN payloads and -0.0 are kept apart.
-    fn key(&self, out: &mut Vec<u64>) {
+    fn key(&self, out: &mut OpKey) {
         fn basis_code(basis: Basis) -> u64 {
             match basis {
                 Basis::Perlin => 0,
@@ -152,10 +153,14 @@ impl Op {
     }
 }
 
+/// An operation's identity for hash-consing, inline for all but long ramps.
+type OpKey = SmallVec<[u64; 8]>;
+
 /// Where a node came from: the id of the graph node it was written in, and its span.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Origin {
-    pub node: String,
+    /// Shared: every node created while lowering one graph node carries the same id.
+    pub node: Arc<str>,
     pub span: Span,
 }
 
@@ -213,8 +218,17 @@ impl CheckedGraph {
         graph.outputs = self
             .named
             .iter()
-            .filter(|(_, id)| !matches!(self.nodes[*id as usize].op, Op::ConstScalar(_) | Op::ConstVec3(_)))
-            .map(|(name, id)| Output { name: name.clone(), node: *id, span: self.nodes[*id as usize].origin.span })
+            .filter(|(_, id)| {
+                !matches!(
+                    self.nodes[*id as usize].op,
+                    Op::ConstScalar(_) | Op::ConstVec3(_)
+                )
+            })
+            .map(|(name, id)| Output {
+                name: name.clone(),
+                node: *id,
+                span: self.nodes[*id as usize].origin.span,
+            })
             .collect();
         graph
     }
@@ -223,8 +237,10 @@ impl CheckedGraph {
 /// Creates nodes with deduplication and constant folding.
 pub struct GraphBuilder {
     pub nodes: Vec<Node>,
-    interned: HashMap<(Vec<u64>, Vec<NodeId>), NodeId>,
-    tables: HashMap<TableKey, Arc<NoiseTable>>,
+    /// Interning: an operation and its arguments → the node. Inline keys and a fast hash:
+    /// checking creates a node per expression, so this map is the checker's hot path.
+    interned: FxHashMap<(OpKey, SmallVec<[NodeId; 4]>), NodeId>,
+    tables: FxHashMap<TableKey, Arc<NoiseTable>>,
     pub stats: GraphStats,
 }
 
@@ -238,8 +254,8 @@ impl GraphBuilder {
     pub fn new() -> GraphBuilder {
         GraphBuilder {
             nodes: Vec::new(),
-            interned: HashMap::new(),
-            tables: HashMap::new(),
+            interned: FxHashMap::default(),
+            tables: FxHashMap::default(),
             stats: GraphStats::default(),
         }
     }
@@ -289,9 +305,9 @@ impl GraphBuilder {
     }
 
     fn intern(&mut self, op: Op, args: Vec<NodeId>, origin: &Origin) -> NodeId {
-        let mut key = Vec::with_capacity(8);
+        let mut key = OpKey::new();
         op.key(&mut key);
-        let map_key = (key, args);
+        let map_key = (key, SmallVec::from_slice(&args));
         if let Some(&id) = self.interned.get(&map_key) {
             // Constants are re-created at every use of a param or literal: only operations
             // count as deduplicated subgraphs.
@@ -303,11 +319,11 @@ impl GraphBuilder {
             }
             return id;
         }
-        let ty = self.result_type(&op, &map_key.1);
+        let ty = self.result_type(&op, &args);
         let id = self.nodes.len() as NodeId;
         self.nodes.push(Node {
             op,
-            args: map_key.1.clone(),
+            args,
             ty,
             origin: origin.clone(),
         });

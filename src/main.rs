@@ -713,7 +713,9 @@ fn bake_report(
 }
 
 fn report_command(args: ReportArgs) -> Result<(), Failure> {
-    let check_options = CheckOptions { overrides: args.sets.clone() };
+    let check_options = CheckOptions {
+        overrides: args.sets.clone(),
+    };
     let mut worst: Option<Failure> = None;
     let mut json_rows: Vec<serde_json::Value> = Vec::new();
     if args.markdown {
@@ -732,9 +734,16 @@ fn report_command(args: ReportArgs) -> Result<(), Failure> {
             }
         };
         let text = if args.markdown {
-            let options = texgraph::report::ReportOptions { points: args.points, runs: args.runs, region: args.region.unwrap_or_default(), ..Default::default() };
-            let rows = texgraph::report::accuracy_report(&graph, &args.outputs, &options).map_err(|d| report(LoadError::Invalid(d)))?;
-            let stability = texgraph::stability::stability_report(&graph).map_err(|d| report(LoadError::Invalid(d)))?;
+            let options = texgraph::report::ReportOptions {
+                points: args.points,
+                runs: args.runs,
+                region: args.region.unwrap_or_default(),
+                ..Default::default()
+            };
+            let rows = texgraph::report::accuracy_report(&graph, &args.outputs, &options)
+                .map_err(|d| report(LoadError::Invalid(d)))?;
+            let stability = texgraph::stability::stability_report(&graph)
+                .map_err(|d| report(LoadError::Invalid(d)))?;
             format!(
                 "\n## `{}`\n\nTape length: {}.\n{}\nStability:\n\n```text\n{}```\n",
                 file.display(),
@@ -743,15 +752,30 @@ fn report_command(args: ReportArgs) -> Result<(), Failure> {
                 texgraph::stability::stability_text(&stability)
             )
         } else if args.stability {
-            let rows = texgraph::stability::stability_report(&graph).map_err(|d| report(LoadError::Invalid(d)))?;
+            let rows = texgraph::stability::stability_report(&graph)
+                .map_err(|d| report(LoadError::Invalid(d)))?;
             if args.json {
-                json_rows.extend(rows.iter().map(|r| serde_json::json!({ "graph": file.display().to_string(), "row": r })));
+                json_rows.extend(
+                    rows.iter().map(
+                        |r| serde_json::json!({ "graph": file.display().to_string(), "row": r }),
+                    ),
+                );
                 continue;
             }
-            format!("{}: stability\n{}", file.display(), texgraph::stability::stability_text(&rows))
+            format!(
+                "{}: stability\n{}",
+                file.display(),
+                texgraph::stability::stability_text(&rows)
+            )
         } else {
-            let options = texgraph::report::ReportOptions { points: args.points, runs: args.runs, region: args.region.unwrap_or_default(), ..Default::default() };
-            let rows = texgraph::report::accuracy_report(&graph, &args.outputs, &options).map_err(|d| report(LoadError::Invalid(d)))?;
+            let options = texgraph::report::ReportOptions {
+                points: args.points,
+                runs: args.runs,
+                region: args.region.unwrap_or_default(),
+                ..Default::default()
+            };
+            let rows = texgraph::report::accuracy_report(&graph, &args.outputs, &options)
+                .map_err(|d| report(LoadError::Invalid(d)))?;
             if let Some(path) = &args.plot {
                 if let Err(e) = texgraph::report::plot(&rows, &file.display().to_string(), path) {
                     eprintln!("error: {}: {e}", path.display());
@@ -762,14 +786,24 @@ fn report_command(args: ReportArgs) -> Result<(), Failure> {
                 json_rows.extend(rows.iter().map(|r| {
                     let mut value = serde_json::to_value(r).unwrap_or_default();
                     if let Some(object) = value.as_object_mut() {
-                        object.insert("graph".into(), serde_json::json!(file.display().to_string()));
+                        object.insert(
+                            "graph".into(),
+                            serde_json::json!(file.display().to_string()),
+                        );
                     }
                     value
                 }));
                 continue;
             }
             let tapes = tape_lengths(&graph);
-            format!("{}: {} points in [{}], median of {} runs, one thread; tape length {tapes}\n{}", file.display(), args.points + 4096, region_text(&options.region), args.runs, texgraph::report::table_text(&rows))
+            format!(
+                "{}: {} points in [{}], median of {} runs, one thread; tape length {tapes}\n{}",
+                file.display(),
+                args.points + 4096,
+                region_text(&options.region),
+                args.runs,
+                texgraph::report::table_text(&rows)
+            )
         };
         write_stdout(|out| out.write_all(text.as_bytes()))?;
     }
@@ -787,7 +821,13 @@ fn tape_lengths(graph: &texgraph::CheckedGraph) -> String {
         parts.push(format!("all outputs {}", tape.instrs.len()));
     }
     for output in &graph.outputs {
-        if let Ok(tape) = texgraph::compile(graph, &CompileOptions { outputs: vec![output.name.clone()], spacing: None }) {
+        if let Ok(tape) = texgraph::compile(
+            graph,
+            &CompileOptions {
+                outputs: vec![output.name.clone()],
+                spacing: None,
+            },
+        ) {
             parts.push(format!("{} {}", output.name, tape.instrs.len()));
         }
     }
@@ -795,5 +835,8 @@ fn tape_lengths(graph: &texgraph::CheckedGraph) -> String {
 }
 
 fn region_text(region: &texgraph::bake::Region) -> String {
-    format!("{}, {}, {} .. {}, {}, {}", region.min[0], region.min[1], region.min[2], region.max[0], region.max[1], region.max[2])
+    format!(
+        "{}, {}, {} .. {}, {}, {}",
+        region.min[0], region.min[1], region.min[2], region.max[0], region.max[1], region.max[2]
+    )
 }

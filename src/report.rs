@@ -76,7 +76,9 @@ pub fn sample_points(n: usize, region: &Region) -> Vec<[f64; 3]> {
         ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
     };
     let lerp = |a: usize, t: f64| region.min[a] + t * (region.max[a] - region.min[a]);
-    let mut points: Vec<[f64; 3]> = (0..n).map(|_| [lerp(0, next()), lerp(1, next()), lerp(2, next())]).collect();
+    let mut points: Vec<[f64; 3]> = (0..n)
+        .map(|_| [lerp(0, next()), lerp(1, next()), lerp(2, next())])
+        .collect();
     let g = 16;
     for k in 0..g {
         for j in 0..g {
@@ -97,7 +99,11 @@ struct Planes {
 
 impl Planes {
     fn new(points: &[[f64; 3]]) -> Planes {
-        Planes { x: points.iter().map(|p| p[0]).collect(), y: points.iter().map(|p| p[1]).collect(), z: points.iter().map(|p| p[2]).collect() }
+        Planes {
+            x: points.iter().map(|p| p[0]).collect(),
+            y: points.iter().map(|p| p[1]).collect(),
+            z: points.iter().map(|p| p[2]).collect(),
+        }
     }
 }
 
@@ -116,7 +122,13 @@ fn median_time(runs: usize, mut f: impl FnMut()) -> f64 {
 
 fn batch<S: Real>(tape: &Tape, planes: &Planes) -> Vec<f64> {
     let mut out = vec![S::ZERO; tape.channels() * planes.x.len()];
-    tape.eval_batch(&mut Workspace::<S>::new(), &planes.x, &planes.y, &planes.z, &mut out);
+    tape.eval_batch(
+        &mut Workspace::<S>::new(),
+        &planes.x,
+        &planes.y,
+        &planes.z,
+        &mut out,
+    );
     out.iter().map(|v| v.to_f64()).collect()
 }
 
@@ -161,10 +173,19 @@ fn errors(reference: &[f64], values: &[f64]) -> Errors {
             count += 1;
         }
     }
-    let rms = if count > 0 { (sum_sq / count as f64).sqrt() } else { 0.0 };
+    let rms = if count > 0 {
+        (sum_sq / count as f64).sqrt()
+    } else {
+        0.0
+    };
     let peak = if hi > lo { hi - lo } else { 1.0 };
     let psnr = (rms > 0.0).then(|| 20.0 * (peak / rms).log10());
-    Errors { max_abs, rms, psnr, non_finite }
+    Errors {
+        max_abs,
+        rms,
+        psnr,
+        non_finite,
+    }
 }
 
 /// Trilinear sampling of a baked volume at a point, voxel centres at the cell centres, clamped
@@ -179,7 +200,11 @@ fn sample_trilinear(volume: &Volume, output: usize, point: [f64; 3], out: &mut [
     for a in 0..3 {
         let n = grid.size[a];
         let (lo, hi) = (grid.region.min[a], grid.region.max[a]);
-        let u = if hi > lo { (point[a] - lo) / (hi - lo) * n as f64 - 0.5 } else { 0.0 };
+        let u = if hi > lo {
+            (point[a] - lo) / (hi - lo) * n as f64 - 0.5
+        } else {
+            0.0
+        };
         let u = u.clamp(0.0, (n - 1) as f64);
         let i = (u.floor() as usize).min(n - 1);
         index[a] = i;
@@ -200,18 +225,39 @@ fn sample_trilinear(volume: &Volume, output: usize, point: [f64; 3], out: &mut [
 
 /// Measures every strategy for every output of `graph` (or the `outputs` given). Rows come
 /// grouped by output, the f64 reference first.
-pub fn accuracy_report(graph: &CheckedGraph, outputs: &[String], options: &ReportOptions) -> Result<Vec<Row>, crate::Diagnostics> {
+pub fn accuracy_report(
+    graph: &CheckedGraph,
+    outputs: &[String],
+    options: &ReportOptions,
+) -> Result<Vec<Row>, crate::Diagnostics> {
     let points = sample_points(options.points, &options.region);
     let planes = Planes::new(&points);
     let n = points.len() as f64;
-    let names: Vec<String> = if outputs.is_empty() { graph.outputs.iter().map(|o| o.name.clone()).collect() } else { outputs.to_vec() };
-    let all = compile(graph, &CompileOptions { outputs: names.clone(), spacing: None })?;
+    let names: Vec<String> = if outputs.is_empty() {
+        graph.outputs.iter().map(|o| o.name.clone()).collect()
+    } else {
+        outputs.to_vec()
+    };
+    let all = compile(
+        graph,
+        &CompileOptions {
+            outputs: names.clone(),
+            spacing: None,
+        },
+    )?;
     // Bake once per resolution with every requested output.
     let volumes: Vec<(usize, Volume, f64)> = options
         .bake_sizes
         .iter()
         .filter_map(|&size| {
-            let bake = BakeOptions { grid: Grid { size: [size; 3], region: options.region }, threads: options.threads, ..BakeOptions::default() };
+            let bake = BakeOptions {
+                grid: Grid {
+                    size: [size; 3],
+                    region: options.region,
+                },
+                threads: options.threads,
+                ..BakeOptions::default()
+            };
             let start = Instant::now();
             let volume = bake_volume(&all, &bake).ok()?;
             Some((size, volume, start.elapsed().as_secs_f64()))
@@ -220,20 +266,31 @@ pub fn accuracy_report(graph: &CheckedGraph, outputs: &[String], options: &Repor
 
     let mut rows = Vec::new();
     for name in &names {
-        let single = CompileOptions { outputs: vec![name.clone()], spacing: None };
+        let single = CompileOptions {
+            outputs: vec![name.clone()],
+            spacing: None,
+        };
         let tape = compile(graph, &single)?;
         let channels = tape.channels();
         let reference = batch::<f64>(&tape, &planes);
         let reference_time = median_time(options.runs, || {
             std::hint::black_box(batch::<f64>(&tape, &planes));
         });
-        let mut row = |strategy: String, time: f64, values: &[f64], memory: Option<u64>, tape_length: Option<usize>| {
+        let mut row = |strategy: String,
+                       time: f64,
+                       values: &[f64],
+                       memory: Option<u64>,
+                       tape_length: Option<usize>| {
             let e = errors(&reference, values);
             rows.push(Row {
                 output: name.clone(),
                 strategy,
                 ns_per_point: time / n * 1e9,
-                speedup: if time > 0.0 { reference_time / time } else { f64::INFINITY },
+                speedup: if time > 0.0 {
+                    reference_time / time
+                } else {
+                    f64::INFINITY
+                },
                 max_abs_error: e.max_abs,
                 rms_error: e.rms,
                 psnr_db: e.psnr,
@@ -243,7 +300,13 @@ pub fn accuracy_report(graph: &CheckedGraph, outputs: &[String], options: &Repor
             });
         };
         let length = Some(tape.instrs.len());
-        row("f64 reference (batch)".into(), reference_time, &reference, None, length);
+        row(
+            "f64 reference (batch)".into(),
+            reference_time,
+            &reference,
+            None,
+            length,
+        );
         let values = per_point::<f64>(&tape, &points);
         let time = median_time(options.runs, || {
             std::hint::black_box(per_point::<f64>(&tape, &points));
@@ -260,16 +323,43 @@ pub fn accuracy_report(graph: &CheckedGraph, outputs: &[String], options: &Repor
         });
         row("f32 batch".into(), time, &values, None, length);
         for &spacing in &options.lod_spacings {
-            let lod = compile(graph, &CompileOptions { outputs: vec![name.clone()], spacing: Some(spacing) })?;
-            let kept: Vec<String> = lod.fractal_octaves().iter().map(|(_, _, k)| format!("{}", (k * 100.0).round() / 100.0)).collect();
+            let lod = compile(
+                graph,
+                &CompileOptions {
+                    outputs: vec![name.clone()],
+                    spacing: Some(spacing),
+                },
+            )?;
+            let kept: Vec<String> = lod
+                .fractal_octaves()
+                .iter()
+                .map(|(_, _, k)| format!("{}", (k * 100.0).round() / 100.0))
+                .collect();
             let values = batch::<f32>(&lod, &planes);
             let time = median_time(options.runs, || {
                 std::hint::black_box(batch::<f32>(&lod, &planes));
             });
-            let octaves = if kept.is_empty() { String::new() } else { format!(", octaves {}", kept.join("/")) };
-            row(format!("f32 batch, LOD spacing 1/{}{octaves}", (1.0 / spacing).round()), time, &values, None, Some(lod.instrs.len()));
+            let octaves = if kept.is_empty() {
+                String::new()
+            } else {
+                format!(", octaves {}", kept.join("/"))
+            };
+            row(
+                format!(
+                    "f32 batch, LOD spacing 1/{}{octaves}",
+                    (1.0 / spacing).round()
+                ),
+                time,
+                &values,
+                None,
+                Some(lod.instrs.len()),
+            );
         }
-        let output_index = all.outputs.iter().position(|o| &o.name == name).unwrap_or(0);
+        let output_index = all
+            .outputs
+            .iter()
+            .position(|o| &o.name == name)
+            .unwrap_or(0);
         for (size, volume, bake_seconds) in &volumes {
             let mut values = vec![0.0; channels * points.len()];
             let mut one = [0.0f64; 3];
@@ -289,7 +379,13 @@ pub fn accuracy_report(graph: &CheckedGraph, outputs: &[String], options: &Repor
                 std::hint::black_box(&scratch);
             });
             let memory = (volume.grid.voxels().unwrap_or(0) as usize * channels * 4) as u64;
-            row(format!("baked {size}³ f32, trilinear (bake {:.2} s)", bake_seconds), time, &values, Some(memory), None);
+            row(
+                format!("baked {size}³ f32, trilinear (bake {:.2} s)", bake_seconds),
+                time,
+                &values,
+                Some(memory),
+                None,
+            );
         }
     }
     Ok(rows)
@@ -304,7 +400,15 @@ pub fn table_text(rows: &[Row]) -> String {
             current = &row.output;
             out.push_str(&format!(
                 "output \"{}\"\n  {:<52} {:>12} {:>8} {:>11} {:>11} {:>9} {:>10} {:>10}\n",
-                row.output, "strategy", "ms/Mpoint", "speedup", "max |err|", "rms err", "PSNR dB", "non-finite", "memory"
+                row.output,
+                "strategy",
+                "ms/Mpoint",
+                "speedup",
+                "max |err|",
+                "rms err",
+                "PSNR dB",
+                "non-finite",
+                "memory"
             ));
         }
         out.push_str(&format!(
@@ -316,7 +420,8 @@ pub fn table_text(rows: &[Row]) -> String {
             row.rms_error,
             row.psnr_db.map_or("inf".to_string(), |p| format!("{p:.1}")),
             row.non_finite,
-            row.memory_bytes.map_or("-".to_string(), crate::bake::human_bytes),
+            row.memory_bytes
+                .map_or("-".to_string(), crate::bake::human_bytes),
         ));
     }
     out
@@ -343,7 +448,8 @@ pub fn table_markdown(rows: &[Row]) -> String {
             row.rms_error,
             row.psnr_db.map_or("∞".to_string(), |p| format!("{p:.1}")),
             row.non_finite,
-            row.memory_bytes.map_or("—".to_string(), crate::bake::human_bytes),
+            row.memory_bytes
+                .map_or("—".to_string(), crate::bake::human_bytes),
         ));
     }
     out
@@ -358,22 +464,39 @@ pub fn plot(rows: &[Row], title: &str, path: &std::path::Path) -> Result<(), Str
     // (assets/, Bitstream Vera licence), so plots work on machines without fonts installed.
     static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
     static REGISTERED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    if !*REGISTERED.get_or_init(|| plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).is_ok()) {
+    if !*REGISTERED.get_or_init(|| {
+        plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).is_ok()
+    }) {
         return Err("the embedded font could not be loaded".into());
     }
     let (width, height) = (1000u32, 640u32);
     let mut buffer = vec![0u8; (width * height * 3) as usize];
-    let positive: Vec<f64> = rows.iter().map(|r| r.rms_error).filter(|e| *e > 0.0).collect();
-    let floor = positive.iter().cloned().fold(f64::INFINITY, f64::min).min(1e-3) / 10.0;
+    let positive: Vec<f64> = rows
+        .iter()
+        .map(|r| r.rms_error)
+        .filter(|e| *e > 0.0)
+        .collect();
+    let floor = positive
+        .iter()
+        .cloned()
+        .fold(f64::INFINITY, f64::min)
+        .min(1e-3)
+        / 10.0;
     let top = positive.iter().cloned().fold(floor * 10.0, f64::max) * 3.0;
     let times: Vec<f64> = rows.iter().map(|r| r.ns_per_point.max(1e-3)).collect();
-    let (t_lo, t_hi) = (times.iter().cloned().fold(f64::INFINITY, f64::min) / 2.0, times.iter().cloned().fold(0.0, f64::max) * 2.0);
+    let (t_lo, t_hi) = (
+        times.iter().cloned().fold(f64::INFINITY, f64::min) / 2.0,
+        times.iter().cloned().fold(0.0, f64::max) * 2.0,
+    );
     let error = |e: plotters::drawing::DrawingAreaErrorKind<_>| e.to_string();
     {
         let root = BitMapBackend::with_buffer(&mut buffer, (width, height)).into_drawing_area();
         root.fill(&WHITE).map_err(error)?;
         let mut chart = ChartBuilder::on(&root)
-            .caption(format!("{title}: error against run time"), ("sans-serif", 20))
+            .caption(
+                format!("{title}: error against run time"),
+                ("sans-serif", 20),
+            )
             .margin(16)
             .x_label_area_size(44)
             .y_label_area_size(76)
@@ -388,7 +511,13 @@ pub fn plot(rows: &[Row], title: &str, path: &std::path::Path) -> Result<(), Str
             .y_label_formatter(&|v| format!("{v:.0e}"))
             .draw()
             .map_err(error)?;
-        let palette = [RGBColor(31, 119, 180), RGBColor(214, 39, 40), RGBColor(44, 160, 44), RGBColor(148, 103, 189), RGBColor(140, 86, 75)];
+        let palette = [
+            RGBColor(31, 119, 180),
+            RGBColor(214, 39, 40),
+            RGBColor(44, 160, 44),
+            RGBColor(148, 103, 189),
+            RGBColor(140, 86, 75),
+        ];
         let mut outputs: Vec<&str> = Vec::new();
         for row in rows {
             if !outputs.contains(&row.output.as_str()) {
@@ -405,23 +534,59 @@ pub fn plot(rows: &[Row], title: &str, path: &std::path::Path) -> Result<(), Str
                 .label(format!("output {output}"))
                 .legend(move |(x, y)| Circle::new((x, y), 4, colour.filled()));
             for r in &mine {
-                let short: String = r.strategy.split(" (").next().unwrap_or(&r.strategy).chars().take(34).collect();
-                let label = EmptyElement::at(at(r)) + Text::new(short, (8, -6), ("sans-serif", 11).into_font().color(&colour));
+                let short: String = r
+                    .strategy
+                    .split(" (")
+                    .next()
+                    .unwrap_or(&r.strategy)
+                    .chars()
+                    .take(34)
+                    .collect();
+                let label = EmptyElement::at(at(r))
+                    + Text::new(
+                        short,
+                        (8, -6),
+                        ("sans-serif", 11).into_font().color(&colour),
+                    );
                 chart.draw_series(std::iter::once(label)).map_err(error)?;
             }
             let mut front: Vec<&Row> = mine
                 .iter()
                 .copied()
-                .filter(|a| !mine.iter().any(|b| b.ns_per_point <= a.ns_per_point && b.rms_error <= a.rms_error && (b.ns_per_point < a.ns_per_point || b.rms_error < a.rms_error)))
+                .filter(|a| {
+                    !mine.iter().any(|b| {
+                        b.ns_per_point <= a.ns_per_point
+                            && b.rms_error <= a.rms_error
+                            && (b.ns_per_point < a.ns_per_point || b.rms_error < a.rms_error)
+                    })
+                })
                 .collect();
             front.sort_by(|a, b| a.ns_per_point.total_cmp(&b.ns_per_point));
-            chart.draw_series(LineSeries::new(front.iter().map(|r| at(r)), colour.stroke_width(2))).map_err(error)?;
-            chart.draw_series(front.iter().map(|r| Circle::new(at(r), 8, colour.stroke_width(2)))).map_err(error)?;
+            chart
+                .draw_series(LineSeries::new(
+                    front.iter().map(|r| at(r)),
+                    colour.stroke_width(2),
+                ))
+                .map_err(error)?;
+            chart
+                .draw_series(
+                    front
+                        .iter()
+                        .map(|r| Circle::new(at(r), 8, colour.stroke_width(2))),
+                )
+                .map_err(error)?;
         }
-        chart.configure_series_labels().border_style(BLACK).background_style(WHITE.mix(0.8)).label_font(("sans-serif", 13)).draw().map_err(error)?;
+        chart
+            .configure_series_labels()
+            .border_style(BLACK)
+            .background_style(WHITE.mix(0.8))
+            .label_font(("sans-serif", 13))
+            .draw()
+            .map_err(error)?;
         root.present().map_err(error)?;
     }
-    let image = image::RgbImage::from_raw(width, height, buffer).ok_or("plot buffer has the wrong size")?;
+    let image =
+        image::RgbImage::from_raw(width, height, buffer).ok_or("plot buffer has the wrong size")?;
     image.save(path).map_err(|e| e.to_string())
 }
 

@@ -110,7 +110,8 @@ pub fn stability_report(graph: &CheckedGraph) -> Result<Vec<StabilityRow>, Diagn
                         for d in [(a[i] - a[j]).abs(), (b[i] as f64 - b[j] as f64).abs()] {
                             if d.is_finite() {
                                 // f32 values carry rounding of their own size: allow it.
-                                let slack = 2.0 * f32::EPSILON as f64 * b[i].abs().max(b[j].abs()) as f64;
+                                let slack =
+                                    2.0 * f32::EPSILON as f64 * b[i].abs().max(b[j].abs()) as f64;
                                 *ratio = ratio.max((d - slack).max(0.0) / allowed);
                             }
                         }
@@ -145,13 +146,18 @@ pub fn stability_text(rows: &[StabilityRow]) -> String {
     let find = |node: &str, m: f64| rows.iter().find(|r| r.node == node && r.magnitude == m);
     let width = nodes.iter().map(|n| n.len()).max().unwrap_or(4).max(4);
     let mut out = String::new();
-    let header: String = MAGNITUDES.iter().map(|m| format!(" {:>10}", magnitude_label(*m))).collect();
+    let header: String = MAGNITUDES
+        .iter()
+        .map(|m| format!(" {:>10}", magnitude_label(*m)))
+        .collect();
     out.push_str(&format!("max |f32 - f64| at |p| = (both signs, each axis; scattered, lattice and cell-boundary points)\n  {:<width$}{header}\n", "node"));
     for node in &nodes {
         let cells: String = MAGNITUDES
             .iter()
             .map(|m| match find(node, *m) {
-                Some(r) if r.non_finite_f64 > 0 || r.non_finite_f32 > 0 => format!(" {:>10}", format!("{:.1e}*", r.max_f32_error)),
+                Some(r) if r.non_finite_f64 > 0 || r.non_finite_f32 > 0 => {
+                    format!(" {:>10}", format!("{:.1e}*", r.max_f32_error))
+                }
                 Some(r) => format!(" {:>10.1e}", r.max_f32_error),
                 None => format!(" {:>10}", "-"),
             })
@@ -171,7 +177,11 @@ pub fn stability_text(rows: &[StabilityRow]) -> String {
     }
     let mut notes = Vec::new();
     for node in &nodes {
-        if let Some(first) = MAGNITUDES.iter().filter_map(|m| find(node, *m)).find(|r| r.max_f32_error > 1e-4) {
+        if let Some(first) = MAGNITUDES
+            .iter()
+            .filter_map(|m| find(node, *m))
+            .find(|r| r.max_f32_error > 1e-4)
+        {
             notes.push(format!(
                 "  {node}: f32 error passes 1e-4 at |p| = {} (values up to {:.3e} there; f32 keeps 24 bits, about {:.1e} absolute at that size)",
                 magnitude_label(first.magnitude),
@@ -179,15 +189,27 @@ pub fn stability_text(rows: &[StabilityRow]) -> String {
                 first.max_abs_value * f32::EPSILON as f64 / 2.0
             ));
         }
-        if MAGNITUDES.iter().filter_map(|m| find(node, *m)).any(|r| r.non_finite_f64 > 0 || r.non_finite_f32 > 0) {
-            notes.push(format!("  {node}: * non-finite values appear (NaN or infinity), counted in --json"));
+        if MAGNITUDES
+            .iter()
+            .filter_map(|m| find(node, *m))
+            .any(|r| r.non_finite_f64 > 0 || r.non_finite_f32 > 0)
+        {
+            notes.push(format!(
+                "  {node}: * non-finite values appear (NaN or infinity), counted in --json"
+            ));
         }
-        if MAGNITUDES.iter().filter_map(|m| find(node, *m)).any(|r| r.continuity.is_some_and(|c| c > 1.0)) {
+        if MAGNITUDES
+            .iter()
+            .filter_map(|m| find(node, *m))
+            .any(|r| r.continuity.is_some_and(|c| c > 1.0))
+        {
             notes.push(format!("  {node}: a neighbouring pair differs by more than the Lipschitz bound allows (a seam or a jump)"));
         }
     }
     if notes.is_empty() {
-        out.push_str("every node stays within 1e-4 of f64, finite and seam-free at every magnitude\n");
+        out.push_str(
+            "every node stays within 1e-4 of f64, finite and seam-free at every magnitude\n",
+        );
     } else {
         out.push_str("where the error grows:\n");
         for note in notes {

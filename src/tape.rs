@@ -178,7 +178,7 @@ pub struct Tape {
     pub ramps: Vec<Arc<Ramp>>,
     pub curves: Vec<Arc<Curve>>,
     /// For each instruction, the graph node id it was written in (disassembly comments).
-    pub origins: Vec<String>,
+    pub origins: Vec<std::sync::Arc<str>>,
     pub stats: TapeStats,
 }
 
@@ -200,7 +200,7 @@ impl Tape {
             .filter_map(|(instr, origin)| match instr {
                 Instr::Fractal { octaves, .. } => {
                     let (written, kept) = self.octave_counts[*octaves as usize];
-                    Some((origin.clone(), written, kept))
+                    Some((origin.to_string(), written, kept))
                 }
                 _ => None,
             })

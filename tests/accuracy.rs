@@ -4,14 +4,21 @@
 
 use texgraph::report::{accuracy_report, ReportOptions};
 use texgraph::stability::{stability_report, MAGNITUDES};
-use texgraph::{check, compile, CheckOptions, CheckedGraph, CompileOptions, SourceFile, Tape, Workspace};
+use texgraph::{
+    check, compile, CheckOptions, CheckedGraph, CompileOptions, SourceFile, Tape, Workspace,
+};
 
 fn graph(source: &str) -> CheckedGraph {
-    check(SourceFile::new("accuracy.ron", source), &CheckOptions::default()).unwrap_or_else(|e| panic!("{}", e.render_plain()))
+    check(
+        SourceFile::new("accuracy.ron", source),
+        &CheckOptions::default(),
+    )
+    .unwrap_or_else(|e| panic!("{}", e.render_plain()))
 }
 
 fn tape(source: &str) -> Tape {
-    compile(&graph(source), &CompileOptions::default()).unwrap_or_else(|e| panic!("{}", e.render_plain()))
+    compile(&graph(source), &CompileOptions::default())
+        .unwrap_or_else(|e| panic!("{}", e.render_plain()))
 }
 
 fn eval<S: texgraph::Real>(tape: &Tape, p: [f64; 3]) -> Vec<S> {
@@ -22,11 +29,22 @@ fn eval<S: texgraph::Real>(tape: &Tape, p: [f64; 3]) -> Vec<S> {
 
 fn marble() -> CheckedGraph {
     let text = std::fs::read_to_string("graphs/seed003_marble.ron").expect("seed 003 marble");
-    check(SourceFile::new("graphs/seed003_marble.ron", text), &CheckOptions { overrides: vec![("octaves".into(), 8.0)] }).expect("valid")
+    check(
+        SourceFile::new("graphs/seed003_marble.ron", text),
+        &CheckOptions {
+            overrides: vec![("octaves".into(), 8.0)],
+        },
+    )
+    .expect("valid")
 }
 
 fn quick() -> ReportOptions {
-    ReportOptions { points: 3000, runs: 1, bake_sizes: vec![16, 32], ..ReportOptions::default() }
+    ReportOptions {
+        points: 3000,
+        runs: 1,
+        bake_sizes: vec![16, 32],
+        ..ReportOptions::default()
+    }
 }
 
 // ---------------------------------------------------------------- the report
@@ -36,23 +54,54 @@ fn the_report_measures_every_strategy_against_the_reference() {
     let rows = accuracy_report(&marble(), &["vein".to_string()], &quick()).expect("report");
     let names: Vec<&str> = rows.iter().map(|r| r.strategy.as_str()).collect();
     assert!(names[0].starts_with("f64 reference"), "{names:?}");
-    for wanted in ["f64 per point", "f32 per point", "f32 batch", "LOD spacing 1/64", "LOD spacing 1/128", "LOD spacing 1/256", "baked 16³", "baked 32³"] {
-        assert!(names.iter().any(|n| n.contains(wanted)), "no `{wanted}` row in {names:?}");
+    for wanted in [
+        "f64 per point",
+        "f32 per point",
+        "f32 batch",
+        "LOD spacing 1/64",
+        "LOD spacing 1/128",
+        "LOD spacing 1/256",
+        "baked 16³",
+        "baked 32³",
+    ] {
+        assert!(
+            names.iter().any(|n| n.contains(wanted)),
+            "no `{wanted}` row in {names:?}"
+        );
     }
     let reference = &rows[0];
-    assert_eq!((reference.max_abs_error, reference.rms_error, reference.speedup), (0.0, 0.0, 1.0));
+    assert_eq!(
+        (
+            reference.max_abs_error,
+            reference.rms_error,
+            reference.speedup
+        ),
+        (0.0, 0.0, 1.0)
+    );
     assert_eq!(reference.psnr_db, None, "zero error is infinite PSNR");
-    let f32_batch = rows.iter().find(|r| r.strategy == "f32 batch").expect("f32 batch row");
-    assert!(f32_batch.max_abs_error > 0.0 && f32_batch.max_abs_error < 1e-4, "{f32_batch:?}");
+    let f32_batch = rows
+        .iter()
+        .find(|r| r.strategy == "f32 batch")
+        .expect("f32 batch row");
+    assert!(
+        f32_batch.max_abs_error > 0.0 && f32_batch.max_abs_error < 1e-4,
+        "{f32_batch:?}"
+    );
     assert!(f32_batch.rms_error <= f32_batch.max_abs_error);
     assert!(f32_batch.psnr_db.is_some_and(|p| p > 80.0));
     // Coarser bakes are smaller and less accurate.
-    let baked: Vec<_> = rows.iter().filter(|r| r.strategy.starts_with("baked")).collect();
+    let baked: Vec<_> = rows
+        .iter()
+        .filter(|r| r.strategy.starts_with("baked"))
+        .collect();
     assert_eq!(baked[0].memory_bytes, Some(16 * 16 * 16 * 4));
     assert_eq!(baked[1].memory_bytes, Some(32 * 32 * 32 * 4));
     assert!(baked[0].rms_error > baked[1].rms_error);
     // Per-point and batch f32 agree exactly, so their errors are equal.
-    let point = rows.iter().find(|r| r.strategy == "f32 per point").expect("row");
+    let point = rows
+        .iter()
+        .find(|r| r.strategy == "f32 per point")
+        .expect("row");
     assert_eq!(point.max_abs_error, f32_batch.max_abs_error);
 }
 
@@ -61,10 +110,22 @@ fn the_report_serialises_the_documented_fields() {
     let rows = accuracy_report(&marble(), &["colour".to_string()], &quick()).expect("report");
     let json = serde_json::to_value(&rows).expect("json");
     let first = &json[0];
-    for field in ["strategy", "ns_per_point", "speedup", "max_abs_error", "rms_error", "psnr_db", "non_finite"] {
+    for field in [
+        "strategy",
+        "ns_per_point",
+        "speedup",
+        "max_abs_error",
+        "rms_error",
+        "psnr_db",
+        "non_finite",
+    ] {
         assert!(first.get(field).is_some(), "missing {field} in {first}");
     }
-    assert!(json.as_array().expect("array").iter().any(|r| r.get("memory_bytes").is_some()));
+    assert!(json
+        .as_array()
+        .expect("array")
+        .iter()
+        .any(|r| r.get("memory_bytes").is_some()));
 }
 
 #[test]
@@ -75,33 +136,66 @@ fn the_plot_is_a_png() {
     texgraph::report::plot(&rows, "marble", &path).expect("plot");
     let image = image::open(&path).expect("a readable png").to_rgb8();
     assert_eq!(image.dimensions(), (1000, 640));
-    assert!(image.pixels().any(|p| p.0 != [255, 255, 255]), "the plot is blank");
+    assert!(
+        image.pixels().any(|p| p.0 != [255, 255, 255]),
+        "the plot is blank"
+    );
 }
 
 // ---------------------------------------------------------------- level of detail
 
 #[test]
 fn level_of_detail_drops_octaves_above_nyquist_and_counts_domain_scaling() {
-    let source = |scale: f64| format!(r#"Graph(nodes: {{ "f": Fbm(input: Scale(input: Position, by: {scale:?}), basis: Perlin, octaves: 10.0) }}, outputs: {{ "f": "f" }})"#);
+    let source = |scale: f64| {
+        format!(
+            r#"Graph(nodes: {{ "f": Fbm(input: Scale(input: Position, by: {scale:?}), basis: Perlin, octaves: 10.0) }}, outputs: {{ "f": "f" }})"#
+        )
+    };
     let kept = |scale: f64, spacing: f64| {
-        let t = compile(&graph(&source(scale)), &CompileOptions { outputs: vec![], spacing: Some(spacing) }).expect("compiles");
+        let t = compile(
+            &graph(&source(scale)),
+            &CompileOptions {
+                outputs: vec![],
+                spacing: Some(spacing),
+            },
+        )
+        .expect("compiles");
         t.fractal_octaves()[0].2
     };
     // Nyquist of spacing 1/128 is 64 = 2^6: octaves 0..=6.
     assert!((kept(1.0, 1.0 / 128.0) - 7.0).abs() < 1e-9);
-    assert!((kept(4.0, 1.0 / 128.0) - 5.0).abs() < 1e-9, "Scale by 4 is two octaves higher");
+    assert!(
+        (kept(4.0, 1.0 / 128.0) - 5.0).abs() < 1e-9,
+        "Scale by 4 is two octaves higher"
+    );
     assert_eq!(kept(1.0, 1e-9), 10.0);
     // Rotation does not change frequencies.
     let rotated = r#"Graph(nodes: { "f": Fbm(input: Rotate(input: Scale(input: Position, by: 4.0), axis: (1, 2, 3), degrees: 33.0), basis: Perlin, octaves: 10.0) }, outputs: { "f": "f" })"#;
-    let t = compile(&graph(rotated), &CompileOptions { outputs: vec![], spacing: Some(1.0 / 128.0) }).expect("compiles");
+    let t = compile(
+        &graph(rotated),
+        &CompileOptions {
+            outputs: vec![],
+            spacing: Some(1.0 / 128.0),
+        },
+    )
+    .expect("compiles");
     assert!((t.fractal_octaves()[0].2 - 5.0).abs() < 1e-9);
 }
 
 #[test]
 fn level_of_detail_fades_instead_of_popping() {
-    let g = graph(r#"Graph(nodes: { "f": Fbm(input: Position, basis: Perlin, octaves: 10.0) }, outputs: { "f": "f" })"#);
+    let g = graph(
+        r#"Graph(nodes: { "f": Fbm(input: Position, basis: Perlin, octaves: 10.0) }, outputs: { "f": "f" })"#,
+    );
     let at = |spacing: f64| {
-        let t = compile(&g, &CompileOptions { outputs: vec![], spacing: Some(spacing) }).expect("compiles");
+        let t = compile(
+            &g,
+            &CompileOptions {
+                outputs: vec![],
+                spacing: Some(spacing),
+            },
+        )
+        .expect("compiles");
         eval::<f64>(&t, [0.3, 0.6, 0.9])[0]
     };
     // Across the spacing where octave 6 leaves, the value moves continuously.
@@ -109,7 +203,10 @@ fn level_of_detail_fades_instead_of_popping() {
     for step in 1..=40 {
         let spacing = 1.0 / (127.0 - step as f64 * 0.05);
         let value = at(spacing);
-        assert!((value - previous).abs() < 2e-3, "jump {previous} -> {value} at spacing {spacing}");
+        assert!(
+            (value - previous).abs() < 2e-3,
+            "jump {previous} -> {value} at spacing {spacing}"
+        );
         previous = value;
     }
 }
@@ -117,11 +214,29 @@ fn level_of_detail_fades_instead_of_popping() {
 #[test]
 fn turbulence_lod_keeps_the_mean() {
     // Dropping |noise| octaves would darken turbulence; their average is added back.
-    let g = graph(r#"Graph(outputs: { "t": Turbulence(input: Position, basis: Perlin, octaves: 8.0) })"#);
+    let g = graph(
+        r#"Graph(outputs: { "t": Turbulence(input: Position, basis: Perlin, octaves: 8.0) })"#,
+    );
     let full = compile(&g, &CompileOptions::default()).expect("compiles");
-    let lod = compile(&g, &CompileOptions { outputs: vec![], spacing: Some(1.0 / 16.0) }).expect("compiles");
-    let points: Vec<[f64; 3]> = (0..4000).map(|i| [i as f64 * 0.0731, (i % 97) as f64 * 0.113, (i % 13) as f64 * 0.37]).collect();
-    let mean = |t: &Tape| points.iter().map(|p| eval::<f64>(t, *p)[0]).sum::<f64>() / points.len() as f64;
+    let lod = compile(
+        &g,
+        &CompileOptions {
+            outputs: vec![],
+            spacing: Some(1.0 / 16.0),
+        },
+    )
+    .expect("compiles");
+    let points: Vec<[f64; 3]> = (0..4000)
+        .map(|i| {
+            [
+                i as f64 * 0.0731,
+                (i % 97) as f64 * 0.113,
+                (i % 13) as f64 * 0.37,
+            ]
+        })
+        .collect();
+    let mean =
+        |t: &Tape| points.iter().map(|p| eval::<f64>(t, *p)[0]).sum::<f64>() / points.len() as f64;
     let (a, b) = (mean(&full), mean(&lod));
     assert!((a - b).abs() < 0.02 * a, "mean {a} without LOD, {b} with");
 }
@@ -129,7 +244,12 @@ fn turbulence_lod_keeps_the_mean() {
 #[test]
 fn lod_is_reported_by_check() {
     let output = std::process::Command::new(env!("CARGO_BIN_EXE_texgraph"))
-        .args(["check", "graphs/seed003_marble.ron", "--spacing", "0.0078125"])
+        .args([
+            "check",
+            "graphs/seed003_marble.ron",
+            "--spacing",
+            "0.0078125",
+        ])
         .output()
         .expect("runs");
     let text = String::from_utf8_lossy(&output.stdout);
@@ -178,12 +298,22 @@ fn huge_and_negative_coordinates_need_no_offset() {
 
 #[test]
 fn octaves_at_the_maximum_and_gain_above_one_stay_finite_and_bounded() {
-    for (octaves, lacunarity, gain) in [(32.0f64, 2.0f64, 0.5f64), (32.0, 1.0001, 0.9), (9.0, 1000.0, 0.5), (16.0, 2.0, 1.5)] {
-        let t = tape(&format!(r#"Graph(outputs: {{ "f": Fbm(input: Position, basis: Perlin, octaves: {octaves:?}, lacunarity: {lacunarity:?}, gain: {gain:?}) }})"#));
+    for (octaves, lacunarity, gain) in [
+        (32.0f64, 2.0f64, 0.5f64),
+        (32.0, 1.0001, 0.9),
+        (9.0, 1000.0, 0.5),
+        (16.0, 2.0, 1.5),
+    ] {
+        let t = tape(&format!(
+            r#"Graph(outputs: {{ "f": Fbm(input: Position, basis: Perlin, octaves: {octaves:?}, lacunarity: {lacunarity:?}, gain: {gain:?}) }})"#
+        ));
         let bound: f64 = (0..octaves as i32).map(|i| gain.powi(i)).sum::<f64>() * 1.04;
         for p in [[0.1, 0.2, 0.3], [123.4, -56.7, 8.9], [1e6, 2e6, -3e6]] {
             let v = eval::<f64>(&t, p)[0];
-            assert!(v.is_finite() && v.abs() <= bound, "octaves {octaves} lacunarity {lacunarity} gain {gain}: {v} at {p:?}");
+            assert!(
+                v.is_finite() && v.abs() <= bound,
+                "octaves {octaves} lacunarity {lacunarity} gain {gain}: {v} at {p:?}"
+            );
             assert!(eval::<f32>(&t, p)[0].is_finite());
         }
     }
@@ -196,7 +326,11 @@ fn octave_scales_beyond_the_limit_are_rejected_at_check_time() {
         &CheckOptions::default(),
     )
     .expect_err("1000^31 overflows");
-    assert!(e.render_plain().contains("above the limit"), "{}", e.render_plain());
+    assert!(
+        e.render_plain().contains("above the limit"),
+        "{}",
+        e.render_plain()
+    );
 }
 
 #[test]
@@ -221,9 +355,14 @@ fn steep_hermite_slopes_and_coinciding_ramp_stops() {
 
 #[test]
 fn very_high_sine_frequencies_stay_in_range() {
-    let t = tape(r#"Graph(nodes: { "p": Position }, outputs: { "s": Sin(Mul(1e8, "p.x")), "c": Cos(Mul(1e12, "p.x")) })"#);
+    let t = tape(
+        r#"Graph(nodes: { "p": Position }, outputs: { "s": Sin(Mul(1e8, "p.x")), "c": Cos(Mul(1e12, "p.x")) })"#,
+    );
     for x in [0.1, 0.123456789, 3.3, -7.77] {
-        for v in eval::<f64>(&t, [x, 0.0, 0.0]).into_iter().chain(eval::<f32>(&t, [x, 0.0, 0.0]).into_iter().map(f64::from)) {
+        for v in eval::<f64>(&t, [x, 0.0, 0.0])
+            .into_iter()
+            .chain(eval::<f32>(&t, [x, 0.0, 0.0]).into_iter().map(f64::from))
+        {
             assert!(v.is_finite() && v.abs() <= 1.0, "{v} at {x}");
         }
     }
@@ -245,8 +384,15 @@ fn division_by_tiny_values_pow_sqrt_atan2_and_mod_edge_cases() {
     let f64s = eval::<f64>(&t, [1.0, -4.0, 0.0]);
     assert_eq!(f64s[0], 1.0 / 1e-300, "f64: 1 / 1e-300, finite");
     let f32s = eval::<f32>(&t, [1.0, -4.0, 0.0]);
-    assert_eq!(f32s[0], f32::INFINITY, "f32: 1e-300 underflows to 0, so 1/0 = +inf (counted as non-finite)");
-    assert!(f64s[1].is_nan() && f64s[2].is_nan(), "pow and sqrt of a negative are NaN");
+    assert_eq!(
+        f32s[0],
+        f32::INFINITY,
+        "f32: 1e-300 underflows to 0, so 1/0 = +inf (counted as non-finite)"
+    );
+    assert!(
+        f64s[1].is_nan() && f64s[2].is_nan(),
+        "pow and sqrt of a negative are NaN"
+    );
     assert_eq!(f64s[3], 0.0, "atan2(0, 0) = 0");
     assert!(f64s[4].is_nan(), "mod by 0 is NaN");
 }
@@ -255,11 +401,19 @@ fn division_by_tiny_values_pow_sqrt_atan2_and_mod_edge_cases() {
 fn non_finite_positions_give_nan_not_panics() {
     let g = marble();
     let t = compile(&g, &CompileOptions::default()).expect("compiles");
-    for p in [[f64::NAN, 0.0, 0.0], [f64::INFINITY, 1.0, 2.0], [0.0, f64::NEG_INFINITY, 0.0], [1e308, -1e308, 1e308]] {
+    for p in [
+        [f64::NAN, 0.0, 0.0],
+        [f64::INFINITY, 1.0, 2.0],
+        [0.0, f64::NEG_INFINITY, 0.0],
+        [1e308, -1e308, 1e308],
+    ] {
         let v = eval::<f32>(&t, p);
         let w = eval::<f64>(&t, p);
         if p.iter().any(|c| !c.is_finite()) {
-            assert!(v.iter().all(|x| x.is_nan()) && w.iter().all(|x| x.is_nan()), "{p:?}: {v:?} {w:?}");
+            assert!(
+                v.iter().all(|x| x.is_nan()) && w.iter().all(|x| x.is_nan()),
+                "{p:?}: {v:?} {w:?}"
+            );
         } else {
             assert_eq!(v.len(), 4);
         }
@@ -269,15 +423,30 @@ fn non_finite_positions_give_nan_not_panics() {
 #[test]
 fn non_finite_parameters_are_defined() {
     // NaN params are rejected; infinite inputs flow through as infinities/NaN and are counted.
-    assert!(check(SourceFile::new("nan.ron", r#"Graph(params: { "k": NaN }, outputs: { "o": "k" })"#), &CheckOptions::default()).is_err());
+    assert!(check(
+        SourceFile::new(
+            "nan.ron",
+            r#"Graph(params: { "k": NaN }, outputs: { "o": "k" })"#
+        ),
+        &CheckOptions::default()
+    )
+    .is_err());
     assert!(check(
         SourceFile::new("set.ron", r#"Graph(params: { "k": 1.0 }, outputs: { "o": Mul("k", Noise(input: Position, basis: Perlin)) })"#),
         &CheckOptions { overrides: vec![("k".into(), f64::NAN)] }
     )
     .is_err());
-    let t = tape(r#"Graph(outputs: { "o": Noise(input: Scale(input: Position, by: inf), basis: Perlin) })"#);
-    assert!(eval::<f64>(&t, [0.5, 0.5, 0.5])[0].is_nan(), "an infinite point has no lattice cell");
+    let t = tape(
+        r#"Graph(outputs: { "o": Noise(input: Scale(input: Position, by: inf), basis: Perlin) })"#,
+    );
+    assert!(
+        eval::<f64>(&t, [0.5, 0.5, 0.5])[0].is_nan(),
+        "an infinite point has no lattice cell"
+    );
     let t = tape(r#"Graph(nodes: { "p": Position }, outputs: { "o": Mul(inf, "p.x") })"#);
-    assert_eq!(eval::<f64>(&t, [0.0, 0.0, 0.0])[0].is_nan(), true, "inf × 0 = NaN (IEEE)");
+    assert!(
+        eval::<f64>(&t, [0.0, 0.0, 0.0])[0].is_nan(),
+        "inf × 0 = NaN (IEEE)"
+    );
     assert_eq!(eval::<f64>(&t, [2.0, 0.0, 0.0])[0], f64::INFINITY);
 }

@@ -333,6 +333,11 @@ impl<const SMOOTH: bool> Kernel for ValueKernel<'_, SMOOTH> {
     }
     #[inline(always)]
     fn eval_lane<S: Real>(&self, cell: [i32; 3], frac: [S; 3]) -> S {
-        canonical_nan(value::sample_lane::<S, SMOOTH>(self.pairs, self.values, cell, frac))
+        canonical_nan(value::sample_lane::<S, SMOOTH>(
+            self.pairs,
+            self.values,
+            cell,
+            frac,
+        ))
     }
 }
