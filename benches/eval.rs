@@ -164,9 +164,7 @@ mod handwritten {
         )
     }
 
-    // 3.14159265 is the constant the graph file writes; the same number keeps the formulas equal.
-    #[allow(clippy::approx_constant, clippy::excessive_precision)]
-    pub fn vein(x: f32, y: f32, z: f32) -> f32 {
+    pub fn fbm8(x: f32, y: f32, z: f32) -> f32 {
         let mut fbm = 0.0;
         let mut frequency = 1.0;
         let mut amplitude = 1.0;
@@ -175,20 +173,129 @@ mod handwritten {
             frequency *= 2.0;
             amplitude *= 0.5;
         }
-        (3.14159265 * (1.3 * x + 3.0 * fbm)).sin().abs()
+        fbm
+    }
+
+    // 3.14159265 is the constant the graph file writes; the same number keeps the formulas equal.
+    #[allow(clippy::approx_constant, clippy::excessive_precision)]
+    pub fn vein(x: f32, y: f32, z: f32) -> f32 {
+        (3.14159265 * (1.3 * x + 3.0 * fbm8(x, y, z))).sin().abs()
     }
 }
 
+fn compile_text(text: &str, outputs: &[&str]) -> Tape {
+    let graph = check(SourceFile::new("bench.ron", text.to_string()), &CheckOptions::default()).expect("valid graph");
+    compile(&graph, &CompileOptions { outputs: outputs.iter().map(|s| s.to_string()).collect(), ..Default::default() }).expect("compiles")
+}
+
+/// The issue's peer workload: 8-octave Perlin fBm (lacunarity 2, gain 0.5) over 128 × 128 × 4
+/// voxel centres of the 128³ grid over [0, 8)³; and the marble abs(sin(6x + 4·fbm8)).
+const FBM8: &str = r#"Graph(outputs: { "f": Fbm(input: Position, basis: Perlin, octaves: 8.0) })"#;
+const MARBLE: &str = r#"Graph(nodes: { "p": Position }, outputs: { "m": Abs(Sin(Add(Mul(6.0, "p.x"), Mul(4.0, Fbm(input: "p", basis: Perlin, octaves: 8.0))))) })"#;
+
+fn slab() -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let (mut x, mut y, mut z) = (Vec::new(), Vec::new(), Vec::new());
+    let step = 8.0 / 128.0;
+    for k in 0..4 {
+        for j in 0..128 {
+            for i in 0..128 {
+                x.push((i as f64 + 0.5) * step);
+                y.push((j as f64 + 0.5) * step);
+                z.push((k as f64 + 0.5) * step);
+            }
+        }
+    }
+    (x, y, z)
+}
+
+/// Benches one workload: texgraph (batch, point) and every peer, in one group.
+fn peer_group(c: &mut Criterion, name: &str, source: &str, finish: fn(f32, f32) -> f32) {
+    let tape = compile_text(source, &[]);
+    let (x, y, z) = slab();
+    let n = x.len();
+    let (xf, yf, zf): (Vec<f32>, Vec<f32>, Vec<f32>) = (x.iter().map(|v| *v as f32).collect(), y.iter().map(|v| *v as f32).collect(), z.iter().map(|v| *v as f32).collect());
+    let mut group = c.benchmark_group(format!("eval/{name}"));
+    group.throughput(Throughput::Elements(n as u64));
+    group.sample_size(15).measurement_time(Duration::from_secs(4)).warm_up_time(Duration::from_secs(1));
+    group.bench_function("texgraph_batch_f32", |b| {
+        let mut ws = Workspace::<f32>::new();
+        let mut out = vec![0f32; n];
+        b.iter(|| {
+            tape.eval_batch(&mut ws, &x, &y, &z, &mut out);
+            black_box(&out);
+        })
+    });
+    group.bench_function("texgraph_point_f32", |b| {
+        let mut ws = Workspace::<f32>::new();
+        let mut out = vec![0f32; n];
+        b.iter(|| {
+            for i in 0..n {
+                tape.eval_point(&mut ws, [x[i], y[i], z[i]], &mut out[i..i + 1]);
+            }
+            black_box(&out);
+        })
+    });
+    group.bench_function("handwritten_f32", |b| {
+        let mut out = vec![0f32; n];
+        b.iter(|| {
+            for i in 0..n {
+                out[i] = finish(xf[i], handwritten::fbm8(xf[i], yf[i], zf[i]));
+            }
+            black_box(&out);
+        })
+    });
+    group.bench_function("noise_rs", |b| {
+        use noise::{MultiFractal, NoiseFn};
+        let fbm = noise::Fbm::<noise::Perlin>::new(0).set_octaves(8).set_frequency(1.0).set_lacunarity(2.0).set_persistence(0.5);
+        let mut out = vec![0f32; n];
+        b.iter(|| {
+            for i in 0..n {
+                out[i] = finish(xf[i], fbm.get([x[i], y[i], z[i]]) as f32);
+            }
+            black_box(&out);
+        })
+    });
+    group.bench_function("fastnoise_lite", |b| {
+        let mut noise = fastnoise_lite::FastNoiseLite::new();
+        noise.set_noise_type(Some(fastnoise_lite::NoiseType::Perlin));
+        noise.set_fractal_type(Some(fastnoise_lite::FractalType::FBm));
+        noise.set_fractal_octaves(Some(8));
+        noise.set_fractal_lacunarity(Some(2.0));
+        noise.set_fractal_gain(Some(0.5));
+        noise.set_frequency(Some(1.0));
+        let mut out = vec![0f32; n];
+        b.iter(|| {
+            for i in 0..n {
+                out[i] = finish(xf[i], noise.get_noise_3d(xf[i], yf[i], zf[i]));
+            }
+            black_box(&out);
+        })
+    });
+    group.bench_function("simdnoise_simplex", |b| {
+        // simdnoise generates a whole grid (runtime SIMD dispatch); simplex, not Perlin.
+        let mut out = vec![0f32; n];
+        b.iter(|| {
+            let (grid, _, _) = simdnoise::NoiseBuilder::fbm_3d(128, 128, 4).with_freq(8.0 / 128.0).with_octaves(8).with_gain(0.5).with_lacunarity(2.0).generate();
+            for i in 0..n {
+                out[i] = finish(xf[i], grid[i]);
+            }
+            black_box(&out);
+        })
+    });
+    group.finish();
+}
+
 fn eval_benches(c: &mut Criterion) {
+    peer_group(c, "fbm8", FBM8, |_, f| f);
+    peer_group(c, "marble", MARBLE, |x, f| (6.0 * x + 4.0 * f).sin().abs());
+
+    // The seed 003 marble (issue 2's figure): the graph file as written, 8 octaves.
     let tape = marble_tape();
     let (x, y, z) = points();
     let n = x.len();
-    let mut group = c.benchmark_group("eval/marble");
+    let mut group = c.benchmark_group("eval/seed003_marble");
     group.throughput(Throughput::Elements(n as u64));
-    group
-        .sample_size(20)
-        .measurement_time(Duration::from_secs(4))
-        .warm_up_time(Duration::from_secs(1));
+    group.sample_size(20).measurement_time(Duration::from_secs(4)).warm_up_time(Duration::from_secs(1));
 
     group.bench_function("handwritten_f32", |b| {
         let mut out = vec![0f32; n];

@@ -173,10 +173,10 @@ fn lattice_lane<S: Real>(x: f64) -> (i32, S) {
 macro_rules! simd_targets {
     ($item:item) => {
         #[multiversion(targets(
-                    // "x86_64+avx512f+avx512bw+avx512vl+avx2+fma",
-                    "x86_64+avx2+fma",
-                    "x86_64+sse4.1",
-                ))]
+            "x86_64+avx512f+avx512bw+avx512vl+avx2+fma",
+            "x86_64+avx2+fma",
+            "x86_64+sse4.1",
+        ))]
         $item
     };
 }

@@ -100,19 +100,22 @@ pub(super) fn sample<S: Real>(p: &[u8; 512], pos: [f64; 3]) -> S {
 /// [`grad`] for the batch kernels: the same choice of `u`, `v` and signs, as selects (blends
 /// under SIMD) instead of table lookups, and the same single addition `u + v`, so the bits
 /// (the sign of a zero, a NaN) are the same.
+///
+/// With h = hash & 15, the reference's conditions are bit tests on the hash itself (one SIMD
+/// test each): h < 8 is bit 3 clear, h < 4 is bits 2 and 3 clear, and h == 12 || h == 14 is
+/// bits 3, 2, 0 equal to 1, 1, 0.
 #[inline(always)]
 fn grad_select<S: Real>(hash: i32, x: S, y: S, z: S) -> S {
-    let h = hash & 15;
-    let u = if h < 8 { x } else { y };
-    let v = if h < 4 {
+    let u = if hash & 8 == 0 { x } else { y };
+    let v = if hash & 12 == 0 {
         y
-    } else if h == 12 || h == 14 {
+    } else if hash & 13 == 12 {
         x
     } else {
         z
     };
-    let u = if h & 1 != 0 { -u } else { u };
-    let v = if h & 2 != 0 { -v } else { v };
+    let u = if hash & 1 != 0 { -u } else { u };
+    let v = if hash & 2 != 0 { -v } else { v };
     u + v
 }
 
