@@ -184,8 +184,19 @@ mod handwritten {
 }
 
 fn compile_text(text: &str, outputs: &[&str]) -> Tape {
-    let graph = check(SourceFile::new("bench.ron", text.to_string()), &CheckOptions::default()).expect("valid graph");
-    compile(&graph, &CompileOptions { outputs: outputs.iter().map(|s| s.to_string()).collect(), ..Default::default() }).expect("compiles")
+    let graph = check(
+        SourceFile::new("bench.ron", text.to_string()),
+        &CheckOptions::default(),
+    )
+    .expect("valid graph");
+    compile(
+        &graph,
+        &CompileOptions {
+            outputs: outputs.iter().map(|s| s.to_string()).collect(),
+            ..Default::default()
+        },
+    )
+    .expect("compiles")
 }
 
 /// The peer workload: 8-octave Perlin fBm (lacunarity 2, gain 0.5) over 128 × 128 × 4
@@ -213,10 +224,17 @@ fn peer_group(c: &mut Criterion, name: &str, source: &str, finish: fn(f32, f32) 
     let tape = compile_text(source, &[]);
     let (x, y, z) = slab();
     let n = x.len();
-    let (xf, yf, zf): (Vec<f32>, Vec<f32>, Vec<f32>) = (x.iter().map(|v| *v as f32).collect(), y.iter().map(|v| *v as f32).collect(), z.iter().map(|v| *v as f32).collect());
+    let (xf, yf, zf): (Vec<f32>, Vec<f32>, Vec<f32>) = (
+        x.iter().map(|v| *v as f32).collect(),
+        y.iter().map(|v| *v as f32).collect(),
+        z.iter().map(|v| *v as f32).collect(),
+    );
     let mut group = c.benchmark_group(format!("eval/{name}"));
     group.throughput(Throughput::Elements(n as u64));
-    group.sample_size(15).measurement_time(Duration::from_secs(4)).warm_up_time(Duration::from_secs(1));
+    group
+        .sample_size(15)
+        .measurement_time(Duration::from_secs(4))
+        .warm_up_time(Duration::from_secs(1));
     group.bench_function("texgraph_batch_f32", |b| {
         let mut ws = Workspace::<f32>::new();
         let mut out = vec![0f32; n];
@@ -246,7 +264,11 @@ fn peer_group(c: &mut Criterion, name: &str, source: &str, finish: fn(f32, f32) 
     });
     group.bench_function("noise_rs", |b| {
         use noise::{MultiFractal, NoiseFn};
-        let fbm = noise::Fbm::<noise::Perlin>::new(0).set_octaves(8).set_frequency(1.0).set_lacunarity(2.0).set_persistence(0.5);
+        let fbm = noise::Fbm::<noise::Perlin>::new(0)
+            .set_octaves(8)
+            .set_frequency(1.0)
+            .set_lacunarity(2.0)
+            .set_persistence(0.5);
         let mut out = vec![0f32; n];
         b.iter(|| {
             for i in 0..n {
@@ -275,7 +297,12 @@ fn peer_group(c: &mut Criterion, name: &str, source: &str, finish: fn(f32, f32) 
         // simdnoise generates a whole grid (runtime SIMD dispatch); simplex, not Perlin.
         let mut out = vec![0f32; n];
         b.iter(|| {
-            let (grid, _, _) = simdnoise::NoiseBuilder::fbm_3d(128, 128, 4).with_freq(8.0 / 128.0).with_octaves(8).with_gain(0.5).with_lacunarity(2.0).generate();
+            let (grid, _, _) = simdnoise::NoiseBuilder::fbm_3d(128, 128, 4)
+                .with_freq(8.0 / 128.0)
+                .with_octaves(8)
+                .with_gain(0.5)
+                .with_lacunarity(2.0)
+                .generate();
             for i in 0..n {
                 out[i] = finish(xf[i], grid[i]);
             }
@@ -295,7 +322,10 @@ fn eval_benches(c: &mut Criterion) {
     let n = x.len();
     let mut group = c.benchmark_group("eval/seed003_marble");
     group.throughput(Throughput::Elements(n as u64));
-    group.sample_size(20).measurement_time(Duration::from_secs(4)).warm_up_time(Duration::from_secs(1));
+    group
+        .sample_size(20)
+        .measurement_time(Duration::from_secs(4))
+        .warm_up_time(Duration::from_secs(1));
 
     group.bench_function("handwritten_f32", |b| {
         let mut out = vec![0f32; n];

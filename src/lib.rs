@@ -44,3 +44,4 @@ pub use graph::{CheckedGraph, Type};
 pub use load::{load_graph, load_tape, read_source, LoadError};
 pub use real::Real;
 pub use tape::Tape;
+pub mod render;

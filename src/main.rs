@@ -52,6 +52,68 @@ enum Command {
     /// PSNR, non-finite count, memory. --stability instead surveys every node at coordinates
     /// ±1 … ±2^31 (f32 error, continuity, non-finite values).
     Report(ReportArgs),
+    /// Render a graph on an object (or a scene file) to a PNG: a ray-cast preview.
+    ///
+    /// A graph file alone gets the default preview scene: the object, a ground plane, a key light
+    /// with shadows and a fill light. A scene file (RON: camera, lights, objects, materials whose
+    /// channels are constants or graph outputs) renders as written. --timing-table prints seed
+    /// 003's table (500×500 pixels, octaves 1/2/4/8) for the marble sphere.
+    Render(RenderArgs),
+    /// Re-render whenever the graph or scene file (or any file it uses) is saved; a broken edit
+    /// prints its diagnostic and keeps the last good image.
+    Watch(RenderArgs),
+}
+
+#[derive(Args)]
+struct RenderArgs {
+    /// A graph file or a scene file.
+    #[arg(value_name = "FILE", required_unless_present = "timing_table")]
+    file: Option<PathBuf>,
+    /// The PNG written (default: FILE's name with .png, in the current folder).
+    #[arg(short = 'o', long = "out", value_name = "PNG")]
+    out: Option<PathBuf>,
+    /// Image size W,H in pixels.
+    #[arg(long, value_name = "W,H", value_parser = parse_image_size)]
+    size: Option<(u32, u32)>,
+    /// Graph files only: the object carved out of the texture (sphere, cube, plane, teapot or a
+    /// path to an .obj).
+    #[arg(long, value_name = "OBJECT", default_value = "sphere")]
+    object: texgraph::render::PreviewObject,
+    /// Graph files only: object space (the texture moves with the object) or world space.
+    #[arg(long, value_enum, default_value_t)]
+    space: texgraph::render::Space,
+    /// Samples per pixel (anti-aliasing).
+    #[arg(long, value_name = "N")]
+    samples: Option<u32>,
+    /// Worker threads (default: one per core).
+    #[arg(long, value_name = "N")]
+    threads: Option<usize>,
+    /// Graph files only: the output shown as the diffuse colour (default: `colour`).
+    #[arg(long = "output", value_name = "NAME")]
+    output: Option<String>,
+    /// Graph files only: override a param (repeatable).
+    #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
+    sets: Vec<(String, f64)>,
+    /// No progress bar.
+    #[arg(long, short)]
+    quiet: bool,
+    /// Print seed 003's timing table (500×500, octaves 1/2/4/8) for FILE (default: the seed 003
+    /// marble) instead of rendering.
+    #[arg(long = "timing-table")]
+    timing_table: bool,
+}
+
+fn parse_image_size(text: &str) -> Result<(u32, u32), String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    match parts.as_slice() {
+        [w, h] => match (w.parse::<u32>(), h.parse::<u32>()) {
+            (Ok(w), Ok(h)) if w > 0 && h > 0 => Ok((w, h)),
+            _ => Err(format!(
+                "expected W,H with positive integers, found `{text}`"
+            )),
+        },
+        _ => Err(format!("expected W,H, found `{text}`")),
+    }
 }
 
 #[derive(Args)]
@@ -315,6 +377,8 @@ fn main() -> ExitCode {
         Command::Eval(args) => eval(args),
         Command::Bake(args) => bake(args),
         Command::Report(args) => report_command(args),
+        Command::Render(args) => render_command(args, false),
+        Command::Watch(args) => render_command(args, true),
         Command::Nodes(args) => {
             let text = if args.markdown {
                 texgraph::nodes::catalogue_markdown()
@@ -839,4 +903,69 @@ fn region_text(region: &texgraph::bake::Region) -> String {
         "{}, {}, {} .. {}, {}, {}",
         region.min[0], region.min[1], region.min[2], region.max[0], region.max[1], region.max[2]
     )
+}
+
+fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
+    use texgraph::render::{self, PreviewDefaults, Previewer, RenderOptions};
+    let failure = |e: &render::RenderError| {
+        eprint!("{}", e.render(colour()));
+        if e.exit_code() == 1 {
+            Failure::Invalid
+        } else {
+            Failure::Usage
+        }
+    };
+    let options = RenderOptions {
+        size: args.size,
+        samples: args.samples,
+        threads: args.threads,
+        progress: !args.quiet,
+    };
+    if args.timing_table {
+        let graph = args
+            .file
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("graphs/seed003_marble.ron"));
+        let timing = render::TimingOptions {
+            threads: args.threads,
+            ..Default::default()
+        };
+        let table = render::timing_table(&graph, &timing).map_err(|e| failure(&e))?;
+        let text = format!("{table}\n");
+        return write_stdout(|out| out.write_all(text.as_bytes()));
+    }
+    let Some(file) = args.file.clone() else {
+        eprintln!("error: give a graph or scene file");
+        return Err(Failure::Usage);
+    };
+    let out = args.out.clone().unwrap_or_else(|| {
+        PathBuf::from(format!(
+            "{}.png",
+            file.file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or("render")
+        ))
+    });
+    let defaults = PreviewDefaults {
+        object: args.object.clone(),
+        space: args.space,
+        overrides: args.sets.clone(),
+        output: args.output.clone(),
+    };
+    let mut previewer = Previewer::new(&file, defaults, options, &out);
+    if !watch {
+        return match previewer.reload() {
+            Ok(stats) => write_stdout(|w| writeln!(w, "wrote {}: {stats}", out.display())),
+            Err(e) => Err(failure(&e)),
+        };
+    }
+    eprintln!("watching {} (Ctrl-C to stop)", file.display());
+    let result = render::watch(&mut previewer, |result| {
+        match result {
+            Ok(stats) => eprintln!("{}: {stats}", out.display()),
+            Err(e) => eprint!("{}", e.render(colour())),
+        }
+        std::ops::ControlFlow::Continue(())
+    });
+    result.map_err(|e| failure(&e))
 }

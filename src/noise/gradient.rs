@@ -2,7 +2,7 @@
 //! a seeded table of unit vectors on the sphere, hashed per lattice point through a seeded
 //! permutation, and smoothed trilinear interpolation of the eight corner dot products.
 
-use super::lattice::{corner_hashes, corner_hashes_paired, lattice, lerp, smoothstep};
+use super::lattice::{corner_hashes, lattice, lerp, smoothstep};
 use super::rng::SplitMix64;
 use crate::real::Real;
 
@@ -64,20 +64,15 @@ pub(super) fn sample<S: Real>(perm: &[u8; 512], grads: &[[f32; 3]; 256], p: [f64
     lerp(wz, vz0, vz1)
 }
 
-/// [`sample`]'s interior for the batch kernels, from the lattice step's cell indices and
-/// fractions: the same hashes ([`corner_hashes_paired`]) and the same arithmetic in the same order.
+/// [`sample`]'s arithmetic for the batch kernels, from the corner hashes (as from
+/// [`corner_hashes`], e.g. by `corner_hashes_paired`) and the fractions (already in S): the same
+/// operations in the same order.
 #[inline(always)]
-pub(super) fn sample_lane<S: Real>(
-    pairs: &[i32; 512],
-    grads: &[[f32; 3]; 256],
-    cell: [i32; 3],
-    frac: [S; 3],
-) -> S {
-    let h = corner_hashes_paired(pairs, cell);
+pub(super) fn interior<S: Real>(grads: &[[f32; 3]; 256], h: [u8; 8], frac: [S; 3]) -> S {
     let [fx0, fy0, fz0] = frac;
     let (fx1, fy1, fz1) = (fx0 - S::ONE, fy0 - S::ONE, fz0 - S::ONE);
     let (wx, wy, wz) = (smoothstep(fx0), smoothstep(fy0), smoothstep(fz0));
-    let g = |i: usize| &grads[(h[i] & 255) as usize];
+    let g = |i: usize| &grads[h[i] as usize];
     let vy0 = lerp(wx, dot(g(0), fx0, fy0, fz0), dot(g(1), fx1, fy0, fz0));
     let vy1 = lerp(wx, dot(g(2), fx0, fy1, fz0), dot(g(3), fx1, fy1, fz0));
     let vz0 = lerp(wy, vy0, vy1);

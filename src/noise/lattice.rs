@@ -100,7 +100,7 @@ pub(super) fn corner_hashes(perm: &[u8; 512], ix: usize, iy: usize, iz: usize) -
 /// entry after the one at `ix` / `iy`, i.e. the high byte of the same pair; likewise `iz1`. The
 /// cell indices are <= 255 and every sum is <= 510, so the `& 511`s only tell the optimizer so.
 #[inline(always)]
-pub(super) fn corner_hashes_paired(pairs: &[i32; 512], cell: [i32; 3]) -> [i32; 8] {
+pub(super) fn corner_hashes_paired(pairs: &[i32; 512], cell: [i32; 3]) -> [u8; 8] {
     let [ix, iy, iz] = cell;
     let at = |i: i32| pairs[(i & 511) as usize];
     let pz = at(iz); // perm[iz], perm[iz1]
@@ -111,13 +111,13 @@ pub(super) fn corner_hashes_paired(pairs: &[i32; 512], cell: [i32; 3]) -> [i32; 
     let h4 = at(ix + (py1 & 255)); // corners 4, 5
     let h6 = at(ix + (py1 >> 8)); // corners 6, 7
     [
-        h0 & 255,
-        h0 >> 8,
-        h2 & 255,
-        h2 >> 8,
-        h4 & 255,
-        h4 >> 8,
-        h6 & 255,
-        h6 >> 8,
+        h0 as u8,
+        (h0 >> 8) as u8,
+        h2 as u8,
+        (h2 >> 8) as u8,
+        h4 as u8,
+        (h4 >> 8) as u8,
+        h6 as u8,
+        (h6 >> 8) as u8,
     ]
 }

@@ -7,9 +7,11 @@
 //! The tables are built by a frozen generator (`rng.rs`) so a graph's output never changes, and
 //! stored in f32 precision so the f32 and f64 paths read identical numbers.
 //!
-//! Batch functions run the same `#[inline(always)]` per-lane kernel as the point functions, so
-//! they are bit-identical to them by construction (Rust never contracts or reassociates float
-//! arithmetic).
+//! The batch functions (`batch.rs`) run a SIMD formulation of the same arithmetic: per octave, a
+//! lattice loop in f64, the corner hashes (gathers, or byte shuffles on AVX-512 VBMI in
+//! `vbmi.rs`) and an interior loop in S, compiled per instruction set and picked at run time.
+//! They return the point functions' bits (Rust never contracts or reassociates float arithmetic;
+//! NaN results are made canonical on both paths); the tests hold them to it.
 
 mod lattice;
 mod rng;
@@ -17,13 +19,32 @@ mod rng;
 /// The lattice noise function of one basis, as one monomorphic kernel per basis, so the batch
 /// loops can dispatch on the basis once per batch instead of once per lane.
 ///
-/// Two formulations of one function: `eval` is the readable per-point reference; `eval_lane` is
-/// its interior after the lattice step (cell indices mod 256 and fractions already computed, see
-/// `batch.rs`), written without branches or byte tables so that a loop over lanes vectorises.
-/// Both give the same bits for every input (proved by the tests, not assumed).
+/// Two formulations of one function: `eval` is the readable per-point reference; `hashes` and
+/// `interior` are the batch kernels' form of it after the lattice step (cell indices mod 256 and
+/// fractions already computed, see `batch.rs`): the eight corner hashes, then the arithmetic,
+/// written without branches or byte tables so that a loop over lanes vectorises (and so that the
+/// hashes can come from elsewhere, see `vbmi.rs`). Both give the same bits for every input
+/// (proved by the tests, not assumed).
 trait Kernel: Sync {
+    /// Whether the corner hashes are Perlin's (`perlin::hashes_paired`) or Ebert's
+    /// (`lattice::corner_hashes`, as Gradient and Value hash).
+    const PERLIN_HASH: bool;
     fn eval<S: Real>(&self, p: [f64; 3]) -> S;
-    fn eval_lane<S: Real>(&self, cell: [i32; 3], frac: [S; 3]) -> S;
+    /// The permutation, doubled (the byte-shuffle hashing of `vbmi.rs` reads its first half).
+    fn perm(&self) -> &[u8; 512];
+    /// The paired permutation (see [`NoiseTable`]'s `pairs`).
+    fn pairs(&self) -> &[i32; 512];
+    /// The eight corner hashes of a cell, `[dx + 2 dy + 4 dz]`, from the paired table.
+    #[inline(always)]
+    fn hashes(&self, cell: [i32; 3]) -> [u8; 8] {
+        if Self::PERLIN_HASH {
+            perlin::hashes_paired(self.pairs(), cell)
+        } else {
+            lattice::corner_hashes_paired(self.pairs(), cell)
+        }
+    }
+    /// The noise value from the corner hashes and the fractions, NaN made canonical.
+    fn interior<S: Real>(&self, h: [u8; 8], frac: [S; 3]) -> S;
 }
 
 /// Runs `$body` with `$k` bound to the [`Kernel`] of `$table`'s basis.
@@ -73,6 +94,8 @@ mod perlin;
 #[cfg(test)]
 mod tests;
 mod value;
+#[cfg(target_arch = "x86_64")]
+mod vbmi;
 
 pub use fractal::{fractal, fractal_batch, Octaves};
 
@@ -291,13 +314,22 @@ struct PerlinKernel<'a> {
 }
 
 impl Kernel for PerlinKernel<'_> {
+    const PERLIN_HASH: bool = true;
     #[inline(always)]
     fn eval<S: Real>(&self, p: [f64; 3]) -> S {
         canonical_nan(perlin::sample(self.perm, p))
     }
     #[inline(always)]
-    fn eval_lane<S: Real>(&self, cell: [i32; 3], frac: [S; 3]) -> S {
-        canonical_nan(perlin::sample_lane(self.pairs, cell, frac))
+    fn perm(&self) -> &[u8; 512] {
+        self.perm
+    }
+    #[inline(always)]
+    fn pairs(&self) -> &[i32; 512] {
+        self.pairs
+    }
+    #[inline(always)]
+    fn interior<S: Real>(&self, h: [u8; 8], frac: [S; 3]) -> S {
+        canonical_nan(perlin::interior(h, frac))
     }
 }
 
@@ -309,13 +341,22 @@ struct GradientKernel<'a> {
 }
 
 impl Kernel for GradientKernel<'_> {
+    const PERLIN_HASH: bool = false;
     #[inline(always)]
     fn eval<S: Real>(&self, p: [f64; 3]) -> S {
         canonical_nan(gradient::sample(self.perm, self.grads, p))
     }
     #[inline(always)]
-    fn eval_lane<S: Real>(&self, cell: [i32; 3], frac: [S; 3]) -> S {
-        canonical_nan(gradient::sample_lane(self.pairs, self.grads, cell, frac))
+    fn perm(&self) -> &[u8; 512] {
+        self.perm
+    }
+    #[inline(always)]
+    fn pairs(&self) -> &[i32; 512] {
+        self.pairs
+    }
+    #[inline(always)]
+    fn interior<S: Real>(&self, h: [u8; 8], frac: [S; 3]) -> S {
+        canonical_nan(gradient::interior(self.grads, h, frac))
     }
 }
 
@@ -327,17 +368,21 @@ struct ValueKernel<'a, const SMOOTH: bool> {
 }
 
 impl<const SMOOTH: bool> Kernel for ValueKernel<'_, SMOOTH> {
+    const PERLIN_HASH: bool = false;
     #[inline(always)]
     fn eval<S: Real>(&self, p: [f64; 3]) -> S {
         canonical_nan(value::sample::<S, SMOOTH>(self.perm, self.values, p))
     }
     #[inline(always)]
-    fn eval_lane<S: Real>(&self, cell: [i32; 3], frac: [S; 3]) -> S {
-        canonical_nan(value::sample_lane::<S, SMOOTH>(
-            self.pairs,
-            self.values,
-            cell,
-            frac,
-        ))
+    fn perm(&self) -> &[u8; 512] {
+        self.perm
+    }
+    #[inline(always)]
+    fn pairs(&self) -> &[i32; 512] {
+        self.pairs
+    }
+    #[inline(always)]
+    fn interior<S: Real>(&self, h: [u8; 8], frac: [S; 3]) -> S {
+        canonical_nan(value::interior::<S, SMOOTH>(self.values, h, frac))
     }
 }

@@ -105,7 +105,7 @@ pub(super) fn sample<S: Real>(p: &[u8; 512], pos: [f64; 3]) -> S {
 /// test each): h < 8 is bit 3 clear, h < 4 is bits 2 and 3 clear, and h == 12 || h == 14 is
 /// bits 3, 2, 0 equal to 1, 1, 0.
 #[inline(always)]
-fn grad_select<S: Real>(hash: i32, x: S, y: S, z: S) -> S {
+fn grad_select<S: Real>(hash: u8, x: S, y: S, z: S) -> S {
     let u = if hash & 8 == 0 { x } else { y };
     let v = if hash & 12 == 0 {
         y
@@ -115,31 +115,51 @@ fn grad_select<S: Real>(hash: i32, x: S, y: S, z: S) -> S {
         z
     };
     let u = if hash & 1 != 0 { -u } else { u };
-    let v = if hash & 2 != 0 { -v } else { v };
-    u + v
+    // u + (-v) is u - v exactly (IEEE 754 defines subtraction so, signed zeros included).
+    if hash & 2 != 0 {
+        u - v
+    } else {
+        u + v
+    }
 }
 
-/// [`sample`]'s interior for the batch kernels, from the lattice step's cell indices (mod 256)
-/// and fractions (already in S). The hashes come from the paired table
-/// (`pairs[i] = p[i] | p[i + 1] << 8`): the reference reads p at A and A + 1, B and B + 1, AA and
-/// AA + 1, and so on, always neighbours, so seven 32-bit reads give all fourteen (every index is
-/// at most 510, so the neighbour is in the doubled table). The arithmetic is the reference's,
-/// expression for expression.
+/// [`sample`]'s eight gradient hashes for the batch kernels, from the lattice step's cell indices
+/// (mod 256), in corner order `[dx + 2 dy + 4 dz]`: p[AA], p[BA], p[AB], p[BB], then the same
+/// plus one. They come from the paired table (`pairs[i] = p[i] | p[i + 1] << 8`): the reference
+/// reads p at A and A + 1, B and B + 1, AA and AA + 1, and so on, always neighbours, so seven
+/// 32-bit reads (SIMD gathers) give all fourteen (every index is at most 510, so the neighbour
+/// is in the doubled table).
 #[inline(always)]
-pub(super) fn sample_lane<S: Real>(pairs: &[i32; 512], cell: [i32; 3], frac: [S; 3]) -> S {
+pub(super) fn hashes_paired(pairs: &[i32; 512], cell: [i32; 3]) -> [u8; 8] {
     let [xi, yi, zi] = cell;
-    let [x, y, z] = frac;
     let at = |i: i32| pairs[(i & 511) as usize];
     let px = at(xi); // p[xi], p[xi + 1]
     let a = (px & 255) + yi;
     let b = (px >> 8) + yi;
     let pa = at(a); // p[A], p[A + 1]
     let pb = at(b); // p[B], p[B + 1]
-    let aa = (pa & 255) + zi;
-    let ab = (pa >> 8) + zi;
-    let ba = (pb & 255) + zi;
-    let bb = (pb >> 8) + zi;
-    let (haa, hab, hba, hbb) = (at(aa), at(ab), at(ba), at(bb)); // p[AA], p[AA + 1] etc.
+    let aa = at((pa & 255) + zi); // p[AA], p[AA + 1]
+    let ab = at((pa >> 8) + zi); // p[AB], p[AB + 1]
+    let ba = at((pb & 255) + zi); // p[BA], p[BA + 1]
+    let bb = at((pb >> 8) + zi); // p[BB], p[BB + 1]
+    [
+        aa as u8,
+        ba as u8,
+        ab as u8,
+        bb as u8,
+        (aa >> 8) as u8,
+        (ba >> 8) as u8,
+        (ab >> 8) as u8,
+        (bb >> 8) as u8,
+    ]
+}
+
+/// [`sample`]'s arithmetic for the batch kernels, from the corner hashes (as from
+/// [`hashes_paired`]) and the fractions (already in S): the reference's, expression for
+/// expression.
+#[inline(always)]
+pub(super) fn interior<S: Real>(h: [u8; 8], frac: [S; 3]) -> S {
+    let [x, y, z] = frac;
     let u = fade(x);
     let v = fade(y);
     let w = fade(z);
@@ -149,20 +169,16 @@ pub(super) fn sample_lane<S: Real>(pairs: &[i32; 512], cell: [i32; 3], frac: [S;
         w,
         lerp(
             v,
-            lerp(u, grad_select(haa, x, y, z), grad_select(hba, x1, y, z)),
-            lerp(u, grad_select(hab, x, y1, z), grad_select(hbb, x1, y1, z)),
+            lerp(u, grad_select(h[0], x, y, z), grad_select(h[1], x1, y, z)),
+            lerp(u, grad_select(h[2], x, y1, z), grad_select(h[3], x1, y1, z)),
         ),
         lerp(
             v,
+            lerp(u, grad_select(h[4], x, y, z1), grad_select(h[5], x1, y, z1)),
             lerp(
                 u,
-                grad_select(haa >> 8, x, y, z1),
-                grad_select(hba >> 8, x1, y, z1),
-            ),
-            lerp(
-                u,
-                grad_select(hab >> 8, x, y1, z1),
-                grad_select(hbb >> 8, x1, y1, z1),
+                grad_select(h[6], x, y1, z1),
+                grad_select(h[7], x1, y1, z1),
             ),
         ),
     )

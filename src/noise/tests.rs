@@ -872,3 +872,321 @@ fn fractal_batch_equals_fractal_bit_for_bit() {
         }
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// Batch kernels (batch.rs, vbmi.rs): bit for bit the point functions
+
+/// A pool of points mixing the first `kinds` kinds of coordinate: random at scales from 1 to
+/// 2^40, integers, points just off integers and off multiples of 256, ±0 and negatives (kinds
+/// 0..8: every chunk takes the fast lattice path); magnitudes near 2^50 and 2^51, the fast
+/// path's limit (8..10: fast or exact, by chunk and octave frequency); huge and non-finite
+/// coordinates (10..12: their chunk takes the exact path).
+fn batch_pool(seed: u64, n: usize, kinds: u64) -> Vec<[f64; 3]> {
+    let mut rng = SplitMix64::new(seed);
+    let coordinate = |rng: &mut SplitMix64| -> f64 {
+        let r = rng.next_signed();
+        let k = (rng.next_u64() % 2048) as f64 - 1024.0;
+        let pick = |rng: &mut SplitMix64, options: &[f64]| {
+            options[(rng.next_u64() % options.len() as u64) as usize]
+        };
+        match rng.next_u64() % kinds {
+            0 => 8.0 * r.abs(),
+            1 => 300.0 * r,
+            2 => 1e6 * r,
+            3 => 2f64.powi(40) * r,
+            4 => k,
+            5 => k + pick(rng, &[1e-9, -1e-9, 0.5, f64::EPSILON, -f64::EPSILON]),
+            6 => 256.0 * k + pick(rng, &[0.0, 1e-7, -1e-7]),
+            7 => pick(rng, &[0.0, -0.0, 1.0, -1.0, 255.0, -256.0]),
+            8 => 2f64.powi(50) * r,
+            9 => 2f64.powi(51) * r.signum() + r,
+            10 => pick(
+                rng,
+                &[
+                    1e300,
+                    -1e300,
+                    2f64.powi(52) + 2.0,
+                    -2f64.powi(61),
+                    2f64.powi(51),
+                ],
+            ),
+            _ => pick(rng, &[f64::NAN, f64::INFINITY, f64::NEG_INFINITY]),
+        }
+    };
+    (0..n)
+        .map(|_| {
+            [
+                coordinate(&mut rng),
+                coordinate(&mut rng),
+                coordinate(&mut rng),
+            ]
+        })
+        .collect()
+}
+
+fn planes(pts: &[[f64; 3]]) -> [Vec<f64>; 3] {
+    [0, 1, 2].map(|a| pts.iter().map(|p| p[a]).collect())
+}
+
+/// Bits of a result, NaN included (the point and batch paths return the same canonical NaN).
+fn bits_of<S: Real>(v: &[S]) -> Vec<u64> {
+    v.iter().map(|v| v.to_f64().to_bits()).collect()
+}
+
+fn check_batches<S: Real>(t: &NoiseTable, schedule: &Octaves, pts: &[[f64; 3]], what: &str) {
+    let [x, y, z] = planes(pts);
+    let n = pts.len();
+    let mut out = vec![S::ZERO; n];
+    t.sample_batch(&x, &y, &z, &mut out);
+    let want: Vec<S> = pts.iter().map(|&p| t.sample(p)).collect();
+    assert_eq!(
+        bits_of(&out),
+        bits_of(&want),
+        "{what}: sample_batch, {n} lanes"
+    );
+    for turbulence in [false, true] {
+        fractal_batch(t, schedule, turbulence, &x, &y, &z, &mut out);
+        let want: Vec<S> = pts
+            .iter()
+            .map(|&p| fractal(t, schedule, turbulence, p))
+            .collect();
+        assert_eq!(
+            bits_of(&out),
+            bits_of(&want),
+            "{what}: fractal_batch (turbulence {turbulence}), {n} lanes"
+        );
+    }
+}
+
+/// Every batch length from 1 to 300 (below and above the per-point threshold, not multiples of
+/// 8 or 16, across the 256-lane chunk), every basis, both precisions, on points that take the
+/// fast lattice path and on points that take the exact one.
+#[test]
+fn batch_kernels_equal_point_functions_for_every_length() {
+    let tame = batch_pool(31, 340, 8);
+    let edge = batch_pool(32, 340, 10);
+    let wild = batch_pool(33, 340, 12);
+    assert!(wild.iter().flatten().any(|v| v.is_nan()));
+    let schedule = Octaves::new(2.5, 2.0, 0.5, 0);
+    for basis in BASES {
+        let t = NoiseTable::new(basis, 41);
+        for len in 1..=300 {
+            let start = len % 37;
+            for (pool, name) in [(&tame, "tame"), (&edge, "edge"), (&wild, "wild")] {
+                let pts = &pool[start..start + len];
+                let what = format!("{basis:?} {name}");
+                check_batches::<f32>(&t, &schedule, pts, &what);
+                check_batches::<f64>(&t, &schedule, pts, &what);
+            }
+        }
+    }
+}
+
+/// Long batches (several chunks, one of them wild) with the marble's 8-octave schedule and the
+/// reference permutation.
+#[test]
+fn batch_kernels_equal_point_functions_on_long_batches() {
+    let mut pts = batch_pool(34, 700, 8);
+    pts.extend(batch_pool(35, 300, 12));
+    pts.extend(batch_pool(36, 301, 10));
+    let schedule = Octaves::new(8.0, 2.0, 0.5, 0);
+    for basis in BASES {
+        for seed in [0, 7] {
+            let t = NoiseTable::new(basis, seed);
+            check_batches::<f32>(&t, &schedule, &pts, &format!("{basis:?} seed {seed}"));
+            check_batches::<f64>(&t, &schedule, &pts, &format!("{basis:?} seed {seed}"));
+        }
+    }
+}
+
+#[test]
+fn batch_lattice_lanes_match_lattice() {
+    use super::batch::{lattice_lane_exact, lattice_lane_fast, TWO51};
+    let mut xs: Vec<f64> = batch_pool(37, 3000, 12).into_iter().flatten().collect();
+    xs.extend([
+        0.0,
+        -0.0,
+        -1e-300,
+        5e-324,
+        -5e-324,
+        f64::MAX,
+        f64::MIN,
+        1.0 - f64::EPSILON,
+    ]);
+    for e in [51, 52, 53, 60, 61, 62, 64, 100] {
+        let big = 2f64.powi(e);
+        for d in [-2.0, -1.5, -1.0, -0.5, 0.0, 0.5, 1.0, 256.0] {
+            xs.extend([big + d, -big + d, big * 0.75 + d, -(big * 0.75) - d]);
+        }
+    }
+    for x in xs {
+        let (i64_, f64_) = lattice_lane_exact::<f64>(x);
+        let (i32_, f32_) = lattice_lane_exact::<f32>(x);
+        assert_eq!(i64_, i32_);
+        if x.is_finite() {
+            let (i, f) = lattice(x);
+            assert_eq!(
+                (i64_ as usize, f64_.to_bits()),
+                (i, f.to_bits()),
+                "x = {x:e}"
+            );
+            assert_eq!(f32_.to_bits(), (f as f32).to_bits(), "x = {x:e}");
+        } else {
+            assert!(f64_.is_nan() && f32_.is_nan(), "x = {x:e}");
+        }
+        if x.abs() < TWO51 {
+            assert_eq!(lattice_lane_fast::<f64>(x).0, i64_, "x = {x:e}");
+            assert_eq!(lattice_lane_fast::<f64>(x).1.to_bits(), f64_.to_bits());
+        }
+    }
+}
+
+#[test]
+fn fast_lattice_is_used_only_where_it_is_exact() {
+    use super::batch::{fits, TWO51};
+    let ok = [1.0, -3.5, 1e6];
+    assert!(fits([&ok, &ok, &ok], 1.0));
+    assert!(fits([&ok, &ok, &ok], 2f64.powi(20)));
+    assert!(!fits([&ok, &ok, &ok], 2f64.powi(40)));
+    assert!(fits([&ok, &ok, &ok], 0.0));
+    for bad in [
+        f64::NAN,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        TWO51,
+        -TWO51,
+        1e300,
+    ] {
+        let p = [1.0, bad, 2.0];
+        assert!(!fits([&ok, &p, &ok], 1.0), "{bad}");
+    }
+    assert!(fits([&[TWO51 / 2.0], &ok, &ok], 1.0));
+    assert!(!fits([&[TWO51 / 2.0], &ok, &ok], 2.0));
+    assert!(!fits([&ok, &ok, &ok], f64::NAN));
+}
+
+/// The reference's fourteen permutation reads (Perlin's A, AA, AB, B, BA, BB), on a
+/// `perm[i & 255]` table: the ground truth for the paired and the byte-shuffle hashes.
+fn perlin_hashes_reference(perm: &[u8; 512], [x, y, z]: [usize; 3]) -> [u8; 8] {
+    let p = |i: usize| perm[i & 255] as usize;
+    let a = p(x) + y;
+    let (aa, ab) = (p(a) + z, p(a + 1) + z);
+    let b = p(x + 1) + y;
+    let (ba, bb) = (p(b) + z, p(b + 1) + z);
+    [aa, ba, ab, bb, aa + 1, ba + 1, ab + 1, bb + 1].map(|i| p(i) as u8)
+}
+
+/// Random cells plus every cell with coordinates in {0, 1, 254, 255}.
+fn hash_cells() -> Vec<[usize; 3]> {
+    let mut rng = SplitMix64::new(37);
+    let mut cells: Vec<[usize; 3]> = (0..20_000)
+        .map(|_| [0, 0, 0].map(|_: usize| (rng.next_u64() % 256) as usize))
+        .collect();
+    let edges = [0, 1, 254, 255];
+    for x in edges {
+        for y in edges {
+            for z in edges {
+                cells.push([x, y, z]);
+            }
+        }
+    }
+    cells
+}
+
+#[test]
+fn paired_hashes_match_the_permutation_reads() {
+    use super::lattice::{corner_hashes, corner_hashes_paired};
+    for seed in [0, 1, 99] {
+        let t = NoiseTable::new(Basis::Perlin, seed);
+        for c in hash_cells() {
+            let cell = c.map(|v| v as i32);
+            assert_eq!(
+                perlin::hashes_paired(&t.pairs, cell),
+                perlin_hashes_reference(&t.perm, c),
+                "seed {seed} cell {c:?}"
+            );
+            let [x, y, z] = c;
+            assert_eq!(
+                corner_hashes_paired(&t.pairs, cell),
+                corner_hashes(&t.perm, x, y, z).map(|h| h as u8),
+                "seed {seed} cell {c:?}"
+            );
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn byte_shuffle_hashes_match_the_paired_hashes() {
+    use super::batch::CHUNK;
+    use super::lattice::corner_hashes_paired;
+    if !(is_x86_feature_detected!("avx512f")
+        && is_x86_feature_detected!("avx512bw")
+        && is_x86_feature_detected!("avx512vbmi"))
+    {
+        eprintln!("no AVX-512 VBMI on this CPU: byte-shuffle hashing not tested");
+        return;
+    }
+    let cells = hash_cells();
+    for seed in [0, 5] {
+        let t = NoiseTable::new(Basis::Perlin, seed);
+        for group in cells.chunks(CHUNK) {
+            let mut cell = [[0u8; CHUNK]; 3];
+            for (i, c) in group.iter().enumerate() {
+                for a in 0..3 {
+                    cell[a][i] = c[a] as u8;
+                }
+            }
+            let mut perlin_h = [[0u8; CHUNK]; 8];
+            let mut ebert_h = [[0u8; CHUNK]; 8];
+            // SAFETY: the features were detected above.
+            unsafe {
+                super::vbmi::corner_hashes::<true>(&t.perm, &cell, group.len(), &mut perlin_h);
+                super::vbmi::corner_hashes::<false>(&t.perm, &cell, group.len(), &mut ebert_h);
+            }
+            for (i, c) in group.iter().enumerate() {
+                let cell = c.map(|v| v as i32);
+                let want_p = perlin::hashes_paired(&t.pairs, cell);
+                let want_e = corner_hashes_paired(&t.pairs, cell);
+                for k in 0..8 {
+                    assert_eq!(perlin_h[k][i], want_p[k], "seed {seed} {c:?} corner {k}");
+                    assert_eq!(ebert_h[k][i], want_e[k], "seed {seed} {c:?} corner {k}");
+                }
+            }
+        }
+    }
+}
+
+/// The two forms of step 2 (hashes gathered in the loop; hashes precomputed, as the byte-shuffle
+/// path does) agree, whichever of them this CPU's dispatch runs.
+#[test]
+fn both_forms_of_the_lane_loop_agree() {
+    use super::batch::{Lattice, CHUNK};
+    fn run<S: Real>(t: &NoiseTable, pts: &[[f64; 3]]) {
+        let [x, y, z] = planes(pts);
+        let n = pts.len();
+        with_kernel!(t, k => {
+            let mut lattice = Lattice::<S>::new();
+            lattice.fill::<false>(false, 1.0, [&x, &y, &z]);
+            let mut fused = vec![S::ZERO; n];
+            lattice.noise::<_, false, false>(&k, S::ONE, &mut fused);
+            for i in 0..n {
+                let h = k.hashes([0, 1, 2].map(|a| lattice.cell[a][i] as i32));
+                for c in 0..8 {
+                    lattice.hashes[c][i] = h[c];
+                }
+            }
+            let mut split = vec![S::ZERO; n];
+            lattice.noise_hashed::<_, false, false>(&k, S::ONE, &mut split);
+            assert_eq!(bits_of(&fused), bits_of(&split), "{:?}", t.basis());
+            let want: Vec<S> = pts.iter().map(|&p| t.sample(p)).collect();
+            assert_eq!(bits_of(&fused), bits_of(&want), "{:?}", t.basis());
+        });
+    }
+    let pts = batch_pool(38, CHUNK, 12);
+    for basis in BASES {
+        let t = NoiseTable::new(basis, 12);
+        run::<f32>(&t, &pts);
+        run::<f64>(&t, &pts);
+    }
+}

@@ -1,7 +1,7 @@
 //! Value noise: a seeded table of values in [0, 1] at the lattice points (hashed exactly like the
 //! Gradient basis), interpolated trilinearly, with linear or smoothstep weights.
 
-use super::lattice::{corner_hashes, corner_hashes_paired, lattice, lerp, smoothstep};
+use super::lattice::{corner_hashes, lattice, lerp, smoothstep};
 use super::rng::SplitMix64;
 use crate::real::Real;
 
@@ -48,19 +48,18 @@ pub(super) fn sample<S: Real, const SMOOTH: bool>(
     lerp(wz, vz0, vz1)
 }
 
-/// [`sample`]'s interior for the batch kernels, from the lattice step's cell indices and
-/// fractions: the same hashes ([`corner_hashes_paired`]) and the same arithmetic in the same order.
+/// [`sample`]'s arithmetic for the batch kernels, from the corner hashes (as from
+/// [`corner_hashes`], e.g. by `corner_hashes_paired`) and the fractions (already in S): the same
+/// operations in the same order.
 #[inline(always)]
-pub(super) fn sample_lane<S: Real, const SMOOTH: bool>(
-    pairs: &[i32; 512],
+pub(super) fn interior<S: Real, const SMOOTH: bool>(
     values: &[f32; 256],
-    cell: [i32; 3],
+    h: [u8; 8],
     frac: [S; 3],
 ) -> S {
-    let h = corner_hashes_paired(pairs, cell);
     let weight = |t: S| if SMOOTH { smoothstep(t) } else { t };
     let [wx, wy, wz] = frac.map(weight);
-    let v = |i: usize| S::from_f64(values[(h[i] & 255) as usize] as f64);
+    let v = |i: usize| S::from_f64(values[h[i] as usize] as f64);
     let vy0 = lerp(wx, v(0), v(1));
     let vy1 = lerp(wx, v(2), v(3));
     let vz0 = lerp(wy, vy0, vy1);

@@ -1,0 +1,863 @@
+//! The preview renderer: goldens per object kind, object vs world space, thread-count
+//! independence, watch-mode reloads that survive broken edits, scene-file diagnostics.
+//!
+//! Goldens are `tests/render/NAME.png` (8-bit sRGB), compared within a tolerance;
+//! `TEXGRAPH_BLESS=1 cargo test --test render` re-blesses them.
+
+use std::path::{Path, PathBuf};
+use texgraph::render::{
+    self, load_input, load_scene, render, timing_table, InputKind, PreviewDefaults, PreviewObject,
+    Previewer, RenderError, RenderOptions, RenderedImage, Scene, SceneDesc, Space, TimingOptions,
+};
+
+const MARBLE: &str = "graphs/seed003_marble.ron";
+
+fn blessing() -> bool {
+    std::env::var_os("TEXGRAPH_BLESS").is_some_and(|v| v != "0" && !v.is_empty())
+}
+
+fn small(samples: u32) -> RenderOptions {
+    RenderOptions {
+        size: Some((64, 48)),
+        samples: Some(samples),
+        threads: None,
+        progress: false,
+    }
+}
+
+/// The seed 003 marble at 4 octaves (quick in debug builds).
+fn marble_defaults(object: PreviewObject, space: Space) -> PreviewDefaults {
+    PreviewDefaults {
+        object,
+        space,
+        overrides: vec![("octaves".into(), 4.0)],
+        output: None,
+    }
+}
+
+/// Compares against a golden PNG: at most 1% of the channel values may differ by more than 8
+/// (of 255), and the mean difference must stay under 1 — room for libm differences between
+/// platforms, none for a wrong texture, shape, light or camera.
+fn assert_golden(name: &str, image: &RenderedImage) {
+    let path = PathBuf::from(format!("tests/render/{name}.png"));
+    let got = image.to_rgb8();
+    if blessing() {
+        got.save(&path).expect("write golden");
+        return;
+    }
+    let want = image::open(&path)
+        .unwrap_or_else(|e| {
+            panic!(
+                "{}: {e}; run with TEXGRAPH_BLESS=1 to create it",
+                path.display()
+            )
+        })
+        .to_rgb8();
+    assert_eq!(got.dimensions(), want.dimensions(), "{name}: size");
+    let diffs: Vec<i32> = got
+        .as_raw()
+        .iter()
+        .zip(want.as_raw())
+        .map(|(a, b)| (*a as i32 - *b as i32).abs())
+        .collect();
+    let big = diffs.iter().filter(|d| **d > 8).count();
+    let mean = diffs.iter().sum::<i32>() as f64 / diffs.len() as f64;
+    if big * 100 > diffs.len() || mean > 1.0 {
+        let actual = std::env::temp_dir().join(format!("texgraph-render-{name}.png"));
+        let _ = got.save(&actual);
+        panic!(
+            "{name}: {big} of {} channel values differ by more than 8, mean difference {mean:.3}; \
+             this render is at {}; if the change is intended, re-bless with TEXGRAPH_BLESS=1",
+            diffs.len(),
+            actual.display()
+        );
+    }
+}
+
+fn render_default(object: PreviewObject, space: Space) -> RenderedImage {
+    let scene = Scene::from_graph_default(Path::new(MARBLE), &marble_defaults(object, space))
+        .expect("scene");
+    render(&scene, &small(2)).expect("render").0
+}
+
+#[test]
+fn golden_sphere() {
+    assert_golden(
+        "sphere",
+        &render_default(PreviewObject::Sphere, Space::Object),
+    );
+}
+
+#[test]
+fn golden_cube() {
+    assert_golden("cube", &render_default(PreviewObject::Cube, Space::Object));
+}
+
+#[test]
+fn golden_plane() {
+    assert_golden(
+        "plane",
+        &render_default(PreviewObject::Plane, Space::Object),
+    );
+}
+
+#[test]
+fn golden_teapot() {
+    assert_golden(
+        "teapot",
+        &render_default(PreviewObject::Teapot, Space::Object),
+    );
+}
+
+#[test]
+fn golden_obj_mesh() {
+    assert_golden(
+        "house",
+        &render_default(
+            PreviewObject::Obj("tests/render/house.obj".into()),
+            Space::Object,
+        ),
+    );
+}
+
+/// The default scene, moved as a whole (camera, lights, objects) by `offset`.
+fn moved(desc: &SceneDesc, offset: [f64; 3]) -> SceneDesc {
+    let shift = |p: &mut [f64; 3]| {
+        for (c, o) in p.iter_mut().zip(offset) {
+            *c += o;
+        }
+    };
+    let mut d = desc.clone();
+    shift(&mut d.camera.position);
+    shift(&mut d.camera.look_at);
+    for light in &mut d.lights {
+        if let render::LightDesc::Point { position, .. } = light {
+            shift(position);
+        }
+    }
+    for object in &mut d.objects {
+        object.transform.push(render::TransformDesc::Translate(
+            offset[0], offset[1], offset[2],
+        ));
+    }
+    d
+}
+
+fn max_difference(a: &RenderedImage, b: &RenderedImage) -> f32 {
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs()))
+        .fold(0.0, f32::max)
+}
+
+#[test]
+fn object_space_textures_move_with_the_object_and_world_space_ones_do_not() {
+    // Translate everything (camera and lights too): the same surface points come back to the
+    // same pixels. In object space they get the same texture values, so the image is the same;
+    // in world space the object has moved through the texture, so it is not.
+    let offset = [0.75, 0.5, -0.25];
+    for (space, should_match) in [(Space::Object, true), (Space::World, false)] {
+        let desc = marble_defaults(PreviewObject::Sphere, space).scene_desc(Path::new(MARBLE));
+        let here = Scene::from_desc(&desc, Path::new("")).unwrap();
+        let there = Scene::from_desc(&moved(&desc, offset), Path::new("")).unwrap();
+        let a = render(&here, &small(1)).unwrap().0;
+        let b = render(&there, &small(1)).unwrap().0;
+        let diff = max_difference(&a, &b);
+        if should_match {
+            assert!(
+                diff < 0.02,
+                "{space:?}: the moved object's texture changed (max difference {diff})"
+            );
+        } else {
+            assert!(
+                diff > 0.2,
+                "{space:?}: the texture moved with the object (max difference {diff})"
+            );
+        }
+    }
+}
+
+#[test]
+fn rotating_an_object_turns_its_object_space_texture_with_it() {
+    // A cube turned by 90° about y shows, in object space, the texture of the face that was
+    // facing sideways; turning the camera and lights with it gives back the same image.
+    let desc = marble_defaults(PreviewObject::Cube, Space::Object).scene_desc(Path::new(MARBLE));
+    let mut turned = desc.clone();
+    let rotate = |p: &mut [f64; 3]| *p = [p[2], p[1], -p[0]]; // 90° about +y
+    rotate(&mut turned.camera.position);
+    rotate(&mut turned.camera.look_at);
+    for light in &mut turned.lights {
+        match light {
+            render::LightDesc::Point { position, .. } => rotate(position),
+            render::LightDesc::Directional { direction, .. } => rotate(direction),
+        }
+    }
+    for object in &mut turned.objects {
+        object.transform.push(render::TransformDesc::Rotate {
+            axis: [0.0, 1.0, 0.0],
+            degrees: 90.0,
+        });
+    }
+    let a = render(&Scene::from_desc(&desc, Path::new("")).unwrap(), &small(1))
+        .unwrap()
+        .0;
+    let b = render(
+        &Scene::from_desc(&turned, Path::new("")).unwrap(),
+        &small(1),
+    )
+    .unwrap()
+    .0;
+    let diff = max_difference(&a, &b);
+    assert!(diff < 0.02, "max difference {diff}");
+}
+
+#[test]
+fn images_do_not_depend_on_the_thread_count() {
+    let scene = Scene::from_graph_default(
+        Path::new(MARBLE),
+        &marble_defaults(PreviewObject::Teapot, Space::World),
+    )
+    .unwrap();
+    let mut images = Vec::new();
+    for threads in [1, 2, 3] {
+        let options = RenderOptions {
+            size: Some((53, 37)), // tiles of every shape
+            samples: Some(3),
+            threads: Some(threads),
+            progress: false,
+        };
+        let (image, stats) = render(&scene, &options).unwrap();
+        assert_eq!(stats.threads, threads);
+        images.push((image, stats.counters));
+    }
+    for other in &images[1..] {
+        assert!(
+            images[0].0 == other.0,
+            "pixels differ between thread counts"
+        );
+        assert_eq!(images[0].1, other.1);
+    }
+}
+
+#[test]
+fn textures_are_evaluated_only_at_hits() {
+    // A sphere alone on the background: one evaluation group, one point per hit.
+    let mut desc =
+        marble_defaults(PreviewObject::Sphere, Space::Object).scene_desc(Path::new(MARBLE));
+    desc.objects.truncate(1);
+    let scene = Scene::from_desc(&desc, Path::new("")).unwrap();
+    let (image, stats) = render(&scene, &small(1)).unwrap();
+    let c = stats.counters;
+    assert_eq!(c.primary_rays, 64 * 48);
+    assert!(c.hits > 0 && c.hits < c.primary_rays, "{c:?}");
+    assert_eq!(c.texture_points, c.hits);
+    // The corner pixel sees the background.
+    let bg = desc.background.map(|v| v as f32);
+    assert_eq!(image.pixel(0, 0), bg);
+}
+
+#[test]
+fn a_graph_shared_by_materials_is_compiled_once_for_the_outputs_bound() {
+    let dir = tempfile::tempdir().unwrap();
+    let graph = std::fs::canonicalize(MARBLE).unwrap();
+    let scene_path = dir.path().join("shared.ron");
+    let g = graph.display();
+    std::fs::write(
+        &scene_path,
+        format!(
+            r#"Scene(
+    camera: Camera(position: (0, 0, 8), look_at: (0, 0, 0)),
+    lights: [Point(position: (0, 5, 5))],
+    materials: {{
+        "a": Material(diffuse: Texture(graph: "{g}", output: "colour", set: {{ "octaves": 2 }})),
+        "b": Material(diffuse: Texture(graph: "{g}", output: "colour", set: {{ "octaves": 2 }}, space: World),
+                      specular: Texture(graph: "{g}", output: "colour", set: {{ "octaves": 2 }})),
+        "c": Material(diffuse: Texture(graph: "{g}", set: {{ "octaves": 3 }}), shininess: Texture(graph: "{g}", set: {{ "octaves": 3 }})),
+        "unused": Material(diffuse: Texture(graph: "missing.ron")),
+    }},
+    objects: [
+        Object(shape: Sphere(), material: "a", transform: [Translate(-2.5, 0, 0)]),
+        Object(shape: Sphere(), material: "b"),
+        Object(shape: Sphere(), material: "c", transform: [Translate(2.5, 0, 0)]),
+        Object(shape: Sphere(radius: 0.5), material: "a", transform: [Translate(0, 2, 0)]),
+    ],
+)"#
+        ),
+    )
+    .unwrap();
+    let scene = load_scene(&scene_path).unwrap();
+    let textures = scene.textures();
+    assert_eq!(textures.len(), 2, "{textures:#?}");
+    assert_eq!(textures[0].outputs, ["colour"]);
+    assert_eq!(textures[0].overrides, [("octaves".to_string(), 2.0)]);
+    assert_eq!(textures[0].tape.outputs.len(), 1);
+    // "c": colour for diffuse by default, the first scalar output ("vein") for shininess.
+    assert_eq!(textures[1].outputs, ["colour", "vein"]);
+    assert!(scene.files().contains(&graph));
+    let (_, stats) = render(&scene, &small(1)).unwrap();
+    assert!(stats.counters.texture_points > 0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Watch mode: the reload function
+// ---------------------------------------------------------------------------------------------
+
+const GOOD_GRAPH: &str = r#"Graph(
+    params: { "scale": 4.0 },
+    nodes: {
+        "n": Noise(input: Scale(input: Position, by: "scale"), basis: Perlin),
+        "colour": ColorRamp(input: Add(0.5, "n"), stops: [(0.0, (0.1, 0.2, 0.8)), (1.0, (0.9, 0.9, 0.2))]),
+    },
+    outputs: { "colour": "colour" },
+)
+"#;
+
+const BROKEN_GRAPH: &str = r#"Graph(
+    params: { "scale": 4.0 },
+    nodes: {
+        "n": Noize(input: Scale(input: Position, by: "scale"), basis: Perlin),
+        "colour": ColorRamp(input: Add(0.5, "n"), stops: [(0.0, (0.1, 0.2, 0.8)), (1.0, (0.9, 0.9, 0.2))]),
+    },
+    outputs: { "colour": "colour" },
+)
+"#;
+
+#[test]
+fn reload_survives_a_broken_graph_edit_and_recovers() {
+    let dir = tempfile::tempdir().unwrap();
+    let graph = dir.path().join("live.ron");
+    let out = dir.path().join("preview.png");
+    std::fs::write(&graph, GOOD_GRAPH).unwrap();
+    let mut previewer = Previewer::new(&graph, PreviewDefaults::default(), small(1), &out);
+    assert!(previewer.image().is_none());
+
+    let stats = previewer.reload().expect("the good graph renders");
+    assert!(stats.counters.texture_points > 0);
+    assert!(
+        stats.total_seconds >= stats.seconds && stats.load_seconds > 0.0,
+        "{stats:?}"
+    );
+    assert!(stats.to_string().contains("refreshed in"), "{stats}");
+    let good = previewer.image().expect("an image").clone();
+    let good_png = std::fs::read(&out).expect("the PNG is written");
+    assert!(previewer.watched_files().contains(&graph));
+
+    // A broken edit: the diagnostic names file, line and column; the last good image stays, in
+    // memory and on disk.
+    std::fs::write(&graph, BROKEN_GRAPH).unwrap();
+    let error = previewer.reload().expect_err("the broken graph fails");
+    assert_eq!(error.exit_code(), 1);
+    let message = error.to_string();
+    assert!(
+        message.contains(&format!("{}:4:14", graph.display())),
+        "{message}"
+    );
+    assert!(message.contains("Noize"), "{message}");
+    assert_eq!(previewer.image(), Some(&good));
+    assert_eq!(std::fs::read(&out).unwrap(), good_png);
+
+    // A file that cannot be read at all (mid-save) is survived the same way.
+    std::fs::remove_file(&graph).unwrap();
+    let error = previewer.reload().expect_err("a missing file fails");
+    assert_eq!(error.exit_code(), 2);
+    assert_eq!(previewer.image(), Some(&good));
+
+    // Fixed, with another colour: the reload succeeds and replaces the image.
+    std::fs::write(
+        &graph,
+        GOOD_GRAPH.replace("(0.1, 0.2, 0.8)", "(0.8, 0.1, 0.1)"),
+    )
+    .unwrap();
+    previewer.reload().expect("the fixed graph renders");
+    assert_ne!(previewer.image(), Some(&good));
+    assert_ne!(std::fs::read(&out).unwrap(), good_png);
+    // No temporary files are left behind.
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(names.iter().all(|n| !n.ends_with(".partial")), "{names:?}");
+}
+
+#[test]
+fn reload_of_a_scene_watches_its_graph_and_survives_a_broken_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let graph = dir.path().join("g.ron");
+    let scene = dir.path().join("scene.ron");
+    let out = dir.path().join("out.png");
+    std::fs::write(&graph, GOOD_GRAPH).unwrap();
+    let good_scene = r#"Scene(
+    camera: Camera(position: (0, 0, 4), look_at: (0, 0, 0)),
+    lights: [Point(position: (2, 3, 4))],
+    materials: { "m": Material(diffuse: Texture(graph: "g.ron")) },
+    objects: [Object(shape: Sphere(), material: "m")],
+)"#;
+    std::fs::write(&scene, good_scene).unwrap();
+    let mut previewer = Previewer::new(&scene, PreviewDefaults::default(), small(1), &out);
+    previewer.reload().expect("renders");
+    let good = previewer.image().unwrap().clone();
+    assert!(previewer.watched_files().contains(&scene));
+    assert!(
+        previewer.watched_files().contains(&graph),
+        "{:?}",
+        previewer.watched_files()
+    );
+
+    // A typo in the scene: the RON error is located in the scene file.
+    std::fs::write(&scene, good_scene.replace("Sphere()", "Sphear()")).unwrap();
+    let message = previewer.reload().unwrap_err().to_string();
+    assert!(
+        message.contains(&format!("{}:5:", scene.display())),
+        "{message}"
+    );
+    assert!(message.contains("Sphear"), "{message}");
+    assert_eq!(previewer.image(), Some(&good));
+    // The graph is still watched although the broken scene names no graph.
+    assert!(previewer.watched_files().contains(&graph));
+
+    // A broken graph under a good scene.
+    std::fs::write(&scene, good_scene).unwrap();
+    std::fs::write(&graph, BROKEN_GRAPH).unwrap();
+    let message = previewer.reload().unwrap_err().to_string();
+    assert!(
+        message.contains(&format!("{}:4:14", graph.display())),
+        "{message}"
+    );
+    std::fs::write(&graph, GOOD_GRAPH).unwrap();
+    previewer.reload().expect("fixed");
+    assert_eq!(previewer.image(), Some(&good));
+}
+
+#[test]
+fn the_watch_loop_re_renders_when_the_graph_is_saved() {
+    // The loop itself, thinly: render, save the graph from the callback, see the second
+    // refresh come, stop. No sleeping: the test waits on the loop's own progress (bounded).
+    let dir = tempfile::tempdir().unwrap();
+    let graph = dir.path().join("live.ron");
+    let out = dir.path().join("preview.png");
+    std::fs::write(&graph, GOOD_GRAPH).unwrap();
+    let (done_tx, done_rx) = std::sync::mpsc::channel();
+    let path = graph.clone();
+    std::thread::spawn(move || {
+        let mut previewer = Previewer::new(&path, PreviewDefaults::default(), small(1), &out);
+        let mut results = Vec::new();
+        let outcome = render::watch(&mut previewer, |result| {
+            results.push(result.as_ref().map(|_| ()).map_err(|e| e.to_string()));
+            if results.len() == 1 {
+                // An editor saving a broken version.
+                std::fs::write(&path, BROKEN_GRAPH).unwrap();
+                std::ops::ControlFlow::Continue(())
+            } else {
+                std::ops::ControlFlow::Break(())
+            }
+        });
+        let _ = done_tx.send((
+            outcome.map_err(|e| e.to_string()),
+            results,
+            previewer.image().is_some(),
+        ));
+    });
+    let (outcome, results, kept) = done_rx
+        .recv_timeout(std::time::Duration::from_secs(60))
+        .expect("the watch loop reacted to the save");
+    outcome.expect("the loop ends cleanly");
+    assert_eq!(results.len(), 2);
+    assert!(results[0].is_ok(), "{results:?}");
+    let message = results[1].as_ref().expect_err("the broken save fails");
+    assert!(
+        message.contains(&format!("{}:4:14", graph.display())),
+        "{message}"
+    );
+    assert!(kept, "the last good image is kept");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scene-file errors: clear, located, never a panic
+// ---------------------------------------------------------------------------------------------
+
+/// Loads a scene written into a temporary folder (next to a copy of the marble graph) and
+/// returns the rendered error with the folder replaced by `DIR`.
+fn scene_error(text: &str) -> (RenderError, String) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(MARBLE, dir.path().join("marble.ron")).unwrap();
+    std::fs::write(dir.path().join("bad.obj"), "v 0 0 0\nv 1 0 0\nf 1 2 3\n").unwrap();
+    let path = dir.path().join("scene.ron");
+    std::fs::write(&path, text).unwrap();
+    let error = load_scene(&path).expect_err("the scene is invalid");
+    let message = error
+        .to_string()
+        .replace(&dir.path().display().to_string(), "DIR");
+    (error, message)
+}
+
+fn with(materials: &str, objects: &str) -> String {
+    format!(
+        "Scene(\n    camera: Camera(position: (0, 0, 4), look_at: (0, 0, 0)),\n    lights: [Point(position: (1, 2, 3))],\n    materials: {{\n{materials}\n    }},\n    objects: [\n{objects}\n    ],\n)\n"
+    )
+}
+
+const SPHERE_M: &str = r#"        Object(shape: Sphere(), material: "m"),"#;
+
+#[test]
+fn a_missing_graph_file_is_reported_at_its_path_in_the_scene() {
+    let (error, message) = scene_error(&with(
+        r#"        "m": Material(diffuse: Texture(graph: "nowhere.ron")),"#,
+        SPHERE_M,
+    ));
+    assert_eq!(error.exit_code(), 1);
+    assert!(
+        message.contains("error[unknown-reference]: DIR/scene.ron:5:47:"),
+        "{message}"
+    );
+    assert!(
+        message.contains("cannot read the graph file DIR/nowhere.ron"),
+        "{message}"
+    );
+    assert!(message.contains("relative to the scene file"), "{message}");
+}
+
+#[test]
+fn an_unknown_output_is_reported_with_the_outputs_there_are() {
+    let (_, message) = scene_error(&with(
+        r#"        "m": Material(diffuse: Texture(graph: "marble.ron", output: "color")),"#,
+        SPHERE_M,
+    ));
+    assert!(
+        message.contains("error[unknown-output]: DIR/scene.ron:5:69:"),
+        "{message}"
+    );
+    assert!(message.contains("has no output \"color\""), "{message}");
+    assert!(
+        message.contains("did you mean \"colour\"? Its outputs are: colour, vein"),
+        "{message}"
+    );
+}
+
+#[test]
+fn bad_ron_is_reported_at_its_line_and_column() {
+    let (error, message) =
+        scene_error("Scene(\n    camera: Camera(position: (0, 0, 4), look_at: (0, 0 0)),\n)");
+    assert_eq!(error.exit_code(), 1);
+    assert!(message.contains("DIR/scene.ron:2:"), "{message}");
+    let (_, message) = scene_error(&with(
+        r#"        "m": Material(diffuse: Colour(1, 0, 0), shine: Value(3)),"#,
+        SPHERE_M,
+    ));
+    assert!(
+        message.contains("error[unknown-argument]: DIR/scene.ron:5:"),
+        "{message}"
+    );
+    assert!(message.contains("shine"), "{message}");
+    let (_, message) = scene_error("Scene(objects: [])");
+    assert!(message.contains("error[missing-argument]"), "{message}");
+    assert!(message.contains("camera"), "{message}");
+    let (_, message) = scene_error("");
+    assert!(message.contains("DIR/scene.ron:1:1"), "{message}");
+}
+
+#[test]
+fn semantic_scene_errors_are_all_reported_at_once() {
+    let (_, message) = scene_error(&with(
+        r#"        "m": Material(diffuse: Texture(graph: "marble.ron", set: { "octave": 4 }), shininess: Colour(1, 1, 1)),
+        "n": Material(shininess: Texture(graph: "marble.ron", output: "colour")),"#,
+        r#"        Object(shape: Sphere(radius: -1), material: "m"),
+        Object(shape: Sphere(), material: "mm"),
+        Object(shape: Teapot(resolution: 0), material: "n"),
+        Object(shape: Mesh(path: "none.obj"), material: "m", transform: [Scale(0)]),"#,
+    ));
+    for expected in [
+        "error[bad-parameter]: DIR/scene.ron:9:38: object 1: the sphere's radius is -1",
+        "error[unknown-reference]: DIR/scene.ron:10:43: object 2: no material named \"mm\"",
+        "did you mean \"m\"?",
+        "object 3: the teapot's resolution is 0",
+        "object 4: cannot read the mesh DIR/none.obj",
+        "object 4: Scale: every factor must be finite and not zero",
+        "material \"m\": `shininess` is a number, not a colour",
+        "error[type]: DIR/scene.ron:6:",
+        "material \"n\": `shininess` is a number, and output \"colour\" is a colour",
+        "error[unknown-param]: DIR/scene.ron:5:68: material \"m\": `diffuse`: the graph DIR/marble.ron has no param \"octave\"",
+        "did you mean \"octaves\"?",
+    ] {
+        assert!(message.contains(expected), "missing {expected:?} in:\n{message}");
+    }
+}
+
+#[test]
+fn mesh_and_graph_problems_are_reported_in_their_own_files() {
+    let (_, message) = scene_error(&with(
+        r#"        "m": Material(diffuse: Value(0.5)),"#,
+        r#"        Object(shape: Mesh(path: "bad.obj"), material: "m"),"#,
+    ));
+    assert!(
+        message.contains("error[syntax]: DIR/bad.obj:3:7: OBJ: vertex index 3 is out of range"),
+        "{message}"
+    );
+
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("broken.ron"), BROKEN_GRAPH).unwrap();
+    let path = dir.path().join("scene.ron");
+    std::fs::write(
+        &path,
+        with(
+            r#"        "m": Material(diffuse: Texture(graph: "broken.ron")),"#,
+            SPHERE_M,
+        ),
+    )
+    .unwrap();
+    let message = load_scene(&path).unwrap_err().to_string();
+    assert!(
+        message.contains(&format!("{}:4:14", dir.path().join("broken.ron").display())),
+        "{message}"
+    );
+}
+
+#[test]
+fn hostile_scenes_never_panic() {
+    let cases = [
+        "Scene(camera: Camera(position: (0, 0, 0), look_at: (0, 0, 0)), objects: [])",
+        "Scene(camera: Camera(position: (0, 0, 1), look_at: (0, 0, 0), up: (0, 0, 1), fov: 180), objects: [])",
+        "Scene(camera: Camera(position: (0, 0, 1), look_at: (0, 0, 0)), objects: [], size: (0, 10), samples: 0)",
+        "Scene(camera: Camera(position: (0, 0, 1), look_at: (0, 0, 0)), lights: [Directional(direction: (0, 0, 0))], objects: [])",
+        "Scene(camera: Camera(position: (0, 0, 1e39), look_at: (0, 0, 0)), objects: [])",
+        "Scene(camera: Camera(position: (0, 0, 1), look_at: (0, 0, 0)), objects: [Object(shape: Box(size: (1, 0, 1)), material: \"x\")])",
+        "Scene(camera: Camera(position: (0, 0, 1), look_at: (0, 0, 0)), materials: { \"x\": Material(diffuse: Texture(graph: \"\")) }, objects: [Object(shape: Plane(size: (-1, 1)), material: \"x\")])",
+        "Scene(camera: Camera(position: (0, 0, 1), look_at: (0, 0, 0)), materials: { \"x\": Material(diffuse: Value(inf)) }, objects: [Object(shape: Plane(), material: \"x\", transform: [Rotate(axis: (0, 0, 0), degrees: 1)])])",
+        "Scene(((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((",
+        "\u{feff}Scene(camera: Camera(position: (0, 0, 1), look_at: (0, 0, 0)), objects: [Object(shape: Mesh(path: \"/\"), material: \"x\")])",
+    ];
+    for text in cases {
+        let (error, message) = scene_error(text);
+        assert!(!message.is_empty());
+        assert!(
+            matches!(error, RenderError::Invalid(_)),
+            "{text}: {message}"
+        );
+    }
+}
+
+#[test]
+fn render_options_are_checked() {
+    let scene = Scene::from_graph_default(Path::new(MARBLE), &PreviewDefaults::default()).unwrap();
+    for options in [
+        RenderOptions {
+            size: Some((0, 10)),
+            ..small(1)
+        },
+        RenderOptions {
+            size: Some((100_000, 10)),
+            ..small(1)
+        },
+        RenderOptions {
+            samples: Some(0),
+            ..small(1)
+        },
+        RenderOptions {
+            threads: Some(0),
+            ..small(1)
+        },
+    ] {
+        let error = render(&scene, &options).expect_err("refused");
+        assert_eq!(error.exit_code(), 2, "{error}");
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Inputs, files, scenes shipped, timing table
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn a_graph_alone_gets_the_default_preview_scene() {
+    assert_eq!(
+        render::input_kind(&std::fs::read_to_string(MARBLE).unwrap()),
+        InputKind::Graph
+    );
+    let scene = load_input(Path::new(MARBLE), &PreviewDefaults::default()).unwrap();
+    // The object and a ground plane; the diffuse channel bound to "colour" only.
+    assert_eq!(scene.object_count(), 2);
+    assert_eq!(scene.textures().len(), 1);
+    assert_eq!(scene.textures()[0].outputs, ["colour"]);
+    // An unknown --output is reported against the graph's outputs.
+    let defaults = PreviewDefaults {
+        output: Some("nope".into()),
+        ..PreviewDefaults::default()
+    };
+    let message = load_input(Path::new(MARBLE), &defaults)
+        .unwrap_err()
+        .to_string();
+    assert!(message.contains("has no output \"nope\""), "{message}");
+    assert!(message.contains("colour, vein"), "{message}");
+    // A scalar output as the diffuse colour is a grey.
+    let defaults = PreviewDefaults {
+        output: Some("vein".into()),
+        ..PreviewDefaults::default()
+    };
+    let scene = load_input(Path::new(MARBLE), &defaults).unwrap();
+    let (image, _) = render(&scene, &small(1)).unwrap();
+    let centre = image.pixel(32, 24);
+    assert!(
+        (centre[0] - centre[1]).abs() < 0.05 && (centre[1] - centre[2]).abs() < 0.05,
+        "{centre:?}"
+    );
+    // A --set of a param the graph does not have: the checker's own message.
+    let defaults = PreviewDefaults {
+        overrides: vec![("octave".into(), 3.0)],
+        ..PreviewDefaults::default()
+    };
+    let message = load_input(Path::new(MARBLE), &defaults)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        message.contains("--set octave: the graph has no param \"octave\""),
+        "{message}"
+    );
+    assert!(message.contains("did you mean \"octaves\"?"), "{message}");
+    // A missing mesh for --object.
+    let defaults = PreviewDefaults {
+        object: PreviewObject::Obj("tests/render/missing.obj".into()),
+        ..PreviewDefaults::default()
+    };
+    let message = load_input(Path::new(MARBLE), &defaults)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        message.contains("cannot read the mesh tests/render/missing.obj"),
+        "{message}"
+    );
+    // Unknown objects are refused by the parser.
+    assert!("pyramid".parse::<PreviewObject>().is_err());
+    assert_eq!(
+        "model.OBJ".parse::<PreviewObject>(),
+        Ok(PreviewObject::Obj("model.OBJ".into()))
+    );
+}
+
+#[test]
+fn every_shipped_scene_loads_and_renders() {
+    let mut count = 0;
+    for entry in std::fs::read_dir("graphs/scenes").expect("graphs/scenes") {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "ron") {
+            let scene = load_input(&path, &PreviewDefaults::default())
+                .unwrap_or_else(|e| panic!("{}:\n{e}", path.display()));
+            let options = RenderOptions {
+                size: Some((24, 24)),
+                samples: Some(1),
+                ..RenderOptions::default()
+            };
+            let (_, stats) = render(&scene, &options).unwrap();
+            assert!(stats.counters.hits > 0, "{}", path.display());
+            count += 1;
+        }
+    }
+    assert!(
+        count >= 6,
+        "expected seed 003's scenes in graphs/scenes, found {count}"
+    );
+}
+
+#[test]
+fn png_files_are_written_whole_or_not_at_all() {
+    let dir = tempfile::tempdir().unwrap();
+    let image = RenderedImage {
+        width: 2,
+        height: 1,
+        pixels: vec![[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
+    };
+    let path = dir.path().join("x.png");
+    image.write_png(&path).unwrap();
+    let back = image::open(&path).unwrap().to_rgb8();
+    assert_eq!(back.as_raw(), &[255, 0, 0, 0, 0, 255]);
+    let error = image
+        .write_png(&dir.path().join("missing/x.png"))
+        .unwrap_err();
+    assert_eq!(error.exit_code(), 2);
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+}
+
+#[test]
+fn the_timing_table_runs_and_cites_seed_003() {
+    let options = TimingOptions {
+        size: (24, 24),
+        octaves: vec![1, 8],
+        repeats: 1,
+        ..TimingOptions::default()
+    };
+    let table = timing_table(Path::new(MARBLE), &options).unwrap();
+    assert_eq!(table.rows.len(), 2);
+    assert_eq!(table.rows[1].seed003_seconds, Some(2.0));
+    let text = table.to_string();
+    assert!(text.contains("24×24 pixels"), "{text}");
+    assert!(text.contains("PentiumIII 733 MHz"), "{text}");
+}
+
+/// Not a check: renders the pictures for the README and docs into `$TEXGRAPH_GALLERY`
+/// (default `target/render-gallery`).
+/// `cargo test --release --test render gallery -- --ignored`
+#[test]
+#[ignore]
+fn gallery() {
+    let dir = PathBuf::from(
+        std::env::var("TEXGRAPH_GALLERY").unwrap_or_else(|_| "target/render-gallery".into()),
+    );
+    std::fs::create_dir_all(&dir).unwrap();
+    let options = RenderOptions {
+        size: None,
+        samples: None,
+        threads: None,
+        progress: false,
+    };
+    for entry in std::fs::read_dir("graphs/scenes").unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "ron") {
+            let scene = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+            let (image, stats) = render(&scene, &options).unwrap();
+            let out = dir.join(path.with_extension("png").file_name().unwrap());
+            image.write_png(&out).unwrap();
+            eprintln!("{}: {stats}", out.display());
+        }
+    }
+    for (graph, object) in [
+        ("graphs/seed003_marble.ron", PreviewObject::Teapot),
+        ("graphs/seed000_wood.ron", PreviewObject::Sphere),
+        ("graphs/seed001_wood.ron", PreviewObject::Cube),
+        ("graphs/seed004_checker3d.ron", PreviewObject::Cube),
+        ("graphs/seed004_wood_grain.ron", PreviewObject::Teapot),
+        ("graphs/seed000_marble_cracks.ron", PreviewObject::Sphere),
+        ("graphs/seed002_marble.ron", PreviewObject::Plane),
+    ] {
+        let defaults = PreviewDefaults {
+            object: object.clone(),
+            ..PreviewDefaults::default()
+        };
+        let scene = Scene::from_graph_default(Path::new(graph), &defaults).unwrap();
+        let (image, stats) = render(
+            &scene,
+            &RenderOptions {
+                size: Some((480, 360)),
+                ..options.clone()
+            },
+        )
+        .unwrap();
+        let stem = Path::new(graph).file_stem().unwrap().to_string_lossy();
+        let out = dir.join(format!("preview_{stem}_{object:?}.png").to_lowercase());
+        image.write_png(&out).unwrap();
+        eprintln!("{}: {stats}", out.display());
+    }
+}
+
+/// Not a check: prints seed 003's timing table (500×500 pixels, 1 sample per pixel, octaves 1,
+/// 2, 4, 8) — what `texgraph render --timing-table` prints.
+/// `cargo test --release --test render timing_table_print -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn timing_table_print() {
+    for threads in [Some(1), None] {
+        let options = TimingOptions {
+            threads,
+            ..TimingOptions::default()
+        };
+        let table = timing_table(Path::new(MARBLE), &options).unwrap();
+        println!("{table}\n");
+    }
+}
