@@ -319,8 +319,17 @@ impl Tape {
                     let table = &self.tables[table as usize].1;
                     if n == 1 {
                         let schedule = &self.octaves[octaves as usize];
-                        let v: S = noise::fractal(table, schedule, turbulence, [a[0], a[LANES], a[2 * LANES]]);
-                        ws.scalars[dst as usize][0] = if bias != 0.0 { v + S::from_f64(bias) } else { v };
+                        let v: S = noise::fractal(
+                            table,
+                            schedule,
+                            turbulence,
+                            [a[0], a[LANES], a[2 * LANES]],
+                        );
+                        ws.scalars[dst as usize][0] = if bias != 0.0 {
+                            v + S::from_f64(bias)
+                        } else {
+                            v
+                        };
                         continue;
                     }
                     noise::fractal_batch(

@@ -31,11 +31,11 @@
 //! SSE4.1 run the per-point kernels in a loop instead: no dispatch, no stack arrays, no libm
 //! `floor` calls.
 //!
-//! Measured on a Sapphire Rapids class VM (AVX-512 VBMI), one thread, 8-octave Perlin fbm in f32
-//! over 16 384 random points in [0, 8)³ (`cargo bench --bench noise -- noise/fbm8_perlin_f32`):
-//! 198 ns per point with the per-lane kernels before this module, 22 ns now; about 46 ns on the
-//! AVX2 path (LLVM reads the tables lane by lane there, as it deems AVX2 gathers slow for a
-//! generic x86-64 CPU).
+//! Measured on a Sapphire Rapids class VM, one thread, 8-octave Perlin fbm in f32 over 16 384
+//! random points in [0, 8)³ (`cargo bench --bench noise -- noise/fbm8_perlin_f32`): 198 ns per
+//! point with the per-lane kernels this module replaced; now 18–22 ns with AVX-512 VBMI, about
+//! 27 ns with AVX-512 gathers, 42 ns on the AVX2 path (LLVM reads the tables lane by lane there,
+//! as it deems AVX2 gathers slow on a generic x86-64 CPU) and 51 ns on the SSE4.1 one.
 
 use multiversion::multiversion;
 use multiversion::target::target_cfg_f;
@@ -153,7 +153,7 @@ impl<S: Real> Lattice<S> {
     /// (`ACC == false`) or `out[i] = out[i] + amp · k(lane i)` (|k| when `TURB`), for the first
     /// `out.len()` lanes.
     #[inline(always)]
-    pub(super) fn noise<K: Kernel, const ACC: bool, const TURB: bool>(
+    pub(super) fn noise<K: Kernel, const ACC: bool, const TURB: bool, const WIDE: bool>(
         &self,
         k: &K,
         amp: S,
@@ -166,7 +166,7 @@ impl<S: Real> Lattice<S> {
         for i in 0..n {
             let c = |a: usize| i32::from(cell[a][i]);
             let h = k.hashes([c(0), c(1), c(2)]);
-            let v: S = k.interior(h, [frac[0][i], frac[1][i], frac[2][i]]);
+            let v: S = k.interior::<S, WIDE>(h, [frac[0][i], frac[1][i], frac[2][i]]);
             out[i] = accumulate::<S, ACC, TURB>(out[i], amp, v);
         }
     }
@@ -174,7 +174,7 @@ impl<S: Real> Lattice<S> {
     /// Step 3 with the hashes of step 2 already in `self.hashes` (see
     /// [`Lattice::shuffle_hashes`]); otherwise as [`Lattice::noise`].
     #[inline(always)]
-    pub(super) fn noise_hashed<K: Kernel, const ACC: bool, const TURB: bool>(
+    pub(super) fn noise_hashed<K: Kernel, const ACC: bool, const TURB: bool, const WIDE: bool>(
         &self,
         k: &K,
         amp: S,
@@ -185,7 +185,7 @@ impl<S: Real> Lattice<S> {
         for i in 0..n {
             let h = |c: usize| hashes[c][i];
             let h = [h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7)];
-            let v: S = k.interior(h, [frac[0][i], frac[1][i], frac[2][i]]);
+            let v: S = k.interior::<S, WIDE>(h, [frac[0][i], frac[1][i], frac[2][i]]);
             out[i] = accumulate::<S, ACC, TURB>(out[i], amp, v);
         }
     }
@@ -314,6 +314,8 @@ fn sample_lanes<S: Real, K: Kernel>(k: &K, x: &[f64], y: &[f64], z: &[f64], out:
         return point_loop(k, x, y, z, out);
     }
     let shuffle = target_cfg_f!(target_feature = "avx512vbmi");
+    // Hash bits tested in bytes where AVX-512BW compares bytes into masks (see `Kernel::interior`).
+    const WIDE: bool = !target_cfg_f!(target_feature = "avx512bw");
     let mut lattice = Lattice::<S>::new();
     let chunks = out.chunks_mut(CHUNK).zip(x.chunks(CHUNK).zip(y.chunks(CHUNK)).zip(z.chunks(CHUNK)));
     for (out, ((x, y), z)) in chunks {
@@ -323,9 +325,9 @@ fn sample_lanes<S: Real, K: Kernel>(k: &K, x: &[f64], y: &[f64], z: &[f64], out:
             // SAFETY: `shuffle` is true only in the clone compiled for avx512vbmi (which implies
             // avx512f and avx512bw), which the dispatcher runs only on CPUs that have it.
             unsafe { lattice.shuffle_hashes(k, out.len()) };
-            lattice.noise_hashed::<K, false, false>(k, S::ONE, out);
+            lattice.noise_hashed::<K, false, false, WIDE>(k, S::ONE, out);
         } else {
-            lattice.noise::<K, false, false>(k, S::ONE, out);
+            lattice.noise::<K, false, false, WIDE>(k, S::ONE, out);
         }
     }
 }
@@ -346,6 +348,7 @@ fn fractal_lanes<S: Real, K: Kernel, const TURB: bool>(
         return fractal_point_loop::<S, K, TURB>(k, freqs, amps, x, y, z, out);
     }
     let shuffle = target_cfg_f!(target_feature = "avx512vbmi");
+    const WIDE: bool = !target_cfg_f!(target_feature = "avx512bw"); // see `sample_lanes`
     let f_max = max_abs(freqs);
     let mut lattice = Lattice::<S>::new();
     let chunks = out.chunks_mut(CHUNK).zip(x.chunks(CHUNK).zip(y.chunks(CHUNK)).zip(z.chunks(CHUNK)));
@@ -357,9 +360,9 @@ fn fractal_lanes<S: Real, K: Kernel, const TURB: bool>(
             if shuffle {
                 // SAFETY: as in `sample_lanes`.
                 unsafe { lattice.shuffle_hashes(k, out.len()) };
-                lattice.noise_hashed::<K, true, TURB>(k, S::from_f64(a), out);
+                lattice.noise_hashed::<K, true, TURB, WIDE>(k, S::from_f64(a), out);
             } else {
-                lattice.noise::<K, true, TURB>(k, S::from_f64(a), out);
+                lattice.noise::<K, true, TURB, WIDE>(k, S::from_f64(a), out);
             }
         }
         for o in out.iter_mut() {

@@ -91,8 +91,8 @@ pub(super) fn corner_hashes(perm: &[u8; 512], ix: usize, iy: usize, iz: usize) -
 }
 
 /// [`corner_hashes`] from the paired table (`pairs[i] = perm[i] | perm[i + 1] << 8`), for the
-/// batch kernels: the same eight hashes (as i32) in the same order, from seven 32-bit reads
-/// instead of fourteen byte reads, with no branch, so a loop over lanes becomes seven SIMD gathers.
+/// batch kernels: the same eight hashes in the same order, from seven 32-bit reads instead of
+/// fourteen byte reads, with no branch, so a loop over lanes becomes seven SIMD gathers.
 ///
 /// Why the pairs are the same numbers: `perm` is doubled, so for a value v <= 255 and an index
 /// i <= 255, `perm[((i + 1) & 255) + v] == perm[i + 1 + v]` (the two indices differ by 0 or 256),

@@ -25,7 +25,7 @@ mod rng;
 /// written without branches or byte tables so that a loop over lanes vectorises (and so that the
 /// hashes can come from elsewhere, see `vbmi.rs`). Both give the same bits for every input
 /// (proved by the tests, not assumed).
-trait Kernel: Sync {
+trait Kernel {
     /// Whether the corner hashes are Perlin's (`perlin::hashes_paired`) or Ebert's
     /// (`lattice::corner_hashes`, as Gradient and Value hash).
     const PERLIN_HASH: bool;
@@ -43,8 +43,10 @@ trait Kernel: Sync {
             lattice::corner_hashes_paired(self.pairs(), cell)
         }
     }
-    /// The noise value from the corner hashes and the fractions, NaN made canonical.
-    fn interior<S: Real>(&self, h: [u8; 8], frac: [S; 3]) -> S;
+    /// The noise value from the corner hashes and the fractions, NaN made canonical. `WIDE`
+    /// tests hash bits on 32-bit integers rather than bytes (the same results): better code for
+    /// targets without AVX-512BW, whose byte compares must be widened before a float blend.
+    fn interior<S: Real, const WIDE: bool>(&self, h: [u8; 8], frac: [S; 3]) -> S;
 }
 
 /// Runs `$body` with `$k` bound to the [`Kernel`] of `$table`'s basis.
@@ -124,7 +126,7 @@ pub enum Interpolation {
 /// Immutable lattice tables for one (basis, seed); Send + Sync; built once at compile time.
 ///
 /// Every table is kept even when the basis does not read it (zeros then): the struct is small
-/// (about 6.6 KB) and a fixed layout keeps all indexing free of bounds checks.
+/// (about 6.7 KB) and a fixed layout keeps all indexing free of bounds checks.
 #[derive(Clone)]
 pub struct NoiseTable {
     basis: Basis,
@@ -328,8 +330,8 @@ impl Kernel for PerlinKernel<'_> {
         self.pairs
     }
     #[inline(always)]
-    fn interior<S: Real>(&self, h: [u8; 8], frac: [S; 3]) -> S {
-        canonical_nan(perlin::interior(h, frac))
+    fn interior<S: Real, const WIDE: bool>(&self, h: [u8; 8], frac: [S; 3]) -> S {
+        canonical_nan(perlin::interior::<S, WIDE>(h, frac))
     }
 }
 
@@ -355,7 +357,7 @@ impl Kernel for GradientKernel<'_> {
         self.pairs
     }
     #[inline(always)]
-    fn interior<S: Real>(&self, h: [u8; 8], frac: [S; 3]) -> S {
+    fn interior<S: Real, const WIDE: bool>(&self, h: [u8; 8], frac: [S; 3]) -> S {
         canonical_nan(gradient::interior(self.grads, h, frac))
     }
 }
@@ -382,7 +384,7 @@ impl<const SMOOTH: bool> Kernel for ValueKernel<'_, SMOOTH> {
         self.pairs
     }
     #[inline(always)]
-    fn interior<S: Real>(&self, h: [u8; 8], frac: [S; 3]) -> S {
+    fn interior<S: Real, const WIDE: bool>(&self, h: [u8; 8], frac: [S; 3]) -> S {
         canonical_nan(value::interior::<S, SMOOTH>(self.values, h, frac))
     }
 }

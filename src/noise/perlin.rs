@@ -28,7 +28,7 @@ pub(super) const REFERENCE_PERMUTATION: [u8; 256] = [
 
 /// The reference's `fade(t) = t^3 (t (6t - 15) + 10)`, in its association order.
 #[inline(always)]
-pub(super) fn fade<S: Real>(t: S) -> S {
+fn fade<S: Real>(t: S) -> S {
     t * t * t * (t * (t * S::from_f64(6.0) - S::from_f64(15.0)) + S::from_f64(10.0))
 }
 
@@ -98,25 +98,32 @@ pub(super) fn sample<S: Real>(p: &[u8; 512], pos: [f64; 3]) -> S {
 }
 
 /// [`grad`] for the batch kernels: the same choice of `u`, `v` and signs, as selects (blends
-/// under SIMD) instead of table lookups, and the same single addition `u + v`, so the bits
-/// (the sign of a zero, a NaN) are the same.
+/// under SIMD) instead of table lookups, and the same single addition (`u + (-v)` written
+/// `u - v`, which IEEE 754 defines to be the same), so the bits, down to the sign of a zero,
+/// are the same.
 ///
 /// With h = hash & 15, the reference's conditions are bit tests on the hash itself (one SIMD
 /// test each): h < 8 is bit 3 clear, h < 4 is bits 2 and 3 clear, and h == 12 || h == 14 is
 /// bits 3, 2, 0 equal to 1, 1, 0.
+///
+/// `H` is the integer type the bits are tested in (see `Kernel::interior`'s `WIDE`).
 #[inline(always)]
-fn grad_select<S: Real>(hash: u8, x: S, y: S, z: S) -> S {
-    let u = if hash & 8 == 0 { x } else { y };
-    let v = if hash & 12 == 0 {
+fn grad_select<S: Real, H>(hash: H, x: S, y: S, z: S) -> S
+where
+    H: Copy + From<u8> + PartialEq + std::ops::BitAnd<Output = H>,
+{
+    let bits = |mask: u8| hash & H::from(mask);
+    let is = |mask: u8, value: u8| bits(mask) == H::from(value);
+    let u = if is(8, 0) { x } else { y };
+    let v = if is(12, 0) {
         y
-    } else if hash & 13 == 12 {
+    } else if is(13, 12) {
         x
     } else {
         z
     };
-    let u = if hash & 1 != 0 { -u } else { u };
-    // u + (-v) is u - v exactly (IEEE 754 defines subtraction so, signed zeros included).
-    if hash & 2 != 0 {
+    let u = if is(1, 1) { -u } else { u };
+    if is(2, 2) {
         u - v
     } else {
         u + v
@@ -158,7 +165,14 @@ pub(super) fn hashes_paired(pairs: &[i32; 512], cell: [i32; 3]) -> [u8; 8] {
 /// [`hashes_paired`]) and the fractions (already in S): the reference's, expression for
 /// expression.
 #[inline(always)]
-pub(super) fn interior<S: Real>(h: [u8; 8], frac: [S; 3]) -> S {
+pub(super) fn interior<S: Real, const WIDE: bool>(h: [u8; 8], frac: [S; 3]) -> S {
+    let grad_select = |hash: u8, x: S, y: S, z: S| {
+        if WIDE {
+            grad_select(i32::from(hash), x, y, z)
+        } else {
+            grad_select(hash, x, y, z)
+        }
+    };
     let [x, y, z] = frac;
     let u = fade(x);
     let v = fade(y);

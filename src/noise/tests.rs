@@ -1169,15 +1169,15 @@ fn both_forms_of_the_lane_loop_agree() {
             let mut lattice = Lattice::<S>::new();
             lattice.fill::<false>(false, 1.0, [&x, &y, &z]);
             let mut fused = vec![S::ZERO; n];
-            lattice.noise::<_, false, false>(&k, S::ONE, &mut fused);
+            lattice.noise::<_, false, false, false>(&k, S::ONE, &mut fused);
             for i in 0..n {
                 let h = k.hashes([0, 1, 2].map(|a| lattice.cell[a][i] as i32));
-                for c in 0..8 {
-                    lattice.hashes[c][i] = h[c];
+                for (plane, h) in lattice.hashes.iter_mut().zip(h) {
+                    plane[i] = h;
                 }
             }
             let mut split = vec![S::ZERO; n];
-            lattice.noise_hashed::<_, false, false>(&k, S::ONE, &mut split);
+            lattice.noise_hashed::<_, false, false, true>(&k, S::ONE, &mut split);
             assert_eq!(bits_of(&fused), bits_of(&split), "{:?}", t.basis());
             let want: Vec<S> = pts.iter().map(|&p| t.sample(p)).collect();
             assert_eq!(bits_of(&fused), bits_of(&want), "{:?}", t.basis());
