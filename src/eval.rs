@@ -185,6 +185,15 @@ impl Tape {
                         *o = S::from_f64(*v);
                     }
                 }
+                // One lane (eval_point): the same per-lane `apply`, without slicing and swapping
+                // lane arrays, which cost as much as the operation itself.
+                Instr::UnaryScalar { op, dst, src } if n == 1 => {
+                    ws.scalars[dst as usize][0] = op.apply(ws.scalars[src as usize][0]);
+                }
+                Instr::BinaryScalar { op, dst, a, b } if n == 1 => {
+                    let (x, y) = (ws.scalars[a as usize][0], ws.scalars[b as usize][0]);
+                    ws.scalars[dst as usize][0] = op.apply(x, y);
+                }
                 Instr::UnaryScalar { op, dst, src } => {
                     let mut out = take(&mut ws.scalars[dst as usize]);
                     unary_lanes(op, &mut out[..n], &ws.scalars[src as usize][..n]);
