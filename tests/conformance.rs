@@ -38,45 +38,36 @@ fn same<T: PartialEq + Copy + std::fmt::Debug>(a: T, b: T, a_nan: bool, b_nan: b
     (a_nan && b_nan) || a == b
 }
 
-/// Plain references, written independently of `texgraph::ops`.
-fn reference_unary(name: &str, x: f64) -> f64 {
-    match name {
-        "Abs" => x.abs(),
-        "Neg" => -x,
-        "Sin" => x.sin(),
-        "Cos" => x.cos(),
-        "Sqrt" => x.sqrt(),
-        "Floor" => x.floor(),
-        "Fract" => {
-            let r = x - x.floor();
-            if r >= 1.0 {
-                1.0 - f64::EPSILON / 2.0
-            } else {
-                r
+/// Plain references, written independently of `texgraph::ops`, for f64 and f32 alike.
+macro_rules! unary_reference {
+    ($t:ty, $name:expr, $x:expr) => {{
+        let x: $t = $x;
+        match $name {
+            "Abs" => x.abs(),
+            "Neg" => -x,
+            "Sin" => x.sin(),
+            "Cos" => x.cos(),
+            "Sqrt" => x.sqrt(),
+            "Floor" => x.floor(),
+            "Fract" => {
+                let r = x - x.floor();
+                if r >= 1.0 {
+                    1.0 - <$t>::EPSILON / 2.0
+                } else {
+                    r
+                }
             }
+            _ => unreachable!(),
         }
-        _ => unreachable!(),
-    }
+    }};
+}
+
+fn reference_unary(name: &str, x: f64) -> f64 {
+    unary_reference!(f64, name, x)
 }
 
 fn reference_unary32(name: &str, x: f32) -> f32 {
-    match name {
-        "Abs" => x.abs(),
-        "Neg" => -x,
-        "Sin" => x.sin(),
-        "Cos" => x.cos(),
-        "Sqrt" => x.sqrt(),
-        "Floor" => x.floor(),
-        "Fract" => {
-            let r = x - x.floor();
-            if r >= 1.0 {
-                1.0 - f32::EPSILON / 2.0
-            } else {
-                r
-            }
-        }
-        _ => unreachable!(),
-    }
+    unary_reference!(f32, name, x)
 }
 
 macro_rules! binary_reference {

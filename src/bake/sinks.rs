@@ -345,21 +345,28 @@ impl Exr {
         };
         let writer = std::io::BufWriter::new(file);
         let data = &self.data;
+        // The four arms differ only in the channels' sample types, which exr encodes in the
+        // channel set's type: one macro writes each.
+        macro_rules! write_layer {
+            ($channels:expr) => {
+                Image::from_layer(Layer::new(
+                    size,
+                    layer_attributes,
+                    Encoding::FAST_LOSSLESS,
+                    $channels,
+                ))
+                .write()
+                .to_buffered(writer)
+                .map_err(encode)
+            };
+        }
         match (self.ty, half) {
             (Type::Vec3, false) => {
                 let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
                     let i = (p.y() * nx + p.x()) * 3;
                     (data[i], data[i + 1], data[i + 2])
                 });
-                Image::from_layer(Layer::new(
-                    size,
-                    layer_attributes,
-                    Encoding::FAST_LOSSLESS,
-                    channels,
-                ))
-                .write()
-                .to_buffered(writer)
-                .map_err(encode)
+                write_layer!(channels)
             }
             (Type::Vec3, true) => {
                 let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
@@ -370,43 +377,19 @@ impl Exr {
                         f16::from_f32(data[i + 2]),
                     )
                 });
-                Image::from_layer(Layer::new(
-                    size,
-                    layer_attributes,
-                    Encoding::FAST_LOSSLESS,
-                    channels,
-                ))
-                .write()
-                .to_buffered(writer)
-                .map_err(encode)
+                write_layer!(channels)
             }
             (Type::Scalar, false) => {
                 let channels = SpecificChannels::build()
                     .with_channel("Y")
                     .with_pixel_fn(|p: Vec2<usize>| (data[p.y() * nx + p.x()],));
-                Image::from_layer(Layer::new(
-                    size,
-                    layer_attributes,
-                    Encoding::FAST_LOSSLESS,
-                    channels,
-                ))
-                .write()
-                .to_buffered(writer)
-                .map_err(encode)
+                write_layer!(channels)
             }
             (Type::Scalar, true) => {
                 let channels = SpecificChannels::build()
                     .with_channel("Y")
                     .with_pixel_fn(|p: Vec2<usize>| (f16::from_f32(data[p.y() * nx + p.x()]),));
-                Image::from_layer(Layer::new(
-                    size,
-                    layer_attributes,
-                    Encoding::FAST_LOSSLESS,
-                    channels,
-                ))
-                .write()
-                .to_buffered(writer)
-                .map_err(encode)
+                write_layer!(channels)
             }
         }
     }
