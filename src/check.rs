@@ -42,7 +42,8 @@ pub fn check(file: Arc<SourceFile>, options: &CheckOptions) -> Result<CheckedGra
     let mut checker = Checker {
         file: file.clone(),
         poisoned: Vec::new(),
-        builder: GraphBuilder::new(),
+        // About one node per 16 bytes of graph text (measured on the seed graphs: 12 to 30).
+        builder: GraphBuilder::with_capacity(file.text.len() / 16),
         diagnostics: Vec::new(),
         params: Vec::new(),
         node_index: HashMap::default(),

@@ -251,6 +251,15 @@ impl Default for GraphBuilder {
 }
 
 impl GraphBuilder {
+    /// A builder with room for about `nodes` nodes, so that building a large graph does not
+    /// regrow (and copy) its tables again and again.
+    pub fn with_capacity(nodes: usize) -> GraphBuilder {
+        let mut builder = GraphBuilder::new();
+        builder.nodes.reserve(nodes);
+        builder.interned.reserve(nodes);
+        builder
+    }
+
     pub fn new() -> GraphBuilder {
         GraphBuilder {
             nodes: Vec::new(),
