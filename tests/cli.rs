@@ -1018,3 +1018,87 @@ fn check_every_error_case_through_the_binary() {
         expect_code(&["check", case], 1);
     }
 }
+
+// ---------------------------------------------------------------- render
+
+#[test]
+fn render_writes_a_png_of_the_requested_size() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("marble.png");
+    let output = run(&[
+        "render",
+        "graphs/seed003_marble.ron",
+        "-o",
+        out.to_str().expect("utf-8"),
+        "--size",
+        "48,32",
+        "--object",
+        "teapot",
+        "--samples",
+        "1",
+        "-q",
+    ]);
+    assert_eq!(code(&output), 0, "{}", stderr(&output));
+    assert!(stdout(&output).contains("wrote"), "{}", stdout(&output));
+    let image = image::open(&out).expect("a png").to_rgb8();
+    assert_eq!(image.dimensions(), (48, 32));
+    // A scene file renders too.
+    let scene_out = dir.path().join("scene.png");
+    let output = run(&[
+        "render",
+        "graphs/scenes/seed003_sphere.ron",
+        "-o",
+        scene_out.to_str().expect("utf-8"),
+        "--size",
+        "40,30",
+        "-q",
+    ]);
+    assert_eq!(code(&output), 0, "{}", stderr(&output));
+    assert!(scene_out.exists());
+}
+
+#[test]
+fn render_reports_bad_input_with_the_documented_exit_codes() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let broken = dir.path().join("broken.ron");
+    std::fs::write(&broken, "Graph(outputs: { \"c\": Sinn(1.0) })").expect("write");
+    let out = dir.path().join("x.png");
+    let output = run(&[
+        "render",
+        broken.to_str().expect("utf-8"),
+        "-o",
+        out.to_str().expect("utf-8"),
+        "-q",
+    ]);
+    assert_eq!(code(&output), 1, "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("broken.ron:1:"),
+        "{}",
+        stderr(&output)
+    );
+    assert!(!out.exists(), "no image for a broken graph");
+    let output = run(&[
+        "render",
+        "no/such/file.ron",
+        "-o",
+        out.to_str().expect("utf-8"),
+        "-q",
+    ]);
+    assert!(matches!(code(&output), 1 | 2), "{}", stderr(&output));
+    let output = run(&["render", "graphs/seed003_marble.ron", "--size", "0,10"]);
+    assert_eq!(code(&output), 2);
+}
+
+#[test]
+fn render_prints_the_seed_003_timing_table() {
+    let output = run(&["render", "--timing-table", "-q", "--threads", "2"]);
+    assert_eq!(code(&output), 0, "{}", stderr(&output));
+    let text = stdout(&output);
+    assert!(text.contains("500×500"), "{text}");
+    for octaves in ["1", "2", "4", "8"] {
+        assert!(
+            text.lines().any(|l| l.trim_start().starts_with(octaves)),
+            "no row for {octaves} octaves:\n{text}"
+        );
+    }
+}
