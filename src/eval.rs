@@ -303,12 +303,6 @@ impl Tape {
                 Instr::Noise { dst, src, table } => {
                     let a = &ws.vec3s[src as usize];
                     let table = &self.tables[table as usize].1;
-                    // One lane (eval_point): the scalar kernel, which skips the batch kernel's
-                    // per-call setup; the two are bit-identical (tested in noise::tests).
-                    if n == 1 {
-                        ws.scalars[dst as usize][0] = table.sample([a[0], a[LANES], a[2 * LANES]]);
-                        continue;
-                    }
                     table.sample_batch(
                         &a[..n],
                         &a[LANES..LANES + n],
@@ -326,21 +320,6 @@ impl Tape {
                 } => {
                     let a = &ws.vec3s[src as usize];
                     let table = &self.tables[table as usize].1;
-                    if n == 1 {
-                        let schedule = &self.octaves[octaves as usize];
-                        let v: S = noise::fractal(
-                            table,
-                            schedule,
-                            turbulence,
-                            [a[0], a[LANES], a[2 * LANES]],
-                        );
-                        ws.scalars[dst as usize][0] = if bias != 0.0 {
-                            v + S::from_f64(bias)
-                        } else {
-                            v
-                        };
-                        continue;
-                    }
                     noise::fractal_batch(
                         table,
                         &self.octaves[octaves as usize],

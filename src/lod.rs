@@ -119,7 +119,7 @@ fn spline_slope<const N: usize>(knots: &[f64], values: &[[f64; N]]) -> Option<f6
 }
 
 fn table_lipschitz(key: TableKey) -> f64 {
-    NoiseTable::new(key.basis, key.seed).lipschitz()
+    key.basis.lipschitz()
 }
 
 /// What level of detail did to one fbm/turbulence.
@@ -183,15 +183,8 @@ fn expectations(key: TableKey) -> (f64, f64) {
         return found;
     }
     let table = NoiseTable::new(key.basis, key.seed);
-    let mut state: u64 = 0x10D;
-    let mut next = || {
-        // SplitMix64, the same fixed generator family as the tables.
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64 * 256.0
-    };
+    let mut rng = crate::noise::SplitMix64::new(0x10D);
+    let mut next = || rng.next_f64() * 256.0;
     let n = 8192;
     let mut sum_abs = 0.0;
     for _ in 0..n {

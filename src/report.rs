@@ -67,14 +67,8 @@ pub struct Row {
 /// The deterministic sample set: `n` SplitMix64 points in the region, then a 16³ grid of cell
 /// centres.
 pub fn sample_points(n: usize, region: &Region) -> Vec<[f64; 3]> {
-    let mut state: u64 = 0x7E57_5EED;
-    let mut next = || {
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rng = crate::noise::SplitMix64::new(0x7E57_5EED);
+    let mut next = || rng.next_f64();
     let lerp = |a: usize, t: f64| region.min[a] + t * (region.max[a] - region.min[a]);
     let mut points: Vec<[f64; 3]> = (0..n)
         .map(|_| [lerp(0, next()), lerp(1, next()), lerp(2, next())])

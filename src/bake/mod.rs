@@ -457,8 +457,3 @@ fn collect_stats(tape: &Tape, stats: &[ChannelStats]) -> Vec<OutputStats> {
         })
         .collect()
 }
-
-/// Convenience for callers that own a cancel flag.
-pub fn cancelled(flag: &Option<Arc<AtomicBool>>) -> bool {
-    flag.as_ref().is_some_and(|c| c.load(Ordering::Relaxed))
-}

@@ -16,6 +16,9 @@
 mod lattice;
 mod rng;
 
+/// The crate's one fixed generator, also used for sample sets (report, level of detail).
+pub(crate) use rng::SplitMix64;
+
 /// The lattice noise function of one basis, as one monomorphic kernel per basis, so the batch
 /// loops can dispatch on the basis once per batch instead of once per lane.
 ///
@@ -265,7 +268,15 @@ impl NoiseTable {
     ///   Gradient 1 + 4.5 √3 (8.795), Perlin √2 + 5.625 √3 (11.157). Not tight (measured
     ///   gradients stay well below); it only has to be safe.
     pub fn lipschitz(&self) -> f64 {
-        match self.basis {
+        self.basis.lipschitz()
+    }
+}
+
+impl Basis {
+    /// An upper bound on the Lipschitz constant of the basis, the same for every seed; see
+    /// [`NoiseTable::lipschitz`].
+    pub fn lipschitz(self) -> f64 {
+        match self {
             Basis::Perlin => 11.157,
             Basis::Gradient => 8.795,
             Basis::Value(Interpolation::Linear) => 1.7321,
