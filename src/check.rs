@@ -10,15 +10,15 @@ use crate::diagnostic::{
     Diagnostic, DiagnosticClass as Class, Diagnostics, SourceFile, Span, Spanned,
 };
 use crate::graph::{
-    CheckedGraph, FractalParams, GraphBuilder, NodeId, Op, Origin, Output, TableKey, Type,
+    Args, CheckedGraph, FractalParams, GraphBuilder, NodeId, Op, Origin, Output, TableKey, Type,
 };
 use crate::limits;
 use crate::nodes::{self, ArgDef, ArgKind, DefaultValue, InputType, Kind, NodeDef, OutputType};
 use crate::noise::{Basis, Interpolation};
 use crate::ops::{self, BinaryOp, Curve, Hermite, Ramp, SplineInterpolation, TernaryOp, UnaryOp};
-use crate::syntax::{self, Value, ValueKind};
+use crate::syntax::{self, Text, Value, ValueKind};
 use rustc_hash::FxHashMap as HashMap;
-use smallvec::SmallVec;
+use smallvec::{smallvec, SmallVec};
 use std::sync::Arc;
 
 /// Options for checking one graph.
@@ -90,18 +90,18 @@ enum Arg {
 struct Checker {
     file: Arc<SourceFile>,
     /// Params that failed their own check: references to them fail silently (no cascade).
-    poisoned: Vec<String>,
+    poisoned: Vec<Text>,
     builder: GraphBuilder,
     diagnostics: Vec<Diagnostic>,
     params: Vec<(String, f64)>,
     /// Node id → index in the file's `nodes` map.
-    node_index: HashMap<String, usize>,
+    node_index: HashMap<Text, usize>,
     /// What each named node became; `None` until lowered or when it failed.
     lowered: Vec<Option<NodeId>>,
     written: usize,
 }
 
-type CheckedParts = (Vec<Output>, Vec<(String, NodeId)>, usize);
+type CheckedParts = (Vec<Output>, Vec<(Text, NodeId)>, usize);
 
 impl Checker {
     fn error(&mut self, diagnostic: Diagnostic) {
@@ -218,7 +218,7 @@ impl Checker {
                         Class::DuplicateName,
                         format!("\"{}\" is both a param and a node", id.value),
                     )
-                    .in_node(&id.value)
+                    .in_node(id.value.as_str())
                     .at(id.span)
                     .label("also a param"),
                 );
@@ -230,7 +230,7 @@ impl Checker {
                         Class::DuplicateName,
                         format!("node \"{}\" is defined twice", id.value),
                     )
-                    .in_node(&id.value)
+                    .in_node(id.value.as_str())
                     .at(id.span)
                     .label("second definition")
                     .help(format!(
@@ -278,7 +278,7 @@ impl Checker {
             };
             if let Some(node) = self.expression(value, &origin) {
                 result_outputs.push(Output {
-                    name: name.value.clone(),
+                    name: name.value.to_string(),
                     node,
                     span: value.span,
                 });
@@ -293,11 +293,7 @@ impl Checker {
     }
 
     /// Reads a `{ "key": value, ... }` map with string keys.
-    fn map_entries<'v>(
-        &mut self,
-        value: &'v Value,
-        what: &str,
-    ) -> Vec<(Spanned<String>, &'v Value)> {
+    fn map_entries<'v>(&mut self, value: &'v Value, what: &str) -> Vec<(Spanned<Text>, &'v Value)> {
         let ValueKind::Map(entries) = &value.kind else {
             self.error(
                 Diagnostic::new(
@@ -407,7 +403,7 @@ impl Checker {
                     continue;
                 }
             };
-            self.params.push((name.value.clone(), number));
+            self.params.push((name.value.to_string(), number));
         }
         for (name, value) in &options.overrides {
             if value.is_nan() {
@@ -434,22 +430,25 @@ impl Checker {
     }
 
     /// Orders named nodes so each comes after the nodes it refers to; reports cycles.
-    fn dependency_order(&mut self, entries: &[(Spanned<String>, &Value)]) -> Vec<usize> {
-        let deps: Vec<Vec<usize>> = entries
-            .iter()
-            .map(|(_, value)| {
-                let mut refs = Vec::new();
-                collect_references(value, &mut |name| {
-                    let base = name.split('.').next().unwrap_or(name);
-                    if let Some(&j) = self.node_index.get(base) {
-                        if !refs.contains(&j) {
-                            refs.push(j);
-                        }
+    fn dependency_order(&mut self, entries: &[(Spanned<Text>, &Value)]) -> Vec<usize> {
+        // References of entry i: refs[starts[i]..starts[i + 1]] (flat, one allocation).
+        let mut refs: Vec<usize> = Vec::with_capacity(entries.len() * 2);
+        let mut starts: Vec<usize> = Vec::with_capacity(entries.len() + 1);
+        let mut walk = Vec::new();
+        for (_, value) in entries {
+            let first = refs.len();
+            starts.push(first);
+            collect_references(value, &mut walk, &mut |name| {
+                let base = name.split('.').next().unwrap_or(name);
+                if let Some(&j) = self.node_index.get(base) {
+                    if !refs[first..].contains(&j) {
+                        refs.push(j);
                     }
-                });
-                refs
-            })
-            .collect();
+                }
+            });
+        }
+        starts.push(refs.len());
+        let deps = |v: usize| &refs[starts[v]..starts[v + 1]];
         const WHITE: u8 = 0;
         const GREY: u8 = 1;
         const BLACK: u8 = 2;
@@ -463,7 +462,7 @@ impl Checker {
             state[root] = GREY;
             let mut stack: Vec<(usize, usize)> = vec![(root, 0)];
             while let Some(&mut (v, ref mut next)) = stack.last_mut() {
-                if let Some(&w) = deps[v].get(*next) {
+                if let Some(&w) = deps(v).get(*next) {
                     *next += 1;
                     match state[w] {
                         WHITE => {
@@ -486,7 +485,7 @@ impl Checker {
                                         Class::Cycle,
                                         format!("the graph has a cycle: {}", names.join(" -> ")),
                                     )
-                                    .in_node(&id.value)
+                                    .in_node(id.value.as_str())
                                     .at(value.span)
                                     .label("depends on itself through this expression")
                                     .help("a node cannot use its own value; break the loop"),
@@ -529,7 +528,7 @@ impl Checker {
                     );
                     return None;
                 }
-                Some(self.builder.add(Op::ConstScalar(*v), Vec::new(), &here))
+                Some(self.builder.add(Op::ConstScalar(*v), Args::new(), &here))
             }
             ValueKind::Str(name) => self.reference(name, value.span, origin),
             ValueKind::Tuple { name: None, items } => {
@@ -557,7 +556,7 @@ impl Checker {
                         origin,
                     ));
                 }
-                let components: Option<Vec<NodeId>> = components.into_iter().collect();
+                let components: Option<Args> = components.into_iter().collect();
                 Some(self.builder.add(Op::Combine, components?, &here))
             }
             ValueKind::Ident(kind_name) => {
@@ -606,7 +605,7 @@ impl Checker {
         }
         let target = if let Some((_, v)) = self.params.iter().find(|(p, _)| p == base) {
             let v = *v;
-            Some(self.builder.add(Op::ConstScalar(v), Vec::new(), &here))
+            Some(self.builder.add(Op::ConstScalar(v), Args::new(), &here))
         } else if let Some(&i) = self.node_index.get(base) {
             // Lowered already (dependency order) or failed with its own diagnostic.
             self.lowered.get(i).copied().flatten()
@@ -667,7 +666,10 @@ impl Checker {
             );
             return None;
         }
-        Some(self.builder.add(Op::Component(axis), vec![target], &here))
+        Some(
+            self.builder
+                .add(Op::Component(axis), smallvec![target], &here),
+        )
     }
 
     /// Lowers an input and checks its type (a vec3 where a scalar is expected is an error; a
@@ -803,7 +805,7 @@ impl Checker {
         kind_name: &str,
         kind_span: Span,
         positional: &[Value],
-        named: &[(Spanned<String>, Value)],
+        named: &[(Spanned<Text>, Value)],
         whole: &Value,
         origin: &Origin,
     ) -> Option<NodeId> {
@@ -947,7 +949,7 @@ impl Checker {
     fn default_argument(&mut self, default: DefaultValue, arg: &ArgDef, here: &Origin) -> Arg {
         match (default, arg.kind) {
             (DefaultValue::Number(v), ArgKind::Input(_)) => {
-                Arg::Input(self.builder.add(Op::ConstScalar(v), Vec::new(), here))
+                Arg::Input(self.builder.add(Op::ConstScalar(v), Args::new(), here))
             }
             (DefaultValue::Number(v), _) => Arg::Const(v),
             (DefaultValue::Vec3(v), _) => Arg::Axis(v),
@@ -1288,9 +1290,9 @@ impl Checker {
             _ => 0.0,
         };
         let unary = |op| Op::Unary(op);
-        let op_args: (Op, Vec<NodeId>) = match def.kind {
-            Kind::Position => (Op::Position, vec![]),
-            Kind::Combine => (Op::Combine, vec![input(0), input(1), input(2)]),
+        let op_args: (Op, Args) = match def.kind {
+            Kind::Position => (Op::Position, Args::new()),
+            Kind::Combine => (Op::Combine, smallvec![input(0), input(1), input(2)]),
             Kind::Scale | Kind::Translate => {
                 let by = self.builder.broadcast(input(1), Type::Vec3, here);
                 let op = if def.kind == Kind::Scale {
@@ -1298,13 +1300,13 @@ impl Checker {
                 } else {
                     BinaryOp::Add
                 };
-                (Op::Binary(op), vec![input(0), by])
+                (Op::Binary(op), smallvec![input(0), by])
             }
             Kind::Rotate => {
                 let Arg::Axis(axis) = args[1] else {
                     return None;
                 };
-                (Op::Rotate { axis }, vec![input(0), input(2)])
+                (Op::Rotate { axis }, smallvec![input(0), input(2)])
             }
             Kind::Noise | Kind::Fbm | Kind::Turbulence => {
                 let Arg::Basis(basis, explicit) = args[1] else {
@@ -1352,7 +1354,7 @@ impl Checker {
                     seed: constant(2) as u64,
                 };
                 if def.kind == Kind::Noise {
-                    (Op::Noise(key), vec![input(0)])
+                    (Op::Noise(key), smallvec![input(0)])
                 } else {
                     let params = FractalParams {
                         octaves: constant(3),
@@ -1385,7 +1387,7 @@ impl Checker {
                         );
                         return None;
                     }
-                    (Op::Fractal(key, params), vec![input(0)])
+                    (Op::Fractal(key, params), smallvec![input(0)])
                 }
             }
             Kind::Add
@@ -1429,10 +1431,10 @@ impl Checker {
                     Kind::Floor => UnaryOp::Floor,
                     _ => UnaryOp::Fract,
                 };
-                (unary(op), vec![input(0)])
+                (unary(op), smallvec![input(0)])
             }
-            Kind::Length => (Op::Length, vec![input(0)]),
-            Kind::Dot => (Op::Dot, vec![input(0), input(1)]),
+            Kind::Length => (Op::Length, smallvec![input(0)]),
+            Kind::Dot => (Op::Dot, smallvec![input(0), input(1)]),
             Kind::Clamp | Kind::Mix | Kind::Smoothstep => {
                 let op = match def.kind {
                     Kind::Clamp => TernaryOp::Clamp,
@@ -1451,7 +1453,7 @@ impl Checker {
                     m0: constant(3),
                     m1: constant(4),
                 }),
-                vec![input(0)],
+                smallvec![input(0)],
             ),
             Kind::ColorRamp | Kind::Curve => {
                 let interpolation = match args[2] {
@@ -1466,7 +1468,7 @@ impl Checker {
                             stops.iter().map(|s| s.1).collect(),
                             interpolation,
                         );
-                        (Op::Ramp(Arc::new(ramp)), vec![input(0)])
+                        (Op::Ramp(Arc::new(ramp)), smallvec![input(0)])
                     }
                     Arg::Points(points) => {
                         let curve = Curve::new(
@@ -1474,7 +1476,7 @@ impl Checker {
                             points.iter().map(|p| [p.1]).collect(),
                             interpolation,
                         );
-                        (Op::Curve(Arc::new(curve)), vec![input(0)])
+                        (Op::Curve(Arc::new(curve)), smallvec![input(0)])
                     }
                     _ => return None,
                 }
@@ -1486,7 +1488,7 @@ impl Checker {
     }
 
     /// Splats scalar operands when any operand is a vec3 (component-wise math).
-    fn broadcast_all(&mut self, ids: &[NodeId], here: &Origin) -> Vec<NodeId> {
+    fn broadcast_all(&mut self, ids: &[NodeId], here: &Origin) -> Args {
         let ty = if ids.iter().any(|&id| self.builder.ty(id) == Type::Vec3) {
             Type::Vec3
         } else {
@@ -1539,10 +1541,12 @@ fn signature(def: &NodeDef) -> String {
 }
 
 /// Calls `f` with every string in a value tree (strings are references in graph files).
-fn collect_references(value: &Value, f: &mut impl FnMut(&str)) {
+/// `stack` is scratch space, passed in so one allocation serves every node.
+fn collect_references<'v>(value: &'v Value, stack: &mut Vec<&'v Value>, f: &mut impl FnMut(&str)) {
     // Explicit stack: the tree is bounded by the parser's nesting limit, but no recursion is
     // needed at all.
-    let mut stack = vec![value];
+    stack.clear();
+    stack.push(value);
     while let Some(v) = stack.pop() {
         match &v.kind {
             ValueKind::Str(s) => f(s),

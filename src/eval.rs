@@ -76,8 +76,8 @@ impl Tape {
             "eval_point: output buffer has the wrong length"
         );
         workspace.bind(self);
-        self.run_chunk(workspace, &[point[0]], &[point[1]], &[point[2]]);
-        self.write_outputs(workspace, 1, 0, 1, out);
+        self.run_chunk::<S, true>(workspace, &[point[0]], &[point[1]], &[point[2]]);
+        self.write_outputs::<S, true>(workspace, 1, 0, 1, out);
     }
 
     /// Evaluates every compiled output at `x.len()` points. `out` is planar: channel `c` of
@@ -107,15 +107,15 @@ impl Tape {
         let mut start = 0;
         while start < n {
             let end = (start + LANES).min(n);
-            self.run_chunk(workspace, &x[start..end], &y[start..end], &z[start..end]);
-            self.write_outputs(workspace, end - start, start, n, out);
+            self.run_chunk::<S, false>(workspace, &x[start..end], &y[start..end], &z[start..end]);
+            self.write_outputs::<S, false>(workspace, end - start, start, n, out);
             start = end;
         }
     }
 
     /// Copies the output slots of the current chunk (`len` lanes) to `out` at lane `offset` of a
     /// planar buffer with `stride` lanes per channel.
-    fn write_outputs<S: Real>(
+    fn write_outputs<S: Real, const ONE_LANE: bool>(
         &self,
         ws: &Workspace<S>,
         len: usize,
@@ -123,6 +123,11 @@ impl Tape {
         stride: usize,
         out: &mut [S],
     ) {
+        let (len, offset, stride) = if ONE_LANE {
+            (1, 0, 1)
+        } else {
+            (len, offset, stride)
+        };
         for output in &self.outputs {
             let base = output.first_channel;
             match output.ty {
@@ -145,8 +150,18 @@ impl Tape {
     }
 
     /// Runs every instruction over one chunk of `x.len() <= LANES` lanes.
-    fn run_chunk<S: Real>(&self, ws: &mut Workspace<S>, x: &[f64], y: &[f64], z: &[f64]) {
-        let n = x.len();
+    ///
+    /// `ONE_LANE` (eval_point) makes the lane count the constant 1, so the compiler turns every
+    /// lane loop and slice copy below into a single scalar operation: the per-point interpreter
+    /// is this same code, specialised, not a second copy to keep in step.
+    fn run_chunk<S: Real, const ONE_LANE: bool>(
+        &self,
+        ws: &mut Workspace<S>,
+        x: &[f64],
+        y: &[f64],
+        z: &[f64],
+    ) {
+        let n = if ONE_LANE { 1 } else { x.len() };
         for instr in &self.instrs {
             match *instr {
                 Instr::Position { dst } => {

@@ -156,6 +156,9 @@ impl Op {
 /// An operation's identity for hash-consing, inline for all but long ramps.
 type OpKey = SmallVec<[u64; 8]>;
 
+/// A node's arguments: at most three for every kind, so they live inline in the node.
+pub type Args = SmallVec<[NodeId; 4]>;
+
 /// Where a node came from: the id of the graph node it was written in, and its span.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Origin {
@@ -167,7 +170,7 @@ pub struct Origin {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Node {
     pub op: Op,
-    pub args: Vec<NodeId>,
+    pub args: Args,
     pub ty: Type,
     pub origin: Origin,
 }
@@ -200,7 +203,7 @@ pub struct CheckedGraph {
     pub nodes: Vec<Node>,
     pub outputs: Vec<Output>,
     /// The file's node ids and what each became (a folded node points at its constant).
-    pub named: Vec<(String, NodeId)>,
+    pub named: Vec<(crate::syntax::Text, NodeId)>,
     /// Params after `--set` overrides, in file order.
     pub params: Vec<(String, f64)>,
     pub stats: GraphStats,
@@ -225,7 +228,7 @@ impl CheckedGraph {
                 )
             })
             .map(|(name, id)| Output {
-                name: name.clone(),
+                name: name.to_string(),
                 node: *id,
                 span: self.nodes[*id as usize].origin.span,
             })
@@ -239,7 +242,7 @@ pub struct GraphBuilder {
     pub nodes: Vec<Node>,
     /// Interning: an operation and its arguments → the node. Inline keys and a fast hash:
     /// checking creates a node per expression, so this map is the checker's hot path.
-    interned: FxHashMap<(OpKey, SmallVec<[NodeId; 4]>), NodeId>,
+    interned: FxHashMap<(OpKey, Args), NodeId>,
     tables: FxHashMap<TableKey, Arc<NoiseTable>>,
     pub stats: GraphStats,
 }
@@ -294,7 +297,7 @@ impl GraphBuilder {
 
     /// Adds (or finds) a node. `args` must have the types `op` expects: callers insert splats
     /// with [`GraphBuilder::broadcast`]. Folds when every argument is constant.
-    pub fn add(&mut self, op: Op, args: Vec<NodeId>, origin: &Origin) -> NodeId {
+    pub fn add(&mut self, op: Op, args: Args, origin: &Origin) -> NodeId {
         // x * 1 and x / 1 are x exactly (NaN, infinities and -0 included): drop the operation.
         if let (Op::Binary(BinaryOp::Mul | BinaryOp::Div), [a, b]) = (&op, args.as_slice()) {
             if self.is_one(*b) {
@@ -308,15 +311,15 @@ impl GraphBuilder {
         }
         if let Some(folded) = self.fold(&op, &args) {
             self.stats.folded += 1;
-            return self.intern(folded, Vec::new(), origin);
+            return self.intern(folded, Args::new(), origin);
         }
         self.intern(op, args, origin)
     }
 
-    fn intern(&mut self, op: Op, args: Vec<NodeId>, origin: &Origin) -> NodeId {
+    fn intern(&mut self, op: Op, args: Args, origin: &Origin) -> NodeId {
         let mut key = OpKey::new();
         op.key(&mut key);
-        let map_key = (key, SmallVec::from_slice(&args));
+        let map_key = (key, args.clone());
         if let Some(&id) = self.interned.get(&map_key) {
             // Constants are re-created at every use of a param or literal: only operations
             // count as deduplicated subgraphs.
@@ -370,7 +373,7 @@ impl GraphBuilder {
     /// Makes `id` a vec3 by splatting a scalar (a constant splat folds to a vec3 constant).
     pub fn broadcast(&mut self, id: NodeId, ty: Type, origin: &Origin) -> NodeId {
         if ty == Type::Vec3 && self.ty(id) == Type::Scalar {
-            self.add(Op::Splat, vec![id], origin)
+            self.add(Op::Splat, smallvec::smallvec![id], origin)
         } else {
             id
         }

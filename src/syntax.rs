@@ -14,6 +14,10 @@
 use crate::diagnostic::{Diagnostic, DiagnosticClass, Span, Spanned};
 use crate::limits;
 
+/// Names and strings of a graph file: short ones (node ids, kinds, field names) are stored
+/// inline, without a heap allocation, which is most of what parsing a large graph costs.
+pub type Text = compact_str::CompactString;
+
 /// A RON value with the span it was written at.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Value {
@@ -25,18 +29,18 @@ pub struct Value {
 pub enum ValueKind {
     Number(f64),
     Bool(bool),
-    Str(String),
+    Str(Text),
     /// A bare identifier: a unit struct or enum variant such as `Position` or `Perlin`.
-    Ident(String),
+    Ident(Text),
     /// `(a, b)` or `Name(a, b)`; `Name()` has no items.
     Tuple {
-        name: Option<Spanned<String>>,
+        name: Option<Spanned<Text>>,
         items: Vec<Value>,
     },
     /// `(a: 1)` or `Name(a: 1, b: 2)`.
     Struct {
-        name: Option<Spanned<String>>,
-        fields: Vec<(Spanned<String>, Value)>,
+        name: Option<Spanned<Text>>,
+        fields: Vec<(Spanned<Text>, Value)>,
     },
     List(Vec<Value>),
     Map(Vec<(Value, Value)>),
@@ -374,8 +378,13 @@ impl<'a> Parser<'a> {
         Ok(())
     }
 
-    fn identifier(&mut self) -> String {
+    fn identifier(&mut self) -> Text {
         let start = self.pos;
+        self.skip_identifier();
+        Text::from(&self.text[start..self.pos])
+    }
+
+    fn skip_identifier(&mut self) {
         while let Some(c) = self.peek() {
             if c.is_ascii_alphanumeric() || c == b'_' {
                 self.pos += 1;
@@ -383,7 +392,6 @@ impl<'a> Parser<'a> {
                 break;
             }
         }
-        self.text[start..self.pos].to_string()
     }
 
     fn number(&mut self) -> Result<Value, Diagnostic> {
@@ -428,11 +436,16 @@ impl<'a> Parser<'a> {
             }
         }
         let span = Span::new(start, self.pos);
-        let lexeme: String = self.text[start..self.pos]
-            .chars()
-            .filter(|&c| c != '_')
-            .collect();
-        let lexeme = lexeme.strip_prefix('+').unwrap_or(&lexeme);
+        let written = &self.text[start..self.pos];
+        // Digit separators (`1_000`) need a copy without them; most numbers have none.
+        let without_separators: String;
+        let lexeme = if written.contains('_') {
+            without_separators = written.chars().filter(|&c| c != '_').collect();
+            &without_separators
+        } else {
+            written
+        };
+        let lexeme = lexeme.strip_prefix('+').unwrap_or(lexeme);
         match lexeme.parse::<f64>() {
             Ok(v) if !lexeme.is_empty() && lexeme != "-" => Ok(Value {
                 kind: ValueKind::Number(v),
@@ -446,10 +459,19 @@ impl<'a> Parser<'a> {
         }
     }
 
-    fn string(&mut self) -> Result<String, Diagnostic> {
+    fn string(&mut self) -> Result<Text, Diagnostic> {
         let start = self.pos;
         self.pos += 1; // opening quote
-        let mut out = String::new();
+                       // Fast path: no escapes (every name and reference in practice), one copy of the slice.
+        let body = &self.bytes[self.pos..];
+        if let Some(end) = body.iter().position(|&b| b == b'"' || b == b'\\') {
+            if body[end] == b'"' {
+                let text = Text::from(&self.text[self.pos..self.pos + end]);
+                self.pos += end + 1;
+                return Ok(text);
+            }
+        }
+        let mut out = Text::default();
         loop {
             let Some(c) = self.text[self.pos..].chars().next() else {
                 return Err(self.error_at(
@@ -493,7 +515,7 @@ impl<'a> Parser<'a> {
         }
     }
 
-    fn raw_string(&mut self) -> Result<String, Diagnostic> {
+    fn raw_string(&mut self) -> Result<Text, Diagnostic> {
         let start = self.pos;
         self.pos += 1; // r
         let mut hashes = 0;
@@ -508,7 +530,7 @@ impl<'a> Parser<'a> {
         let terminator = format!("\"{}", "#".repeat(hashes));
         match self.text[self.pos..].find(&terminator) {
             Some(end) => {
-                let s = self.text[self.pos..self.pos + end].to_string();
+                let s = Text::from(&self.text[self.pos..self.pos + end]);
                 self.pos += end + terminator.len();
                 Ok(s)
             }
@@ -523,7 +545,7 @@ impl<'a> Parser<'a> {
     /// After `(` (or `Name(`): a struct if the first item is `ident:`, else a tuple.
     fn parenthesised(
         &mut self,
-        name: Option<Spanned<String>>,
+        name: Option<Spanned<Text>>,
         start: usize,
     ) -> Result<Value, Diagnostic> {
         self.enter(start)?;
@@ -537,7 +559,7 @@ impl<'a> Parser<'a> {
                 .peek()
                 .is_some_and(|c| c.is_ascii_alphabetic() || c == b'_')
             {
-                self.identifier();
+                self.skip_identifier();
                 self.skip_trivia()?;
                 struct_like = self.peek() == Some(b':');
             }
@@ -545,7 +567,7 @@ impl<'a> Parser<'a> {
             struct_like
         };
         let kind = if is_struct {
-            let mut fields: Vec<(Spanned<String>, Value)> = Vec::new();
+            let mut fields: Vec<(Spanned<Text>, Value)> = Vec::new();
             loop {
                 self.skip_trivia()?;
                 if self.peek() == Some(b')') {

@@ -29,7 +29,8 @@
 //!
 //! Batches of fewer than [`SMALL`] lanes (the interpreter's per-point path) and CPUs without
 //! SSE4.1 run the per-point kernels in a loop instead: no dispatch, no stack arrays, no libm
-//! `floor` calls.
+//! `floor` calls; except fractal sums, whose octaves of one point become the lanes
+//! ([`fractal_octave_lanes`]), so `eval_point` of an 8-octave fbm is one SIMD pass too.
 //!
 //! Measured on a Sapphire Rapids class VM, one thread, 8-octave Perlin fbm in f32 over 16 384
 //! random points in [0, 8)³ (`cargo bench --bench noise -- noise/fbm8_perlin_f32`): 198 ns per
@@ -48,8 +49,12 @@ use crate::real::Real;
 pub(super) const CHUNK: usize = 256;
 
 /// Below this many lanes a batch runs the per-point kernels: the SIMD path's setup (dispatch,
-/// zeroing the stack arrays) costs more than it saves on one lane.
+/// zeroing the stack arrays) costs more than it saves on one lane. (Fractal sums then take their
+/// octaves as lanes: [`fractal_octave_lanes`].)
 pub(super) const SMALL: usize = 8;
+
+/// Most octaves [`fractal_octave_lanes`] takes as lanes (the octave limit of graph files).
+const OCTAVE_LANES: usize = 32;
 
 /// `out[i] = k.eval(p_i)` bit for bit.
 #[inline]
@@ -74,7 +79,10 @@ pub(super) fn fractal<S: Real, K: Kernel, const TURB: bool>(
     out: &mut [S],
 ) {
     if out.len() < SMALL {
-        fractal_point_loop::<S, K, TURB>(k, freqs, amps, x, y, z, out);
+        // Too few points to vectorise across: vectorise across each point's octaves instead.
+        for (((o, &x), &y), &z) in out.iter_mut().zip(x).zip(y).zip(z) {
+            *o = fractal_octave_lanes::<S, K, TURB>(k, freqs, amps, [x, y, z]);
+        }
     } else {
         fractal_lanes::<S, K, TURB>(k, freqs, amps, x, y, z, out);
     }
@@ -370,4 +378,76 @@ fn fractal_lanes<S: Real, K: Kernel, const TURB: bool>(
         }
     }
 }
+}
+
+simd_targets! {
+/// [`fractal`] of one point, with the point's octaves as the SIMD lanes: they are independent
+/// samples (the point scaled by each frequency), so one point's fbm vectorises as a batch of
+/// points does. This makes per-point evaluation (`eval_point`) of an fbm faster than a
+/// hand-written scalar octave loop (benches/eval.rs). The terms are then summed in octave
+/// order, starting from zero, exactly as [`fractal_point_loop`] sums them; each term is the
+/// batch kernels' (bit-identical to the per-point kernel), so the result is the same bits.
+fn fractal_octave_lanes<S: Real, K: Kernel, const TURB: bool>(
+    k: &K,
+    freqs: &[f64],
+    amps: &[f64],
+    p: [f64; 3],
+) -> S {
+    let n = freqs.len().min(amps.len());
+    if !target_cfg_f!(target_feature = "sse4.1") || n > OCTAVE_LANES {
+        let mut out = [S::ZERO];
+        fractal_point_loop::<S, K, TURB>(k, freqs, amps, &[p[0]], &[p[1]], &[p[2]], &mut out);
+        return out[0];
+    }
+    const WIDE: bool = !target_cfg_f!(target_feature = "avx512bw"); // see `sample_lanes`
+    let (freqs, amps) = (&freqs[..n], &amps[..n]);
+    // `fits` for one point: the fast lattice step is exact for every octave.
+    let f_max = max_abs(freqs);
+    let fast = p.iter().all(|x| x.abs() * f_max < TWO51);
+    // The lanes padded with frequency 0 (the lattice origin; their terms are never summed) to
+    // a constant count, 8, 16 or 32: with a constant trip count the loops vectorise whole (a
+    // loop of n lanes left n < the vector width to scalar code).
+    let mut f = [0.0f64; OCTAVE_LANES];
+    f[..n].copy_from_slice(freqs);
+    let mut terms = [S::ZERO; OCTAVE_LANES];
+    match n {
+        0..=8 => octave_terms::<S, K, WIDE, 8>(k, p, &f, fast, &mut terms),
+        9..=16 => octave_terms::<S, K, WIDE, 16>(k, p, &f, fast, &mut terms),
+        _ => octave_terms::<S, K, WIDE, 32>(k, p, &f, fast, &mut terms),
+    }
+    let mut sum = S::ZERO;
+    for (&term, &a) in terms[..n].iter().zip(amps) {
+        let term = if TURB { term.abs() } else { term };
+        sum = sum + S::from_f64(a) * term;
+    }
+    canonical_nan(sum)
+}
+}
+
+/// The first `L` lanes of [`fractal_octave_lanes`]: `terms[i] = k(p · f[i])`.
+#[inline(always)]
+fn octave_terms<S: Real, K: Kernel, const WIDE: bool, const L: usize>(
+    k: &K,
+    p: [f64; 3],
+    f: &[f64; OCTAVE_LANES],
+    fast: bool,
+    terms: &mut [S; OCTAVE_LANES],
+) {
+    let mut cell = [[0u8; L]; 3];
+    let mut frac = [[S::ZERO; L]; 3];
+    for axis in 0..3 {
+        for i in 0..L {
+            let x = p[axis] * f[i];
+            (cell[axis][i], frac[axis][i]) = if fast {
+                lattice_lane_fast(x)
+            } else {
+                lattice_lane_exact(x)
+            };
+        }
+    }
+    for i in 0..L {
+        let c = |axis: usize| i32::from(cell[axis][i]);
+        let h = k.hashes([c(0), c(1), c(2)]);
+        terms[i] = k.interior::<S, WIDE>(h, [frac[0][i], frac[1][i], frac[2][i]]);
+    }
 }

@@ -999,6 +999,29 @@ fn batch_kernels_equal_point_functions_on_long_batches() {
     }
 }
 
+/// Batches under the per-point threshold take each point's octaves as the SIMD lanes (8, 16 or
+/// 32 of them): every schedule length up to the limit, fractional and shifted schedules,
+/// lacunarities that push octaves across the fast lattice path's limit, and wild points.
+#[test]
+fn octave_lanes_equal_point_functions_for_every_schedule_length() {
+    let mut pts = batch_pool(38, 40, 8);
+    pts.extend(batch_pool(39, 40, 10));
+    pts.extend(batch_pool(40, 40, 12));
+    for basis in BASES {
+        let t = NoiseTable::new(basis, 3);
+        for octaves in (0..=64).map(|i| i as f64 * 0.5) {
+            for (lacunarity, first) in [(2.0, 0), (1.93, 3), (3.5, 0), (0.5, 1)] {
+                let schedule = Octaves::new(octaves, lacunarity, 0.6, first);
+                for chunk in pts.chunks(7) {
+                    let what = format!("{basis:?} octaves {octaves} lacunarity {lacunarity}");
+                    check_batches::<f32>(&t, &schedule, chunk, &what);
+                    check_batches::<f64>(&t, &schedule, chunk, &what);
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn batch_lattice_lanes_match_lattice() {
     use super::batch::{lattice_lane_exact, lattice_lane_fast, TWO51};
