@@ -130,12 +130,31 @@ pub struct Diagnostic {
     pub help: Option<String>,
 }
 
+/// Text for a message, with characters that would not show as themselves escaped (`\u{1e}`,
+/// `\t`, a right-to-left override): messages quote names from the file, and a name with an
+/// invisible character in it must not read like the name it only resembles.
+fn printable(text: String) -> String {
+    let hidden = |c: char| c.is_control() || (c.escape_debug().len() > 1 && !"\"'\\".contains(c));
+    if !text.chars().any(hidden) {
+        return text;
+    }
+    text.chars()
+        .map(|c| {
+            if hidden(c) {
+                c.escape_debug().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
+}
+
 impl Diagnostic {
     pub fn new(class: DiagnosticClass, message: impl Into<String>) -> Diagnostic {
         Diagnostic {
             class,
             node: None,
-            message: message.into(),
+            message: printable(message.into()),
             span: None,
             label: None,
             help: None,
@@ -148,17 +167,17 @@ impl Diagnostic {
     }
 
     pub fn in_node(mut self, node: impl Into<String>) -> Diagnostic {
-        self.node = Some(node.into());
+        self.node = Some(printable(node.into()));
         self
     }
 
     pub fn label(mut self, label: impl Into<String>) -> Diagnostic {
-        self.label = Some(label.into());
+        self.label = Some(printable(label.into()));
         self
     }
 
     pub fn help(mut self, help: impl Into<String>) -> Diagnostic {
-        self.help = Some(help.into());
+        self.help = Some(printable(help.into()));
         self
     }
 

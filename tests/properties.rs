@@ -143,9 +143,9 @@ fn one_tape_is_shared_by_threads_without_locks() {
         .collect();
     let single = batch::<f32>(&tape, &pts);
     let n = pts.len();
-    let halves: Vec<Vec<f32>> = std::thread::scope(|scope| {
+    let parts: Vec<Vec<f32>> = std::thread::scope(|scope| {
         let handles: Vec<_> = pts
-            .chunks(n / 4 + 1)
+            .chunks(n / 8 + 1)
             .map(|chunk| scope.spawn(|| batch::<f32>(&tape, chunk)))
             .collect();
         handles
@@ -155,7 +155,8 @@ fn one_tape_is_shared_by_threads_without_locks() {
     });
     // Reassemble the planar per-chunk outputs and compare bit for bit.
     let mut offset = 0;
-    for (chunk, out) in pts.chunks(n / 4 + 1).zip(&halves) {
+    assert_eq!(parts.len(), 8, "eight threads");
+    for (chunk, out) in pts.chunks(n / 8 + 1).zip(&parts) {
         let m = chunk.len();
         for c in 0..tape.channels() {
             for i in 0..m {

@@ -220,7 +220,7 @@ fn images_do_not_depend_on_the_thread_count() {
     )
     .unwrap();
     let mut images = Vec::new();
-    for threads in [1, 2, 3] {
+    for threads in [1, 2, 3, 8] {
         let options = RenderOptions {
             size: Some((53, 37)), // tiles of every shape
             samples: Some(3),

@@ -179,6 +179,16 @@ enum Pending {
 }
 
 impl Pending {
+    /// The temporary file or folder being written.
+    fn temp_path(&self) -> &Path {
+        match self {
+            Pending::Exr { temp, .. } | Pending::Atlas { temp, .. } | Pending::Raw { temp, .. } => {
+                temp.path()
+            }
+            Pending::Slices { temp, .. } => temp.path(),
+        }
+    }
+
     fn sink(&mut self) -> &mut dyn Sink {
         match self {
             Pending::Exr { sink, .. } => sink,
@@ -197,6 +207,36 @@ impl Sink for Fanout<'_> {
             pending.sink().window(window)?;
         }
         Ok(())
+    }
+}
+
+/// An error met while writing a temporary names the file the user asked for (the temporary is
+/// removed, and its random name means nothing to them), then the temporary:
+/// `out/a.colour.raw (being written as out/.a.colour.raw.x1y2z3.partial): No space left on device`.
+fn name_final_file(error: BakeError, temps: &[(PathBuf, PathBuf)]) -> BakeError {
+    let rename = |path: String| -> String {
+        for (temp, final_path) in temps {
+            if let Ok(rest) = Path::new(&path).strip_prefix(temp) {
+                let shown = if rest.as_os_str().is_empty() {
+                    final_path.clone()
+                } else {
+                    final_path.join(rest)
+                };
+                return format!("{} (being written as {path})", shown.display());
+            }
+        }
+        path
+    };
+    match error {
+        BakeError::Io { path, source } => BakeError::Io {
+            path: rename(path),
+            source,
+        },
+        BakeError::Encode { path, message } => BakeError::Encode {
+            path: rename(path),
+            message,
+        },
+        other => other,
     }
 }
 
@@ -360,72 +400,83 @@ fn bake_into_files(
         });
     }
 
+    let temps: Vec<(PathBuf, PathBuf)> = pending
+        .iter()
+        .zip(finals)
+        .map(|(p, f)| (p.temp_path().to_path_buf(), f.clone()))
+        .collect();
     let started = std::time::Instant::now();
-    let stats = bake_into(tape, &options.bake, &mut Fanout(&mut pending), progress)?;
+    let stats = bake_into(tape, &options.bake, &mut Fanout(&mut pending), progress)
+        .map_err(|e| name_final_file(e, &temps))?;
     let seconds = started.elapsed().as_secs_f64();
 
     // Finish every temporary first; only then move them all into place, as one transaction.
-    let mut staged: Vec<(Staged, PathBuf)> = Vec::with_capacity(pending.len() * 2);
-    let mut files = Vec::with_capacity(pending.len());
-    for ((entry, final_path), output) in pending.into_iter().zip(finals).zip(&tape.outputs) {
-        let [nx, ny, nz] = grid.size;
-        let kind = if output.ty == Type::Vec3 {
-            "RGB"
-        } else {
-            "grey"
-        };
-        let bits = if options.depth16 { 16 } else { 8 };
-        let description = match entry {
-            Pending::Exr { sink, temp } => {
-                let file = temp.reopen().map_err(io(temp.path()))?;
-                let attributes = exr_attributes(&grid, options, &output.name);
-                let attributes: Vec<(&str, String)> =
-                    attributes.iter().map(|(k, v)| (*k, v.clone())).collect();
-                sink.write(temp.path(), file, &grid, options.half, &attributes)?;
-                staged.push((Staged::File(temp.into_temp_path()), final_path.clone()));
-                let depth = if options.half { "f16" } else { "f32" };
-                format!(
-                    "EXR {nx}×{ny}×{nz} {kind} {depth}, slices stacked ({} rows)",
-                    ny * nz
-                )
-            }
-            Pending::Slices { temp, .. } => {
-                staged.push((Staged::Dir(temp), final_path.clone()));
-                format!("{nz} PNG slices {nx}×{ny} {kind} {bits}-bit")
-            }
-            Pending::Atlas { sink, temp } => {
-                let columns = sink.columns;
-                sink.finish(&grid)?;
-                staged.push((Staged::File(temp.into_temp_path()), final_path.clone()));
-                format!("PNG atlas of {nz} slices, {columns} per row, {kind} {bits}-bit")
-            }
-            Pending::Raw { mut sink, temp } => {
-                use std::io::Write;
-                sink.writer.flush().map_err(io(temp.path()))?;
-                sink.writer.get_ref().sync_all().map_err(io(temp.path()))?;
-                let sidecar = raw_sidecar(&grid, options, output, &stats, final_path);
-                let sidecar_temp = temp_file(&options.out_dir, &sidecar_path(final_path))?;
-                std::fs::write(sidecar_temp.path(), sidecar).map_err(io(sidecar_temp.path()))?;
-                // The volume first, its sidecar after: a sidecar marks a complete volume.
-                staged.push((Staged::File(temp.into_temp_path()), final_path.clone()));
-                staged.push((
-                    Staged::File(sidecar_temp.into_temp_path()),
-                    sidecar_path(final_path),
-                ));
-                let sample = match options.raw_type {
-                    RawSampleType::U8 => "u8",
-                    RawSampleType::F32 => "f32",
-                };
-                let channels = output.ty.channels() + usize::from(options.alpha);
-                format!("raw {nx}×{ny}×{nz} × {channels} {sample}, x fastest (+ .json sidecar)")
-            }
-        };
-        files.push(BakedFile {
-            output: output.name.clone(),
-            path: final_path.clone(),
-            description,
-        });
-    }
+    let finish = || -> Result<_, BakeError> {
+        let mut staged: Vec<(Staged, PathBuf)> = Vec::with_capacity(pending.len() * 2);
+        let mut files = Vec::with_capacity(pending.len());
+        for ((entry, final_path), output) in pending.into_iter().zip(finals).zip(&tape.outputs) {
+            let [nx, ny, nz] = grid.size;
+            let kind = if output.ty == Type::Vec3 {
+                "RGB"
+            } else {
+                "grey"
+            };
+            let bits = if options.depth16 { 16 } else { 8 };
+            let description = match entry {
+                Pending::Exr { sink, temp } => {
+                    let file = temp.reopen().map_err(io(temp.path()))?;
+                    let attributes = exr_attributes(&grid, options, &output.name);
+                    let attributes: Vec<(&str, String)> =
+                        attributes.iter().map(|(k, v)| (*k, v.clone())).collect();
+                    sink.write(temp.path(), file, &grid, options.half, &attributes)?;
+                    staged.push((Staged::File(temp.into_temp_path()), final_path.clone()));
+                    let depth = if options.half { "f16" } else { "f32" };
+                    format!(
+                        "EXR {nx}×{ny}×{nz} {kind} {depth}, slices stacked ({} rows)",
+                        ny * nz
+                    )
+                }
+                Pending::Slices { temp, .. } => {
+                    staged.push((Staged::Dir(temp), final_path.clone()));
+                    format!("{nz} PNG slices {nx}×{ny} {kind} {bits}-bit")
+                }
+                Pending::Atlas { sink, temp } => {
+                    let columns = sink.columns;
+                    sink.finish(&grid)?;
+                    staged.push((Staged::File(temp.into_temp_path()), final_path.clone()));
+                    format!("PNG atlas of {nz} slices, {columns} per row, {kind} {bits}-bit")
+                }
+                Pending::Raw { mut sink, temp } => {
+                    use std::io::Write;
+                    sink.writer.flush().map_err(io(temp.path()))?;
+                    sink.writer.get_ref().sync_all().map_err(io(temp.path()))?;
+                    let sidecar = raw_sidecar(&grid, options, output, &stats, final_path);
+                    let sidecar_temp = temp_file(&options.out_dir, &sidecar_path(final_path))?;
+                    std::fs::write(sidecar_temp.path(), sidecar)
+                        .map_err(io(sidecar_temp.path()))?;
+                    // The volume first, its sidecar after: a sidecar marks a complete volume.
+                    staged.push((Staged::File(temp.into_temp_path()), final_path.clone()));
+                    staged.push((
+                        Staged::File(sidecar_temp.into_temp_path()),
+                        sidecar_path(final_path),
+                    ));
+                    let sample = match options.raw_type {
+                        RawSampleType::U8 => "u8",
+                        RawSampleType::F32 => "f32",
+                    };
+                    let channels = output.ty.channels() + usize::from(options.alpha);
+                    format!("raw {nx}×{ny}×{nz} × {channels} {sample}, x fastest (+ .json sidecar)")
+                }
+            };
+            files.push(BakedFile {
+                output: output.name.clone(),
+                path: final_path.clone(),
+                description,
+            });
+        }
+        Ok((staged, files))
+    };
+    let (staged, files) = finish().map_err(|e| name_final_file(e, &temps))?;
     commit(staged, &options.out_dir)?;
     Ok(BakeReport {
         files,
@@ -604,6 +655,55 @@ pub fn human_bytes(bytes: u64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn write_errors_name_the_final_file_then_the_temporary() {
+        let temps = vec![
+            (
+                PathBuf::from("out/.a.v.raw.x1.partial"),
+                PathBuf::from("out/a.v.raw"),
+            ),
+            (
+                PathBuf::from("out/.a.c.x2.partial"),
+                PathBuf::from("out/a.c"),
+            ),
+        ];
+        let full =
+            || std::io::Error::new(std::io::ErrorKind::StorageFull, "No space left on device");
+        let file = name_final_file(
+            BakeError::Io {
+                path: "out/.a.v.raw.x1.partial".into(),
+                source: full(),
+            },
+            &temps,
+        );
+        assert_eq!(
+            file.to_string(),
+            "out/a.v.raw (being written as out/.a.v.raw.x1.partial): No space left on device"
+        );
+        let slice = name_final_file(
+            BakeError::Io {
+                path: "out/.a.c.x2.partial/z0003.png".into(),
+                source: full(),
+            },
+            &temps,
+        );
+        assert!(
+            slice
+                .to_string()
+                .starts_with("out/a.c/z0003.png (being written as "),
+            "{slice}"
+        );
+        // Other paths are left alone.
+        let other = name_final_file(
+            BakeError::Io {
+                path: "out".into(),
+                source: full(),
+            },
+            &temps,
+        );
+        assert_eq!(other.to_string(), "out: No space left on device");
+    }
 
     /// A move that fails half-way through the commit undoes the moves already made and puts the
     /// replaced files back.

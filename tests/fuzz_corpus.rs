@@ -1,0 +1,65 @@
+//! Replays the fuzz corpus on stable Rust: every input that cargo-fuzz kept as interesting
+//! (`fuzz/corpus/<target>/`) and every input that once crashed (`fuzz/regressions/<target>/`)
+//! goes through the same harness as the fuzz targets (`fuzz/src/lib.rs`, compiled here by path),
+//! so CI checks the invariants on all of them without nightly or libFuzzer.
+
+#[allow(dead_code)]
+#[path = "../fuzz/src/lib.rs"]
+mod harness;
+
+use std::path::Path;
+
+/// Runs `target` on every file of `fuzz/corpus/<name>` and `fuzz/regressions/<name>`; returns
+/// how many there were.
+fn replay(name: &str, target: fn(&[u8])) -> usize {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz");
+    let mut count = 0;
+    for dir in ["corpus", "regressions"] {
+        let dir = root.join(dir).join(name);
+        let Ok(entries) = std::fs::read_dir(&dir) else {
+            continue;
+        };
+        let mut paths: Vec<_> = entries
+            .map(|e| e.expect("readable corpus").path())
+            .collect();
+        paths.sort();
+        for path in paths {
+            let data = std::fs::read(&path).expect("readable corpus file");
+            let outcome = std::panic::catch_unwind(|| target(&data));
+            assert!(
+                outcome.is_ok(),
+                "{name}: {} fails the harness",
+                path.display()
+            );
+            count += 1;
+        }
+    }
+    count
+}
+
+#[test]
+fn graph_bytes_corpus_replays() {
+    let count = replay("graph_bytes", harness::graph_bytes);
+    assert!(
+        count >= 50,
+        "only {count} graph_bytes inputs: is fuzz/corpus missing?"
+    );
+}
+
+#[test]
+fn structured_graph_corpus_replays() {
+    let count = replay("structured_graph", harness::structured_graph);
+    assert!(
+        count >= 50,
+        "only {count} structured_graph inputs: is fuzz/corpus missing?"
+    );
+}
+
+#[test]
+fn scene_bytes_corpus_replays() {
+    let count = replay("scene_bytes", harness::scene_bytes);
+    assert!(
+        count >= 20,
+        "only {count} scene_bytes inputs: is fuzz/corpus missing?"
+    );
+}
