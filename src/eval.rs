@@ -200,12 +200,12 @@ impl Tape {
                         *o = S::from_f64(*v);
                     }
                 }
-                // One lane (eval_point): the same per-lane `apply`, without slicing and swapping
-                // lane arrays, which cost as much as the operation itself.
-                Instr::UnaryScalar { op, dst, src } if n == 1 => {
+                // One lane (eval_point): the same per-lane `apply` on lane 0 directly; moving the
+                // lane arrays out and back costs as much as the operation (5% of a marble point).
+                Instr::UnaryScalar { op, dst, src } if ONE_LANE => {
                     ws.scalars[dst as usize][0] = op.apply(ws.scalars[src as usize][0]);
                 }
-                Instr::BinaryScalar { op, dst, a, b } if n == 1 => {
+                Instr::BinaryScalar { op, dst, a, b } if ONE_LANE => {
                     let (x, y) = (ws.scalars[a as usize][0], ws.scalars[b as usize][0]);
                     ws.scalars[dst as usize][0] = op.apply(x, y);
                 }

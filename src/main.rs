@@ -797,13 +797,13 @@ fn report_command(args: ReportArgs) -> Result<(), Failure> {
                 continue;
             }
         };
+        let options = texgraph::report::ReportOptions {
+            points: args.points,
+            runs: args.runs,
+            region: args.region.unwrap_or_default(),
+            ..Default::default()
+        };
         let text = if args.markdown {
-            let options = texgraph::report::ReportOptions {
-                points: args.points,
-                runs: args.runs,
-                region: args.region.unwrap_or_default(),
-                ..Default::default()
-            };
             let rows = texgraph::report::accuracy_report(&graph, &args.outputs, &options)
                 .map_err(|d| report(LoadError::Invalid(d)))?;
             let stability = texgraph::stability::stability_report(&graph)
@@ -832,12 +832,6 @@ fn report_command(args: ReportArgs) -> Result<(), Failure> {
                 texgraph::stability::stability_text(&rows)
             )
         } else {
-            let options = texgraph::report::ReportOptions {
-                points: args.points,
-                runs: args.runs,
-                region: args.region.unwrap_or_default(),
-                ..Default::default()
-            };
             let rows = texgraph::report::accuracy_report(&graph, &args.outputs, &options)
                 .map_err(|d| report(LoadError::Invalid(d)))?;
             if let Some(path) = &args.plot {

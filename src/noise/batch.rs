@@ -118,21 +118,22 @@ fn fractal_point_loop<S: Real, K: Kernel, const TURB: bool>(
     }
 }
 
-/// The working arrays of one chunk: the lattice step's output (cell indices mod 256 and
-/// fractions, per axis) and, on the byte-shuffle path, the corner hashes.
-pub(super) struct Lattice<S> {
-    pub(super) cell: [[u8; CHUNK]; 3],
-    pub(super) frac: [[S; CHUNK]; 3],
-    pub(super) hashes: [[u8; CHUNK]; 8],
+/// The working arrays of one chunk of `N` lanes: the lattice step's output (cell indices mod 256
+/// and fractions, per axis) and, on the byte-shuffle path, the corner hashes. Batches use
+/// chunks of [`CHUNK`] points; [`fractal_octave_lanes`] a few lanes, one per octave.
+pub(super) struct Lattice<S, const N: usize = CHUNK> {
+    pub(super) cell: [[u8; N]; 3],
+    pub(super) frac: [[S; N]; 3],
+    pub(super) hashes: [[u8; N]; 8],
 }
 
-impl<S: Real> Lattice<S> {
+impl<S: Real, const N: usize> Lattice<S, N> {
     #[inline(always)]
     pub(super) fn new() -> Self {
         Lattice {
-            cell: [[0; CHUNK]; 3],
-            frac: [[S::ZERO; CHUNK]; 3],
-            hashes: [[0; CHUNK]; 8],
+            cell: [[0; N]; 3],
+            frac: [[S::ZERO; N]; 3],
+            hashes: [[0; N]; 8],
         }
     }
 
@@ -169,7 +170,7 @@ impl<S: Real> Lattice<S> {
     ) {
         // With n <= CHUNK known, no index below needs a bounds check (one would cost a scalar
         // epilogue of 16 lanes per chunk: LLVM then vectorises only the lanes proved in bounds).
-        let n = out.len().min(CHUNK);
+        let n = out.len().min(N);
         let (cell, frac) = (&self.cell, &self.frac);
         for i in 0..n {
             let c = |a: usize| i32::from(cell[a][i]);
@@ -188,7 +189,7 @@ impl<S: Real> Lattice<S> {
         amp: S,
         out: &mut [S],
     ) {
-        let n = out.len().min(CHUNK); // see `noise`
+        let n = out.len().min(N); // see `noise`
         let (hashes, frac) = (&self.hashes, &self.frac);
         for i in 0..n {
             let h = |c: usize| hashes[c][i];
@@ -197,7 +198,9 @@ impl<S: Real> Lattice<S> {
             out[i] = accumulate::<S, ACC, TURB>(out[i], amp, v);
         }
     }
+}
 
+impl<S: Real> Lattice<S, CHUNK> {
     /// Step 2 on CPUs with AVX-512 VBMI: the corner hashes of the first `n` lanes by byte
     /// shuffles (`vbmi.rs`), into `self.hashes`.
     ///
@@ -401,9 +404,7 @@ fn fractal_octave_lanes<S: Real, K: Kernel, const TURB: bool>(
     }
     const WIDE: bool = !target_cfg_f!(target_feature = "avx512bw"); // see `sample_lanes`
     let (freqs, amps) = (&freqs[..n], &amps[..n]);
-    // `fits` for one point: the fast lattice step is exact for every octave.
-    let f_max = max_abs(freqs);
-    let fast = p.iter().all(|x| x.abs() * f_max < TWO51);
+    let fast = fits([&[p[0]], &[p[1]], &[p[2]]], max_abs(freqs));
     // The lanes padded with frequency 0 (the lattice origin; their terms are never summed) to
     // a constant count, 8, 16 or 32: with a constant trip count the loops vectorise whole (a
     // loop of n lanes left n < the vector width to scalar code).
@@ -424,7 +425,8 @@ fn fractal_octave_lanes<S: Real, K: Kernel, const TURB: bool>(
 }
 }
 
-/// The first `L` lanes of [`fractal_octave_lanes`]: `terms[i] = k(p · f[i])`.
+/// The first `L` lanes of [`fractal_octave_lanes`]: `terms[i] = k(p · f[i])`, through the
+/// batch kernels' own lattice and noise steps.
 #[inline(always)]
 fn octave_terms<S: Real, K: Kernel, const WIDE: bool, const L: usize>(
     k: &K,
@@ -433,21 +435,8 @@ fn octave_terms<S: Real, K: Kernel, const WIDE: bool, const L: usize>(
     fast: bool,
     terms: &mut [S; OCTAVE_LANES],
 ) {
-    let mut cell = [[0u8; L]; 3];
-    let mut frac = [[S::ZERO; L]; 3];
-    for axis in 0..3 {
-        for i in 0..L {
-            let x = p[axis] * f[i];
-            (cell[axis][i], frac[axis][i]) = if fast {
-                lattice_lane_fast(x)
-            } else {
-                lattice_lane_exact(x)
-            };
-        }
-    }
-    for i in 0..L {
-        let c = |axis: usize| i32::from(cell[axis][i]);
-        let h = k.hashes([c(0), c(1), c(2)]);
-        terms[i] = k.interior::<S, WIDE>(h, [frac[0][i], frac[1][i], frac[2][i]]);
-    }
+    let lanes: [[f64; L]; 3] = std::array::from_fn(|axis| std::array::from_fn(|i| p[axis] * f[i]));
+    let mut lattice = Lattice::<S, L>::new();
+    lattice.fill::<false>(fast, 1.0, [&lanes[0], &lanes[1], &lanes[2]]);
+    lattice.noise::<K, false, false, WIDE>(k, S::ONE, &mut terms[..L]);
 }
