@@ -272,6 +272,15 @@ impl Checker {
                 );
                 continue;
             }
+            if let Err(message) = crate::output::valid_output_name(&name.value) {
+                self.error(
+                    Diagnostic::new(Class::BadName, message)
+                        .in_node(format!("outputs.{}", name.value).as_str())
+                        .at(name.span)
+                        .label("not a valid output name")
+                        .help(crate::output::OUTPUT_NAME_HELP),
+                );
+            }
             let origin = Origin {
                 node: Arc::from(format!("outputs.{}", name.value).as_str()),
                 span: value.span,

@@ -94,6 +94,7 @@ pub enum DiagnosticClass {
     NotConstant,
     UnknownOutput,
     UnknownParam,
+    BadName,
 }
 
 impl DiagnosticClass {
@@ -113,6 +114,7 @@ impl DiagnosticClass {
             DiagnosticClass::NotConstant => "not-constant",
             DiagnosticClass::UnknownOutput => "unknown-output",
             DiagnosticClass::UnknownParam => "unknown-param",
+            DiagnosticClass::BadName => "bad-name",
         }
     }
 }

@@ -28,6 +28,7 @@ pub mod lod;
 pub mod nodes;
 pub mod noise;
 pub mod ops;
+pub mod output;
 pub mod points;
 pub mod real;
 pub mod report;

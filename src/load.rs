@@ -52,13 +52,43 @@ pub fn read_source(path: &Path) -> Result<Arc<SourceFile>, LoadError> {
             list: vec![diagnostic],
         }));
     }
-    let text = String::from_utf8(bytes).map_err(|e| {
-        io(std::io::Error::new(
-            std::io::ErrorKind::InvalidData,
-            format!("not UTF-8 text: {e}"),
-        ))
-    })?;
-    Ok(SourceFile::new(path.display().to_string(), text))
+    match String::from_utf8(bytes) {
+        Ok(text) => Ok(SourceFile::new(path.display().to_string(), text)),
+        Err(e) => Err(LoadError::Invalid(not_utf8(path, e))),
+    }
+}
+
+/// A file that is not UTF-8 is invalid input (exit code 1), located at its first bad byte: the
+/// text shown is the file with invalid sequences replaced, which keeps every byte before the
+/// first one where it was.
+fn not_utf8(path: &Path, error: std::string::FromUtf8Error) -> Diagnostics {
+    let at = error.utf8_error().valid_up_to();
+    let bytes = error.as_bytes();
+    let bad: Vec<String> = bytes[at..]
+        .iter()
+        .take(error.utf8_error().error_len().unwrap_or(1).max(1))
+        .map(|b| format!("0x{b:02X}"))
+        .collect();
+    let text = String::from_utf8_lossy(bytes).into_owned();
+    let end = text[at..]
+        .char_indices()
+        .nth(1)
+        .map_or(text.len(), |(i, _)| at + i);
+    let file = SourceFile::new(path.display().to_string(), text);
+    let diagnostic = crate::diagnostic::Diagnostic::new(
+        crate::diagnostic::DiagnosticClass::Syntax,
+        format!(
+            "the file is not UTF-8 text: invalid byte {} after {at} valid bytes",
+            bad.join(" ")
+        ),
+    )
+    .at(crate::diagnostic::Span::new(at, end))
+    .label("not UTF-8")
+    .help("graph files are UTF-8 text; save the file as UTF-8");
+    Diagnostics {
+        file,
+        list: vec![diagnostic],
+    }
 }
 
 /// Reads and checks a graph file.

@@ -76,12 +76,13 @@ struct RenderArgs {
     #[arg(long, value_name = "W,H", value_parser = parse_image_size)]
     size: Option<(u32, u32)>,
     /// Graph files only: the object carved out of the texture (sphere, cube, plane, teapot or a
-    /// path to an .obj).
-    #[arg(long, value_name = "OBJECT", default_value = "sphere")]
-    object: texgraph::render::PreviewObject,
-    /// Graph files only: object space (the texture moves with the object) or world space.
-    #[arg(long, value_enum, default_value_t)]
-    space: texgraph::render::Space,
+    /// path to an .obj) [default: sphere].
+    #[arg(long, value_name = "OBJECT")]
+    object: Option<texgraph::render::PreviewObject>,
+    /// Graph files only: object space (the texture moves with the object) or world space
+    /// [default: object].
+    #[arg(long, value_enum, value_name = "SPACE")]
+    space: Option<texgraph::render::Space>,
     /// Samples per pixel (anti-aliasing).
     #[arg(long, value_name = "N")]
     samples: Option<u32>,
@@ -121,12 +122,12 @@ struct ReportArgs {
     /// Graph files.
     #[arg(required = true, value_name = "FILE")]
     files: Vec<PathBuf>,
-    /// Random sample points in the region (a 16³ grid is added).
-    #[arg(long, value_name = "N", default_value_t = 50_000)]
-    points: usize,
-    /// Timed runs per strategy (the median is reported).
-    #[arg(long, value_name = "N", default_value_t = 5)]
-    runs: usize,
+    /// Random sample points in the region (a 16³ grid is added); at most 10 000 000.
+    #[arg(long, value_name = "N", default_value_t = 50_000, value_parser = clap::value_parser!(u64).range(1..=texgraph::report::MAX_POINTS as u64))]
+    points: u64,
+    /// Timed runs per strategy (the median is reported); 1 to 1 000.
+    #[arg(long, value_name = "N", default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=texgraph::report::MAX_RUNS as u64))]
+    runs: u64,
     /// The region sampled (default the unit cube).
     #[arg(long, value_name = "X0,Y0,Z0:X1,Y1,Z1", value_parser = parse_region, allow_hyphen_values = true)]
     region: Option<texgraph::bake::Region>,
@@ -138,11 +139,11 @@ struct ReportArgs {
     #[arg(long, conflicts_with_all = ["json", "stability"])]
     markdown: bool,
     /// Also draw error (log) against time per point, Pareto front marked, to this PNG.
-    #[arg(long, value_name = "PNG")]
+    #[arg(long, value_name = "PNG", conflicts_with_all = ["stability", "markdown"])]
     plot: Option<PathBuf>,
     /// Survey stability instead: every node at |p| = 1 … 2^31, both signs, lattice points and
-    /// cell boundaries.
-    #[arg(long)]
+    /// cell boundaries (--points, --runs, --region and --output do not apply).
+    #[arg(long, conflicts_with_all = ["points", "runs", "region", "outputs"])]
     stability: bool,
     /// Report only this output (repeatable).
     #[arg(long = "output", value_name = "NAME")]
@@ -178,21 +179,25 @@ struct BakeArgs {
     /// EXR: 16-bit half floats instead of 32-bit.
     #[arg(long)]
     half: bool,
-    /// PNG: bits per sample.
-    #[arg(long, value_name = "BITS", default_value_t = 8, value_parser = parse_depth)]
-    depth: u8,
+    /// EXR: lossless compression [default: zip].
+    #[arg(long = "exr-compression", value_enum, value_name = "METHOD")]
+    exr_compression: Option<texgraph::bake::ExrCompression>,
+    /// PNG: bits per sample, 8 or 16 [default: 8].
+    #[arg(long, value_name = "BITS", value_parser = parse_depth)]
+    depth: Option<u8>,
     /// PNG: one tiled atlas image per output instead of a folder of slices.
     #[arg(long)]
     atlas: bool,
-    /// Raw: sample type.
-    #[arg(long = "raw-type", value_enum, default_value_t)]
-    raw_type: texgraph::bake::RawSampleType,
+    /// Raw: sample type [default: u8].
+    #[arg(long = "raw-type", value_enum, value_name = "TYPE")]
+    raw_type: Option<texgraph::bake::RawSampleType>,
     /// Raw: add an opaque alpha channel (RGBA).
     #[arg(long)]
     alpha: bool,
-    /// How colours are encoded in 8/16-bit files (scalars are always linear).
-    #[arg(long, value_enum, default_value_t)]
-    transfer: texgraph::bake::Transfer,
+    /// PNG and raw u8: how colours are encoded in 8/16-bit files (scalars are always linear)
+    /// [default: srgb].
+    #[arg(long, value_enum, value_name = "TRANSFER")]
+    transfer: Option<texgraph::bake::Transfer>,
     /// Evaluate with the f64 reference path (values still stored as f32 or less).
     #[arg(long = "f64")]
     double: bool,
@@ -203,7 +208,8 @@ struct BakeArgs {
     /// (the spacing is the smallest voxel side; --spacing overrides it).
     #[arg(long)]
     lod: bool,
-    /// Bake even if the files would exceed the 16 GiB size limit.
+    /// Bake even if the files would exceed the 16 GiB size limit, or the format would hold more
+    /// than 2 GiB in memory (EXR: the whole volume; PNG atlas: a row of tiles).
     #[arg(long = "allow-large")]
     allow_large: bool,
     #[command(flatten)]
@@ -331,12 +337,24 @@ fn parse_coordinate(text: &str) -> Result<f64, String> {
 fn protect_negative_numbers(
     args: impl Iterator<Item = std::ffi::OsString>,
 ) -> Vec<std::ffi::OsString> {
+    // Every option that takes a value, from the clap definitions: its value is left alone (so
+    // `--spacing -1` reaches its parser, and its message, as written).
+    let mut takes_value: Vec<String> = Vec::new();
+    let command = <Cli as clap::CommandFactory>::command();
+    for sub in command.get_subcommands() {
+        for arg in sub.get_arguments() {
+            if arg.get_action().takes_values() && !arg.is_positional() {
+                takes_value.extend(arg.get_long().map(|l| format!("--{l}")));
+                takes_value.extend(arg.get_short().map(|c| format!("-{c}")));
+            }
+        }
+    }
     let mut out: Vec<std::ffi::OsString> = Vec::new();
     for arg in args {
         let previous_takes_value = out
             .last()
             .and_then(|p| p.to_str())
-            .is_some_and(|p| matches!(p, "--output" | "--set" | "--points" | "--out"));
+            .is_some_and(|p| takes_value.iter().any(|t| t == p));
         match arg.to_str() {
             Some(t)
                 if !previous_takes_value
@@ -398,6 +416,19 @@ fn main() -> ExitCode {
 
 fn colour() -> bool {
     std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none()
+}
+
+/// The thread count for `--threads N` (0: one per core), capped at
+/// `bake::MAX_THREADS_PER_CORE` × the cores, with a warning when capped.
+fn threads_or_warn(requested: usize) -> usize {
+    let (threads, capped) = texgraph::bake::capped_threads(requested);
+    if capped {
+        eprintln!(
+            "warning: --threads {requested} is more than {} per core; using {threads}",
+            texgraph::bake::MAX_THREADS_PER_CORE
+        );
+    }
+    threads
 }
 
 /// Prints a load error to stderr and says which exit code it means.
@@ -518,7 +549,7 @@ fn eval_with<S: Real>(tape: &Tape, args: &EvalArgs) -> Result<(), Failure> {
     let flushed = writer.flush();
     match result {
         Ok(()) => {}
-        Err(texgraph::points::PointsError::Io { error, .. })
+        Err(texgraph::points::PointsError::Output { error })
             if error.kind() == std::io::ErrorKind::BrokenPipe =>
         {
             return Ok(())
@@ -560,8 +591,65 @@ fn write_lines<S: Real>(
     Ok(())
 }
 
+/// Options given that do not apply to the chosen format: each a usage error, not ignored.
+fn bake_option_misuse(args: &BakeArgs) -> Vec<String> {
+    use texgraph::bake::{Format, RawSampleType};
+    let format = args.format;
+    let name = match format {
+        Format::Exr => "exr",
+        Format::Png => "png",
+        Format::Raw => "raw",
+    };
+    let mut problems = Vec::new();
+    let mut only = |given: bool, option: &str, applies: bool, to: &str| {
+        if given && !applies {
+            problems.push(format!(
+                "{option} applies to {to} only, not to --format {name}"
+            ));
+        }
+    };
+    only(args.half, "--half", format == Format::Exr, "--format exr");
+    only(
+        args.exr_compression.is_some(),
+        "--exr-compression",
+        format == Format::Exr,
+        "--format exr",
+    );
+    only(
+        args.depth.is_some(),
+        "--depth",
+        format == Format::Png,
+        "--format png",
+    );
+    only(args.atlas, "--atlas", format == Format::Png, "--format png");
+    only(
+        args.raw_type.is_some(),
+        "--raw-type",
+        format == Format::Raw,
+        "--format raw",
+    );
+    only(args.alpha, "--alpha", format == Format::Raw, "--format raw");
+    let eight_bit = format == Format::Png
+        || (format == Format::Raw && args.raw_type.unwrap_or_default() == RawSampleType::U8);
+    only(
+        args.transfer.is_some(),
+        "--transfer",
+        eight_bit,
+        "8/16-bit files (--format png, --format raw with --raw-type u8)",
+    );
+    problems
+}
+
 fn bake(args: BakeArgs) -> Result<(), Failure> {
     use texgraph::bake::{bake_files, BakeError, BakeFileOptions, BakeOptions, Grid, Precision};
+    let misuse = bake_option_misuse(&args);
+    if !misuse.is_empty() {
+        for problem in misuse {
+            eprintln!("error: {problem}");
+        }
+        return Err(Failure::Usage);
+    }
+    let threads = threads_or_warn(args.threads);
     let cancel = Arc::new(AtomicBool::new(false));
     {
         // Ctrl-C stops between windows; temporary files are removed and nothing is renamed
@@ -605,7 +693,7 @@ fn bake(args: BakeArgs) -> Result<(), Failure> {
         let mut options = BakeFileOptions::new(stem, &args.out);
         options.bake = BakeOptions {
             grid,
-            threads: args.threads,
+            threads,
             precision: if args.double {
                 Precision::F64
             } else {
@@ -616,18 +704,28 @@ fn bake(args: BakeArgs) -> Result<(), Failure> {
         options.format = args.format;
         options.force = args.force;
         options.half = args.half;
-        options.depth16 = args.depth == 16;
+        options.exr_compression = args.exr_compression.unwrap_or_default();
+        options.depth16 = args.depth == Some(16);
         options.atlas = args.atlas;
-        options.raw_type = args.raw_type;
+        options.raw_type = args.raw_type.unwrap_or_default();
         options.alpha = args.alpha;
-        options.transfer = args.transfer;
+        options.transfer = args.transfer.unwrap_or_default();
         options.graph_path = file.display().to_string();
         options.params = graph.params.clone();
+        options.overrides = args.graph.sets.clone();
         if args.allow_large {
             options.max_bytes = u64::MAX;
+            options.max_held_bytes = u64::MAX;
         }
         // Two graphs with the same file name (a/x.ron, b/x.ron) would write the same files.
-        let planned = texgraph::bake::planned_outputs(&tape, &options);
+        let planned = match texgraph::bake::planned_outputs(&tape, &options) {
+            Ok(planned) => planned,
+            Err(error) => {
+                eprintln!("error: {}: {error}", file.display());
+                fail(&mut worst, Failure::Usage);
+                continue;
+            }
+        };
         if let Some(clash) = planned.iter().find(|p| produced.contains(*p)) {
             eprintln!("error: {}: {} was already written by an earlier graph of this batch (same file name); bake them into different --out folders", file.display(), clash.display());
             fail(&mut worst, Failure::Usage);
@@ -662,11 +760,18 @@ fn bake(args: BakeArgs) -> Result<(), Failure> {
                 baked += 1;
                 total_voxels += report.voxels;
                 total_seconds += report.seconds;
-                let text = bake_report(file, &grid, &report, args.threads);
+                let clamps = options.format == texgraph::bake::Format::Png
+                    || (options.format == texgraph::bake::Format::Raw
+                        && options.raw_type == texgraph::bake::RawSampleType::U8);
+                let text = bake_report(file, &grid, &report, threads, clamps);
                 write_stdout(|out| out.write_all(text.as_bytes()))?;
                 for stats in &report.stats {
                     if stats.non_finite() > 0 {
                         eprintln!("warning: {}: output \"{}\" has {} non-finite voxel values (see the counts above)", file.display(), stats.name, stats.non_finite());
+                    }
+                    let (below, above) = stats.clamped();
+                    if clamps && below + above > 0 {
+                        eprintln!("warning: {}: output \"{}\": {below} values below 0 and {above} above 1 were clamped to [0, 1] in the 8/16-bit file (bake --format exr or --raw-type f32 to keep them)", file.display(), stats.name);
                     }
                 }
             }
@@ -702,6 +807,7 @@ fn bake_report(
     grid: &texgraph::bake::Grid,
     report: &texgraph::bake::BakeReport,
     threads: usize,
+    clamps: bool,
 ) -> String {
     let [nx, ny, nz] = grid.size;
     let (lo, hi) = (grid.region.min, grid.region.max);
@@ -751,12 +857,27 @@ fn bake_report(
         } else {
             "0".to_string()
         };
+        let (below, above) = stats.clamped();
+        let range = if c.iter().all(|s| s.finite() == 0) {
+            "no finite values".to_string()
+        } else {
+            // A channel without finite values shows NaN instead of ±inf.
+            let shown = |v: f64| if v.is_infinite() { f64::NAN } else { v };
+            format!(
+                "min {} max {} mean {}",
+                list(c.iter().map(|s| shown(s.min)).collect()),
+                list(c.iter().map(|s| shown(s.max)).collect()),
+                list(c.iter().map(|s| s.mean).collect()),
+            )
+        };
+        let clamped = if clamps {
+            format!("; clamped to [0, 1]: {below} below 0, {above} above 1")
+        } else {
+            String::new()
+        };
         text.push_str(&format!(
-            "  {}: min {} max {} mean {}; non-finite {detail}\n",
+            "  {}: {range}; non-finite {detail}{clamped}\n",
             stats.name,
-            list(c.iter().map(|s| s.min).collect()),
-            list(c.iter().map(|s| s.max).collect()),
-            list(c.iter().map(|s| s.mean).collect()),
         ));
     }
     let rate = if report.seconds > 0.0 {
@@ -764,11 +885,7 @@ fn bake_report(
     } else {
         0.0
     };
-    let threads = if threads == 0 {
-        rayon::current_num_threads()
-    } else {
-        threads
-    };
+    let threads = texgraph::bake::capped_threads(threads).0;
     text.push_str(&format!(
         "  {} voxels in {:.3} s: {rate:.2} Mvoxels/s on {threads} thread(s)\n",
         report.voxels, report.seconds
@@ -777,6 +894,12 @@ fn bake_report(
 }
 
 fn report_command(args: ReportArgs) -> Result<(), Failure> {
+    if let Some(path) = &args.plot {
+        if let Err(e) = texgraph::output::check_file_argument(path, "png") {
+            eprintln!("error: {e}");
+            return Err(Failure::Usage);
+        }
+    }
     let check_options = CheckOptions {
         overrides: args.sets.clone(),
     };
@@ -798,8 +921,8 @@ fn report_command(args: ReportArgs) -> Result<(), Failure> {
             }
         };
         let options = texgraph::report::ReportOptions {
-            points: args.points,
-            runs: args.runs,
+            points: args.points as usize,
+            runs: args.runs as usize,
             region: args.region.unwrap_or_default(),
             ..Default::default()
         };
@@ -857,7 +980,7 @@ fn report_command(args: ReportArgs) -> Result<(), Failure> {
             format!(
                 "{}: {} points in [{}], median of {} runs, one thread; tape length {tapes}\n{}",
                 file.display(),
-                args.points + 4096,
+                args.points as usize + 4096,
                 region_text(&options.region),
                 args.runs,
                 texgraph::report::table_text(&rows)
@@ -899,6 +1022,19 @@ fn region_text(region: &texgraph::bake::Region) -> String {
     )
 }
 
+/// The input of render and watch must be a file; watch says so at once instead of waiting for a
+/// file that is missing (render reports the read error itself).
+fn check_render_input(file: &Path, watch: bool) -> Result<(), String> {
+    match std::fs::metadata(file) {
+        Ok(m) if m.is_dir() => Err(format!(
+            "{}: is a folder; give a graph or scene file",
+            file.display()
+        )),
+        Err(e) if watch => Err(format!("{}: {e}", file.display())),
+        _ => Ok(()),
+    }
+}
+
 fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
     use texgraph::render::{self, PreviewDefaults, Previewer, RenderOptions};
     let failure = |e: &render::RenderError| {
@@ -912,7 +1048,10 @@ fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
     let options = RenderOptions {
         size: args.size,
         samples: args.samples,
-        threads: args.threads,
+        // 0 stays 0: the renderer refuses it.
+        threads: args
+            .threads
+            .map(|t| if t == 0 { 0 } else { threads_or_warn(t) }),
         progress: !args.quiet,
     };
     if args.timing_table {
@@ -921,7 +1060,7 @@ fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
             .clone()
             .unwrap_or_else(|| PathBuf::from("graphs/seed003_marble.ron"));
         let timing = render::TimingOptions {
-            threads: args.threads,
+            threads: options.threads,
             ..Default::default()
         };
         let table = render::timing_table(&graph, &timing).map_err(|e| failure(&e))?;
@@ -940,9 +1079,29 @@ fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
                 .unwrap_or("render")
         ))
     });
+    if let Err(e) = check_render_input(&file, watch) {
+        eprintln!("error: {e}");
+        return Err(Failure::Usage);
+    }
+    if let Err(e) = texgraph::output::check_file_argument(&out, "png") {
+        eprintln!("error: {e}");
+        return Err(Failure::Usage);
+    }
+    let graph_only: Vec<&str> = [
+        ("--object", args.object.is_some()),
+        ("--space", args.space.is_some()),
+        ("--set", !args.sets.is_empty()),
+        ("--output", args.output.is_some()),
+    ]
+    .into_iter()
+    .filter_map(|(flag, given)| given.then_some(flag))
+    .collect();
+    if let Err(e) = render::refuse_graph_only_options(&file, &graph_only) {
+        return Err(failure(&e));
+    }
     let defaults = PreviewDefaults {
-        object: args.object.clone(),
-        space: args.space,
+        object: args.object.clone().unwrap_or_default(),
+        space: args.space.unwrap_or_default(),
         overrides: args.sets.clone(),
         output: args.output.clone(),
     };

@@ -1,6 +1,6 @@
 //! Reading sample points (`x y z` per line) for `texgraph eval --points`.
 
-use std::io::BufRead;
+use std::io::{BufRead, Read};
 
 /// A problem in a points file: the line number (1-based) and what was wrong.
 #[derive(Debug, thiserror::Error)]
@@ -16,13 +16,20 @@ pub enum PointsError {
         source_name: String,
         error: std::io::Error,
     },
+    /// Writing the results failed (the callback's error): not the points file's fault.
+    #[error("writing the results: {error}")]
+    Output { error: std::io::Error },
 }
+
+/// Longest line of a points file, in bytes: a file without line breaks is refused at this
+/// length instead of being read whole.
+pub const MAX_LINE: usize = 4096;
 
 /// Reads points in chunks of up to `chunk` points, calling `f` with x, y and z planes.
 /// Blank lines and lines starting with `#` are skipped; numbers are separated by whitespace or
 /// commas; `nan`, `inf` and `-inf` are accepted (the stability cases).
 pub fn for_each_chunk(
-    reader: impl BufRead,
+    mut reader: impl BufRead,
     source_name: &str,
     chunk: usize,
     mut f: impl FnMut(&[f64], &[f64], &[f64]) -> std::io::Result<()>,
@@ -36,8 +43,30 @@ pub fn for_each_chunk(
         Vec::with_capacity(chunk),
         Vec::with_capacity(chunk),
     );
-    for (index, line) in reader.lines().enumerate() {
-        let line = line.map_err(io)?;
+    let output = |error| PointsError::Output { error };
+    let mut bytes = Vec::new();
+    let mut index = 0usize;
+    loop {
+        bytes.clear();
+        let read = std::io::Read::by_ref(&mut reader)
+            .take(MAX_LINE as u64 + 1)
+            .read_until(b'\n', &mut bytes)
+            .map_err(io)?;
+        if read == 0 {
+            break;
+        }
+        index += 1;
+        if bytes.len() > MAX_LINE && bytes.last() != Some(&b'\n') {
+            if !xs.is_empty() {
+                f(&xs, &ys, &zs).map_err(output)?;
+            }
+            return Err(PointsError::Malformed {
+                source_name: source_name.to_string(),
+                line: index,
+                text: format!("a line longer than {MAX_LINE} bytes"),
+            });
+        }
+        let line = String::from_utf8_lossy(&bytes);
         let text = line.trim();
         if text.is_empty() || text.starts_with('#') {
             continue;
@@ -57,24 +86,24 @@ pub fn for_each_chunk(
                 // Points before the bad line are still evaluated and printed, whatever the
                 // chunking: the output does not depend on where a chunk happens to end.
                 if !xs.is_empty() {
-                    f(&xs, &ys, &zs).map_err(io)?;
+                    f(&xs, &ys, &zs).map_err(output)?;
                 }
                 return Err(PointsError::Malformed {
                     source_name: source_name.to_string(),
-                    line: index + 1,
+                    line: index,
                     text: text.chars().take(80).collect(),
                 });
             }
         }
         if xs.len() == chunk {
-            f(&xs, &ys, &zs).map_err(io)?;
+            f(&xs, &ys, &zs).map_err(output)?;
             xs.clear();
             ys.clear();
             zs.clear();
         }
     }
     if !xs.is_empty() {
-        f(&xs, &ys, &zs).map_err(io)?;
+        f(&xs, &ys, &zs).map_err(output)?;
     }
     Ok(())
 }

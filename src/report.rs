@@ -13,6 +13,13 @@ use crate::tape::Tape;
 use crate::{Real, Workspace};
 use std::time::Instant;
 
+/// Most random sample points (`--points`): the report keeps every strategy's values for every
+/// point (about 100 bytes per point and channel) and times each strategy on all of them, so
+/// 2 000 000 points of a 4-channel graph take about 1 GiB and a few minutes.
+pub const MAX_POINTS: usize = 2_000_000;
+/// Most timed runs per strategy (`--runs`).
+pub const MAX_RUNS: usize = 100;
+
 /// What to measure.
 #[derive(Clone, Debug)]
 pub struct ReportOptions {
@@ -224,6 +231,12 @@ pub fn accuracy_report(
     outputs: &[String],
     options: &ReportOptions,
 ) -> Result<Vec<Row>, crate::Diagnostics> {
+    // The bounds hold for library callers too: points and runs are clamped to them.
+    let options = &ReportOptions {
+        points: options.points.min(MAX_POINTS),
+        runs: options.runs.clamp(1, MAX_RUNS),
+        ..options.clone()
+    };
     let points = sample_points(options.points, &options.region);
     let planes = Planes::new(&points);
     let n = points.len() as f64;
@@ -581,7 +594,14 @@ pub fn plot(rows: &[Row], title: &str, path: &std::path::Path) -> Result<(), Str
     }
     let image =
         image::RgbImage::from_raw(width, height, buffer).ok_or("plot buffer has the wrong size")?;
-    image.save(path).map_err(|e| e.to_string())
+    crate::output::write_atomic(path, |w| {
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        image
+            .write_to(&mut bytes, image::ImageFormat::Png)
+            .map_err(std::io::Error::other)?;
+        w.write_all(bytes.get_ref())
+    })
+    .map_err(|e| e.to_string())
 }
 
 /// The introduction of docs/accuracy.md, printed once by `texgraph report --markdown`.

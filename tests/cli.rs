@@ -418,7 +418,7 @@ fn check_missing_file_is_an_io_error() {
 }
 
 #[test]
-fn check_a_directory_or_non_utf8_file_is_an_io_error() {
+fn a_directory_is_an_io_error_and_a_non_utf8_file_is_invalid() {
     let dir = scratch("io");
     expect_code(&["check", dir.to_str().expect("path")], 2);
     let file = write(
@@ -426,8 +426,13 @@ fn check_a_directory_or_non_utf8_file_is_an_io_error() {
         "latin1.ron",
         b"Graph(nodes: { \"caf\xe9\": Position }, outputs: { \"c\": \"caf\xe9\" })",
     );
-    let out = expect_code(&["check", &file], 2);
-    assert!(stderr(&out).contains("UTF-8"), "{}", stderr(&out));
+    // Not UTF-8 is invalid input (exit 1), located at the first bad byte.
+    let out = expect_code(&["check", &file], 1);
+    let err = stderr(&out);
+    assert!(
+        err.contains("latin1.ron:1:20: the file is not UTF-8 text: invalid byte 0xE9"),
+        "{err}"
+    );
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -379,12 +379,13 @@ fn all_classes() -> Vec<DiagnosticClass> {
         NotConstant,
         UnknownOutput,
         UnknownParam,
+        BadName,
     ];
     for class in &all {
         match class {
             Syntax | UnknownKind | UnknownReference | WrongComponent | Type | Cycle
             | BadParameter | MissingArgument | UnknownArgument | DuplicateName | Limit
-            | NotConstant | UnknownOutput | UnknownParam => {}
+            | NotConstant | UnknownOutput | UnknownParam | BadName => {}
         }
     }
     all

@@ -10,6 +10,7 @@
 use super::sinks::{Exr, PngAtlas, PngSlices, Raw, RawSamples};
 use super::{bake_into, BakeError, BakeOptions, Grid, OutputStats, Sink, Window};
 use crate::graph::Type;
+use crate::output::{self, Expect};
 use crate::tape::Tape;
 use std::path::{Path, PathBuf};
 
@@ -31,6 +32,32 @@ pub enum Transfer {
     Srgb,
     /// Colour values are written as they are (clamped and scaled).
     Linear,
+}
+
+/// Lossless compression of EXR files (all of OpenEXR's lossless methods that the `exr` crate
+/// writes). docs/baking.md has the measured sizes and times behind the default.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum ExrCompression {
+    /// ZIP (deflate) over blocks of 16 scan lines.
+    #[default]
+    Zip,
+    /// PIZ (wavelet + Huffman) over tiles of 256×256.
+    Piz,
+    /// Run-length encoding over tiles of 64×64.
+    Rle,
+    /// No compression.
+    None,
+}
+
+impl ExrCompression {
+    pub fn name(self) -> &'static str {
+        match self {
+            ExrCompression::Zip => "ZIP (16 scan lines per block)",
+            ExrCompression::Piz => "PIZ (256×256 tiles)",
+            ExrCompression::Rle => "RLE (64×64 tiles)",
+            ExrCompression::None => "none",
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -64,13 +91,23 @@ pub struct BakeFileOptions {
     pub transfer: Transfer,
     /// Refuse a bake whose files would exceed this many bytes (uncompressed estimate).
     pub max_bytes: u64,
-    /// Recorded in the raw sidecar.
+    /// Refuse a bake whose format would hold more than this many bytes in memory (EXR: the
+    /// whole volume; PNG atlas: a row of tiles; PNG slices: two rows).
+    pub max_held_bytes: u64,
+    /// EXR compression.
+    pub exr_compression: ExrCompression,
+    /// Recorded in the raw sidecar and the EXR header.
     pub graph_path: String,
+    /// The params the graph was baked with (overrides applied), in file order.
     pub params: Vec<(String, f64)>,
+    /// The `--set` overrides, as given.
+    pub overrides: Vec<(String, f64)>,
 }
 
 /// Default for [`BakeFileOptions::max_bytes`]: 16 GiB.
 pub const DEFAULT_MAX_BAKE_BYTES: u64 = 16 << 30;
+/// Default for [`BakeFileOptions::max_held_bytes`]: 2 GiB.
+pub const DEFAULT_MAX_HELD_BYTES: u64 = 2 << 30;
 
 impl BakeFileOptions {
     pub fn new(stem: impl Into<String>, out_dir: impl Into<PathBuf>) -> BakeFileOptions {
@@ -87,8 +124,11 @@ impl BakeFileOptions {
             alpha: false,
             transfer: Transfer::Srgb,
             max_bytes: DEFAULT_MAX_BAKE_BYTES,
+            max_held_bytes: DEFAULT_MAX_HELD_BYTES,
+            exr_compression: ExrCompression::default(),
             graph_path: String::new(),
             params: Vec::new(),
+            overrides: Vec::new(),
         }
     }
 
@@ -128,8 +168,10 @@ pub struct BakeReport {
     pub seconds: f64,
 }
 
-/// The final path of each output's file (or slice folder), in output order.
-pub fn planned_outputs(tape: &Tape, options: &BakeFileOptions) -> Vec<PathBuf> {
+/// The final path of each output's file (or slice folder), in output order. Each is a direct
+/// child of the output folder: a name that would leave it is refused (the checker already
+/// refuses such output names; this is the second line of defence).
+pub fn planned_outputs(tape: &Tape, options: &BakeFileOptions) -> Result<Vec<PathBuf>, BakeError> {
     tape.outputs
         .iter()
         .map(|o| {
@@ -140,9 +182,18 @@ pub fn planned_outputs(tape: &Tape, options: &BakeFileOptions) -> Vec<PathBuf> {
                 Format::Png => base,
                 Format::Raw => format!("{base}.raw"),
             };
-            options.out_dir.join(name)
+            Ok(output::join_inside(&options.out_dir, &name)?)
         })
         .collect()
+}
+
+/// What a final destination must be if it exists: a folder for PNG slices, else a file.
+fn expect(options: &BakeFileOptions) -> Expect {
+    if options.format == Format::Png && !options.atlas {
+        Expect::Folder
+    } else {
+        Expect::File
+    }
 }
 
 fn sidecar_path(raw: &Path) -> PathBuf {
@@ -240,37 +291,8 @@ fn name_final_file(error: BakeError, temps: &[(PathBuf, PathBuf)]) -> BakeError 
     }
 }
 
-/// Makes a hidden temporary next to `final_path` with `make` (a file or a folder). They get the
-/// usual 0644 (0755 for folders), less the umask, instead of tempfile's private 0600: they become
-/// the user's files.
-fn make_temp<T>(
-    final_path: &Path,
-    folder: bool,
-    make: impl FnOnce(&tempfile::Builder<'_, '_>) -> std::io::Result<T>,
-) -> std::io::Result<T> {
-    let name = final_path
-        .file_name()
-        .and_then(|n| n.to_str())
-        .unwrap_or("bake");
-    let prefix = format!(".{name}.");
-    let mut builder = tempfile::Builder::new();
-    builder.prefix(&prefix).suffix(".partial");
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        builder.permissions(std::fs::Permissions::from_mode(if folder {
-            0o755
-        } else {
-            0o644
-        }));
-    }
-    #[cfg(not(unix))]
-    let _ = folder;
-    make(&builder)
-}
-
 fn temp_file(dir: &Path, final_path: &Path) -> Result<tempfile::NamedTempFile, BakeError> {
-    make_temp(final_path, false, |b| b.tempfile_in(dir)).map_err(io(dir))
+    output::temp_file(dir, final_path).map_err(io(dir))
 }
 
 /// Bakes every output of `tape` to files. Checks everything that can be checked first (sizes,
@@ -282,6 +304,21 @@ pub fn bake_files(
     options: &BakeFileOptions,
     progress: &mut dyn FnMut(u64),
 ) -> Result<BakeReport, BakeError> {
+    let (finals, voxels) = preflight(tape, options)?;
+    let created_out_dir = !options.out_dir.exists();
+    std::fs::create_dir_all(&options.out_dir).map_err(io(&options.out_dir))?;
+    let result = bake_into_files(tape, options, &finals, voxels, progress);
+    if result.is_err() && created_out_dir {
+        // Leave no trace of a bake that did not happen (only if the folder is still empty).
+        let _ = std::fs::remove_dir(&options.out_dir);
+    }
+    result
+}
+
+/// Everything checked before a bake starts: the grid, the size on disk, what the format must
+/// hold in memory, the format's dimension limits, and every destination. Returns the final
+/// paths and the voxel count.
+fn preflight(tape: &Tape, options: &BakeFileOptions) -> Result<(Vec<PathBuf>, u64), BakeError> {
     let grid = options.bake.grid;
     validate_grid(&grid)?;
     let voxels = grid
@@ -301,11 +338,33 @@ pub fn bake_files(
             human_bytes(options.max_bytes)
         )));
     }
-    let finals = planned_outputs(tape, options);
+    check_dimensions(&grid, options)?;
+    let held = held_bytes(tape, options);
+    if held > options.max_held_bytes {
+        let why = match options.format {
+            Format::Exr => "an EXR file is written from the whole volume, held in memory",
+            Format::Png if options.atlas => "a PNG atlas holds one row of tiles in memory",
+            _ => "a PNG slice is encoded a row at a time, two rows held in memory",
+        };
+        return Err(BakeError::Refused(format!(
+            "{why}: this bake would hold about {}, more than the limit of {}; bake --format raw (streamed), a smaller grid, or pass --allow-large",
+            human_bytes(held),
+            human_bytes(options.max_held_bytes)
+        )));
+    }
+    output::check_out_folder(&options.out_dir)?;
+    let finals = planned_outputs(tape, options)?;
+    for path in &finals {
+        output::check_destination(path, expect(options))?;
+        if options.format == Format::Raw {
+            output::check_destination(&sidecar_path(path), Expect::File)?;
+        }
+    }
     if !options.force {
         for path in &finals {
-            let exists =
-                path.exists() || (options.format == Format::Raw && sidecar_path(path).exists());
+            let exists = std::fs::symlink_metadata(path).is_ok()
+                || (options.format == Format::Raw
+                    && std::fs::symlink_metadata(sidecar_path(path)).is_ok());
             if exists {
                 return Err(BakeError::Refused(format!(
                     "{} exists; pass --force to overwrite it",
@@ -314,14 +373,67 @@ pub fn bake_files(
             }
         }
     }
-    let created_out_dir = !options.out_dir.exists();
-    std::fs::create_dir_all(&options.out_dir).map_err(io(&options.out_dir))?;
-    let result = bake_into_files(tape, options, &finals, voxels, progress);
-    if result.is_err() && created_out_dir {
-        // Leave no trace of a bake that did not happen (only if the folder is still empty).
-        let _ = std::fs::remove_dir(&options.out_dir);
+    Ok((finals, voxels))
+}
+
+/// Largest width or height of a PNG image (the PNG specification's 2^31 − 1) and of an EXR
+/// image (OpenEXR stores coordinates as 32-bit signed integers).
+const MAX_IMAGE_SIDE: u64 = i32::MAX as u64;
+
+/// Refuses grids whose images the format cannot represent.
+fn check_dimensions(grid: &Grid, options: &BakeFileOptions) -> Result<(), BakeError> {
+    let [nx, ny, nz] = grid.size.map(|n| n as u64);
+    let (what, width, height) = match options.format {
+        Format::Raw => return Ok(()),
+        Format::Exr => ("an EXR image (slices stacked)", nx, ny.saturating_mul(nz)),
+        Format::Png if options.atlas => {
+            let (columns, rows) = atlas_shape(nz);
+            (
+                "a PNG atlas",
+                columns.saturating_mul(nx),
+                rows.saturating_mul(ny),
+            )
+        }
+        Format::Png => ("a PNG slice", nx, ny),
+    };
+    if width > MAX_IMAGE_SIDE || height > MAX_IMAGE_SIDE {
+        return Err(BakeError::Refused(format!(
+            "{what} would be {width}×{height} pixels; the format allows at most {MAX_IMAGE_SIDE} a side (bake --format raw for any shape)"
+        )));
     }
-    result
+    Ok(())
+}
+
+/// Columns and rows of tiles of an atlas of `nz` slices: ⌈√nz⌉ columns.
+pub(super) fn atlas_shape(nz: u64) -> (u64, u64) {
+    let columns = ((nz as f64).sqrt().ceil() as u64).max(1);
+    (columns, nz.div_ceil(columns))
+}
+
+/// Bytes the format's writers keep in memory beyond the bake's window, summed over outputs.
+fn held_bytes(tape: &Tape, options: &BakeFileOptions) -> u64 {
+    let grid = options.bake.grid;
+    let [nx, ny, nz] = grid.size.map(|n| n as u64);
+    let voxels = grid.voxels().unwrap_or(u64::MAX);
+    tape.outputs
+        .iter()
+        .map(|o| {
+            let channels = o.ty.channels() as u64;
+            let sample = if options.depth16 { 2 } else { 1 };
+            match options.format {
+                Format::Raw => 0,
+                Format::Exr => voxels.saturating_mul(channels * 4),
+                Format::Png if options.atlas => {
+                    let (columns, _) = atlas_shape(nz);
+                    (2 * columns)
+                        .saturating_mul(nx)
+                        .saturating_mul(ny)
+                        .saturating_mul(channels * sample)
+                }
+                Format::Png => (2 * nx).saturating_mul(channels * sample),
+            }
+        })
+        .fold(0, u64::saturating_add)
 }
 
 fn bake_into_files(
@@ -343,7 +455,6 @@ fn bake_into_files(
                     output: index,
                     ty: output.ty,
                     data: Vec::new(),
-                    scratch: Vec::new(),
                 },
                 temp: temp_file(&options.out_dir, final_path)?,
             },
@@ -362,8 +473,8 @@ fn bake_into_files(
                 Pending::Atlas { sink, temp }
             }
             Format::Png => {
-                let temp = make_temp(final_path, true, |b| b.tempdir_in(&options.out_dir))
-                    .map_err(io(&options.out_dir))?;
+                let temp =
+                    output::temp_dir(&options.out_dir, final_path).map_err(io(&options.out_dir))?;
                 let sink = PngSlices {
                     folder: temp.path().to_path_buf(),
                     output: index,
@@ -371,6 +482,7 @@ fn bake_into_files(
                     depth16: options.depth16,
                     srgb,
                     digits,
+                    open: None,
                 };
                 Pending::Slices { sink, temp }
             }
@@ -428,7 +540,14 @@ fn bake_into_files(
                     let attributes = exr_attributes(&grid, options, &output.name);
                     let attributes: Vec<(&str, String)> =
                         attributes.iter().map(|(k, v)| (*k, v.clone())).collect();
-                    sink.write(temp.path(), file, &grid, options.half, &attributes)?;
+                    sink.write(
+                        temp.path(),
+                        file,
+                        &grid,
+                        options.half,
+                        options.exr_compression,
+                        &attributes,
+                    )?;
                     staged.push((Staged::File(temp.into_temp_path()), final_path.clone()));
                     let depth = if options.half { "f16" } else { "f32" };
                     format!(
@@ -513,6 +632,14 @@ fn commit(staged: Vec<(Staged, PathBuf)>, out_dir: &Path) -> Result<(), BakeErro
             let _ = std::fs::rename(aside, final_path);
         }
     };
+    // The destinations were checked before the bake; check again right before replacing them.
+    for (entry, final_path) in &staged {
+        let expect = match entry {
+            Staged::File(_) => Expect::File,
+            Staged::Dir(_) => Expect::Folder,
+        };
+        output::check_destination(final_path, expect)?;
+    }
     for (index, (_, final_path)) in staged.iter().enumerate() {
         if std::fs::symlink_metadata(final_path).is_ok() {
             let aside = aside_dir.path().join(index.to_string());
@@ -578,9 +705,24 @@ fn exr_attributes(
         ("region", format!("{} {} {} : {} {} {}", grid.region.min[0], grid.region.min[1], grid.region.min[2], grid.region.max[0], grid.region.max[1], grid.region.max[2])),
         ("layout", "slices stacked: row k*ny + j holds voxel row (j, k); voxel centres at min + (index + 0.5) * (max - min) / size".into()),
         ("graph", options.graph_path.clone()),
+        ("params", params_json(&options.params)),
+        ("overrides", params_json(&options.overrides)),
+        ("compression", options.exr_compression.name().to_string()),
         ("output", output.to_string()),
         ("version", env!("CARGO_PKG_VERSION").to_string()),
     ]
+}
+
+/// `{"period":1.3,"octaves":2.0}`: params or overrides as a JSON object, in order.
+fn params_json(params: &[(String, f64)]) -> String {
+    serde_json::Value::Object(params_map(params)).to_string()
+}
+
+fn params_map(params: &[(String, f64)]) -> serde_json::Map<String, serde_json::Value> {
+    params
+        .iter()
+        .map(|(k, v)| (k.clone(), serde_json::json!(v)))
+        .collect()
 }
 
 fn raw_sidecar(
@@ -610,11 +752,6 @@ fn raw_sidecar(
             "linear: clamp to [0, 1], x 255, round; NaN -> 0"
         }
     };
-    let params: serde_json::Map<String, serde_json::Value> = options
-        .params
-        .iter()
-        .map(|(k, v)| (k.clone(), serde_json::json!(v)))
-        .collect();
     let stats = stats.iter().find(|s| s.name == output.name);
     let json = serde_json::json!({
         "texgraph_version": env!("CARGO_PKG_VERSION"),
@@ -630,7 +767,8 @@ fn raw_sidecar(
         "byte_order": "little-endian",
         "transfer": transfer,
         "bytes": grid.voxels().unwrap_or(0) * (channels.len() as u64) * if sample == "f32" { 4 } else { 1 },
-        "params": params,
+        "params": params_map(&options.params),
+        "overrides": params_map(&options.overrides),
         "stats": stats,
     });
     serde_json::to_string_pretty(&json).unwrap_or_default() + "\n"

@@ -1,22 +1,29 @@
-//! Stage 5, bake: a tape evaluated over a voxel grid, streamed slab by slab into a sink (an EXR,
-//! PNG or raw file writer, or an in-memory [`Volume`]).
+//! Stage 5, bake: a tape evaluated over a voxel grid, streamed window by window into a sink (an
+//! EXR, PNG or raw file writer, or an in-memory [`Volume`]).
 //!
-//! The grid is cut into windows of whole z slices. The voxels of a window are evaluated in
-//! parallel (rayon, one task per row of voxels, each with its own workspace), then the window is
-//! handed to the sink in z order; the next window reuses the same buffer. Peak memory is one
-//! window (about `2 × threads × 64 Ki` voxels, at least one slice) plus what the sink keeps: a
-//! PNG slice writer and a raw writer keep nothing, a PNG atlas keeps one row of tiles, an EXR
-//! file (whose writer needs the whole image) and a `Volume` keep everything.
+//! The voxels, in file order (x fastest, then y, then z), are cut into *segments*: runs of at
+//! most [`SEGMENT_VOXELS`] voxels inside one row (a row longer than that is split). A window is
+//! a run of consecutive segments: whole z slices when a slice is small, part of a slice when it
+//! is large. The segments of a window are evaluated in parallel (rayon, one task per segment,
+//! each with its own workspace), then the window is handed to the sink; the next window reuses
+//! the same buffer. So the bake itself holds at most [`WINDOW_BYTES`] of samples plus one
+//! segment's buffers per thread, whatever the grid's shape (a 4 294 967 296 × 1 × 1 row and a
+//! 65 536 × 65 536 slice stream like a cube). What a sink keeps is its own bound, checked before
+//! the bake starts (`files.rs`): a raw writer and a PNG slice writer keep a row or two, a PNG
+//! atlas one row of tiles, an EXR file (whose writer needs the whole image) and a `Volume`
+//! everything.
 //!
-//! Every voxel is evaluated on its own by the same code, and statistics are reduced in row
-//! order, so results are bit-identical whatever the thread count.
+//! Every voxel is evaluated on its own by the same code, segments do not depend on the thread
+//! count, and statistics are reduced in segment order, so results are bit-identical whatever
+//! the thread count.
 
 mod files;
 mod sinks;
 
 pub use files::{
-    bake_files, human_bytes, planned_outputs, BakeFileOptions, BakeReport, BakedFile, Format,
-    RawSampleType, Transfer, DEFAULT_MAX_BAKE_BYTES,
+    bake_files, human_bytes, planned_outputs, BakeFileOptions, BakeReport, BakedFile,
+    ExrCompression, Format, RawSampleType, Transfer, DEFAULT_MAX_BAKE_BYTES,
+    DEFAULT_MAX_HELD_BYTES,
 };
 pub use sinks::{encode_u16, encode_u8, srgb_encode};
 
@@ -122,6 +129,9 @@ pub enum BakeError {
     Encode { path: String, message: String },
     #[error("{0}")]
     Refused(String),
+    /// A destination texgraph will not write (see [`crate::output`]).
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
     #[error("the bake was interrupted")]
     Cancelled,
 }
@@ -137,6 +147,9 @@ pub struct ChannelStats {
     pub nan: u64,
     pub pos_inf: u64,
     pub neg_inf: u64,
+    /// Values below 0 and above 1 (infinities included): what an 8/16-bit file clamps.
+    pub below_zero: u64,
+    pub above_one: u64,
     #[serde(skip)]
     sum: f64,
     #[serde(skip)]
@@ -152,6 +165,8 @@ impl Default for ChannelStats {
             nan: 0,
             pos_inf: 0,
             neg_inf: 0,
+            below_zero: 0,
+            above_one: 0,
             sum: 0.0,
             finite: 0,
         }
@@ -161,6 +176,8 @@ impl Default for ChannelStats {
 impl ChannelStats {
     #[inline]
     fn add(&mut self, v: f32) {
+        self.below_zero += u64::from(v < 0.0);
+        self.above_one += u64::from(v > 1.0);
         if v.is_finite() {
             let v = v as f64;
             self.min = self.min.min(v);
@@ -184,6 +201,8 @@ impl ChannelStats {
         self.nan += other.nan;
         self.pos_inf += other.pos_inf;
         self.neg_inf += other.neg_inf;
+        self.below_zero += other.below_zero;
+        self.above_one += other.above_one;
         self.mean = if self.finite > 0 {
             self.sum / self.finite as f64
         } else {
@@ -193,6 +212,17 @@ impl ChannelStats {
 
     pub fn non_finite(&self) -> u64 {
         self.nan + self.pos_inf + self.neg_inf
+    }
+
+    /// How many values were finite (min, max and mean are over these).
+    pub fn finite(&self) -> u64 {
+        self.finite
+    }
+
+    /// Values outside [0, 1]: what an 8/16-bit encoding clamps (NaN, written as 0, is counted
+    /// in [`ChannelStats::nan`] instead).
+    pub fn clamped(&self) -> u64 {
+        self.below_zero + self.above_one
     }
 }
 
@@ -207,19 +237,118 @@ impl OutputStats {
     pub fn non_finite(&self) -> u64 {
         self.channels.iter().map(|c| c.non_finite()).sum()
     }
+
+    /// Values below 0 and above 1 over all channels.
+    pub fn clamped(&self) -> (u64, u64) {
+        self.channels
+            .iter()
+            .fold((0, 0), |(b, a), c| (b + c.below_zero, a + c.above_one))
+    }
 }
 
-/// One window of evaluated slices, handed to a sink in z order.
+/// Longest run of voxels one task evaluates (rows longer than this are split).
+pub const SEGMENT_VOXELS: usize = 64 * 1024;
+/// Bound on one segment's evaluated samples (channels × voxels × 8 bytes): a graph with many
+/// outputs gets shorter segments.
+pub const SEGMENT_BYTES: usize = 4 << 20;
+/// Bound on a window's samples (channels × voxels × 4 bytes), unless one segment is larger.
+pub const WINDOW_BYTES: usize = 64 << 20;
+
+/// How a grid is cut into segments and windows; depends on the grid, the channel count and the
+/// thread count (windows only: segments never depend on threads).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Layout {
+    /// Voxels per segment (the last segment of a row may be shorter).
+    pub segment_len: usize,
+    /// Segments per row of voxels.
+    pub per_row: usize,
+    /// Segments in the grid.
+    pub total: u64,
+    /// Segments per window (the last window may hold fewer).
+    pub per_window: usize,
+}
+
+impl Layout {
+    /// The layout of `grid` for `channels` channels and `threads` worker threads. `None` for an
+    /// empty grid or no channels.
+    pub fn new(grid: &Grid, channels: usize, threads: usize) -> Option<Layout> {
+        let [nx, ny, nz] = grid.size;
+        if nx == 0 || ny == 0 || nz == 0 || channels == 0 {
+            return None;
+        }
+        let segment_len = nx
+            .min(SEGMENT_VOXELS)
+            .min((SEGMENT_BYTES / (8 * channels)).max(1));
+        let per_row = nx.div_ceil(segment_len);
+        let slice = (per_row as u64).checked_mul(ny as u64)?;
+        let total = slice.checked_mul(nz as u64)?;
+        // About two full segments' worth of voxels per thread, within the window's byte bound.
+        let by_threads = 2 * threads.max(1) * SEGMENT_VOXELS;
+        let by_bytes = WINDOW_BYTES / (4 * channels);
+        let target = (by_threads.min(by_bytes) / segment_len).max(1) as u64;
+        // Small slices: whole slices per window (sinks write them in parallel).
+        let per_window = if slice <= target {
+            (target / slice) * slice
+        } else {
+            target
+        };
+        Some(Layout {
+            segment_len,
+            per_row,
+            total,
+            per_window: per_window.min(total) as usize,
+        })
+    }
+
+    /// Where segment `index` of the grid lies.
+    #[inline]
+    pub fn segment(&self, grid: &Grid, index: u64) -> Segment {
+        let [nx, ny, _] = grid.size;
+        let row = index / self.per_row as u64;
+        let part = (index % self.per_row as u64) as usize;
+        let i0 = part * self.segment_len;
+        Segment {
+            k: (row / ny as u64) as usize,
+            j: (row % ny as u64) as usize,
+            i0,
+            len: self.segment_len.min(nx - i0),
+        }
+    }
+}
+
+/// A run of voxels inside one row: voxels (i0 .. i0 + len, j, k).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Segment {
+    pub k: usize,
+    pub j: usize,
+    pub i0: usize,
+    pub len: usize,
+}
+
+impl Segment {
+    /// The segment starts a z slice.
+    pub fn starts_slice(&self) -> bool {
+        self.i0 == 0 && self.j == 0
+    }
+
+    /// The segment ends its z slice.
+    pub fn ends_slice(&self, grid: &Grid) -> bool {
+        self.i0 + self.len == grid.size[0] && self.j + 1 == grid.size[1]
+    }
+}
+
+/// One window of evaluated segments, handed to a sink in file order.
 ///
-/// Layout: row-planar. Row (k, j) of the window holds every channel of every output for the `nx`
-/// voxels of that row: channel `c` (numbered across outputs) of voxel `i` at
-/// `(row * channels + c) * nx + i`, rows in order k, then j.
+/// Layout: segment-planar. Segment `s` of the window holds every channel of every output for
+/// its voxels: channel `c` (numbered across outputs) of its voxel `i` at
+/// `(s * channels + c) * segment_len + i`.
 pub struct Window<'a> {
     pub grid: &'a Grid,
-    /// First z slice of the window and how many slices it holds.
-    pub z_start: usize,
-    pub depth: usize,
-    /// Channels per row across all outputs, and the first channel of each output.
+    pub layout: &'a Layout,
+    /// Index of the window's first segment in the grid, and how many it holds.
+    pub first_segment: u64,
+    pub segments: usize,
+    /// Channels per voxel across all outputs, and the first channel of each output.
     pub channels: usize,
     pub outputs: &'a [WindowOutput],
     data: &'a [f32],
@@ -234,27 +363,67 @@ pub struct WindowOutput {
 }
 
 impl Window<'_> {
-    /// Writes slice `k_local` of output `output` as interleaved channels, x fastest then y
-    /// (`nx · ny · channels` values) into `out`.
-    pub fn slice_interleaved(&self, output: usize, k_local: usize, out: &mut Vec<f32>) {
-        let [nx, ny, _] = self.grid.size;
+    /// The window's segments, in file order, with their position in the window.
+    pub fn segments(&self) -> impl Iterator<Item = (usize, Segment)> + '_ {
+        (0..self.segments).map(|s| {
+            (
+                s,
+                self.layout
+                    .segment(self.grid, self.first_segment + s as u64),
+            )
+        })
+    }
+
+    /// The z slices the window holds whole, `(first, count)`, when it holds only whole slices.
+    pub fn whole_slices(&self) -> Option<(usize, usize)> {
+        let slice = self.layout.per_row as u64 * self.grid.size[1] as u64;
+        (self.first_segment.is_multiple_of(slice) && (self.segments as u64).is_multiple_of(slice))
+            .then(|| {
+                (
+                    (self.first_segment / slice) as usize,
+                    (self.segments as u64 / slice) as usize,
+                )
+            })
+    }
+
+    /// Appends the voxels of the window's segment `s` (of `segment` geometry) for output
+    /// `output` to `out`, channels interleaved.
+    pub fn push_interleaved(&self, output: usize, s: usize, segment: &Segment, out: &mut Vec<f32>) {
         let o = &self.outputs[output];
         let width = o.ty.channels();
-        out.clear();
-        out.reserve(nx * ny * width);
-        for j in 0..ny {
-            let row = k_local * ny + j;
-            let base = row * self.channels * nx;
-            for i in 0..nx {
-                for c in 0..width {
-                    out.push(self.data[base + (o.first_channel + c) * nx + i]);
-                }
+        let len = self.layout.segment_len;
+        let base = s * self.channels * len;
+        out.reserve(segment.len * width);
+        for i in 0..segment.len {
+            for c in 0..width {
+                out.push(self.data[base + (o.first_channel + c) * len + i]);
             }
+        }
+    }
+
+    /// Every voxel of the window for output `output`, channels interleaved, in file order.
+    pub fn interleaved(&self, output: usize, out: &mut Vec<f32>) {
+        out.clear();
+        for (s, segment) in self.segments() {
+            self.push_interleaved(output, s, &segment, out);
+        }
+    }
+
+    /// Writes slice `k_local` of a window of whole slices (see [`Window::whole_slices`]) for
+    /// output `output` as interleaved channels, x fastest then y, into `out`.
+    pub fn slice_interleaved(&self, output: usize, k_local: usize, out: &mut Vec<f32>) {
+        out.clear();
+        let slice = self.layout.per_row * self.grid.size[1];
+        for s in k_local * slice..(k_local + 1) * slice {
+            let segment = self
+                .layout
+                .segment(self.grid, self.first_segment + s as u64);
+            self.push_interleaved(output, s, &segment, out);
         }
     }
 }
 
-/// Receives the windows of a bake, in z order.
+/// Receives the windows of a bake, in file order.
 pub trait Sink: Send {
     fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError>;
 }
@@ -286,22 +455,21 @@ impl VolumeOutput {
 
 struct VolumeSink {
     outputs: Vec<VolumeOutput>,
-    scratch: Vec<f32>,
 }
 
 impl Sink for VolumeSink {
     fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
         for (o, output) in self.outputs.iter_mut().enumerate() {
-            for k in 0..window.depth {
-                window.slice_interleaved(o, k, &mut self.scratch);
-                output.data.extend_from_slice(&self.scratch);
+            for (s, segment) in window.segments() {
+                window.push_interleaved(o, s, &segment, &mut output.data);
             }
         }
         Ok(())
     }
 }
 
-/// Bakes into memory. Needs `voxels × channels × 4` bytes.
+/// Bakes into memory. Needs `voxels × channels × 4` bytes; refused (before anything is
+/// allocated) if that does not fit in `usize` or exceeds `max_bytes`.
 pub fn bake_volume(tape: &Tape, options: &BakeOptions) -> Result<Volume, BakeError> {
     let mut sink = VolumeSink {
         outputs: tape
@@ -313,7 +481,6 @@ pub fn bake_volume(tape: &Tape, options: &BakeOptions) -> Result<Volume, BakeErr
                 data: Vec::new(),
             })
             .collect(),
-        scratch: Vec::new(),
     };
     let stats = bake_into(tape, options, &mut sink, &mut |_| {})?;
     Ok(Volume {
@@ -323,27 +490,35 @@ pub fn bake_volume(tape: &Tape, options: &BakeOptions) -> Result<Volume, BakeErr
     })
 }
 
-/// Voxels per window per thread: large enough that a task switch is noise, small enough that a
-/// window stays a few MiB.
-const VOXELS_PER_THREAD: usize = 64 * 1024;
+/// Most worker threads per available core (`--threads` above it is capped, with a warning from
+/// the command line).
+pub const MAX_THREADS_PER_CORE: usize = 4;
 
-/// Bakes `tape` over the grid into `sink`, window by window in z order; calls `progress` with
-/// the voxels done so far after each window. Returns per-output statistics.
+/// The thread count a bake or render uses for a request (`0`: one per core): at most
+/// [`MAX_THREADS_PER_CORE`] × the available parallelism. Returns it and whether it was capped.
+pub fn capped_threads(requested: usize) -> (usize, bool) {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let cap = cores * MAX_THREADS_PER_CORE;
+    match requested {
+        0 => (cores, false),
+        n if n > cap => (cap, true),
+        n => (n, false),
+    }
+}
+
+/// Bakes `tape` over the grid into `sink`, window by window in file order; calls `progress`
+/// with the voxels done so far after each window. Returns per-output statistics.
 pub fn bake_into(
     tape: &Tape,
     options: &BakeOptions,
     sink: &mut dyn Sink,
     progress: &mut dyn FnMut(u64),
 ) -> Result<Vec<OutputStats>, BakeError> {
+    let (threads, _) = capped_threads(options.threads);
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(options.threads)
+        .num_threads(threads)
         .build()
-        .map_err(|e| {
-            BakeError::Refused(format!(
-                "cannot start {} worker threads: {e}",
-                options.threads
-            ))
-        })?;
+        .map_err(|e| BakeError::Refused(format!("cannot start {threads} worker threads: {e}")))?;
     match options.precision {
         Precision::F32 => bake_with::<f32>(tape, options, &pool, sink, progress),
         Precision::F64 => bake_with::<f64>(tape, options, &pool, sink, progress),
@@ -357,9 +532,7 @@ fn bake_with<S: Real>(
     sink: &mut dyn Sink,
     progress: &mut dyn FnMut(u64),
 ) -> Result<Vec<OutputStats>, BakeError> {
-    let threads = pool.current_num_threads();
     let grid = &options.grid;
-    let [nx, ny, nz] = grid.size;
     let channels = tape.channels();
     let outputs: Vec<WindowOutput> = tape
         .outputs
@@ -371,19 +544,15 @@ fn bake_with<S: Real>(
         })
         .collect();
     let mut stats: Vec<ChannelStats> = vec![ChannelStats::default(); channels];
-    if nx == 0 || ny == 0 || nz == 0 || channels == 0 {
+    let Some(layout) = Layout::new(grid, channels, pool.current_num_threads()) else {
         return Ok(collect_stats(tape, &stats));
-    }
-    let slice_voxels = nx * ny;
-    let depth = (2 * threads * VOXELS_PER_THREAD)
-        .div_ceil(slice_voxels)
-        .clamp(1, nz);
-    let xs: Vec<f64> = (0..nx).map(|i| grid.centre(0, i)).collect();
-    let row_len = channels * nx;
-    let mut buffer = vec![0f32; depth * ny * row_len];
+    };
+    let seg_len = layout.segment_len;
+    let block = channels * seg_len;
+    let mut buffer = vec![0f32; layout.per_window * block];
     let mut done = 0u64;
-    let mut z_start = 0;
-    while z_start < nz {
+    let mut first = 0u64;
+    while first < layout.total {
         if options
             .cancel
             .as_ref()
@@ -391,59 +560,69 @@ fn bake_with<S: Real>(
         {
             return Err(BakeError::Cancelled);
         }
-        let window_depth = depth.min(nz - z_start);
-        let data = &mut buffer[..window_depth * ny * row_len];
-        // One task per row; each returns its channel statistics, merged below in row order.
-        let row_stats: Vec<Vec<ChannelStats>> = pool.install(|| {
-            data.par_chunks_mut(row_len)
+        let count = (layout.total - first).min(layout.per_window as u64) as usize;
+        let data = &mut buffer[..count * block];
+        // One task per segment; each returns its channel statistics, merged below in order.
+        let segment_stats: Vec<Vec<ChannelStats>> = pool.install(|| {
+            data.par_chunks_mut(block)
                 .enumerate()
                 .map_init(
                     || {
                         (
                             Workspace::<S>::new(),
-                            vec![0f64; nx],
-                            vec![0f64; nx],
-                            vec![S::ZERO; row_len],
+                            Vec::with_capacity(seg_len),
+                            Vec::with_capacity(seg_len),
+                            Vec::with_capacity(seg_len),
+                            vec![S::ZERO; block],
                         )
                     },
-                    |(workspace, ys, zs, out), (row, target)| {
-                        let (k, j) = (z_start + row / ny, row % ny);
-                        ys.fill(grid.centre(1, j));
-                        zs.fill(grid.centre(2, k));
-                        tape.eval_batch(workspace, &xs, ys, zs, out);
-                        let mut row_stats = vec![ChannelStats::default(); channels];
-                        for (c, stat) in row_stats.iter_mut().enumerate() {
-                            for (t, v) in target[c * nx..(c + 1) * nx]
+                    |(workspace, xs, ys, zs, out), (s, target)| {
+                        let segment = layout.segment(grid, first + s as u64);
+                        let n = segment.len;
+                        xs.clear();
+                        xs.extend((segment.i0..segment.i0 + n).map(|i| grid.centre(0, i)));
+                        ys.clear();
+                        ys.resize(n, grid.centre(1, segment.j));
+                        zs.clear();
+                        zs.resize(n, grid.centre(2, segment.k));
+                        let out = &mut out[..channels * n];
+                        tape.eval_batch(workspace, xs, ys, zs, out);
+                        let mut seg_stats = vec![ChannelStats::default(); channels];
+                        for (c, stat) in seg_stats.iter_mut().enumerate() {
+                            for (t, v) in target[c * seg_len..c * seg_len + n]
                                 .iter_mut()
-                                .zip(&out[c * nx..(c + 1) * nx])
+                                .zip(&out[c * n..(c + 1) * n])
                             {
                                 *t = v.to_f64() as f32;
                                 stat.add(*t);
                             }
                         }
-                        row_stats
+                        seg_stats
                     },
                 )
                 .collect()
         });
-        for row in &row_stats {
-            for (total, part) in stats.iter_mut().zip(row) {
+        let mut voxels = 0u64;
+        for (s, part) in segment_stats.iter().enumerate() {
+            voxels += layout.segment(grid, first + s as u64).len as u64;
+            for (total, part) in stats.iter_mut().zip(part) {
                 total.merge(part);
             }
         }
         let window = Window {
             grid,
-            z_start,
-            depth: window_depth,
+            layout: &layout,
+            first_segment: first,
+            segments: count,
             channels,
             outputs: &outputs,
             data,
         };
         // Inside the pool, so a sink that encodes in parallel (PNG slices) uses its threads.
         pool.install(|| sink.window(&window))?;
-        done += (window_depth * slice_voxels) as u64;
+        done += voxels;
         progress(done);
-        z_start += window_depth;
+        first += count as u64;
     }
     Ok(collect_stats(tape, &stats))
 }
@@ -456,4 +635,71 @@ fn collect_stats(tape: &Tape, stats: &[ChannelStats]) -> Vec<OutputStats> {
             channels: stats[o.first_channel..o.first_channel + o.ty.channels()].to_vec(),
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid(size: [usize; 3]) -> Grid {
+        Grid {
+            size,
+            region: Region::default(),
+        }
+    }
+
+    /// Segments cover every voxel once, in file order, whatever the shape.
+    #[test]
+    fn segments_tile_the_grid_in_file_order() {
+        for (size, channels, threads) in [
+            ([5, 3, 2], 1, 1),
+            ([70_000, 2, 3], 4, 2),
+            ([1, 1, 9], 2, 8),
+            ([131_073, 1, 1], 1, 3),
+        ] {
+            let g = grid(size);
+            let layout = Layout::new(&g, channels, threads).unwrap();
+            let mut next = (0usize, 0usize, 0usize);
+            for index in 0..layout.total {
+                let s = layout.segment(&g, index);
+                assert_eq!((s.i0, s.j, s.k), next, "{size:?} segment {index}");
+                assert!(s.len >= 1 && s.len <= layout.segment_len);
+                next = if s.i0 + s.len < size[0] {
+                    (s.i0 + s.len, s.j, s.k)
+                } else if s.j + 1 < size[1] {
+                    (0, s.j + 1, s.k)
+                } else {
+                    (0, 0, s.k + 1)
+                };
+            }
+            assert_eq!(next, (0, 0, size[2]));
+        }
+    }
+
+    /// A window's samples stay within WINDOW_BYTES for any shape and channel count, and rows
+    /// are split rather than held whole.
+    #[test]
+    fn windows_are_bounded_for_any_shape() {
+        for size in [
+            [4_294_967_296, 1, 1],
+            [65_536, 65_536, 1],
+            [1, 1, 1 << 40],
+            [512, 512, 512],
+        ] {
+            for channels in [1, 4, 3_000, 600_000] {
+                for threads in [1, 2, 64, 1024] {
+                    let layout = Layout::new(&grid(size), channels, threads).unwrap();
+                    let bytes = layout.per_window * layout.segment_len * channels * 4;
+                    assert!(
+                        bytes <= WINDOW_BYTES.max(channels * 4),
+                        "{size:?} {channels} {threads}: {bytes}"
+                    );
+                    assert!(layout.segment_len <= SEGMENT_VOXELS);
+                }
+            }
+        }
+        // Small slices: whole slices per window.
+        let layout = Layout::new(&grid([128, 128, 128]), 4, 2).unwrap();
+        assert_eq!(layout.per_window % 128, 0);
+    }
 }

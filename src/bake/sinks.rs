@@ -105,7 +105,9 @@ fn encode_samples(samples: &[f32], ty: Type, depth16: bool, srgb: bool) -> Vec<u
     }
 }
 
-/// One PNG per z slice, `z0000.png`, … in a folder.
+/// One PNG per z slice, `z0000.png`, … in a folder. Windows of whole slices are encoded in
+/// parallel, a slice at a time; a slice larger than a window is streamed through one PNG
+/// encoder that stays open across windows (it keeps a row or two, not the slice).
 pub(super) struct PngSlices {
     pub folder: PathBuf,
     pub output: usize,
@@ -113,20 +115,83 @@ pub(super) struct PngSlices {
     pub depth16: bool,
     pub srgb: bool,
     pub digits: usize,
+    /// The slice being streamed, when slices span windows.
+    pub open: Option<OpenSlice>,
+}
+
+/// A slice PNG being written across windows.
+pub(super) struct OpenSlice {
+    path: PathBuf,
+    writer: png::StreamWriter<'static, std::io::BufWriter<std::fs::File>>,
+}
+
+impl PngSlices {
+    fn slice_path(&self, k: usize) -> PathBuf {
+        self.folder
+            .join(format!("z{:0width$}.png", k, width = self.digits))
+    }
+
+    /// Streams the window's segments into the slice files they belong to.
+    fn stream(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
+        let [nx, ny, _] = window.grid.size;
+        let mut samples = Vec::new();
+        for (s, segment) in window.segments() {
+            if segment.starts_slice() {
+                let path = self.slice_path(segment.k);
+                let file = std::fs::File::create(&path).map_err(io(&path))?;
+                let encoder = png_encoder(
+                    std::io::BufWriter::new(file),
+                    nx,
+                    ny,
+                    self.ty,
+                    self.depth16,
+                    self.srgb,
+                );
+                let encode = |e: png::EncodingError| BakeError::Encode {
+                    path: path.display().to_string(),
+                    message: e.to_string(),
+                };
+                let writer = encoder
+                    .write_header()
+                    .map_err(encode)?
+                    .into_stream_writer()
+                    .map_err(encode)?;
+                self.open = Some(OpenSlice { path, writer });
+            }
+            let Some(open) = self.open.as_mut() else {
+                return Err(BakeError::Refused(
+                    "internal: a PNG slice was continued before it was started".into(),
+                ));
+            };
+            samples.clear();
+            window.push_interleaved(self.output, s, &segment, &mut samples);
+            let bytes = encode_samples(&samples, self.ty, self.depth16, self.srgb);
+            open.writer.write_all(&bytes).map_err(io(&open.path))?;
+            if segment.ends_slice(window.grid) {
+                if let Some(open) = self.open.take() {
+                    let path = open.path;
+                    open.writer.finish().map_err(|e| BakeError::Encode {
+                        path: path.display().to_string(),
+                        message: e.to_string(),
+                    })?;
+                }
+            }
+        }
+        Ok(())
+    }
 }
 
 impl Sink for PngSlices {
     fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
         let [nx, ny, _] = window.grid.size;
+        let Some((z_start, depth)) = window.whole_slices() else {
+            return self.stream(window);
+        };
         // Slices of a window are independent files: encode them in parallel.
-        (0..window.depth).into_par_iter().try_for_each(|k| {
+        (0..depth).into_par_iter().try_for_each(|k| {
             let mut samples = Vec::new();
             window.slice_interleaved(self.output, k, &mut samples);
-            let path = self.folder.join(format!(
-                "z{:0width$}.png",
-                window.z_start + k,
-                width = self.digits
-            ));
+            let path = self.slice_path(z_start + k);
             let bytes = png_bytes(&samples, nx, ny, self.ty, self.depth16, self.srgb).map_err(
                 |message| BakeError::Encode {
                     path: path.display().to_string(),
@@ -166,8 +231,8 @@ impl PngAtlas {
         srgb: bool,
     ) -> Result<PngAtlas, BakeError> {
         let [nx, ny, nz] = grid.size;
-        let columns = (nz as f64).sqrt().ceil().max(1.0) as usize;
-        let rows = nz.div_ceil(columns);
+        let (columns, rows) = super::files::atlas_shape(nz as u64);
+        let (columns, rows) = (columns as usize, rows as usize);
         let handle = file.try_clone().map_err(io(path))?;
         // Unbuffered: the png encoder writes whole compressed chunks, and a write error then
         // surfaces at once instead of in a buffer's drop.
@@ -235,13 +300,16 @@ impl PngAtlas {
 impl Sink for PngAtlas {
     fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
         let mut samples = Vec::new();
-        for k in 0..window.depth {
-            window.slice_interleaved(self.output, k, &mut samples);
+        for (s, segment) in window.segments() {
+            samples.clear();
+            window.push_interleaved(self.output, s, &segment, &mut samples);
             self.pending
                 .extend(encode_samples(&samples, self.ty, self.depth16, self.srgb));
-            self.tiles_in_row += 1;
-            if self.tiles_in_row == self.columns {
-                self.flush_row(window.grid)?;
+            if segment.ends_slice(window.grid) {
+                self.tiles_in_row += 1;
+                if self.tiles_in_row == self.columns {
+                    self.flush_row(window.grid)?;
+                }
             }
         }
         Ok(())
@@ -271,8 +339,9 @@ pub(super) struct Raw {
 impl Sink for Raw {
     fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
         let width = self.ty.channels();
-        for k in 0..window.depth {
-            window.slice_interleaved(self.output, k, &mut self.scratch);
+        for (s, segment) in window.segments() {
+            self.scratch.clear();
+            window.push_interleaved(self.output, s, &segment, &mut self.scratch);
             self.bytes.clear();
             for voxel in self.scratch.chunks_exact(width) {
                 match self.samples {
@@ -305,14 +374,12 @@ pub(super) struct Exr {
     pub output: usize,
     pub ty: Type,
     pub data: Vec<f32>,
-    pub scratch: Vec<f32>,
 }
 
 impl Sink for Exr {
     fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
-        for k in 0..window.depth {
-            window.slice_interleaved(self.output, k, &mut self.scratch);
-            self.data.extend_from_slice(&self.scratch);
+        for (s, segment) in window.segments() {
+            window.push_interleaved(self.output, s, &segment, &mut self.data);
         }
         Ok(())
     }
@@ -327,6 +394,7 @@ impl Exr {
         file: std::fs::File,
         grid: &Grid,
         half: bool,
+        compression: super::ExrCompression,
         attributes: &[(&str, String)],
     ) -> Result<(), BakeError> {
         use exr::prelude::*;
@@ -345,19 +413,20 @@ impl Exr {
         };
         let writer = std::io::BufWriter::new(file);
         let data = &self.data;
+        let encoding = match compression {
+            super::ExrCompression::Zip => Encoding::SMALL_LOSSLESS,
+            super::ExrCompression::Piz => Encoding::SMALL_FAST_LOSSLESS,
+            super::ExrCompression::Rle => Encoding::FAST_LOSSLESS,
+            super::ExrCompression::None => Encoding::UNCOMPRESSED,
+        };
         // The four arms differ only in the channels' sample types, which exr encodes in the
         // channel set's type: one macro writes each.
         macro_rules! write_layer {
             ($channels:expr) => {
-                Image::from_layer(Layer::new(
-                    size,
-                    layer_attributes,
-                    Encoding::FAST_LOSSLESS,
-                    $channels,
-                ))
-                .write()
-                .to_buffered(writer)
-                .map_err(encode)
+                Image::from_layer(Layer::new(size, layer_attributes, encoding, $channels))
+                    .write()
+                    .to_buffered(writer)
+                    .map_err(encode)
             };
         }
         match (self.ty, half) {

@@ -229,39 +229,40 @@ impl RenderedImage {
     }
 }
 
-/// Writes an image as PNG atomically (temporary file in the same folder + rename).
+/// Writes an image as PNG atomically (temporary file in the same folder + rename), refusing a
+/// destination that is not a regular file (`output::write_atomic`).
 pub fn write_png(image: &image::RgbImage, path: &Path) -> Result<(), RenderError> {
-    use std::io::Write;
-    let io = |source| RenderError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let name = path
-        .file_name()
-        .and_then(|n| n.to_str())
-        .unwrap_or("render");
-    let prefix = format!(".{name}.");
-    let mut builder = tempfile::Builder::new();
-    builder.prefix(&prefix).suffix(".partial");
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        builder.permissions(std::fs::Permissions::from_mode(0o644));
-    }
-    let temp = builder.tempfile_in(dir).map_err(io)?;
-    {
-        let mut writer = std::io::BufWriter::new(temp.as_file());
+    crate::output::write_atomic(path, |w| {
+        let mut bytes = std::io::Cursor::new(Vec::new());
         image
-            .write_to(&mut writer, image::ImageFormat::Png)
-            .map_err(|e| io(std::io::Error::other(e)))?;
-        writer.flush().map_err(io)?;
+            .write_to(&mut bytes, image::ImageFormat::Png)
+            .map_err(std::io::Error::other)?;
+        w.write_all(bytes.get_ref())
+    })
+    .map_err(|e| match e {
+        crate::output::OutputError::Io { path, source } => RenderError::Io { path, source },
+        other => RenderError::Options(other.to_string()),
+    })
+}
+
+/// Refuses options that apply to graph files only (`given`: the flags the user gave, such as
+/// `--set`) when `path` is a scene file, where they would be ignored. A file that cannot be read
+/// is left to the render to report.
+pub fn refuse_graph_only_options(path: &Path, given: &[&str]) -> Result<(), RenderError> {
+    if given.is_empty() {
+        return Ok(());
     }
-    temp.as_file().sync_all().map_err(io)?;
-    temp.persist(path).map_err(|e| io(e.error))?;
+    let Ok(source) = crate::load::read_source(path) else {
+        return Ok(());
+    };
+    if input_kind(&source.text) == InputKind::Scene {
+        return Err(RenderError::Options(format!(
+            "{}: {} {} to graph files only; this is a scene file, which sets its objects, spaces, outputs and params itself",
+            path.display(),
+            given.join(", "),
+            if given.len() == 1 { "applies" } else { "apply" }
+        )));
+    }
     Ok(())
 }
 
@@ -336,6 +337,7 @@ pub fn render(
             if threads == 0 {
                 return Err(RenderError::Options("--threads must be at least 1".into()));
             }
+            let (threads, _) = crate::bake::capped_threads(threads);
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
                 .build()
