@@ -339,7 +339,20 @@ impl miette::SourceCode for WindowedSource<'_> {
             .and_then(|rest| rest.find('\n'))
             .map_or(text.len(), |i| line_end + 1 + i);
         if context_end - context_start <= 4 * WINDOW {
-            return text.read_span(span, before, after);
+            let contents = text.read_span(span, before, after)?;
+            if before != 0 {
+                return Ok(contents);
+            }
+            // miette counts the primary span's column in bytes; the diagnostic's own
+            // `file:line:column` counts characters, and the two must agree.
+            let column = text[line_start..start].chars().count();
+            return Ok(Box::new(miette::MietteSpanContents::new(
+                contents.data(),
+                *contents.span(),
+                contents.line(),
+                column,
+                contents.line_count(),
+            )));
         }
         let from = floor_char_boundary(text, start.saturating_sub(WINDOW / 2).max(line_start));
         let to = floor_char_boundary(text, (start + WINDOW).min(line_end)).max(from);

@@ -69,7 +69,9 @@ struct RenderArgs {
     /// A graph file or a scene file.
     #[arg(value_name = "FILE", required_unless_present = "timing_table")]
     file: Option<PathBuf>,
-    /// The PNG written (default: FILE's name with .png, in the current folder).
+    /// The PNG written (default: FILE's name with .png, in the current folder). It must end in
+    /// .png, its folder must exist, and an existing destination must be a regular file (a
+    /// device, FIFO, socket, link or folder is refused).
     #[arg(short = 'o', long = "out", value_name = "PNG")]
     out: Option<PathBuf>,
     /// Image size W,H in pixels.
@@ -356,13 +358,18 @@ fn protect_negative_numbers(
             .and_then(|p| p.to_str())
             .is_some_and(|p| takes_value.iter().any(|t| t == p));
         match arg.to_str() {
-            Some(t)
-                if !previous_takes_value
-                    && t.len() > 1
-                    && t.starts_with('-')
-                    && t.parse::<f64>().is_ok() =>
-            {
-                out.push(format!("{MINUS}{}", &t[1..]).into());
+            Some(t) if t.len() > 1 && t.starts_with('-') && t.parse::<f64>().is_ok() => {
+                if previous_takes_value {
+                    // `--spacing -1` → `--spacing=-1`: clap takes the value as written, and
+                    // its parser's message quotes it as written.
+                    let option = out.pop().unwrap_or_default();
+                    let mut joined = option;
+                    joined.push("=");
+                    joined.push(t);
+                    out.push(joined);
+                } else {
+                    out.push(format!("{MINUS}{}", &t[1..]).into());
+                }
             }
             _ => out.push(arg),
         }

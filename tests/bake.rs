@@ -1913,3 +1913,54 @@ fn force_never_replaces_a_folder_where_a_file_goes() {
         b"x"
     );
 }
+
+// ---------------------------------------------------------------------------------------------
+// Windows smaller than a slice, segments shorter than a row
+
+/// Slices larger than a window (520 × 300 voxels against one thread's window of 131 072) are
+/// streamed through one PNG encoder across windows, and rows longer than a segment (70 000
+/// voxels against 65 536) are split: every format still holds exactly what `eval` gives.
+#[test]
+fn slices_larger_than_a_window_and_rows_longer_than_a_segment_bake_exactly() {
+    let tape = cheap_marble(2.0);
+    for size in [[520, 300, 3], [70_000, 2, 2]] {
+        let grid = grid_over(size, [-1.0, 0.0, 0.0], [1.0, 1.0, 0.5]);
+        let expected = expected(&tape, &grid);
+        let one_thread = |format: Format, dir: &Path| {
+            let mut options = options(dir, grid, format);
+            options.bake.threads = 1;
+            options
+        };
+        let dir = tempfile::tempdir().unwrap();
+        bake_ok(&tape, &one_thread(Format::Png, dir.path()));
+        check_png_slices(dir.path(), &grid, &expected, 8, Transfer::Srgb);
+        let dir = tempfile::tempdir().unwrap();
+        bake_ok(
+            &tape,
+            &BakeFileOptions {
+                atlas: true,
+                ..one_thread(Format::Png, dir.path())
+            },
+        );
+        check_png_atlas(dir.path(), &grid, &expected, 8);
+        let dir = tempfile::tempdir().unwrap();
+        bake_ok(&tape, &one_thread(Format::Exr, dir.path()));
+        check_exr(dir.path(), &grid, &expected, false);
+        let dir = tempfile::tempdir().unwrap();
+        bake_ok(
+            &tape,
+            &BakeFileOptions {
+                raw_type: RawSampleType::F32,
+                ..one_thread(Format::Raw, dir.path())
+            },
+        );
+        check_raw(
+            dir.path(),
+            &grid,
+            &expected,
+            RawSampleType::F32,
+            false,
+            Transfer::Srgb,
+        );
+    }
+}

@@ -861,3 +861,346 @@ fn timing_table_print() {
         println!("{table}\n");
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// docs/scenes.md, the reference of the scene format
+// ---------------------------------------------------------------------------------------------
+
+const SCENES_DOC: &str = "docs/scenes.md";
+
+/// A fenced code block of a document: its info string (`ron`, `ron invalid`, `text`), its text
+/// (fence indentation removed) and the 1-based line of its opening fence.
+struct DocBlock {
+    info: String,
+    text: String,
+    line: usize,
+}
+
+/// The fenced code blocks of `doc`, read as tests/docs.rs reads docs/format.md. A line opens a
+/// block when it starts with three backticks and its info string has none (inline code such as
+/// ```` ```ron ```` does not).
+fn doc_blocks(doc: &str) -> Vec<DocBlock> {
+    let mut blocks = Vec::new();
+    let mut open: Option<(DocBlock, usize)> = None;
+    for (i, line) in doc.lines().enumerate() {
+        let trimmed = line.trim_start();
+        let indent = line.len() - trimmed.len();
+        match open.take() {
+            None => {
+                if let Some(info) = trimmed.strip_prefix("```").filter(|i| !i.contains('`')) {
+                    let block = DocBlock {
+                        info: info.trim().to_string(),
+                        text: String::new(),
+                        line: i + 1,
+                    };
+                    open = Some((block, indent));
+                }
+            }
+            Some((block, _)) if trimmed == "```" => blocks.push(block),
+            Some((mut block, fence_indent)) => {
+                let strip = indent.min(fence_indent);
+                block.text.push_str(&line[strip..]);
+                block.text.push('\n');
+                open = Some((block, fence_indent));
+            }
+        }
+    }
+    assert!(open.is_none(), "{SCENES_DOC}: a code block is never closed");
+    blocks
+}
+
+/// The files a scene example names: the strings after `graph:` and `path:`.
+fn referenced_files(text: &str) -> Vec<String> {
+    let mut files = Vec::new();
+    for key in ["graph:", "path:"] {
+        let mut rest = text;
+        while let Some(at) = rest.find(key) {
+            rest = rest[at + key.len()..].trim_start();
+            if let Some((name, _)) = rest.strip_prefix('"').and_then(|r| r.split_once('"')) {
+                files.push(name.to_string());
+            }
+        }
+    }
+    files
+}
+
+/// Saves an example as `dir/name` next to copies of the repository's files it names (examples
+/// are written as if saved in the repository root) and returns the scene's path.
+fn save_doc_example(dir: &Path, block: &DocBlock, name: &str) -> PathBuf {
+    for file in referenced_files(&block.text) {
+        let relative = Path::new(&file);
+        assert!(
+            relative
+                .components()
+                .all(|c| matches!(c, std::path::Component::Normal(_))),
+            "{SCENES_DOC}:{}: `{file}`: examples name files relative to the repository root, \
+             without `.` or `..`",
+            block.line
+        );
+        // A file that does not exist is left for the example to fail on.
+        if relative.is_file() {
+            let copy = dir.join(relative);
+            std::fs::create_dir_all(copy.parent().expect("a file has a folder")).unwrap();
+            std::fs::copy(relative, &copy).unwrap();
+        }
+    }
+    let path = dir.join(name);
+    std::fs::write(&path, &block.text).unwrap();
+    path
+}
+
+/// A scene example: its first line that is not blank or a `//` comment starts with `Scene(`.
+fn is_scene(block: &DocBlock) -> bool {
+    block
+        .text
+        .lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && !l.starts_with("//"))
+        .is_some_and(|l| l.starts_with("Scene("))
+}
+
+/// Every ```ron block of docs/scenes.md is a scene that loads with `load_scene` and renders (at
+/// 16×12 pixels, 1 sample) showing something; a ```ron preview block is also exactly the
+/// preview scene of its graph; a ```ron invalid block fails to load, with the diagnostics of
+/// the ```text block after it.
+#[test]
+fn docs_scenes_md_examples_load_and_render() {
+    let doc = std::fs::read_to_string(SCENES_DOC).expect(SCENES_DOC);
+    let blocks = doc_blocks(&doc);
+    let options = RenderOptions {
+        size: Some((16, 12)),
+        samples: Some(1),
+        threads: None,
+        progress: false,
+    };
+    let (mut scenes, mut previews, mut invalid) = (0, 0, 0);
+    let mut failures = String::new();
+    for (i, block) in blocks.iter().enumerate() {
+        let mut words = block.info.split_whitespace();
+        if words.next() != Some("ron") {
+            continue;
+        }
+        let flags: Vec<&str> = words.collect();
+        let at = format!("the ```{} block at {SCENES_DOC}:{}", block.info, block.line);
+        let dir = tempfile::tempdir().unwrap();
+        if flags.contains(&"invalid") {
+            invalid += 1;
+            let path = save_doc_example(dir.path(), block, "broken.ron");
+            let error = match load_scene(&path) {
+                Ok(_) => {
+                    failures.push_str(&format!("{at} loads without errors\n"));
+                    continue;
+                }
+                Err(e) => e,
+            };
+            // Colour off, as `texgraph render broken.ron` prints it in the folder of the file.
+            let folder = format!("{}{}", dir.path().display(), std::path::MAIN_SEPARATOR);
+            let rendered = error.render(false).replace(&folder, "");
+            match blocks.get(i + 1).filter(|b| b.info == "text") {
+                None => failures.push_str(&format!(
+                    "{at} must be followed by a ```text block with its diagnostics:\n{rendered}\n"
+                )),
+                Some(shown) if shown.text.trim_end() != rendered.trim_end() => {
+                    failures.push_str(&format!(
+                        "the diagnostics shown at {SCENES_DOC}:{} are out of date; loading the \
+                         block before them as broken.ron now prints:\n{rendered}\n",
+                        shown.line
+                    ))
+                }
+                Some(_) => {}
+            }
+            continue;
+        }
+        if !is_scene(block) {
+            failures.push_str(&format!(
+                "{at} is not a scene (its first line that is not a comment must start with \
+                 `Scene(`): write other RON in ```text blocks\n"
+            ));
+            continue;
+        }
+        scenes += 1;
+        let path = save_doc_example(dir.path(), block, "scene.ron");
+        match load_scene(&path).and_then(|scene| render(&scene, &options)) {
+            Ok((_, stats)) if stats.counters.hits == 0 => {
+                failures.push_str(&format!("{at} renders nothing but the background\n"))
+            }
+            Ok(_) => {}
+            Err(e) => failures.push_str(&format!("{at} does not load or render:\n{e}\n")),
+        }
+        if flags.contains(&"preview") {
+            previews += 1;
+            let graph = referenced_files(&block.text).into_iter().next();
+            let graph = graph.unwrap_or_else(|| panic!("{at} names no graph"));
+            let written: SceneDesc = ron::Options::default()
+                .with_default_extension(ron::extensions::Extensions::IMPLICIT_SOME)
+                .from_str(&block.text)
+                .unwrap_or_else(|e| panic!("{at}: {e}"));
+            let built = PreviewDefaults::default().scene_desc(Path::new(&graph));
+            if format!("{written:#?}") != format!("{built:#?}") {
+                failures.push_str(&format!(
+                    "{at} is not the preview scene of {graph}, which is:\n{built:#?}\n"
+                ));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{failures}");
+    // Guards the block reader itself: the document has several examples of each kind.
+    assert!(
+        scenes >= 5 && previews >= 1 && invalid >= 1,
+        "{SCENES_DOC}: found {scenes} scene, {previews} preview and {invalid} invalid examples; \
+         is the code block reader broken?"
+    );
+}
+
+/// Every field and variant name of the scene format, as read from src/render/scene.rs
+/// (`SceneDesc` and the types in it, aliases included): docs/scenes.md names each in backticks.
+const SCENE_FORMAT_NAMES: &[&str] = &[
+    // Scene
+    "Scene",
+    "camera",
+    "lights",
+    "materials",
+    "objects",
+    "background",
+    "background_color",
+    "ambient_light",
+    "size",
+    "samples",
+    // Camera
+    "Camera",
+    "position",
+    "look_at",
+    "up",
+    "fov",
+    // Lights
+    "Point",
+    "Directional",
+    "direction",
+    "colour",
+    "color",
+    "intensity",
+    "shadows",
+    // Materials and channels
+    "Material",
+    "ambient",
+    "diffuse",
+    "specular",
+    "shininess",
+    "Colour",
+    "Color",
+    "Rgb",
+    "Value",
+    "Texture",
+    "graph",
+    "output",
+    "set",
+    "space",
+    "transform",
+    "multiply",
+    "Object",
+    "World",
+    // Transforms
+    "Translate",
+    "Rotate",
+    "axis",
+    "degrees",
+    "Scale",
+    // Objects and shapes
+    "shape",
+    "material",
+    "Sphere",
+    "radius",
+    "Box",
+    "Cube",
+    "Plane",
+    "Mesh",
+    "path",
+    "fit",
+    "Teapot",
+    "resolution",
+];
+
+/// The names the scene reader itself lists when `text` uses an unknown field or variant: the
+/// fields or variants it expected, and the struct or variant the field was in (not the Rust
+/// enum's name, which a file never writes). Empty when the error is of another kind.
+fn names_the_reader_expects(dir: &Path, text: &str) -> Vec<String> {
+    let path = dir.join("probe.ron");
+    std::fs::write(&path, text).unwrap();
+    let message = match load_scene(&path) {
+        Err(RenderError::Invalid(list)) => list[0].list[0].message.clone(),
+        Err(e) => panic!("{text}: {e}"),
+        Ok(_) => panic!("{text}: loads"),
+    };
+    if !message.starts_with("scene: Unexpected") {
+        return Vec::new();
+    }
+    let parts: Vec<&str> = message.split('`').collect();
+    (1..parts.len())
+        .step_by(2)
+        .filter(|&k| !parts[k - 1].ends_with("in enum ") && !parts[k].eq_ignore_ascii_case("zzz"))
+        .map(|k| parts[k].to_string())
+        .collect()
+}
+
+#[test]
+fn docs_scenes_md_names_every_field_and_variant() {
+    // What the reader accepts, asked of the reader: unknown fields and variants in every place,
+    // and in every variant of each enum.
+    let dir = tempfile::tempdir().unwrap();
+    let mut accepted = std::collections::BTreeSet::new();
+    let mut probe = |text: &str| {
+        let names = names_the_reader_expects(dir.path(), text);
+        accepted.extend(names.iter().cloned());
+        names
+    };
+    for text in [
+        "Scene(zzz: 0)",
+        "Scene(camera: Camera(zzz: 0))",
+        r#"Scene(materials: { "m": Material(zzz: 0) })"#,
+        r#"Scene(materials: { "m": Material(diffuse: Texture(space: Zzz)) })"#,
+        "Scene(objects: [Object(zzz: 0)])",
+    ] {
+        assert!(!probe(text).is_empty(), "{text}: no names in the error");
+    }
+    for (variants, fields) in [
+        ("Scene(lights: [Zzz])", "Scene(lights: [V(zzz: 0)])"),
+        (
+            r#"Scene(materials: { "m": Material(diffuse: Zzz) })"#,
+            r#"Scene(materials: { "m": Material(diffuse: V(zzz: 0)) })"#,
+        ),
+        (
+            "Scene(objects: [Object(transform: [Zzz])])",
+            "Scene(objects: [Object(transform: [V(zzz: 0)])])",
+        ),
+        (
+            "Scene(objects: [Object(shape: Zzz)])",
+            "Scene(objects: [Object(shape: V(zzz: 0))])",
+        ),
+    ] {
+        let names = probe(variants);
+        assert!(!names.is_empty(), "{variants}: no variants in the error");
+        for variant in names {
+            probe(&fields.replace("V(", &format!("{variant}(")));
+        }
+    }
+    let listed: std::collections::BTreeSet<String> =
+        SCENE_FORMAT_NAMES.iter().map(|n| n.to_string()).collect();
+    let unlisted: Vec<&String> = accepted.difference(&listed).collect();
+    let stale: Vec<&String> = listed.difference(&accepted).collect();
+    assert!(
+        unlisted.is_empty() && stale.is_empty(),
+        "SCENE_FORMAT_NAMES is out of date: the scene reader accepts {unlisted:?}, which the list \
+         lacks (add them and document them in {SCENES_DOC}), and not {stale:?}, which it has"
+    );
+    let doc = std::fs::read_to_string(SCENES_DOC).expect(SCENES_DOC);
+    let missing: Vec<&str> = SCENE_FORMAT_NAMES
+        .iter()
+        .copied()
+        .filter(|name| !doc.contains(&format!("`{name}`")))
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "{SCENES_DOC} does not name these fields or variants in backticks: {}",
+        missing.join(", ")
+    );
+}

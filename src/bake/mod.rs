@@ -468,20 +468,28 @@ impl Sink for VolumeSink {
     }
 }
 
-/// Bakes into memory. Needs `voxels × channels × 4` bytes; refused (before anything is
-/// allocated) if that does not fit in `usize` or exceeds `max_bytes`.
+/// Bakes into memory. Needs `voxels × channels × 4` bytes, reserved up front: a volume whose
+/// size overflows or cannot be allocated is refused with an error, before any evaluation.
 pub fn bake_volume(tape: &Tape, options: &BakeOptions) -> Result<Volume, BakeError> {
-    let mut sink = VolumeSink {
-        outputs: tape
-            .outputs
-            .iter()
-            .map(|o| VolumeOutput {
-                name: o.name.clone(),
-                ty: o.ty,
-                data: Vec::new(),
-            })
-            .collect(),
-    };
+    let voxels = options.grid.voxels().and_then(|v| usize::try_from(v).ok());
+    let mut outputs = Vec::with_capacity(tape.outputs.len());
+    for o in &tape.outputs {
+        let mut data = Vec::new();
+        let len = voxels.and_then(|v| v.checked_mul(o.ty.channels()));
+        len.and_then(|len| data.try_reserve_exact(len).ok())
+            .ok_or_else(|| {
+                BakeError::Refused(format!(
+                    "a volume of {:?} voxels for output \"{}\" does not fit in memory",
+                    options.grid.size, o.name
+                ))
+            })?;
+        outputs.push(VolumeOutput {
+            name: o.name.clone(),
+            ty: o.ty,
+            data,
+        });
+    }
+    let mut sink = VolumeSink { outputs };
     let stats = bake_into(tape, options, &mut sink, &mut |_| {})?;
     Ok(Volume {
         grid: options.grid,

@@ -544,6 +544,11 @@ fn words_with_columns(line: &str) -> impl Iterator<Item = (usize, &str)> {
 
 /// An OBJ index (1-based, or negative from the end) into a list of `len` items.
 fn resolve(word: &str, len: usize, what: &str) -> Result<usize, String> {
+    let plural = match (what, len) {
+        (_, 1) => what.to_string(),
+        ("vertex", _) => "vertices".to_string(),
+        _ => format!("{what}s"),
+    };
     let index: i64 = word
         .parse()
         .map_err(|_| format!("`{word}` is not a {what} index"))?;
@@ -556,8 +561,7 @@ fn resolve(word: &str, len: usize, what: &str) -> Result<usize, String> {
     };
     if resolved < 0 || resolved >= len as i64 {
         return Err(format!(
-            "{what} index {index} is out of range: {len} {what}{} so far",
-            if len == 1 { "" } else { "s" }
+            "{what} index {index} is out of range: {len} {plural} so far"
         ));
     }
     Ok(resolved as usize)
@@ -572,6 +576,22 @@ pub fn load_obj(path: &Path) -> std::io::Result<Result<Vec<MeshTriangle>, ObjErr
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn index_messages_count_in_plain_english() {
+        assert_eq!(
+            resolve("3", 2, "vertex").unwrap_err(),
+            "vertex index 3 is out of range: 2 vertices so far"
+        );
+        assert_eq!(
+            resolve("2", 1, "vertex").unwrap_err(),
+            "vertex index 2 is out of range: 1 vertex so far"
+        );
+        assert_eq!(
+            resolve("-4", 3, "normal").unwrap_err(),
+            "normal index -4 is out of range: 3 normals so far"
+        );
+    }
 
     fn ray(o: [f32; 3], d: [f32; 3]) -> Ray {
         Ray {
