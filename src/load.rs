@@ -43,7 +43,7 @@ pub fn read_source(path: &Path) -> Result<Arc<SourceFile>, LoadError> {
         let diagnostic = crate::diagnostic::Diagnostic::new(
             crate::diagnostic::DiagnosticClass::Limit,
             format!(
-                "the file is larger than {} bytes, the limit for graph files",
+                "the file is larger than {} bytes, the limit for graph and scene files",
                 limits::MAX_FILE_BYTES
             ),
         );
@@ -84,7 +84,7 @@ fn not_utf8(path: &Path, error: std::string::FromUtf8Error) -> Diagnostics {
     )
     .at(crate::diagnostic::Span::new(at, end))
     .label("not UTF-8")
-    .help("graph files are UTF-8 text; save the file as UTF-8");
+    .help("texgraph reads graph and scene files as UTF-8 text; save the file as UTF-8");
     Diagnostics {
         file,
         list: vec![diagnostic],

@@ -792,7 +792,8 @@ fn ron_diagnostic(source: &Arc<SourceFile>, e: &ron::error::SpannedError) -> Dia
             (offset - start <= n.len() + 16).then(|| Span::new(start, start + n.len()))
         })
         .unwrap_or(Span::new(offset, offset));
-    let mut diagnostic = Diagnostic::new(class, format!("scene: {}", e.code)).at(span);
+    let message = without_rust_names(&e.code.to_string());
+    let mut diagnostic = Diagnostic::new(class, format!("scene: {message}")).at(span);
     if class == DiagnosticClass::Syntax {
         diagnostic = diagnostic.help(
             "a scene file is `Scene(camera: Camera(...), lights: [...], materials: {...}, objects: [...])`",
@@ -802,6 +803,36 @@ fn ron_diagnostic(source: &Arc<SourceFile>, e: &ron::error::SpannedError) -> Dia
         file: source.clone(),
         list: vec![diagnostic],
     }
+}
+
+/// ron's messages name the Rust types the scene is read into (`tuple variant
+/// TransformDesc::Translate`, `struct CameraDesc`): an author knows them as `Translate` and
+/// `Camera`. Drops every `Path::` qualifier and the `Desc` suffix of the format's type names.
+fn without_rust_names(message: &str) -> String {
+    let mut out = String::with_capacity(message.len());
+    let mut word = String::new();
+    let flush = |word: &mut String, out: &mut String| {
+        let shown = word
+            .strip_suffix("Desc")
+            .filter(|w| !w.is_empty())
+            .unwrap_or(word);
+        out.push_str(shown);
+        word.clear();
+    };
+    let mut chars = message.chars().peekable();
+    while let Some(c) = chars.next() {
+        if c.is_alphanumeric() || c == '_' {
+            word.push(c);
+        } else if c == ':' && chars.peek() == Some(&':') && !word.is_empty() {
+            chars.next();
+            word.clear(); // the qualifier goes
+        } else {
+            flush(&mut word, &mut out);
+            out.push(c);
+        }
+    }
+    flush(&mut word, &mut out);
+    out
 }
 
 /// Byte offset of a 1-based line and column (in characters), clamped to the text.
@@ -1754,6 +1785,24 @@ fn load_mesh(path: &Path) -> Result<Mesh, MeshError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn messages_name_the_format_not_the_rust_types() {
+        assert_eq!(
+            without_rust_names(
+                "Expected tuple variant TransformDesc::Translate with 3 elements but found 2 elements"
+            ),
+            "Expected tuple variant Translate with 3 elements but found 2 elements"
+        );
+        assert_eq!(
+            without_rust_names("Unexpected field `x` in struct CameraDesc"),
+            "Unexpected field `x` in struct Camera"
+        );
+        assert_eq!(
+            without_rust_names("`Desc` and Description"),
+            "`Desc` and Description"
+        );
+    }
 
     #[test]
     fn paths_are_normalised() {
