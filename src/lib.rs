@@ -16,6 +16,11 @@
 //! assert_eq!(out[0], 0.13691995878400012); // Ken Perlin's reference implementation
 //! ```
 
+// `unsafe` lives only in the SIMD modules (`noise/batch.rs`, `noise/vbmi.rs`), allowed there by
+// name, each block with a `// SAFETY:` comment.
+#![deny(unsafe_code)]
+#![warn(clippy::undocumented_unsafe_blocks)]
+
 pub mod bake;
 pub mod check;
 pub mod compile;

@@ -1,6 +1,8 @@
 //! The `texgraph` command line: parse arguments, call the library, print, set the exit code.
 //! Exit codes: 0 success; 1 a graph or input is invalid; 2 usage or I/O error; 130 a bake interrupted by Ctrl-C.
 
+#![forbid(unsafe_code)]
+
 use clap::{Args, Parser, Subcommand};
 use std::io::{BufWriter, IsTerminal, Write};
 use std::path::{Path, PathBuf};

@@ -211,13 +211,15 @@ pub fn check_out_folder(dir: &Path) -> Result<(), OutputError> {
     }
 }
 
-/// Checks a single-file destination given on the command line before any work: an existing
-/// folder to write into, the extension `ext` (case-insensitive), and [`check_destination`].
+/// Checks a single-file destination given on the command line before any work:
+/// [`check_destination`] (what is there now comes first), the extension `ext`
+/// (case-insensitive), and an existing folder to write into.
 pub fn check_file_argument(path: &Path, ext: &str) -> Result<(), OutputError> {
     let invalid = |message: String| OutputError::Invalid {
         path: path.to_path_buf(),
         message,
     };
+    check_destination(path, Expect::File)?;
     let has_ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -242,7 +244,7 @@ pub fn check_file_argument(path: &Path, ext: &str) -> Result<(), OutputError> {
             })
         }
     }
-    check_destination(path, Expect::File)
+    Ok(())
 }
 
 /// The folder a path's file goes into (`.` for a bare name).

@@ -223,9 +223,10 @@ fn render_never_replaces_what_is_not_a_regular_file() {
         "{:?}",
         tree(dir.path())
     );
-    // The classic: /dev/null stays a device (refused by its name before anything is done).
+    // The classic: /dev/null stays a device (refused before anything is done), and so does a
+    // device without the .png extension.
     let output = run(&["render", MARBLE, "--size", "8,6", "-o", "/dev/null"]);
-    expect(&output, 2, "give a name ending in .png");
+    expect(&output, 2, "/dev/null: is a character device");
     assert!(kind_of(Path::new("/dev/null")).contains("char true"));
     // A path whose folder does not exist is refused before rendering.
     let missing = dir.path().join("no").join("such").join("x.png");
