@@ -13,9 +13,11 @@ use crate::graph::{
     Args, CheckedGraph, FractalParams, GraphBuilder, NodeId, Op, Origin, Output, TableKey, Type,
 };
 use crate::limits;
-use crate::nodes::{self, ArgDef, ArgKind, DefaultValue, InputType, Kind, NodeDef, OutputType};
+use crate::nodes::{
+    self, ArgDef, ArgKind, DefaultValue, InputType, Kind, Lowering, NodeDef, OutputType,
+};
 use crate::noise::{Basis, Interpolation};
-use crate::ops::{self, BinaryOp, Curve, Hermite, Ramp, SplineInterpolation, TernaryOp, UnaryOp};
+use crate::ops::{self, BinaryOp, Curve, Hermite, Ramp, SplineInterpolation};
 use crate::syntax::{self, Text, Value, ValueKind};
 use rustc_hash::FxHashMap as HashMap;
 use smallvec::{smallvec, SmallVec};
@@ -1299,25 +1301,25 @@ impl Checker {
             _ => 0.0,
         };
         let unary = |op| Op::Unary(op);
-        let op_args: (Op, Args) = match def.kind {
-            Kind::Position => (Op::Position, Args::new()),
-            Kind::Combine => (Op::Combine, smallvec![input(0), input(1), input(2)]),
-            Kind::Scale | Kind::Translate => {
+        let op_args: (Op, Args) = match def.lowering {
+            Lowering::Position => (Op::Position, Args::new()),
+            Lowering::Combine => (Op::Combine, smallvec![input(0), input(1), input(2)]),
+            Lowering::Scale | Lowering::Translate => {
                 let by = self.builder.broadcast(input(1), Type::Vec3, here);
-                let op = if def.kind == Kind::Scale {
+                let op = if def.lowering == Lowering::Scale {
                     BinaryOp::Mul
                 } else {
                     BinaryOp::Add
                 };
                 (Op::Binary(op), smallvec![input(0), by])
             }
-            Kind::Rotate => {
+            Lowering::Rotate => {
                 let Arg::Axis(axis) = args[1] else {
                     return None;
                 };
                 (Op::Rotate { axis }, smallvec![input(0), input(2)])
             }
-            Kind::Noise | Kind::Fbm | Kind::Turbulence => {
+            Lowering::Noise | Lowering::Fractal { .. } => {
                 let Arg::Basis(basis, explicit) = args[1] else {
                     return None;
                 };
@@ -1370,7 +1372,7 @@ impl Checker {
                         lacunarity: constant(4),
                         gain: constant(5),
                         first_octave: constant(6) as u32,
-                        turbulence: def.kind == Kind::Turbulence,
+                        turbulence: def.lowering == Lowering::Fractal { turbulence: true },
                     };
                     // Octave frequencies and amplitudes grow as powers: keep them finite.
                     let schedule = params.schedule();
@@ -1399,63 +1401,18 @@ impl Checker {
                     (Op::Fractal(key, params), smallvec![input(0)])
                 }
             }
-            Kind::Add
-            | Kind::Sub
-            | Kind::Mul
-            | Kind::Div
-            | Kind::Min
-            | Kind::Max
-            | Kind::Pow
-            | Kind::Atan2
-            | Kind::Mod => {
-                let op = match def.kind {
-                    Kind::Add => BinaryOp::Add,
-                    Kind::Sub => BinaryOp::Sub,
-                    Kind::Mul => BinaryOp::Mul,
-                    Kind::Div => BinaryOp::Div,
-                    Kind::Min => BinaryOp::Min,
-                    Kind::Max => BinaryOp::Max,
-                    Kind::Pow => BinaryOp::Pow,
-                    Kind::Atan2 => BinaryOp::Atan2,
-                    _ => BinaryOp::Mod,
-                };
-                (
-                    Op::Binary(op),
-                    self.broadcast_all(&[input(0), input(1)], here),
-                )
-            }
-            Kind::Abs
-            | Kind::Neg
-            | Kind::Sin
-            | Kind::Cos
-            | Kind::Sqrt
-            | Kind::Floor
-            | Kind::Fract => {
-                let op = match def.kind {
-                    Kind::Abs => UnaryOp::Abs,
-                    Kind::Neg => UnaryOp::Neg,
-                    Kind::Sin => UnaryOp::Sin,
-                    Kind::Cos => UnaryOp::Cos,
-                    Kind::Sqrt => UnaryOp::Sqrt,
-                    Kind::Floor => UnaryOp::Floor,
-                    _ => UnaryOp::Fract,
-                };
-                (unary(op), smallvec![input(0)])
-            }
-            Kind::Length => (Op::Length, smallvec![input(0)]),
-            Kind::Dot => (Op::Dot, smallvec![input(0), input(1)]),
-            Kind::Clamp | Kind::Mix | Kind::Smoothstep => {
-                let op = match def.kind {
-                    Kind::Clamp => TernaryOp::Clamp,
-                    Kind::Mix => TernaryOp::Mix,
-                    _ => TernaryOp::Smoothstep,
-                };
-                (
-                    Op::Ternary(op),
-                    self.broadcast_all(&[input(0), input(1), input(2)], here),
-                )
-            }
-            Kind::Hermite => (
+            Lowering::Binary(op) => (
+                Op::Binary(op),
+                self.broadcast_all(&[input(0), input(1)], here),
+            ),
+            Lowering::Unary(op) => (unary(op), smallvec![input(0)]),
+            Lowering::Length => (Op::Length, smallvec![input(0)]),
+            Lowering::Dot => (Op::Dot, smallvec![input(0), input(1)]),
+            Lowering::Ternary(op) => (
+                Op::Ternary(op),
+                self.broadcast_all(&[input(0), input(1), input(2)], here),
+            ),
+            Lowering::Hermite => (
                 Op::Hermite(Hermite {
                     p0: constant(1),
                     p1: constant(2),
@@ -1464,7 +1421,7 @@ impl Checker {
                 }),
                 smallvec![input(0)],
             ),
-            Kind::ColorRamp | Kind::Curve => {
+            Lowering::Ramp | Lowering::Curve => {
                 let interpolation = match args[2] {
                     Arg::Interpolation("Smooth", _) => SplineInterpolation::Smooth,
                     Arg::Interpolation("Constant", _) => SplineInterpolation::Constant,

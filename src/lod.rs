@@ -44,7 +44,9 @@ pub fn stretches(graph: &CheckedGraph) -> Vec<Option<f64>> {
             Op::Splat | Op::Component(_) => arg(0),
             Op::Combine => Some((arg(0)?.powi(2) + arg(1)?.powi(2) + arg(2)?.powi(2)).sqrt()),
             Op::Unary(UnaryOp::Neg | UnaryOp::Abs | UnaryOp::Sin | UnaryOp::Cos) => arg(0),
-            Op::Unary(_) => None,
+            // Unbounded slope (Sqrt at 0) or discontinuous (Floor, Fract): no bound. Listed, not
+            // defaulted, so a new operation must say what its bound is.
+            Op::Unary(UnaryOp::Sqrt | UnaryOp::Floor | UnaryOp::Fract) => None,
             Op::Binary(BinaryOp::Add | BinaryOp::Sub) => Some(arg(0)? + arg(1)?),
             Op::Binary(BinaryOp::Min | BinaryOp::Max) => Some(arg(0)?.max(arg(1)?)),
             Op::Binary(BinaryOp::Mul) => match (constant(0), constant(1)) {
@@ -55,7 +57,8 @@ pub fn stretches(graph: &CheckedGraph) -> Vec<Option<f64>> {
             Op::Binary(BinaryOp::Div) => constant(1)
                 .filter(|c| smallest(*c) > 0.0)
                 .and_then(|c| Some(arg(0)? / smallest(c))),
-            Op::Binary(_) => None,
+            // Pow and Atan2 have unbounded slopes; Mod is discontinuous.
+            Op::Binary(BinaryOp::Pow | BinaryOp::Atan2 | BinaryOp::Mod) => None,
             Op::Ternary(TernaryOp::Clamp) => constant(1).and(constant(2)).and_then(|_| arg(0)),
             Op::Ternary(TernaryOp::Mix) => constant(2)
                 .and_then(|t| Some(largest(t.map(|v| 1.0 - v)) * arg(0)? + largest(t) * arg(1)?)),

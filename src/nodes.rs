@@ -4,6 +4,7 @@
 //! them (a test keeps the document in step).
 
 use crate::limits;
+use crate::ops::{BinaryOp, TernaryOp, UnaryOp};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Kind {
@@ -38,6 +39,31 @@ pub enum Kind {
     Smoothstep,
     Hermite,
     ColorRamp,
+    Curve,
+}
+
+/// The operation a node kind lowers to in the checked graph.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Lowering {
+    Position,
+    Combine,
+    /// `input * by`, `by` broadcast to a vec3.
+    Scale,
+    /// `input + by`, `by` broadcast to a vec3.
+    Translate,
+    Rotate,
+    Noise,
+    Fractal {
+        turbulence: bool,
+    },
+    /// A per-lane math operation of `ops.rs` (scalars or vec3 component-wise).
+    Unary(UnaryOp),
+    Binary(BinaryOp),
+    Ternary(TernaryOp),
+    Length,
+    Dot,
+    Hermite,
+    Ramp,
     Curve,
 }
 
@@ -140,6 +166,9 @@ pub enum OutputType {
 #[derive(Clone, Copy, Debug)]
 pub struct NodeDef {
     pub kind: Kind,
+    /// What the checker turns this kind into: each entry names its own operation, so a new
+    /// kind can never be lowered as another one by a fall-through.
+    pub lowering: Lowering,
     pub name: &'static str,
     pub args: &'static [ArgDef],
     pub output: OutputType,
@@ -264,31 +293,31 @@ const FRACTAL_ARGS: &[ArgDef] = &[
 ];
 
 /// Every node kind, in the order `texgraph nodes` lists them.
-pub static CATALOGUE: &[NodeDef] = &[
-    NodeDef { kind: Kind::Position, name: "Position", args: &[], output: OutputType::Vec3, doc: "The sample point (x, y, z)." },
+pub const CATALOGUE: &[NodeDef] = &[
+    NodeDef { kind: Kind::Position, lowering: Lowering::Position, name: "Position", args: &[], output: OutputType::Vec3, doc: "The sample point (x, y, z)." },
     NodeDef {
-        kind: Kind::Combine,
+        kind: Kind::Combine, lowering: Lowering::Combine,
         name: "Combine",
         args: &[input("x", InputType::Scalar, "x component"), input("y", InputType::Scalar, "y component"), input("z", InputType::Scalar, "z component")],
         output: OutputType::Vec3,
         doc: "Builds a vec3 from three scalars.",
     },
     NodeDef {
-        kind: Kind::Scale,
+        kind: Kind::Scale, lowering: Lowering::Scale,
         name: "Scale",
         args: &[input("input", InputType::Vec3, "the point"), input("by", InputType::Any, "scale factor, scalar or per axis")],
         output: OutputType::Vec3,
         doc: "Component-wise product input * by (seed 001's texture repeat vector).",
     },
     NodeDef {
-        kind: Kind::Translate,
+        kind: Kind::Translate, lowering: Lowering::Translate,
         name: "Translate",
         args: &[input("input", InputType::Vec3, "the point"), input("by", InputType::Any, "offset, scalar or per axis")],
         output: OutputType::Vec3,
         doc: "Adds an offset: input + by.",
     },
     NodeDef {
-        kind: Kind::Rotate,
+        kind: Kind::Rotate, lowering: Lowering::Rotate,
         name: "Rotate",
         args: &[
             input("input", InputType::Vec3, "the point"),
@@ -299,7 +328,7 @@ pub static CATALOGUE: &[NodeDef] = &[
         doc: "Rotates the point about an axis through the origin; the pattern appears rotated the other way.",
     },
     NodeDef {
-        kind: Kind::Noise,
+        kind: Kind::Noise, lowering: Lowering::Noise,
         name: "Noise",
         args: &[
             input("input", InputType::Vec3, "the point to sample"),
@@ -316,72 +345,72 @@ pub static CATALOGUE: &[NodeDef] = &[
         doc: "One lattice noise sample: Perlin (improved, 2002), Gradient (seed 000) or Value (seeds 002/004).",
     },
     NodeDef {
-        kind: Kind::Fbm,
+        kind: Kind::Fbm, lowering: Lowering::Fractal { turbulence: false },
         name: "Fbm",
         args: FRACTAL_ARGS,
         output: OutputType::Scalar,
         doc: "Fractal sum: sum over octaves i of gain^i * basis(input * lacunarity^i).",
     },
     NodeDef {
-        kind: Kind::Turbulence,
+        kind: Kind::Turbulence, lowering: Lowering::Fractal { turbulence: true },
         name: "Turbulence",
         args: FRACTAL_ARGS,
         output: OutputType::Scalar,
         doc: "Perlin's turbulence: sum over octaves i of gain^i * |basis(input * lacunarity^i)|.",
     },
-    NodeDef { kind: Kind::Add, name: "Add", args: ANY_AB, output: OutputType::Broadcast, doc: "a + b." },
-    NodeDef { kind: Kind::Sub, name: "Sub", args: ANY_AB, output: OutputType::Broadcast, doc: "a - b." },
-    NodeDef { kind: Kind::Mul, name: "Mul", args: ANY_AB, output: OutputType::Broadcast, doc: "a * b." },
-    NodeDef { kind: Kind::Div, name: "Div", args: ANY_AB, output: OutputType::Broadcast, doc: "a / b (IEEE: x/0 is +-inf, 0/0 is NaN)." },
-    NodeDef { kind: Kind::Min, name: "Min", args: ANY_AB, output: OutputType::Broadcast, doc: "The smaller of a and b; NaN if either is NaN." },
-    NodeDef { kind: Kind::Max, name: "Max", args: ANY_AB, output: OutputType::Broadcast, doc: "The larger of a and b; NaN if either is NaN." },
-    NodeDef { kind: Kind::Pow, name: "Pow", args: ANY_AB, output: OutputType::Broadcast, doc: "a raised to b (IEEE pow: a negative a with a non-integer b is NaN)." },
+    NodeDef { kind: Kind::Add, lowering: Lowering::Binary(BinaryOp::Add), name: "Add", args: ANY_AB, output: OutputType::Broadcast, doc: "a + b." },
+    NodeDef { kind: Kind::Sub, lowering: Lowering::Binary(BinaryOp::Sub), name: "Sub", args: ANY_AB, output: OutputType::Broadcast, doc: "a - b." },
+    NodeDef { kind: Kind::Mul, lowering: Lowering::Binary(BinaryOp::Mul), name: "Mul", args: ANY_AB, output: OutputType::Broadcast, doc: "a * b." },
+    NodeDef { kind: Kind::Div, lowering: Lowering::Binary(BinaryOp::Div), name: "Div", args: ANY_AB, output: OutputType::Broadcast, doc: "a / b (IEEE: x/0 is +-inf, 0/0 is NaN)." },
+    NodeDef { kind: Kind::Min, lowering: Lowering::Binary(BinaryOp::Min), name: "Min", args: ANY_AB, output: OutputType::Broadcast, doc: "The smaller of a and b; NaN if either is NaN." },
+    NodeDef { kind: Kind::Max, lowering: Lowering::Binary(BinaryOp::Max), name: "Max", args: ANY_AB, output: OutputType::Broadcast, doc: "The larger of a and b; NaN if either is NaN." },
+    NodeDef { kind: Kind::Pow, lowering: Lowering::Binary(BinaryOp::Pow), name: "Pow", args: ANY_AB, output: OutputType::Broadcast, doc: "a raised to b (IEEE pow: a negative a with a non-integer b is NaN)." },
     NodeDef {
-        kind: Kind::Atan2,
+        kind: Kind::Atan2, lowering: Lowering::Binary(BinaryOp::Atan2),
         name: "Atan2",
         args: &[input("y", InputType::Any, "y"), input("x", InputType::Any, "x")],
         output: OutputType::Broadcast,
         doc: "The angle of (x, y) in radians, in [-pi, pi]; Atan2(0, 0) is 0.",
     },
-    NodeDef { kind: Kind::Mod, name: "Mod", args: ANY_AB, output: OutputType::Broadcast, doc: "Floored modulo: the result takes the sign of b; Mod(a, 0) is NaN." },
-    NodeDef { kind: Kind::Abs, name: "Abs", args: ANY_X, output: OutputType::Broadcast, doc: "|x|." },
-    NodeDef { kind: Kind::Neg, name: "Neg", args: ANY_X, output: OutputType::Broadcast, doc: "-x." },
-    NodeDef { kind: Kind::Sin, name: "Sin", args: ANY_X, output: OutputType::Broadcast, doc: "sin(x), x in radians." },
-    NodeDef { kind: Kind::Cos, name: "Cos", args: ANY_X, output: OutputType::Broadcast, doc: "cos(x), x in radians." },
-    NodeDef { kind: Kind::Sqrt, name: "Sqrt", args: ANY_X, output: OutputType::Broadcast, doc: "Square root; NaN for negative x." },
-    NodeDef { kind: Kind::Floor, name: "Floor", args: ANY_X, output: OutputType::Broadcast, doc: "The largest integer <= x." },
-    NodeDef { kind: Kind::Fract, name: "Fract", args: ANY_X, output: OutputType::Broadcast, doc: "x - floor(x), in [0, 1); NaN for infinite x." },
-    NodeDef { kind: Kind::Length, name: "Length", args: &[input("v", InputType::Vec3, "the vector")], output: OutputType::Scalar, doc: "Euclidean length of a vec3." },
+    NodeDef { kind: Kind::Mod, lowering: Lowering::Binary(BinaryOp::Mod), name: "Mod", args: ANY_AB, output: OutputType::Broadcast, doc: "Floored modulo: the result takes the sign of b; Mod(a, 0) is NaN." },
+    NodeDef { kind: Kind::Abs, lowering: Lowering::Unary(UnaryOp::Abs), name: "Abs", args: ANY_X, output: OutputType::Broadcast, doc: "|x|." },
+    NodeDef { kind: Kind::Neg, lowering: Lowering::Unary(UnaryOp::Neg), name: "Neg", args: ANY_X, output: OutputType::Broadcast, doc: "-x." },
+    NodeDef { kind: Kind::Sin, lowering: Lowering::Unary(UnaryOp::Sin), name: "Sin", args: ANY_X, output: OutputType::Broadcast, doc: "sin(x), x in radians." },
+    NodeDef { kind: Kind::Cos, lowering: Lowering::Unary(UnaryOp::Cos), name: "Cos", args: ANY_X, output: OutputType::Broadcast, doc: "cos(x), x in radians." },
+    NodeDef { kind: Kind::Sqrt, lowering: Lowering::Unary(UnaryOp::Sqrt), name: "Sqrt", args: ANY_X, output: OutputType::Broadcast, doc: "Square root; NaN for negative x." },
+    NodeDef { kind: Kind::Floor, lowering: Lowering::Unary(UnaryOp::Floor), name: "Floor", args: ANY_X, output: OutputType::Broadcast, doc: "The largest integer <= x." },
+    NodeDef { kind: Kind::Fract, lowering: Lowering::Unary(UnaryOp::Fract), name: "Fract", args: ANY_X, output: OutputType::Broadcast, doc: "x - floor(x), in [0, 1); NaN for infinite x." },
+    NodeDef { kind: Kind::Length, lowering: Lowering::Length, name: "Length", args: &[input("v", InputType::Vec3, "the vector")], output: OutputType::Scalar, doc: "Euclidean length of a vec3." },
     NodeDef {
-        kind: Kind::Dot,
+        kind: Kind::Dot, lowering: Lowering::Dot,
         name: "Dot",
         args: &[input("a", InputType::Vec3, "left vector"), input("b", InputType::Vec3, "right vector")],
         output: OutputType::Scalar,
         doc: "Dot product of two vec3.",
     },
     NodeDef {
-        kind: Kind::Clamp,
+        kind: Kind::Clamp, lowering: Lowering::Ternary(TernaryOp::Clamp),
         name: "Clamp",
         args: &[input("input", InputType::Any, "the value"), input_or("min", InputType::Any, 0.0, "lower bound"), input_or("max", InputType::Any, 1.0, "upper bound")],
         output: OutputType::Broadcast,
         doc: "min(max(input, min), max); NaN stays NaN.",
     },
     NodeDef {
-        kind: Kind::Mix,
+        kind: Kind::Mix, lowering: Lowering::Ternary(TernaryOp::Mix),
         name: "Mix",
         args: &[input("a", InputType::Any, "value at t = 0"), input("b", InputType::Any, "value at t = 1"), input("t", InputType::Any, "blend factor, not clamped")],
         output: OutputType::Broadcast,
         doc: "Linear blend a + t * (b - a), t not clamped.",
     },
     NodeDef {
-        kind: Kind::Smoothstep,
+        kind: Kind::Smoothstep, lowering: Lowering::Ternary(TernaryOp::Smoothstep),
         name: "Smoothstep",
         args: &[input("edge0", InputType::Any, "where the step starts"), input("edge1", InputType::Any, "where the step ends"), input("x", InputType::Any, "the value")],
         output: OutputType::Broadcast,
         doc: "GLSL smoothstep: t = clamp((x - edge0) / (edge1 - edge0), 0, 1), t*t*(3 - 2t); a hard step at edge0 when edge0 = edge1.",
     },
     NodeDef {
-        kind: Kind::Hermite,
+        kind: Kind::Hermite, lowering: Lowering::Hermite,
         name: "Hermite",
         args: &[
             input("input", InputType::Scalar, "the value; clamped to [0, 1]"),
@@ -394,7 +423,7 @@ pub static CATALOGUE: &[NodeDef] = &[
         doc: "Cubic Hermite spline on t = clamp(input, 0, 1) from p0 (slope m0) to p1 (slope m1): seed 000's crack sharpening.",
     },
     NodeDef {
-        kind: Kind::ColorRamp,
+        kind: Kind::ColorRamp, lowering: Lowering::Ramp,
         name: "ColorRamp",
         args: &[
             input("input", InputType::Scalar, "the value; clamped to the first and last stop"),
@@ -410,7 +439,7 @@ pub static CATALOGUE: &[NodeDef] = &[
         doc: "Colour spline: maps a scalar to a colour through sorted stops.",
     },
     NodeDef {
-        kind: Kind::Curve,
+        kind: Kind::Curve, lowering: Lowering::Curve,
         name: "Curve",
         args: &[
             input("input", InputType::Scalar, "the value; clamped to the first and last point"),
@@ -433,12 +462,21 @@ pub fn lookup(name: &str) -> Option<&'static NodeDef> {
 }
 
 pub fn def(kind: Kind) -> &'static NodeDef {
-    // Every Kind has exactly one entry (pinned by a test), so the search always succeeds.
-    CATALOGUE
-        .iter()
-        .find(|def| def.kind == kind)
-        .unwrap_or(&CATALOGUE[0])
+    &CATALOGUE[kind as usize]
 }
+
+// The catalogue lists the kinds in `Kind` order, one entry each: checked when the crate
+// compiles, so `def` can index it (a test pins that every kind has its entry).
+const _: () = {
+    let mut i = 0;
+    while i < CATALOGUE.len() {
+        assert!(
+            CATALOGUE[i].kind as usize == i,
+            "CATALOGUE must list the kinds in Kind order"
+        );
+        i += 1;
+    }
+};
 
 /// The closest catalogue name to a misspelt one, for "did you mean" hints.
 pub fn suggest(name: &str) -> Option<&'static str> {
@@ -579,6 +617,25 @@ mod tests {
             assert_eq!(lookup(a.name).map(|d| d.kind), Some(a.kind));
         }
         assert_eq!(CATALOGUE.len(), 32);
+    }
+
+    /// Each entry lowers to its own operation: a math kind to the `ops` operation of the same
+    /// name (a copied entry that kept its neighbour's operation fails here), the rest to their
+    /// own lowering.
+    #[test]
+    fn every_kind_lowers_to_its_own_operation() {
+        for d in CATALOGUE {
+            let own = match d.lowering {
+                Lowering::Unary(op) => format!("{op:?}"),
+                Lowering::Binary(op) => format!("{op:?}"),
+                Lowering::Ternary(op) => format!("{op:?}"),
+                Lowering::Fractal { turbulence: true } => "Turbulence".into(),
+                Lowering::Fractal { turbulence: false } => "Fbm".into(),
+                Lowering::Ramp => "ColorRamp".into(),
+                other => format!("{other:?}"),
+            };
+            assert_eq!(own, d.name, "{:?}", d.kind);
+        }
     }
 
     #[test]
