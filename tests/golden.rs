@@ -12,6 +12,9 @@
 //! vec3 output, else the first output as grey clamped to [0, 1]); it is compared pixel by pixel,
 //! within 1 of 255.
 //!
+//! `tests/golden/NAME.tape` is the graph's tape disassembly (`texgraph check --tape`), compared
+//! exactly.
+//!
 //! Re-bless after an intended change: `TEXGRAPH_BLESS=1 cargo test --test golden`, then review
 //! the diff (`git diff tests/golden`).
 
@@ -278,6 +281,52 @@ fn every_seed_graph_matches_its_golden_values_and_picture() {
     assert!(
         failures.is_empty(),
         "golden mismatches:\n{}",
+        failures.join("\n")
+    );
+}
+
+/// The tape disassembly of every graph, `tests/golden/NAME.tape`, compared exactly: the
+/// disassembly is a golden format, so a change to checking, folding, deduplication, pruning,
+/// instruction selection or slot allocation shows up as a reviewable diff.
+#[test]
+fn every_seed_graph_compiles_to_its_golden_tape() {
+    let mut failures = Vec::new();
+    for path in &graph_files() {
+        let stem = path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .expect("utf-8 file name");
+        let text = load(path).to_string();
+        let tape_path = PathBuf::from(format!("tests/golden/{stem}.tape"));
+        if bless() {
+            std::fs::write(&tape_path, &text).expect("write golden tape");
+            continue;
+        }
+        match std::fs::read_to_string(&tape_path) {
+            Ok(expected) if expected == text => {}
+            Ok(expected) => {
+                let line = expected
+                    .lines()
+                    .zip(text.lines())
+                    .position(|(a, b)| a != b)
+                    .unwrap_or(expected.lines().count().min(text.lines().count()));
+                failures.push(format!(
+                    "{}: differs from line {}:\n  golden: {}\n  now:    {}",
+                    tape_path.display(),
+                    line + 1,
+                    expected.lines().nth(line).unwrap_or("(end)"),
+                    text.lines().nth(line).unwrap_or("(end)")
+                ));
+            }
+            Err(_) => failures.push(format!(
+                "{} is missing: run TEXGRAPH_BLESS=1 cargo test --test golden",
+                tape_path.display()
+            )),
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "tape mismatches:\n{}",
         failures.join("\n")
     );
 }
