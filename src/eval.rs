@@ -270,18 +270,15 @@ impl Tape {
                     let (a, b) = (&ws.vec3s[a as usize], &ws.vec3s[b as usize]);
                     let out = &mut ws.scalars[dst as usize][..n];
                     for (i, o) in out.iter_mut().enumerate() {
-                        let d = a[i] * b[i]
-                            + a[LANES + i] * b[LANES + i]
-                            + a[2 * LANES + i] * b[2 * LANES + i];
-                        *o = S::from_f64(d);
+                        let lane = |v: &[f64]| [v[i], v[LANES + i], v[2 * LANES + i]];
+                        *o = S::from_f64(ops::dot(lane(a), lane(b)));
                     }
                 }
                 Instr::Length { dst, src } => {
                     let a = &ws.vec3s[src as usize];
                     let out = &mut ws.scalars[dst as usize][..n];
                     for (i, o) in out.iter_mut().enumerate() {
-                        let (px, py, pz) = (a[i], a[LANES + i], a[2 * LANES + i]);
-                        *o = S::from_f64((px * px + py * py + pz * pz).sqrt());
+                        *o = S::from_f64(ops::length([a[i], a[LANES + i], a[2 * LANES + i]]));
                     }
                 }
                 Instr::RotateConst { dst, src, matrix } => {

@@ -433,12 +433,8 @@ impl GraphBuilder {
             Op::Binary(b) if all_vec3 => map3(&|c| b.apply(v[0][c], v[1][c])),
             Op::Ternary(t) if all_scalar => Op::ConstScalar(t.apply(s[0], s[1], s[2])),
             Op::Ternary(t) if all_vec3 => map3(&|c| t.apply(v[0][c], v[1][c], v[2][c])),
-            Op::Dot if all_vec3 => {
-                Op::ConstScalar(v[0][0] * v[1][0] + v[0][1] * v[1][1] + v[0][2] * v[1][2])
-            }
-            Op::Length if all_vec3 => {
-                Op::ConstScalar((v[0][0] * v[0][0] + v[0][1] * v[0][1] + v[0][2] * v[0][2]).sqrt())
-            }
+            Op::Dot if all_vec3 => Op::ConstScalar(crate::ops::dot(v[0], v[1])),
+            Op::Length if all_vec3 => Op::ConstScalar(crate::ops::length(v[0])),
             Op::Noise(key) if all_vec3 => {
                 let table = self.table(*key);
                 Op::ConstScalar(table.sample::<f64>(v[0]))

@@ -8,6 +8,19 @@
 use crate::real::Real;
 use std::fmt;
 
+/// The dot product of two vec3 values, in f64 (vec3 values are f64 on both paths). Folding and
+/// the interpreter both call this.
+#[inline(always)]
+pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// The Euclidean length of a vec3 value, in f64. Folding and the interpreter both call this.
+#[inline(always)]
+pub fn length(a: [f64; 3]) -> f64 {
+    dot(a, a).sqrt()
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum UnaryOp {
     Abs,
