@@ -187,6 +187,136 @@ const BINARY: [&str; 9] = [
     "Add", "Sub", "Mul", "Div", "Min", "Max", "Pow", "Atan2", "Mod",
 ];
 const TERNARY: [&str; 3] = ["Clamp", "Mix", "Smoothstep"];
+const SHAPING: [&str; 3] = ["Hermite", "Curve", "ColorRamp"];
+const NOISE: [&str; 3] = ["Noise", "Fbm", "Turbulence"];
+const VECTOR: [&str; 7] = [
+    "Position",
+    "Combine",
+    "Scale",
+    "Translate",
+    "Rotate",
+    "Length",
+    "Dot",
+];
+
+mod common;
+
+/// A test's graph uses every kind it claims to check.
+#[track_caller]
+fn assert_covers(source: &str, kinds: &[&str]) {
+    let used = common::kinds_used(source);
+    for kind in kinds {
+        assert!(used.contains(kind), "{kind} is not in the test's graph");
+    }
+}
+
+/// Every kind of the catalogue has a conformance reference in one of the tests below: a kind
+/// added without one fails here.
+#[test]
+fn every_node_kind_has_a_conformance_reference() {
+    let covered: Vec<&str> = [&UNARY[..], &BINARY, &TERNARY, &SHAPING, &NOISE, &VECTOR].concat();
+    let missing: Vec<&str> = texgraph::nodes::CATALOGUE
+        .iter()
+        .map(|d| d.name)
+        .filter(|name| !covered.contains(name))
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "no conformance reference for {missing:?}"
+    );
+}
+
+/// Vectors and domain transforms against plain formulas: Combine, Scale, Translate, Length and
+/// Dot exactly (the same arithmetic in the same order), Rotate against the vector form of
+/// Rodrigues' rotation, `v cos a + (k × v) sin a + k (k · v)(1 − cos a)`, within rounding.
+#[test]
+fn vector_and_domain_nodes_match_their_definitions() {
+    let source = r#"Graph(nodes: { "p": Position }, outputs: {
+            "combine": Combine("p.z", "p.x", "p.y"),
+            "scale": Scale(input: "p", by: (2.0, -3.0, 0.5)),
+            "translate": Translate(input: "p", by: (1.0, -2.0, 3.5)),
+            "rotate": Rotate(input: "p", axis: (1.0, 2.0, -2.0), degrees: 30.0),
+            "twist": Rotate(input: "p", degrees: Mul(90.0, "p.z")),
+            "length": Length("p"),
+            "dot": Dot("p", (1.0, -2.0, 0.25)),
+        })"#;
+    assert_covers(source, &VECTOR);
+    let t = tape(source);
+    let mut points: Vec<[f64; 3]> = Vec::new();
+    for &a in &[0.0, -0.0, 1.0, -2.5, 0.125, 1e-30, 1e30, 1e200, -3.0e8] {
+        for &b in &[0.5, -1.0, 7.25] {
+            points.push([a, b, -a * 0.5 + b]);
+        }
+    }
+    points.push([f64::INFINITY, 1.0, 0.0]);
+    points.push([f64::NAN, 1.0, 0.0]);
+    let (_, r64) = run(&t, &points);
+    let n = points.len();
+    let get = |channel: usize, i: usize| r64[channel * n + i];
+    // Channels: combine 0..3, scale 3..6, translate 6..9, rotate 9..12, twist 12..15, length 15,
+    // dot 16.
+    let rodrigues = |v: [f64; 3], axis: [f64; 3], degrees: f64| -> [f64; 3] {
+        let norm = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
+        let k = axis.map(|c| c / norm);
+        let (s, c) = degrees.to_radians().sin_cos();
+        let cross = [
+            k[1] * v[2] - k[2] * v[1],
+            k[2] * v[0] - k[0] * v[2],
+            k[0] * v[1] - k[1] * v[0],
+        ];
+        let kv = k[0] * v[0] + k[1] * v[1] + k[2] * v[2];
+        [0, 1, 2].map(|a| v[a] * c + cross[a] * s + k[a] * kv * (1.0 - c))
+    };
+    let close = |got: f64, want: f64, scale: f64| {
+        (got.is_nan() && want.is_nan()) || got == want || (got - want).abs() <= 1e-12 * scale
+    };
+    for (i, p) in points.iter().enumerate() {
+        let [x, y, z] = *p;
+        let exact = [
+            (0, z),
+            (1, x),
+            (2, y),
+            (3, x * 2.0),
+            (4, y * -3.0),
+            (5, z * 0.5),
+            (6, x + 1.0),
+            (7, y - 2.0),
+            (8, z + 3.5),
+            (15, (x * x + y * y + z * z).sqrt()),
+            (16, x * 1.0 + y * -2.0 + z * 0.25),
+        ];
+        for (channel, want) in exact {
+            let got = get(channel, i);
+            assert!(
+                got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
+                "channel {channel} at {p:?}: {got} vs {want}"
+            );
+        }
+        if !p.iter().all(|c| c.is_finite()) {
+            continue; // a rotated infinity is inf or NaN component by component, as IEEE says
+        }
+        let scale = x.abs().max(y.abs()).max(z.abs()).max(1.0);
+        let rotated = rodrigues(*p, [1.0, 2.0, -2.0], 30.0);
+        let twisted = rodrigues(*p, [0.0, 0.0, 1.0], 90.0 * z);
+        for a in 0..3 {
+            assert!(
+                close(get(9 + a, i), rotated[a], scale),
+                "Rotate axis (1, 2, -2) by 30 of {p:?}[{a}]: {} vs {}",
+                get(9 + a, i),
+                rotated[a]
+            );
+            // The twist angle grows with z: compare where the angle itself is exact enough.
+            if (90.0 * z).abs() < 1e6 {
+                assert!(
+                    close(get(12 + a, i), twisted[a], scale),
+                    "twist of {p:?}[{a}]: {} vs {}",
+                    get(12 + a, i),
+                    twisted[a]
+                );
+            }
+        }
+    }
+}
 
 /// Evaluates a tape with outputs ("s" scalar, "v" vec3) at points, per point and per batch, in
 /// both precisions; asserts point == batch bit for bit and returns the f32 and f64 results.
@@ -422,13 +552,13 @@ fn folded_constants_equal_the_reference() {
 
 #[test]
 fn shaping_nodes_match_their_definitions() {
-    let t = tape(
-        r#"Graph(nodes: { "p": Position }, outputs: {
+    let source = r#"Graph(nodes: { "p": Position }, outputs: {
             "h": Hermite(input: "p.x", p0: 0.0, p1: 1.0, m0: 1e6, m1: -1e6),
             "c": Curve(input: "p.x", points: [(0.0, 0.0), (0.5, 2.0), (0.5, -2.0), (1.0, 0.0)]),
             "r": ColorRamp(input: "p.x", stops: [(0.0, (0.0, 0.0, 0.0)), (1.0, (1.0, 0.5, 0.25))], interpolation: Smooth),
-        })"#,
-    );
+        })"#;
+    assert_covers(source, &SHAPING);
+    let t = tape(source);
     let xs = [
         -1.0,
         0.0,
@@ -484,15 +614,15 @@ fn shaping_nodes_match_their_definitions() {
 
 #[test]
 fn noise_nodes_match_the_noise_library() {
-    let t = tape(
-        r#"Graph(nodes: { "p": Position }, outputs: {
+    let source = r#"Graph(nodes: { "p": Position }, outputs: {
             "perlin": Noise(input: "p", basis: Perlin),
             "gradient": Noise(input: "p", basis: Gradient, seed: 7),
             "value": Noise(input: "p", basis: Value(interpolation: Smooth), seed: 3),
             "fbm": Fbm(input: "p", basis: Perlin, octaves: 4.5, lacunarity: 1.9, gain: 0.6, first_octave: 1),
             "turbulence": Turbulence(input: "p", basis: Gradient, octaves: 3.0),
-        })"#,
-    );
+        })"#;
+    assert_covers(source, &NOISE);
+    let t = tape(source);
     use texgraph::noise::{fractal, Basis, Interpolation, NoiseTable, Octaves};
     let perlin = NoiseTable::new(Basis::Perlin, 0);
     let gradient7 = NoiseTable::new(Basis::Gradient, 7);

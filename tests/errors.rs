@@ -37,9 +37,8 @@ const NOISE: &[&str] = &[
     "Span {",
 ];
 
-fn blessing() -> bool {
-    std::env::var_os("TEXGRAPH_BLESS").is_some_and(|v| v == "1")
-}
+mod common;
+use common::blessing;
 
 fn cases() -> Vec<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join(DIR);

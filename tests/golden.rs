@@ -27,9 +27,8 @@ const F32_TOLERANCE: f64 = 1e-5;
 const SLICE: usize = 32;
 const PICTURE: usize = 64;
 
-fn bless() -> bool {
-    std::env::var_os("TEXGRAPH_BLESS").is_some_and(|v| v == "1")
-}
+mod common;
+use common::blessing as bless;
 
 fn graph_files() -> Vec<PathBuf> {
     let mut files: Vec<PathBuf> = std::fs::read_dir("graphs")

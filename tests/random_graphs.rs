@@ -172,3 +172,24 @@ proptest! {
         }
     }
 }
+
+mod common;
+
+/// The generator reaches every node kind of the catalogue: a kind added without a generator
+/// case fails here.
+#[test]
+fn the_generator_reaches_every_node_kind() {
+    use proptest::strategy::ValueTree;
+    let mut runner = proptest::test_runner::TestRunner::deterministic();
+    let strategy = (scalar(3), vec3(3));
+    let mut found = std::collections::BTreeSet::new();
+    for _ in 0..2000 {
+        let (a, b) = strategy.new_tree(&mut runner).unwrap().current();
+        found.extend(common::kinds_used(&graph_text(&a, &b, 1.0)));
+    }
+    assert_eq!(
+        common::kinds_missing(&found),
+        Vec::<&str>::new(),
+        "node kinds the random-graph generator never produces"
+    );
+}

@@ -12,9 +12,8 @@ use texgraph::render::{
 
 const MARBLE: &str = "graphs/seed003_marble.ron";
 
-fn blessing() -> bool {
-    std::env::var_os("TEXGRAPH_BLESS").is_some_and(|v| v != "0" && !v.is_empty())
-}
+mod common;
+use common::blessing;
 
 fn small(samples: u32) -> RenderOptions {
     RenderOptions {

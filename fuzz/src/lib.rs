@@ -169,12 +169,13 @@ pub fn structured_graph(data: &[u8]) {
     }
 }
 
-fn random_graph_agrees(u: &mut Unstructured) {
+/// A graph valid by construction, as text, drawn from the bytes (`None` when they run out).
+pub fn random_graph_text(u: &mut Unstructured) -> Option<String> {
     let mut gen = Generator { depth_left: 4 };
     let (Ok(a), Ok(b), Ok(k)) = (gen.scalar(u), gen.vec3(u), finite(u)) else {
-        return;
+        return None;
     };
-    let text = format!(
+    Some(format!(
         r#"Graph(
     params: {{ "k": {k:?} }},
     nodes: {{
@@ -184,7 +185,13 @@ fn random_graph_agrees(u: &mut Unstructured) {
     }},
     outputs: {{ "a": "a", "b": {b} }},
 )"#
-    );
+    ))
+}
+
+fn random_graph_agrees(u: &mut Unstructured) {
+    let Some(text) = random_graph_text(u) else {
+        return;
+    };
     let graph = match check(
         SourceFile::new(FILE, text.clone()),
         &CheckOptions::default(),
