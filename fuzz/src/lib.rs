@@ -18,6 +18,7 @@
 use arbitrary::{Result, Unstructured};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
+use texgraph::nodes::Lowering;
 use texgraph::{check, compile, CheckOptions, CompileOptions, Real, SourceFile, Tape, Workspace};
 
 const FILE: &str = "fuzz.ron";
@@ -367,6 +368,26 @@ struct Generator {
     depth_left: u32,
 }
 
+/// The catalogue's kinds that lower to a unary (binary) math operation, in catalogue order: the
+/// generator iterates the table, so a new math kind is generated without touching this file.
+fn unary_kinds() -> &'static [&'static str] {
+    static KINDS: OnceLock<Vec<&'static str>> = OnceLock::new();
+    KINDS.get_or_init(|| kinds_where(|l| matches!(l, Lowering::Unary(_))))
+}
+
+fn binary_kinds() -> &'static [&'static str] {
+    static KINDS: OnceLock<Vec<&'static str>> = OnceLock::new();
+    KINDS.get_or_init(|| kinds_where(|l| matches!(l, Lowering::Binary(_))))
+}
+
+fn kinds_where(keep: impl Fn(Lowering) -> bool) -> Vec<&'static str> {
+    texgraph::nodes::CATALOGUE
+        .iter()
+        .filter(|d| keep(d.lowering))
+        .map(|d| d.name)
+        .collect()
+}
+
 impl Generator {
     fn nested<T>(&mut self, f: impl FnOnce(&mut Self) -> Result<T>) -> Result<T> {
         self.depth_left -= 1;
@@ -385,11 +406,11 @@ impl Generator {
         match choice {
             0..=3 => self.scalar_leaf(u),
             4 => self.nested(|g| {
-                let op = u.choose(&["Add", "Sub", "Mul", "Div", "Min", "Max", "Pow", "Atan2", "Mod"])?;
+                let op = u.choose(binary_kinds())?;
                 Ok(format!("{op}({}, {})", g.scalar(u)?, g.scalar(u)?))
             }),
             5 => self.nested(|g| {
-                let op = u.choose(&["Abs", "Neg", "Sin", "Cos", "Sqrt", "Floor", "Fract"])?;
+                let op = u.choose(unary_kinds())?;
                 Ok(format!("{op}({})", g.scalar(u)?))
             }),
             6 => self.nested(|g| {
@@ -513,9 +534,7 @@ impl Generator {
                 ))
             }),
             7 => self.nested(|g| {
-                let op = u.choose(&[
-                    "Add", "Sub", "Mul", "Div", "Min", "Max", "Pow", "Atan2", "Mod",
-                ])?;
+                let op = u.choose(binary_kinds())?;
                 // Mixed operands broadcast the scalar.
                 let b = if u.arbitrary()? {
                     g.vec3(u)?
@@ -525,7 +544,7 @@ impl Generator {
                 Ok(format!("{op}({}, {b})", g.vec3(u)?))
             }),
             8 => self.nested(|g| {
-                let op = u.choose(&["Abs", "Neg", "Sin", "Cos", "Sqrt", "Floor", "Fract"])?;
+                let op = u.choose(unary_kinds())?;
                 Ok(format!("{op}({})", g.vec3(u)?))
             }),
             9 => self.nested(|g| {
