@@ -399,6 +399,7 @@ fn unary_lanes<T: Real>(op: UnaryOp, out: &mut [T], a: &[T]) {
         UnaryOp::Sqrt => lanes!(UnaryOp::Sqrt),
         UnaryOp::Floor => lanes!(UnaryOp::Floor),
         UnaryOp::Fract => lanes!(UnaryOp::Fract),
+        UnaryOp::Exp => lanes!(UnaryOp::Exp),
     }
 }
 

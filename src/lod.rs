@@ -44,9 +44,9 @@ pub fn stretches(graph: &CheckedGraph) -> Vec<Option<f64>> {
             Op::Splat | Op::Component(_) => arg(0),
             Op::Combine => Some((arg(0)?.powi(2) + arg(1)?.powi(2) + arg(2)?.powi(2)).sqrt()),
             Op::Unary(UnaryOp::Neg | UnaryOp::Abs | UnaryOp::Sin | UnaryOp::Cos) => arg(0),
-            // Unbounded slope (Sqrt at 0) or discontinuous (Floor, Fract): no bound. Listed, not
+            // Unbounded slope (Sqrt at 0, Exp) or discontinuous (Floor, Fract): no bound. Listed, not
             // defaulted, so a new operation must say what its bound is.
-            Op::Unary(UnaryOp::Sqrt | UnaryOp::Floor | UnaryOp::Fract) => None,
+            Op::Unary(UnaryOp::Sqrt | UnaryOp::Floor | UnaryOp::Fract | UnaryOp::Exp) => None,
             Op::Binary(BinaryOp::Add | BinaryOp::Sub) => Some(arg(0)? + arg(1)?),
             Op::Binary(BinaryOp::Min | BinaryOp::Max) => Some(arg(0)?.max(arg(1)?)),
             Op::Binary(BinaryOp::Mul) => match (constant(0), constant(1)) {

@@ -32,6 +32,7 @@ pub enum Kind {
     Sqrt,
     Floor,
     Fract,
+    Exp,
     Length,
     Dot,
     Clamp,
@@ -380,6 +381,7 @@ pub const CATALOGUE: &[NodeDef] = &[
     NodeDef { kind: Kind::Sqrt, lowering: Lowering::Unary(UnaryOp::Sqrt), name: "Sqrt", args: ANY_X, output: OutputType::Broadcast, doc: "Square root; NaN for negative x." },
     NodeDef { kind: Kind::Floor, lowering: Lowering::Unary(UnaryOp::Floor), name: "Floor", args: ANY_X, output: OutputType::Broadcast, doc: "The largest integer <= x." },
     NodeDef { kind: Kind::Fract, lowering: Lowering::Unary(UnaryOp::Fract), name: "Fract", args: ANY_X, output: OutputType::Broadcast, doc: "x - floor(x), in [0, 1); NaN for infinite x." },
+    NodeDef { kind: Kind::Exp, lowering: Lowering::Unary(UnaryOp::Exp), name: "Exp", args: ANY_X, output: OutputType::Broadcast, doc: "e^x; overflows to inf above about 88.72 (f32) or 709.78 (f64)." },
     NodeDef { kind: Kind::Length, lowering: Lowering::Length, name: "Length", args: &[input("v", InputType::Vec3, "the vector")], output: OutputType::Scalar, doc: "Euclidean length of a vec3." },
     NodeDef {
         kind: Kind::Dot, lowering: Lowering::Dot,
@@ -616,7 +618,7 @@ mod tests {
             assert_eq!(def(a.kind).name, a.name);
             assert_eq!(lookup(a.name).map(|d| d.kind), Some(a.kind));
         }
-        assert_eq!(CATALOGUE.len(), 32);
+        assert_eq!(CATALOGUE.len(), 33);
     }
 
     /// Each entry lowers to its own operation: a math kind to the `ops` operation of the same

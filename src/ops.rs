@@ -30,6 +30,7 @@ pub enum UnaryOp {
     Sqrt,
     Floor,
     Fract,
+    Exp,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -53,7 +54,7 @@ pub enum TernaryOp {
 }
 
 impl UnaryOp {
-    pub const ALL: [UnaryOp; 7] = [
+    pub const ALL: [UnaryOp; 8] = [
         UnaryOp::Abs,
         UnaryOp::Neg,
         UnaryOp::Sin,
@@ -61,6 +62,7 @@ impl UnaryOp {
         UnaryOp::Sqrt,
         UnaryOp::Floor,
         UnaryOp::Fract,
+        UnaryOp::Exp,
     ];
 
     #[inline(always)]
@@ -73,6 +75,7 @@ impl UnaryOp {
             UnaryOp::Sqrt => x.sqrt(),
             UnaryOp::Floor => x.floor(),
             UnaryOp::Fract => fract(x),
+            UnaryOp::Exp => x.exp(),
         }
     }
 
@@ -85,6 +88,7 @@ impl UnaryOp {
             UnaryOp::Sqrt => "sqrt",
             UnaryOp::Floor => "floor",
             UnaryOp::Fract => "fract",
+            UnaryOp::Exp => "exp",
         }
     }
 }

@@ -43,6 +43,7 @@ pub trait Real:
     fn sqrt(self) -> Self;
     fn sin(self) -> Self;
     fn cos(self) -> Self;
+    fn exp(self) -> Self;
     fn powf(self, e: Self) -> Self;
     /// `atan2(self, x)`: `self` is y.
     fn atan2(self, x: Self) -> Self;
@@ -113,6 +114,10 @@ macro_rules! impl_real {
             #[inline(always)]
             fn cos(self) -> Self {
                 <$t>::cos(self)
+            }
+            #[inline(always)]
+            fn exp(self) -> Self {
+                <$t>::exp(self)
             }
             #[inline(always)]
             fn powf(self, e: Self) -> Self {

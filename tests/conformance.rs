@@ -50,6 +50,7 @@ macro_rules! unary_reference {
             "Cos" => x.cos(),
             "Sqrt" => x.sqrt(),
             "Floor" => x.floor(),
+            "Exp" => x.exp(),
             "Fract" => {
                 let r = x - x.floor();
                 if r >= 1.0 {
