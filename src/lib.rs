@@ -23,6 +23,7 @@
 
 pub mod bake;
 pub mod check;
+pub mod cli;
 pub mod compile;
 pub mod diagnostic;
 pub mod eval;

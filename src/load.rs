@@ -25,6 +25,16 @@ pub enum LoadError {
     Invalid(Diagnostics),
 }
 
+impl LoadError {
+    /// The CLI exit code: 2 for a file that cannot be read, 1 for an invalid graph.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            LoadError::Io { .. } => 2,
+            LoadError::Invalid(_) => 1,
+        }
+    }
+}
+
 /// Reads a graph file as UTF-8, refusing files over [`limits::MAX_FILE_BYTES`] before reading
 /// them whole.
 pub fn read_source(path: &Path) -> Result<Arc<SourceFile>, LoadError> {

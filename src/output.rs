@@ -51,6 +51,13 @@ pub enum OutputError {
     },
 }
 
+impl OutputError {
+    /// The CLI exit code: always 2 (a usage or I/O error).
+    pub fn exit_code(&self) -> u8 {
+        2
+    }
+}
+
 /// Longest output name, in bytes (file names are limited to 255 bytes on common file systems,
 /// and a bake file is named `STEM.OUTPUT.EXT`).
 pub const MAX_OUTPUT_NAME: usize = 64;

@@ -21,6 +21,16 @@ pub enum PointsError {
     Output { error: std::io::Error },
 }
 
+impl PointsError {
+    /// The CLI exit code: 1 for a malformed points file, 2 for I/O errors.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            PointsError::Malformed { .. } => 1,
+            PointsError::Io { .. } | PointsError::Output { .. } => 2,
+        }
+    }
+}
+
 /// Longest line of a points file, in bytes: a file without line breaks is refused at this
 /// length instead of being read whole.
 pub const MAX_LINE: usize = 4096;

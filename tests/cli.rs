@@ -12,41 +12,10 @@ const CHECKER: &str = "graphs/seed004_checker2d.ron";
 const PERLIN: &str =
     r#"Graph(nodes: { "n": Noise(input: Position, basis: Perlin) }, outputs: { "n": "n" })"#;
 
-/// Every node kind the catalogue must list.
-const KINDS: &[&str] = &[
-    "Position",
-    "Combine",
-    "Scale",
-    "Translate",
-    "Rotate",
-    "Noise",
-    "Fbm",
-    "Turbulence",
-    "Add",
-    "Sub",
-    "Mul",
-    "Div",
-    "Min",
-    "Max",
-    "Pow",
-    "Atan2",
-    "Mod",
-    "Abs",
-    "Neg",
-    "Sin",
-    "Cos",
-    "Sqrt",
-    "Floor",
-    "Fract",
-    "Length",
-    "Dot",
-    "Clamp",
-    "Mix",
-    "Smoothstep",
-    "Hermite",
-    "ColorRamp",
-    "Curve",
-];
+/// Every node kind `texgraph nodes` must list: the catalogue's (the table drives the command).
+fn kinds() -> Vec<&'static str> {
+    texgraph::nodes::CATALOGUE.iter().map(|d| d.name).collect()
+}
 
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -749,7 +718,7 @@ fn eval_usage_and_input_errors_have_their_exit_codes() {
 fn nodes_lists_every_kind_with_defaults() {
     let out = expect_code(&["nodes"], 0);
     let text = stdout(&out);
-    for kind in KINDS {
+    for kind in kinds() {
         assert!(
             text.lines().any(|l| l.starts_with(&format!("{kind}("))),
             "`texgraph nodes` does not list {kind}:\n{text}"
@@ -759,7 +728,7 @@ fn nodes_lists_every_kind_with_defaults() {
         .lines()
         .filter(|l| !l.starts_with(' ') && l.contains(") -> "))
         .count();
-    assert_eq!(headings, KINDS.len(), "exactly the known kinds:\n{text}");
+    assert_eq!(headings, kinds().len(), "exactly the known kinds:\n{text}");
     for needle in [
         "default 2",
         "default 0.5",
@@ -783,7 +752,7 @@ fn nodes_markdown_is_a_table() {
     assert!(rows[0].starts_with("| node |"), "{text}");
     assert!(rows[1].starts_with("|---"), "{text}");
     let columns = rows[0].matches(" | ").count();
-    for kind in KINDS {
+    for kind in kinds() {
         let row = rows
             .iter()
             .find(|r| r.starts_with(&format!("| `{kind}` |")))
@@ -795,7 +764,7 @@ fn nodes_markdown_is_a_table() {
             "row of {kind} has the header's columns: {row}"
         );
     }
-    assert_eq!(rows.len(), KINDS.len() + 2);
+    assert_eq!(rows.len(), kinds().len() + 2);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -136,6 +136,20 @@ pub enum BakeError {
     Cancelled,
 }
 
+impl BakeError {
+    /// The CLI exit code: 130 for an interrupted bake, 2 for everything else (I/O, a refused
+    /// size, memory bound or destination).
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            BakeError::Cancelled => 130,
+            BakeError::Io { .. }
+            | BakeError::Encode { .. }
+            | BakeError::Refused(_)
+            | BakeError::Output(_) => 2,
+        }
+    }
+}
+
 /// Statistics of one channel over the whole grid. NaN and infinities are counted, not mixed in.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct ChannelStats {

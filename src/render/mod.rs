@@ -183,7 +183,7 @@ impl RenderError {
     }
 
     /// The CLI exit code: 1 for invalid input, 2 for I/O and usage errors.
-    pub fn exit_code(&self) -> i32 {
+    pub fn exit_code(&self) -> u8 {
         match self {
             RenderError::Invalid(_) => 1,
             _ => 2,

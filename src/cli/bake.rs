@@ -1,0 +1,410 @@
+//! `texgraph bake`: the batch of graph files, options that must apply, the report text.
+
+use super::*;
+use clap::Args;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+#[derive(Args)]
+pub struct BakeArgs {
+    /// Graph files to bake.
+    #[arg(required = true, value_name = "FILE")]
+    files: Vec<PathBuf>,
+    /// Voxels per axis: N (a cube) or NX,NY,NZ.
+    #[arg(long, value_name = "N|NX,NY,NZ", default_value = "64", value_parser = parse_size)]
+    size: [usize; 3],
+    /// The box baked, X0,Y0,Z0:X1,Y1,Z1 (default: the unit cube 0,0,0:1,1,1).
+    #[arg(long, value_name = "X0,Y0,Z0:X1,Y1,Z1", value_parser = parse_region, allow_hyphen_values = true)]
+    region: Option<crate::bake::Region>,
+    /// File format.
+    #[arg(long, value_enum, default_value_t)]
+    format: crate::bake::Format,
+    /// Folder the files go to (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "baked")]
+    out: PathBuf,
+    /// Worker threads (default: one per core).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    threads: usize,
+    /// Overwrite existing outputs.
+    #[arg(long)]
+    force: bool,
+    /// EXR: 16-bit half floats instead of 32-bit.
+    #[arg(long)]
+    half: bool,
+    /// EXR: lossless compression [default: zip].
+    #[arg(long = "exr-compression", value_enum, value_name = "METHOD")]
+    exr_compression: Option<crate::bake::ExrCompression>,
+    /// PNG: bits per sample, 8 or 16 [default: 8].
+    #[arg(long, value_name = "BITS", value_parser = parse_depth)]
+    depth: Option<u8>,
+    /// PNG: one tiled atlas image per output instead of a folder of slices.
+    #[arg(long)]
+    atlas: bool,
+    /// Raw: sample type [default: u8].
+    #[arg(long = "raw-type", value_enum, value_name = "TYPE")]
+    raw_type: Option<crate::bake::RawSampleType>,
+    /// Raw: add an opaque alpha channel (RGBA).
+    #[arg(long)]
+    alpha: bool,
+    /// PNG and raw u8: how colours are encoded in 8/16-bit files (scalars are always linear)
+    /// [default: srgb].
+    #[arg(long, value_enum, value_name = "TRANSFER")]
+    transfer: Option<crate::bake::Transfer>,
+    /// Evaluate with the f64 reference path (values still stored as f32 or less).
+    #[arg(long = "f64")]
+    double: bool,
+    /// No progress bar.
+    #[arg(long, short)]
+    quiet: bool,
+    /// Level of detail from the voxel size: leave out fbm octaves finer than the grid resolves
+    /// (the spacing is the smallest voxel side; --spacing overrides it).
+    #[arg(long)]
+    lod: bool,
+    /// Bake even if the files would exceed the 16 GiB size limit, or the format would hold more
+    /// than 2 GiB in memory (EXR: the whole volume; PNG atlas: a row of tiles).
+    #[arg(long = "allow-large")]
+    allow_large: bool,
+    #[command(flatten)]
+    graph: GraphOptions,
+}
+
+pub fn parse_depth(text: &str) -> Result<u8, String> {
+    match text.trim() {
+        "8" => Ok(8),
+        "16" => Ok(16),
+        _ => Err(format!("PNG depth is 8 or 16, found `{text}`")),
+    }
+}
+
+pub fn parse_size(text: &str) -> Result<[usize; 3], String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let numbers: Result<Vec<usize>, _> = parts.iter().map(|p| p.parse::<usize>()).collect();
+    match numbers.as_deref() {
+        Ok([n]) if *n > 0 => Ok([*n; 3]),
+        Ok([x, y, z]) if *x > 0 && *y > 0 && *z > 0 => Ok([*x, *y, *z]),
+        _ => Err(format!(
+            "expected N or NX,NY,NZ with positive integers, found `{text}`"
+        )),
+    }
+}
+
+/// Options given that do not apply to the chosen format: each a usage error, not ignored.
+pub fn bake_option_misuse(args: &BakeArgs) -> Vec<String> {
+    use crate::bake::{Format, RawSampleType};
+    let format = args.format;
+    let name = match format {
+        Format::Exr => "exr",
+        Format::Png => "png",
+        Format::Raw => "raw",
+    };
+    let mut problems = Vec::new();
+    let mut only = |given: bool, option: &str, applies: bool, to: &str| {
+        if given && !applies {
+            problems.push(format!(
+                "{option} applies to {to} only, not to --format {name}"
+            ));
+        }
+    };
+    only(args.half, "--half", format == Format::Exr, "--format exr");
+    only(
+        args.exr_compression.is_some(),
+        "--exr-compression",
+        format == Format::Exr,
+        "--format exr",
+    );
+    only(
+        args.depth.is_some(),
+        "--depth",
+        format == Format::Png,
+        "--format png",
+    );
+    only(args.atlas, "--atlas", format == Format::Png, "--format png");
+    only(
+        args.raw_type.is_some(),
+        "--raw-type",
+        format == Format::Raw,
+        "--format raw",
+    );
+    only(args.alpha, "--alpha", format == Format::Raw, "--format raw");
+    let eight_bit = format == Format::Png
+        || (format == Format::Raw && args.raw_type.unwrap_or_default() == RawSampleType::U8);
+    only(
+        args.transfer.is_some(),
+        "--transfer",
+        eight_bit,
+        "8/16-bit files (--format png, --format raw with --raw-type u8)",
+    );
+    problems
+}
+
+pub fn bake(args: BakeArgs) -> Result<(), Failure> {
+    use crate::bake::{bake_files, BakeError, BakeOptions, Grid, Precision};
+    let misuse = bake_option_misuse(&args);
+    if !misuse.is_empty() {
+        for problem in misuse {
+            eprintln!("error: {problem}");
+        }
+        return Err(Failure::Usage);
+    }
+    let threads = threads_or_warn(args.threads);
+    let cancel = Arc::new(AtomicBool::new(false));
+    {
+        // Ctrl-C stops between windows; temporary files are removed and nothing is renamed
+        // into place. A second Ctrl-C is left to the default (the flag is already set).
+        let cancel = cancel.clone();
+        let _ = ctrlc::set_handler(move || cancel.store(true, Ordering::Relaxed));
+    }
+    let (check_options, mut compile_options) = options(&args.graph);
+    let grid = Grid {
+        size: args.size,
+        region: args.region.unwrap_or_default(),
+    };
+    if args.lod && compile_options.spacing.is_none() {
+        let spacing = grid.spacing().into_iter().fold(f64::INFINITY, f64::min);
+        compile_options.spacing = (spacing > 0.0 && spacing.is_finite()).then_some(spacing);
+    }
+    let show_progress = !args.quiet && std::io::stderr().is_terminal();
+    let mut worst: Option<Failure> = None;
+    let fail = |worst: &mut Option<Failure>, f: Failure| *worst = Failure::worst(*worst, f);
+    let (mut total_voxels, mut total_seconds, mut baked) = (0u64, 0f64, 0usize);
+    let mut produced: std::collections::HashSet<PathBuf> = std::collections::HashSet::new();
+    for file in &args.files {
+        let (graph, tape) = match crate::load_tape(file, &check_options, &compile_options) {
+            Ok(loaded) => loaded,
+            Err(error) => {
+                let failure = print_load_error(error);
+                fail(&mut worst, failure);
+                continue;
+            }
+        };
+        let bake = BakeOptions {
+            grid,
+            threads,
+            precision: if args.double {
+                Precision::F64
+            } else {
+                Precision::F32
+            },
+            cancel: Some(cancel.clone()),
+        };
+        let options = file_options(&args, file, &graph.params, bake);
+        // Two graphs with the same file name (a/x.ron, b/x.ron) would write the same files.
+        let planned = match crate::bake::planned_outputs(&tape, &options) {
+            Ok(planned) => planned,
+            Err(error) => {
+                eprintln!("error: {}: {error}", file.display());
+                fail(&mut worst, Failure::from_exit_code(error.exit_code()));
+                continue;
+            }
+        };
+        if let Some(clash) = planned.iter().find(|p| produced.contains(*p)) {
+            eprintln!("error: {}: {} was already written by an earlier graph of this batch (same file name); bake them into different --out folders", file.display(), clash.display());
+            fail(&mut worst, Failure::Usage);
+            continue;
+        }
+        let bar = show_progress.then(|| progress_bar(file, grid.voxels().unwrap_or(u64::MAX)));
+        let result = bake_files(&tape, &options, &mut |done| {
+            if let Some(bar) = &bar {
+                bar.set_position(done);
+            }
+        });
+        if let Some(bar) = &bar {
+            bar.finish_and_clear();
+        }
+        match result {
+            Ok(report) => {
+                produced.extend(planned);
+                baked += 1;
+                total_voxels += report.voxels;
+                total_seconds += report.seconds;
+                let clamps = options.format == crate::bake::Format::Png
+                    || (options.format == crate::bake::Format::Raw
+                        && options.raw_type == crate::bake::RawSampleType::U8);
+                let text = bake_report(file, &grid, &report, threads, clamps);
+                write_stdout(|out| out.write_all(text.as_bytes()))?;
+                warn_about_values(file, &report, clamps);
+            }
+            Err(BakeError::Cancelled) => {
+                eprintln!(
+                    "error: {}: interrupted; no output was written",
+                    file.display()
+                );
+                return Err(Failure::Interrupted);
+            }
+            Err(error) => {
+                eprintln!("error: {}: {error}", file.display());
+                fail(&mut worst, Failure::from_exit_code(error.exit_code()));
+            }
+        }
+    }
+    if args.files.len() > 1 {
+        let failed = args.files.len() - baked;
+        let rate = if total_seconds > 0.0 {
+            total_voxels as f64 / total_seconds / 1e6
+        } else {
+            0.0
+        };
+        let line = format!("baked {baked} of {} graphs: {total_voxels} voxels in {total_seconds:.3} s, {rate:.2} Mvoxels/s{}\n", args.files.len(), if failed > 0 { format!("; {failed} failed") } else { String::new() });
+        write_stdout(|out| out.write_all(line.as_bytes()))?;
+    }
+    worst.map_or(Ok(()), Err)
+}
+
+/// The options of one graph's bake, from the command line.
+fn file_options(
+    args: &BakeArgs,
+    file: &Path,
+    params: &[(String, f64)],
+    bake: crate::bake::BakeOptions,
+) -> crate::bake::BakeFileOptions {
+    let stem = file
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("graph")
+        .to_string();
+    let mut options = crate::bake::BakeFileOptions::new(stem, &args.out);
+    options.bake = bake;
+    options.format = args.format;
+    options.force = args.force;
+    options.half = args.half;
+    options.exr_compression = args.exr_compression.unwrap_or_default();
+    options.depth16 = args.depth == Some(16);
+    options.atlas = args.atlas;
+    options.raw_type = args.raw_type.unwrap_or_default();
+    options.alpha = args.alpha;
+    options.transfer = args.transfer.unwrap_or_default();
+    options.graph_path = file.display().to_string();
+    options.params = params.to_vec();
+    options.overrides = args.graph.sets.clone();
+    if args.allow_large {
+        options.max_bytes = u64::MAX;
+        options.max_held_bytes = u64::MAX;
+    }
+    options
+}
+
+/// A progress bar on stderr for one graph's voxels.
+fn progress_bar(file: &Path, voxels: u64) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(voxels);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{msg} [{bar:30}] {percent:>3}% {human_pos}/{human_len} voxels, {eta} left",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+        .progress_chars("=> "),
+    );
+    bar.set_message(file.display().to_string());
+    bar
+}
+
+/// Warnings on stderr for non-finite values and, in 8/16-bit files, clamped ones.
+fn warn_about_values(file: &Path, report: &crate::bake::BakeReport, clamps: bool) {
+    for stats in &report.stats {
+        if stats.non_finite() > 0 {
+            eprintln!(
+                "warning: {}: output \"{}\" has {} non-finite voxel values (see the counts above)",
+                file.display(),
+                stats.name,
+                stats.non_finite()
+            );
+        }
+        let (below, above) = stats.clamped();
+        if clamps && below + above > 0 {
+            eprintln!("warning: {}: output \"{}\": {below} values below 0 and {above} above 1 were clamped to [0, 1] in the 8/16-bit file (bake --format exr or --raw-type f32 to keep them)", file.display(), stats.name);
+        }
+    }
+}
+
+/// The per-graph report: files, statistics per output, and the speed line.
+pub fn bake_report(
+    file: &Path,
+    grid: &crate::bake::Grid,
+    report: &crate::bake::BakeReport,
+    threads: usize,
+    clamps: bool,
+) -> String {
+    let [nx, ny, nz] = grid.size;
+    let (lo, hi) = (grid.region.min, grid.region.max);
+    let mut text = format!(
+        "{}: {nx}×{ny}×{nz} voxels over [{}, {}, {}]..[{}, {}, {}]\n",
+        file.display(),
+        lo[0],
+        lo[1],
+        lo[2],
+        hi[0],
+        hi[1],
+        hi[2]
+    );
+    for baked in &report.files {
+        text.push_str(&format!(
+            "  {} -> {} ({})\n",
+            baked.output,
+            baked.path.display(),
+            baked.description
+        ));
+    }
+    let list = |values: Vec<f64>| -> String {
+        // f32 precision is plenty for a report; scientific notation keeps tiny values short.
+        let short = |v: f64| {
+            let v = v as f32;
+            if v != 0.0 && v.is_finite() && !(1e-4..1e7).contains(&v.abs()) {
+                format!("{v:e}")
+            } else {
+                v.to_string()
+            }
+        };
+        let parts: Vec<String> = values.iter().map(|v| short(*v)).collect();
+        if parts.len() == 1 {
+            parts[0].clone()
+        } else {
+            format!("({})", parts.join(", "))
+        }
+    };
+    for stats in &report.stats {
+        let c = &stats.channels;
+        let non_finite = stats.non_finite();
+        let detail = if non_finite > 0 {
+            let nan: u64 = c.iter().map(|s| s.nan).sum();
+            let pos: u64 = c.iter().map(|s| s.pos_inf).sum();
+            let neg: u64 = c.iter().map(|s| s.neg_inf).sum();
+            format!("{non_finite} (NaN {nan}, +inf {pos}, -inf {neg})")
+        } else {
+            "0".to_string()
+        };
+        let (below, above) = stats.clamped();
+        let range = if c.iter().all(|s| s.finite() == 0) {
+            "no finite values".to_string()
+        } else {
+            // A channel without finite values shows NaN instead of ±inf.
+            let shown = |v: f64| if v.is_infinite() { f64::NAN } else { v };
+            format!(
+                "min {} max {} mean {}",
+                list(c.iter().map(|s| shown(s.min)).collect()),
+                list(c.iter().map(|s| shown(s.max)).collect()),
+                list(c.iter().map(|s| s.mean).collect()),
+            )
+        };
+        let clamped = if clamps {
+            format!("; clamped to [0, 1]: {below} below 0, {above} above 1")
+        } else {
+            String::new()
+        };
+        text.push_str(&format!(
+            "  {}: {range}; non-finite {detail}{clamped}\n",
+            stats.name,
+        ));
+    }
+    let rate = if report.seconds > 0.0 {
+        report.voxels as f64 / report.seconds / 1e6
+    } else {
+        0.0
+    };
+    let threads = crate::bake::capped_threads(threads).0;
+    text.push_str(&format!(
+        "  {} voxels in {:.3} s: {rate:.2} Mvoxels/s on {threads} thread(s)\n",
+        report.voxels, report.seconds
+    ));
+    text
+}

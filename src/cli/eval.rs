@@ -1,0 +1,125 @@
+//! `texgraph eval`: evaluate a graph at one point or at every point of a file.
+
+use super::*;
+use crate::{Real, Tape, Workspace};
+use clap::Args;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+#[derive(Args)]
+pub struct EvalArgs {
+    /// The graph file.
+    #[arg(value_name = "FILE")]
+    file: PathBuf,
+    /// The point: X Y Z.
+    /// (Negative numbers are fine: `eval g.ron -4.2 10 -1e-3`.)
+    #[arg(value_name = "X Y Z", num_args = 0..=3, allow_negative_numbers = true, value_parser = parse_coordinate)]
+    coordinates: Vec<f64>,
+    /// Read points from a file (`-` for standard input): one `x y z` per line.
+    #[arg(long, value_name = "FILE", conflicts_with = "coordinates")]
+    points: Option<PathBuf>,
+    /// Evaluate in double precision (the reference path) instead of f32.
+    #[arg(long = "f64")]
+    double: bool,
+    #[command(flatten)]
+    graph: GraphOptions,
+}
+
+pub fn parse_coordinate(text: &str) -> Result<f64, String> {
+    let text = text.replacen(MINUS, "-", 1);
+    text.trim()
+        .parse()
+        .map_err(|_| format!("`{text}` is not a number"))
+}
+
+pub fn eval(args: EvalArgs) -> Result<(), Failure> {
+    if args.points.is_none() && args.coordinates.len() != 3 {
+        eprintln!("error: give a point as three numbers X Y Z, or --points FILE");
+        return Err(Failure::Usage);
+    }
+    let (check_options, compile_options) = options(&args.graph);
+    let (_, tape) =
+        crate::load_tape(&args.file, &check_options, &compile_options).map_err(print_load_error)?;
+    if args.double {
+        eval_with::<f64>(&tape, &args)
+    } else {
+        eval_with::<f32>(&tape, &args)
+    }
+}
+
+pub fn eval_with<S: Real>(tape: &Tape, args: &EvalArgs) -> Result<(), Failure> {
+    let mut workspace = Workspace::<S>::new();
+    let Some(points) = &args.points else {
+        let point = [
+            args.coordinates[0],
+            args.coordinates[1],
+            args.coordinates[2],
+        ];
+        let mut out = vec![S::ZERO; tape.channels()];
+        tape.eval_point(&mut workspace, point, &mut out);
+        return write_stdout(|w| write_lines(w, tape, &out, 1));
+    };
+    let stdout = std::io::stdout();
+    let mut writer = BufWriter::new(stdout.lock());
+    let mut out = Vec::new();
+    let mut evaluate = |x: &[f64], y: &[f64], z: &[f64]| -> std::io::Result<()> {
+        out.resize(tape.channels() * x.len(), S::ZERO);
+        tape.eval_batch(&mut workspace, x, y, z, &mut out);
+        write_lines(&mut writer, tape, &out, x.len())
+    };
+    let result = if points == Path::new("-") {
+        crate::points::for_each_chunk(std::io::stdin().lock(), "<stdin>", 4096, &mut evaluate)
+    } else {
+        match std::fs::File::open(points) {
+            Ok(file) => crate::points::for_each_chunk(
+                std::io::BufReader::new(file),
+                &points.display().to_string(),
+                4096,
+                &mut evaluate,
+            ),
+            Err(e) => {
+                eprintln!("error: {}: {e}", points.display());
+                return Err(Failure::Usage);
+            }
+        }
+    };
+    let flushed = writer.flush();
+    match result {
+        Ok(()) => {}
+        Err(crate::points::PointsError::Output { error })
+            if error.kind() == std::io::ErrorKind::BrokenPipe =>
+        {
+            return Ok(())
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            return Err(Failure::from_exit_code(e.exit_code()));
+        }
+    }
+    match flushed {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            eprintln!("error: writing output: {e}");
+            Err(Failure::Usage)
+        }
+        _ => Ok(()),
+    }
+}
+
+/// Writes `NAME v` / `NAME r g b` lines for `n` points of a planar output buffer.
+pub fn write_lines<S: Real>(
+    w: &mut dyn Write,
+    tape: &Tape,
+    out: &[S],
+    n: usize,
+) -> std::io::Result<()> {
+    for i in 0..n {
+        for output in &tape.outputs {
+            write!(w, "{}", output.name)?;
+            for c in 0..output.ty.channels() {
+                write!(w, " {}", out[(output.first_channel + c) * n + i])?;
+            }
+            writeln!(w)?;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,166 @@
+//! The commands of the `texgraph` binary, as library code: each module holds one command's
+//! arguments (clap) and its implementation; `main.rs` only parses and dispatches. Exit codes are
+//! decided in one place, [`Failure::code`].
+
+pub mod bake;
+pub mod check;
+pub mod eval;
+pub mod render;
+pub mod report;
+
+use crate::{CheckOptions, CompileOptions, LoadError};
+use clap::Args;
+use std::io::{BufWriter, IsTerminal, Write};
+
+pub fn parse_spacing(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(h) if h > 0.0 && h.is_finite() => Ok(h),
+        _ => Err(format!("the spacing is a positive number, found `{text}`")),
+    }
+}
+
+pub fn parse_region(text: &str) -> Result<crate::bake::Region, String> {
+    let text = text.replace(MINUS, "-");
+    let corner = |part: &str| -> Option<[f64; 3]> {
+        let v: Vec<f64> = part
+            .split(',')
+            .map(|p| p.trim().parse::<f64>().ok())
+            .collect::<Option<_>>()?;
+        (v.len() == 3 && v.iter().all(|c| c.is_finite())).then(|| [v[0], v[1], v[2]])
+    };
+    let (lo, hi) = text
+        .split_once(':')
+        .ok_or_else(|| format!("expected X0,Y0,Z0:X1,Y1,Z1, found `{text}`"))?;
+    match (corner(lo), corner(hi)) {
+        (Some(min), Some(max)) if (0..3).all(|a| min[a] <= max[a]) => {
+            Ok(crate::bake::Region { min, max })
+        }
+        (Some(_), Some(_)) => Err(format!(
+            "each minimum must be at most its maximum in `{text}`"
+        )),
+        _ => Err(format!(
+            "expected X0,Y0,Z0:X1,Y1,Z1 with finite numbers, found `{text}`"
+        )),
+    }
+}
+
+#[derive(Args)]
+pub struct GraphOptions {
+    /// Compile only this output (repeatable); default: all outputs, in file order.
+    #[arg(long = "output", value_name = "NAME")]
+    outputs: Vec<String>,
+    /// Level of detail: leave out the fbm/turbulence octaves finer than samples this far apart
+    /// can resolve (Nyquist), fading the last one kept. Default: keep every octave.
+    #[arg(long, value_name = "H", value_parser = parse_spacing)]
+    spacing: Option<f64>,
+    /// Override a param of the graph (repeatable).
+    #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
+    sets: Vec<(String, f64)>,
+}
+
+/// Marks a negative number that clap would mistake for a flag (see `protect_negative_numbers`).
+pub const MINUS: char = '\u{2212}';
+
+pub fn parse_set(text: &str) -> Result<(String, f64), String> {
+    let (name, value) = text
+        .split_once('=')
+        .ok_or_else(|| format!("expected NAME=VALUE, found `{text}`"))?;
+    let value: f64 = value
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{value}` is not a number"))?;
+    Ok((name.trim().to_string(), value))
+}
+
+/// How a command failed; mapped to the exit code in one place.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Failure {
+    /// A graph, scene or input file is invalid: exit code 1.
+    Invalid,
+    /// A usage or I/O error, a refused bake or destination: exit code 2.
+    Usage,
+    /// A bake interrupted by Ctrl-C: exit code 130.
+    Interrupted,
+}
+
+impl Failure {
+    /// The process exit code.
+    pub fn code(self) -> u8 {
+        match self {
+            Failure::Invalid => 1,
+            Failure::Usage => 2,
+            Failure::Interrupted => 130,
+        }
+    }
+
+    /// The failure behind a library error's `exit_code()`.
+    pub fn from_exit_code(code: u8) -> Failure {
+        match code {
+            1 => Failure::Invalid,
+            130 => Failure::Interrupted,
+            _ => Failure::Usage,
+        }
+    }
+
+    /// The failure a command reports after several: usage and I/O errors win over invalid
+    /// input (a batch with a missing file and a broken graph exits 2).
+    pub fn worst(so_far: Option<Failure>, new: Failure) -> Option<Failure> {
+        Some(match (so_far, new) {
+            (_, Failure::Interrupted) | (Some(Failure::Interrupted), _) => Failure::Interrupted,
+            (Some(Failure::Usage), _) | (_, Failure::Usage) => Failure::Usage,
+            _ => Failure::Invalid,
+        })
+    }
+}
+
+pub fn colour() -> bool {
+    std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none()
+}
+
+/// The thread count for `--threads N` (0: one per core), capped at
+/// `bake::MAX_THREADS_PER_CORE` × the cores, with a warning when capped.
+pub fn threads_or_warn(requested: usize) -> usize {
+    let (threads, capped) = crate::bake::capped_threads(requested);
+    if capped {
+        eprintln!(
+            "warning: --threads {requested} is more than {} per core; using {threads}",
+            crate::bake::MAX_THREADS_PER_CORE
+        );
+    }
+    threads
+}
+
+/// Prints a load error to stderr and says which exit code it means.
+pub fn print_load_error(error: LoadError) -> Failure {
+    match &error {
+        LoadError::Io { .. } => eprintln!("error: {error}"),
+        LoadError::Invalid(diagnostics) => eprint!("{}", diagnostics.render(colour())),
+    }
+    Failure::from_exit_code(error.exit_code())
+}
+
+/// Runs `f` on a buffered stdout. A closed pipe (`texgraph eval ... | head`) ends quietly.
+pub fn write_stdout(f: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<(), Failure> {
+    let stdout = std::io::stdout();
+    let mut out = BufWriter::new(stdout.lock());
+    match f(&mut out).and_then(|()| out.flush()) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        Err(e) => {
+            eprintln!("error: writing output: {e}");
+            Err(Failure::Usage)
+        }
+    }
+}
+
+pub fn options(graph: &GraphOptions) -> (CheckOptions, CompileOptions) {
+    (
+        CheckOptions {
+            overrides: graph.sets.clone(),
+        },
+        CompileOptions {
+            outputs: graph.outputs.clone(),
+            spacing: graph.spacing,
+        },
+    )
+}

@@ -1,0 +1,157 @@
+//! `texgraph render` and `texgraph watch`.
+
+use super::*;
+use clap::Args;
+use std::path::{Path, PathBuf};
+
+#[derive(Args)]
+pub struct RenderArgs {
+    /// A graph file or a scene file.
+    #[arg(value_name = "FILE", required_unless_present = "timing_table")]
+    file: Option<PathBuf>,
+    /// The PNG written (default: FILE's name with .png, in the current folder). It must end in
+    /// .png, its folder must exist, and an existing destination must be a regular file (a
+    /// device, FIFO, socket, link or folder is refused).
+    #[arg(short = 'o', long = "out", value_name = "PNG")]
+    out: Option<PathBuf>,
+    /// Image size W,H in pixels.
+    #[arg(long, value_name = "W,H", value_parser = parse_image_size)]
+    size: Option<(u32, u32)>,
+    /// Graph files only: the object carved out of the texture (sphere, cube, plane, teapot or a
+    /// path to an .obj) [default: sphere].
+    #[arg(long, value_name = "OBJECT")]
+    object: Option<crate::render::PreviewObject>,
+    /// Graph files only: object space (the texture moves with the object) or world space
+    /// [default: object].
+    #[arg(long, value_enum, value_name = "SPACE")]
+    space: Option<crate::render::Space>,
+    /// Samples per pixel (anti-aliasing).
+    #[arg(long, value_name = "N")]
+    samples: Option<u32>,
+    /// Worker threads (default: one per core).
+    #[arg(long, value_name = "N")]
+    threads: Option<usize>,
+    /// Graph files only: the output shown as the diffuse colour (default: `colour`).
+    #[arg(long = "output", value_name = "NAME")]
+    output: Option<String>,
+    /// Graph files only: override a param (repeatable).
+    #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
+    sets: Vec<(String, f64)>,
+    /// No progress bar.
+    #[arg(long, short)]
+    quiet: bool,
+    /// Print seed 003's timing table (500×500, octaves 1/2/4/8) for FILE (default: the seed 003
+    /// marble) instead of rendering.
+    #[arg(long = "timing-table")]
+    timing_table: bool,
+}
+
+pub fn parse_image_size(text: &str) -> Result<(u32, u32), String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    match parts.as_slice() {
+        [w, h] => match (w.parse::<u32>(), h.parse::<u32>()) {
+            (Ok(w), Ok(h)) if w > 0 && h > 0 => Ok((w, h)),
+            _ => Err(format!(
+                "expected W,H with positive integers, found `{text}`"
+            )),
+        },
+        _ => Err(format!("expected W,H, found `{text}`")),
+    }
+}
+
+/// The input of render and watch must be a file; watch says so at once instead of waiting for a
+/// file that is missing (render reports the read error itself).
+pub fn check_render_input(file: &Path, watch: bool) -> Result<(), String> {
+    match std::fs::metadata(file) {
+        Ok(m) if m.is_dir() => Err(format!(
+            "{}: is a folder; give a graph or scene file",
+            file.display()
+        )),
+        Err(e) if watch => Err(format!("{}: {e}", file.display())),
+        _ => Ok(()),
+    }
+}
+
+pub fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
+    use crate::render::{self, PreviewDefaults, Previewer, RenderOptions};
+    let failure = |e: &render::RenderError| {
+        eprint!("{}", e.render(colour()));
+        Failure::from_exit_code(e.exit_code())
+    };
+    let options = RenderOptions {
+        size: args.size,
+        samples: args.samples,
+        // 0 stays 0: the renderer refuses it.
+        threads: args
+            .threads
+            .map(|t| if t == 0 { 0 } else { threads_or_warn(t) }),
+        progress: !args.quiet,
+    };
+    if args.timing_table {
+        let graph = args
+            .file
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("graphs/seed003_marble.ron"));
+        let timing = render::TimingOptions {
+            threads: options.threads,
+            ..Default::default()
+        };
+        let table = render::timing_table(&graph, &timing).map_err(|e| failure(&e))?;
+        let text = format!("{table}\n");
+        return write_stdout(|out| out.write_all(text.as_bytes()));
+    }
+    let Some(file) = args.file.clone() else {
+        eprintln!("error: give a graph or scene file");
+        return Err(Failure::Usage);
+    };
+    let out = args.out.clone().unwrap_or_else(|| {
+        PathBuf::from(format!(
+            "{}.png",
+            file.file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or("render")
+        ))
+    });
+    if let Err(e) = check_render_input(&file, watch) {
+        eprintln!("error: {e}");
+        return Err(Failure::Usage);
+    }
+    if let Err(e) = crate::output::check_file_argument(&out, "png") {
+        eprintln!("error: {e}");
+        return Err(Failure::Usage);
+    }
+    let graph_only: Vec<&str> = [
+        ("--object", args.object.is_some()),
+        ("--space", args.space.is_some()),
+        ("--set", !args.sets.is_empty()),
+        ("--output", args.output.is_some()),
+    ]
+    .into_iter()
+    .filter_map(|(flag, given)| given.then_some(flag))
+    .collect();
+    if let Err(e) = render::refuse_graph_only_options(&file, &graph_only) {
+        return Err(failure(&e));
+    }
+    let defaults = PreviewDefaults {
+        object: args.object.clone().unwrap_or_default(),
+        space: args.space.unwrap_or_default(),
+        overrides: args.sets.clone(),
+        output: args.output.clone(),
+    };
+    let mut previewer = Previewer::new(&file, defaults, options, &out);
+    if !watch {
+        return match previewer.reload() {
+            Ok(stats) => write_stdout(|w| writeln!(w, "wrote {}: {stats}", out.display())),
+            Err(e) => Err(failure(&e)),
+        };
+    }
+    eprintln!("watching {} (Ctrl-C to stop)", file.display());
+    let result = render::watch(&mut previewer, |result| {
+        match result {
+            Ok(stats) => eprintln!("{}: {stats}", out.display()),
+            Err(e) => eprint!("{}", e.render(colour())),
+        }
+        std::ops::ControlFlow::Continue(())
+    });
+    result.map_err(|e| failure(&e))
+}

@@ -1,0 +1,167 @@
+//! `texgraph report`: error against run time, the stability survey, the Markdown document.
+
+use super::*;
+use crate::{CheckOptions, CompileOptions, LoadError};
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct ReportArgs {
+    /// Graph files.
+    #[arg(required = true, value_name = "FILE")]
+    files: Vec<PathBuf>,
+    /// Random sample points in the region (a 16³ grid is added); at most 10 000 000.
+    #[arg(long, value_name = "N", default_value_t = 50_000, value_parser = clap::value_parser!(u64).range(1..=crate::report::MAX_POINTS as u64))]
+    points: u64,
+    /// Timed runs per strategy (the median is reported); 1 to 1 000.
+    #[arg(long, value_name = "N", default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=crate::report::MAX_RUNS as u64))]
+    runs: u64,
+    /// The region sampled (default the unit cube).
+    #[arg(long, value_name = "X0,Y0,Z0:X1,Y1,Z1", value_parser = parse_region, allow_hyphen_values = true)]
+    region: Option<crate::bake::Region>,
+    /// Print JSON (an array of rows) instead of a table.
+    #[arg(long)]
+    json: bool,
+    /// Print the Markdown document docs/accuracy.md: the explanation, then per graph the
+    /// table and the stability survey.
+    #[arg(long, conflicts_with_all = ["json", "stability"])]
+    markdown: bool,
+    /// Also draw error (log) against time per point, Pareto front marked, to this PNG.
+    #[arg(long, value_name = "PNG", conflicts_with_all = ["stability", "markdown"])]
+    plot: Option<PathBuf>,
+    /// Survey stability instead: every node at |p| = 1 … 2^31, both signs, lattice points and
+    /// cell boundaries (--points, --runs, --region and --output do not apply).
+    #[arg(long, conflicts_with_all = ["points", "runs", "region", "outputs"])]
+    stability: bool,
+    /// Report only this output (repeatable).
+    #[arg(long = "output", value_name = "NAME")]
+    outputs: Vec<String>,
+    /// Override a param of the graph (repeatable).
+    #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
+    sets: Vec<(String, f64)>,
+}
+
+pub fn report_command(args: ReportArgs) -> Result<(), Failure> {
+    if let Some(path) = &args.plot {
+        if let Err(e) = crate::output::check_file_argument(path, "png") {
+            eprintln!("error: {e}");
+            return Err(Failure::Usage);
+        }
+    }
+    let check_options = CheckOptions {
+        overrides: args.sets.clone(),
+    };
+    let mut worst: Option<Failure> = None;
+    let mut json_rows: Vec<serde_json::Value> = Vec::new();
+    if args.markdown {
+        write_stdout(|out| out.write_all(crate::report::MARKDOWN_HEADER.as_bytes()))?;
+    }
+    for file in &args.files {
+        let graph = match crate::load_graph(file, &check_options) {
+            Ok(graph) => graph,
+            Err(error) => {
+                let failure = print_load_error(error);
+                worst = Failure::worst(worst, failure);
+                continue;
+            }
+        };
+        let options = crate::report::ReportOptions {
+            points: args.points as usize,
+            runs: args.runs as usize,
+            region: args.region.unwrap_or_default(),
+            ..Default::default()
+        };
+        let text =
+            if args.markdown {
+                let rows = crate::report::accuracy_report(&graph, &args.outputs, &options)
+                    .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
+                let stability = crate::stability::stability_report(&graph)
+                    .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
+                format!(
+                    "\n## `{}`\n\nTape length: {}.\n{}\nStability:\n\n```text\n{}```\n",
+                    file.display(),
+                    tape_lengths(&graph),
+                    crate::report::table_markdown(&rows),
+                    crate::stability::stability_text(&stability)
+                )
+            } else if args.stability {
+                let rows = crate::stability::stability_report(&graph)
+                    .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
+                if args.json {
+                    json_rows.extend(rows.iter().map(
+                        |r| serde_json::json!({ "graph": file.display().to_string(), "row": r }),
+                    ));
+                    continue;
+                }
+                format!(
+                    "{}: stability\n{}",
+                    file.display(),
+                    crate::stability::stability_text(&rows)
+                )
+            } else {
+                let rows = crate::report::accuracy_report(&graph, &args.outputs, &options)
+                    .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
+                if let Some(path) = &args.plot {
+                    if let Err(e) = crate::report::plot(&rows, &file.display().to_string(), path) {
+                        eprintln!("error: {}: {e}", path.display());
+                        worst = Some(Failure::Usage);
+                    }
+                }
+                if args.json {
+                    json_rows.extend(rows.iter().map(|r| {
+                        let mut value = serde_json::to_value(r).unwrap_or_default();
+                        if let Some(object) = value.as_object_mut() {
+                            object.insert(
+                                "graph".into(),
+                                serde_json::json!(file.display().to_string()),
+                            );
+                        }
+                        value
+                    }));
+                    continue;
+                }
+                let tapes = tape_lengths(&graph);
+                format!(
+                    "{}: {} points in [{}], median of {} runs, one thread; tape length {tapes}\n{}",
+                    file.display(),
+                    args.points as usize + 4096,
+                    region_text(&options.region),
+                    args.runs,
+                    crate::report::table_text(&rows)
+                )
+            };
+        write_stdout(|out| out.write_all(text.as_bytes()))?;
+    }
+    if args.json {
+        let text = serde_json::to_string_pretty(&json_rows).unwrap_or_default() + "\n";
+        write_stdout(|out| out.write_all(text.as_bytes()))?;
+    }
+    worst.map_or(Ok(()), Err)
+}
+
+/// "all outputs 10, colour 10, vein 8": tape length per output set.
+pub fn tape_lengths(graph: &crate::CheckedGraph) -> String {
+    let mut parts = Vec::new();
+    if let Ok(tape) = crate::compile(graph, &CompileOptions::default()) {
+        parts.push(format!("all outputs {}", tape.instrs.len()));
+    }
+    for output in &graph.outputs {
+        if let Ok(tape) = crate::compile(
+            graph,
+            &CompileOptions {
+                outputs: vec![output.name.clone()],
+                spacing: None,
+            },
+        ) {
+            parts.push(format!("{} {}", output.name, tape.instrs.len()));
+        }
+    }
+    parts.join(", ")
+}
+
+pub fn region_text(region: &crate::bake::Region) -> String {
+    format!(
+        "{}, {}, {} .. {}, {}, {}",
+        region.min[0], region.min[1], region.min[2], region.max[0], region.max[1], region.max[2]
+    )
+}
