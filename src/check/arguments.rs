@@ -1,0 +1,484 @@
+//! A node's arguments, read through its catalogue entry: names and positions, defaults, ranges,
+//! `basis`, `stops` and `points`.
+
+use super::*;
+
+impl Checker {
+    /// A node expression `Kind`, `Kind(a, b)` or `Kind(name: a, ...)`.
+    pub(super) fn node(
+        &mut self,
+        kind_name: &str,
+        kind_span: Span,
+        positional: &[Value],
+        named: &[(Spanned<Text>, Value)],
+        whole: &Value,
+        origin: &Origin,
+    ) -> Option<NodeId> {
+        self.written += 1;
+        if self.written == limits::MAX_NODES + 1 {
+            self.error(
+                Diagnostic::new(
+                    Class::Limit,
+                    format!(
+                        "the graph has more than {} nodes (inline nodes included)",
+                        limits::MAX_NODES
+                    ),
+                )
+                .in_node(&*origin.node)
+                .at(whole.span),
+            );
+        }
+        if self.written > limits::MAX_NODES {
+            return None;
+        }
+        let Some(def) = nodes::lookup(kind_name) else {
+            let mut d = Diagnostic::new(
+                Class::UnknownKind,
+                format!("unknown node kind `{kind_name}`"),
+            )
+            .in_node(&*origin.node)
+            .at(kind_span)
+            .label("not a node kind");
+            if let Some(s) = nodes::suggest(kind_name) {
+                d = d.help(format!("did you mean `{s}`?"));
+            } else if self.node_index.contains_key(kind_name)
+                || self.params.iter().any(|(p, _)| p == kind_name)
+            {
+                d = d.help(format!("references are strings: write \"{kind_name}\""));
+            } else {
+                d = d.help("`texgraph nodes` lists every kind");
+            }
+            self.error(d);
+            return None;
+        };
+        let here = Origin {
+            node: origin.node.clone(),
+            span: whole.span,
+        };
+
+        // Match the written arguments to the definition's.
+        // Inline vectors: every node expression passes through here (no kind has more than 8
+        // arguments).
+        let mut given: SmallVec<[Option<&Value>; 8]> = smallvec::smallvec![None; def.args.len()];
+        if positional.len() > def.args.len() {
+            self.error(
+                Diagnostic::new(
+                    Class::UnknownArgument,
+                    format!(
+                        "{} takes {} argument(s), found {}",
+                        def.name,
+                        def.args.len(),
+                        positional.len()
+                    ),
+                )
+                .in_node(&*origin.node)
+                .at(positional[def.args.len()].span)
+                .label("extra argument")
+                .help(signature(def)),
+            );
+            return None;
+        }
+        for (slot, value) in given.iter_mut().zip(positional) {
+            *slot = Some(value);
+        }
+        let mut ok = true;
+        // Arguments a misspelt name probably meant: not also reported as missing.
+        let mut meant: Vec<&str> = Vec::new();
+        for (field, value) in named {
+            match def.args.iter().position(|a| a.name == field.value) {
+                Some(i) if given[i].is_some() => {
+                    self.error(
+                        Diagnostic::new(
+                            Class::DuplicateName,
+                            format!("`{}` is given twice", field.value),
+                        )
+                        .in_node(&*origin.node)
+                        .at(field.span)
+                        .label("second time"),
+                    );
+                    ok = false;
+                }
+                Some(i) => given[i] = Some(value),
+                None => {
+                    let mut d = Diagnostic::new(
+                        Class::UnknownArgument,
+                        format!("{} has no argument `{}`", def.name, field.value),
+                    )
+                    .in_node(&*origin.node)
+                    .at(field.span)
+                    .label("unknown argument");
+                    let suggestion =
+                        nodes::suggest_from(&field.value, def.args.iter().map(|a| a.name));
+                    meant.extend(suggestion);
+                    d = d.help(match suggestion {
+                        Some(s) => format!("did you mean `{s}`? {}", signature(def)),
+                        None => signature(def),
+                    });
+                    self.error(d);
+                    ok = false;
+                }
+            }
+        }
+        let mut args: SmallVec<[Option<Arg>; 8]> = SmallVec::new();
+        for (arg, value) in def.args.iter().zip(&given) {
+            let read = match value {
+                Some(value) => self.argument(value, arg, def, origin),
+                None => match arg.default {
+                    Some(default) => Some(self.default_argument(default, arg, &here)),
+                    None if meant.contains(&arg.name) => None,
+                    None => {
+                        self.error(
+                            Diagnostic::new(
+                                Class::MissingArgument,
+                                format!("{} needs `{}`", def.name, arg.name),
+                            )
+                            .in_node(&*origin.node)
+                            .at(whole.span)
+                            .label(format!("`{}` missing", arg.name))
+                            .help(signature(def)),
+                        );
+                        None
+                    }
+                },
+            };
+            ok &= read.is_some();
+            args.push(read);
+        }
+        if !ok {
+            return None;
+        }
+        let args: SmallVec<[Arg; 8]> = args.into_iter().collect::<Option<_>>()?;
+        self.build(def, args, &given, whole, &here)
+    }
+
+    pub(super) fn default_argument(
+        &mut self,
+        default: DefaultValue,
+        arg: &ArgDef,
+        here: &Origin,
+    ) -> Arg {
+        match (default, arg.kind) {
+            (DefaultValue::Number(v), ArgKind::Input(_)) => {
+                Arg::Input(self.builder.add(Op::ConstScalar(v), Args::new(), here))
+            }
+            (DefaultValue::Number(v), _) => Arg::Const(v),
+            (DefaultValue::Vec3(v), _) => Arg::Axis(v),
+            (DefaultValue::Name(n), _) => Arg::Interpolation(n, false),
+        }
+    }
+
+    pub(super) fn argument(
+        &mut self,
+        value: &Value,
+        arg: &ArgDef,
+        def: &NodeDef,
+        origin: &Origin,
+    ) -> Option<Arg> {
+        match arg.kind {
+            ArgKind::Input(ty) => self
+                .typed_input(value, ty, &ArgName(arg.name, def.name), origin)
+                .map(Arg::Input),
+            ArgKind::ConstScalar(range) => self
+                .constant_scalar(value, arg, range, def, origin)
+                .map(Arg::Const),
+            ArgKind::ConstAxis => {
+                let v = self.constant_vec3(value, &ArgName(arg.name, def.name), origin)?;
+                match ops::normalise_axis(v) {
+                    Some(axis) => Some(Arg::Axis(axis)),
+                    None => {
+                        self.error(
+                            Diagnostic::new(
+                                Class::BadParameter,
+                                format!(
+                                    "the rotation axis is zero: ({}, {}, {})",
+                                    crate::diagnostic::number(v[0]),
+                                    crate::diagnostic::number(v[1]),
+                                    crate::diagnostic::number(v[2])
+                                ),
+                            )
+                            .in_node(&*origin.node)
+                            .at(value.span)
+                            .label("zero axis")
+                            .help("give the axis a direction, e.g. (0, 1, 0)"),
+                        );
+                        None
+                    }
+                }
+            }
+            ArgKind::Basis => self
+                .basis(value, origin)
+                .map(|(b, explicit)| Arg::Basis(b, explicit)),
+            ArgKind::Interpolation(allowed) => {
+                let name = match &value.kind {
+                    ValueKind::Ident(n) => allowed.iter().find(|a| **a == n.as_str()).copied(),
+                    _ => None,
+                };
+                match name {
+                    Some(n) => Some(Arg::Interpolation(n, true)),
+                    None => {
+                        self.error(
+                            Diagnostic::new(
+                                Class::BadParameter,
+                                format!(
+                                    "`{}` of {} must be one of {}, found {}",
+                                    arg.name,
+                                    def.name,
+                                    allowed.join(", "),
+                                    value.kind.describe()
+                                ),
+                            )
+                            .in_node(&*origin.node)
+                            .at(value.span)
+                            .label("unknown interpolation"),
+                        );
+                        None
+                    }
+                }
+            }
+            ArgKind::Stops => {
+                let knots = self.knots(value, def, "stops", "(t, (r, g, b))", origin)?;
+                let mut stops = Vec::with_capacity(knots.len());
+                for (t, v) in knots {
+                    stops.push((t, self.constant_vec3(v, &"a stop's colour", origin)?));
+                }
+                Some(Arg::Stops(stops))
+            }
+            ArgKind::Points => {
+                let knots = self.knots(value, def, "points", "(x, y)", origin)?;
+                let mut points = Vec::with_capacity(knots.len());
+                let y_def = ArgDef {
+                    name: "y",
+                    kind: ArgKind::ConstScalar(nodes::Range::FINITE),
+                    default: None,
+                    doc: "",
+                };
+                for (x, v) in knots {
+                    points.push((
+                        x,
+                        self.constant_scalar(v, &y_def, nodes::Range::FINITE, def, origin)?,
+                    ));
+                }
+                Some(Arg::Points(points))
+            }
+        }
+    }
+
+    /// Reads `[(key, value), ...]`: constant, finite, sorted keys; the values are returned raw.
+    pub(super) fn knots<'v>(
+        &mut self,
+        value: &'v Value,
+        def: &NodeDef,
+        what: &str,
+        form: &str,
+        origin: &Origin,
+    ) -> Option<Vec<(f64, &'v Value)>> {
+        let ValueKind::List(items) = &value.kind else {
+            self.error(
+                Diagnostic::new(
+                    Class::Type,
+                    format!(
+                        "`{what}` of {} is a list [{form}, ...], found {}",
+                        def.name,
+                        value.kind.describe()
+                    ),
+                )
+                .in_node(&*origin.node)
+                .at(value.span)
+                .label("expected a list"),
+            );
+            return None;
+        };
+        if items.is_empty() {
+            self.error(
+                Diagnostic::new(
+                    Class::BadParameter,
+                    format!("`{what}` of {} is empty", def.name),
+                )
+                .in_node(&*origin.node)
+                .at(value.span)
+                .label("needs at least one entry"),
+            );
+            return None;
+        }
+        if items.len() > limits::MAX_RAMP_STOPS {
+            self.error(
+                Diagnostic::new(
+                    Class::Limit,
+                    format!(
+                        "`{what}` of {} has {} entries; at most {} are allowed",
+                        def.name,
+                        items.len(),
+                        limits::MAX_RAMP_STOPS
+                    ),
+                )
+                .in_node(&*origin.node)
+                .at(value.span),
+            );
+            return None;
+        }
+        let key_def = ArgDef {
+            name: "t",
+            kind: ArgKind::ConstScalar(nodes::Range::FINITE),
+            default: None,
+            doc: "",
+        };
+        let mut out: Vec<(f64, &Value)> = Vec::with_capacity(items.len());
+        for item in items {
+            let ValueKind::Tuple {
+                name: None,
+                items: pair,
+            } = &item.kind
+            else {
+                self.error(
+                    Diagnostic::new(
+                        Class::Type,
+                        format!(
+                            "each entry of `{what}` is {form}, found {}",
+                            item.kind.describe()
+                        ),
+                    )
+                    .in_node(&*origin.node)
+                    .at(item.span)
+                    .label(format!("expected {form}")),
+                );
+                return None;
+            };
+            if pair.len() != 2 {
+                self.error(
+                    Diagnostic::new(
+                        Class::Type,
+                        format!(
+                            "each entry of `{what}` is {form}, this one has {} items",
+                            pair.len()
+                        ),
+                    )
+                    .in_node(&*origin.node)
+                    .at(item.span)
+                    .label(format!("expected {form}")),
+                );
+                return None;
+            }
+            let key =
+                self.constant_scalar(&pair[0], &key_def, nodes::Range::FINITE, def, origin)?;
+            if let Some(&(previous, _)) = out.last() {
+                if key < previous {
+                    self.error(
+                        Diagnostic::new(
+                            Class::BadParameter,
+                            format!(
+                                "`{what}` of {} are not sorted: {key} comes after {previous}",
+                                def.name
+                            ),
+                        )
+                        .in_node(&*origin.node)
+                        .at(pair[0].span)
+                        .label("smaller than the one before")
+                        .help("sort the entries by their first number"),
+                    );
+                    return None;
+                }
+            }
+            out.push((key, &pair[1]));
+        }
+        Some(out)
+    }
+
+    /// Reads a basis; the flag says whether it spelled out an interpolation (`Value(Smooth)`).
+    pub(super) fn basis(&mut self, value: &Value, origin: &Origin) -> Option<(Basis, bool)> {
+        let (name, span, inner) = match &value.kind {
+            ValueKind::Ident(n) => (n.as_str(), value.span, None),
+            ValueKind::Struct {
+                name: Some(n),
+                fields,
+            } => (n.value.as_str(), n.span, Some(fields.as_slice())),
+            ValueKind::Tuple {
+                name: Some(n),
+                items,
+            } if items.len() == 1 => {
+                // `Value(Smooth)`: positional interpolation.
+                let interpolation = match &items[0].kind {
+                    ValueKind::Ident(i) if i == "Linear" => Interpolation::Linear,
+                    ValueKind::Ident(i) if i == "Smooth" => Interpolation::Smooth,
+                    _ => {
+                        self.error(
+                            Diagnostic::new(
+                                Class::BadParameter,
+                                "value noise interpolation is Linear or Smooth",
+                            )
+                            .in_node(&*origin.node)
+                            .at(items[0].span)
+                            .label("unknown interpolation"),
+                        );
+                        return None;
+                    }
+                };
+                if n.value == "Value" {
+                    return Some((Basis::Value(interpolation), true));
+                }
+                (n.value.as_str(), n.span, Some([].as_slice()))
+            }
+            _ => ("", value.span, None),
+        };
+        let basis = match name {
+            "Perlin" if inner.is_none() => Basis::Perlin,
+            "Gradient" if inner.is_none() => Basis::Gradient,
+            "Perlin" | "Gradient" => {
+                self.error(
+                    Diagnostic::new(
+                        Class::BadParameter,
+                        format!("the {name} basis takes no arguments"),
+                    )
+                    .in_node(&*origin.node)
+                    .at(value.span)
+                    .label("only Value noise has an interpolation")
+                    .help(format!("write `basis: {name}`")),
+                );
+                return None;
+            }
+            "Value" => {
+                let mut interpolation = Interpolation::Linear;
+                for (field, v) in inner.unwrap_or(&[]) {
+                    match (field.value.as_str(), &v.kind) {
+                        ("interpolation", ValueKind::Ident(i)) if i == "Linear" => {
+                            interpolation = Interpolation::Linear
+                        }
+                        ("interpolation", ValueKind::Ident(i)) if i == "Smooth" => {
+                            interpolation = Interpolation::Smooth
+                        }
+                        _ => {
+                            self.error(
+                                Diagnostic::new(Class::BadParameter, "Value noise takes `interpolation: Linear` or `interpolation: Smooth`")
+                                    .in_node(&*origin.node)
+                                    .at(field.span.to(v.span))
+                                    .label("not understood"),
+                            );
+                            return None;
+                        }
+                    }
+                }
+                return Some((
+                    Basis::Value(interpolation),
+                    inner.is_some_and(|f| !f.is_empty()),
+                ));
+            }
+            _ => {
+                let mut d = Diagnostic::new(
+                    Class::BadParameter,
+                    format!("unknown noise basis {}", value.kind.describe()),
+                )
+                .in_node(&*origin.node)
+                .at(span)
+                .label("not a basis");
+                d = d.help(
+                    match nodes::suggest_from(name, ["Perlin", "Gradient", "Value"].into_iter()) {
+                        Some(s) if !name.is_empty() => format!("did you mean `{s}`?"),
+                        _ => "the bases are Perlin, Gradient and Value".into(),
+                    },
+                );
+                self.error(d);
+                return None;
+            }
+        };
+        Some((basis, false))
+    }
+}
