@@ -13,70 +13,71 @@ impl Checker {
         whole: &Value,
         here: &Origin,
     ) -> Option<NodeId> {
-        let input = |i: usize| match args[i] {
-            Arg::Input(id) => id,
-            _ => unreachable_arg(),
-        };
-        let constant = |i: usize| match args[i] {
-            Arg::Const(v) => v,
-            _ => 0.0,
-        };
+        let named = Named { def, args: &args };
+        let input = |name: &str| named.input(name);
+        let constant = |name: &str| named.constant(name);
+        // The operands of a math node, in the catalogue's order (a, b; x; input, min, max; ...).
+        let operands: Args = args
+            .iter()
+            .filter_map(|a| match a {
+                Arg::Input(id) => Some(*id),
+                _ => None,
+            })
+            .collect();
         let unary = |op| Op::Unary(op);
         let op_args: (Op, Args) = match def.lowering {
             Lowering::Position => (Op::Position, Args::new()),
-            Lowering::Combine => (Op::Combine, smallvec![input(0), input(1), input(2)]),
+            Lowering::Combine => (Op::Combine, smallvec![input("x"), input("y"), input("z")]),
             Lowering::Scale | Lowering::Translate => {
-                let by = self.builder.broadcast(input(1), Type::Vec3, here);
+                let by = self.builder.broadcast(input("by"), Type::Vec3, here);
                 let op = if def.lowering == Lowering::Scale {
                     BinaryOp::Mul
                 } else {
                     BinaryOp::Add
                 };
-                (Op::Binary(op), smallvec![input(0), by])
+                (Op::Binary(op), smallvec![input("input"), by])
             }
             Lowering::Rotate => {
-                let Arg::Axis(axis) = args[1] else {
+                let Some(Arg::Axis(axis)) = named.get("axis") else {
                     return None;
                 };
-                (Op::Rotate { axis }, smallvec![input(0), input(2)])
+                (
+                    Op::Rotate { axis: *axis },
+                    smallvec![input("input"), input("degrees")],
+                )
             }
             Lowering::Noise | Lowering::Fractal { .. } => {
                 self.noise(def, &args, given, whole, here)?
             }
-            Lowering::Binary(op) => (
-                Op::Binary(op),
-                self.broadcast_all(&[input(0), input(1)], here),
-            ),
-            Lowering::Unary(op) => (unary(op), smallvec![input(0)]),
-            Lowering::Length => (Op::Length, smallvec![input(0)]),
-            Lowering::Dot => (Op::Dot, smallvec![input(0), input(1)]),
-            Lowering::Ternary(op) => (
-                Op::Ternary(op),
-                self.broadcast_all(&[input(0), input(1), input(2)], here),
-            ),
+            Lowering::Binary(op) => (Op::Binary(op), self.broadcast_all(&operands, here)),
+            Lowering::Unary(op) => (unary(op), operands),
+            Lowering::Length => (Op::Length, smallvec![input("v")]),
+            Lowering::Dot => (Op::Dot, smallvec![input("a"), input("b")]),
+            Lowering::Ternary(op) => (Op::Ternary(op), self.broadcast_all(&operands, here)),
             Lowering::Hermite => (
                 Op::Hermite(Hermite {
-                    p0: constant(1),
-                    p1: constant(2),
-                    m0: constant(3),
-                    m1: constant(4),
+                    p0: constant("p0"),
+                    p1: constant("p1"),
+                    m0: constant("m0"),
+                    m1: constant("m1"),
                 }),
-                smallvec![input(0)],
+                smallvec![input("input")],
             ),
             Lowering::Ramp | Lowering::Curve => {
-                let interpolation = match args[2] {
-                    Arg::Interpolation("Smooth", _) => SplineInterpolation::Smooth,
-                    Arg::Interpolation("Constant", _) => SplineInterpolation::Constant,
+                let interpolation = match named.get("interpolation") {
+                    Some(Arg::Interpolation("Smooth", _)) => SplineInterpolation::Smooth,
+                    Some(Arg::Interpolation("Constant", _)) => SplineInterpolation::Constant,
                     _ => SplineInterpolation::Linear,
                 };
-                match &args[1] {
+                let table = named.get("stops").or_else(|| named.get("points"));
+                match table? {
                     Arg::Stops(stops) => {
                         let ramp = Ramp::new(
                             stops.iter().map(|s| s.0).collect(),
                             stops.iter().map(|s| s.1).collect(),
                             interpolation,
                         );
-                        (Op::Ramp(Arc::new(ramp)), smallvec![input(0)])
+                        (Op::Ramp(Arc::new(ramp)), smallvec![input("input")])
                     }
                     Arg::Points(points) => {
                         let curve = Curve::new(
@@ -84,7 +85,7 @@ impl Checker {
                             points.iter().map(|p| [p.1]).collect(),
                             interpolation,
                         );
-                        (Op::Curve(Arc::new(curve)), smallvec![input(0)])
+                        (Op::Curve(Arc::new(curve)), smallvec![input("input")])
                     }
                     _ => return None,
                 }
@@ -105,18 +106,13 @@ impl Checker {
         whole: &Value,
         here: &Origin,
     ) -> Option<(Op, Args)> {
-        let input = |i: usize| match args[i] {
-            Arg::Input(id) => id,
-            _ => unreachable_arg(),
-        };
-        let constant = |i: usize| match args[i] {
-            Arg::Const(v) => v,
-            _ => 0.0,
-        };
-        let Arg::Basis(basis, explicit) = args[1] else {
+        let named = Named { def, args };
+        let input = |name: &str| named.input(name);
+        let constant = |name: &str| named.constant(name);
+        let Some(&Arg::Basis(basis, explicit)) = named.get("basis") else {
             return None;
         };
-        let interpolation_index = if def.kind == Kind::Noise { 3 } else { 7 };
+        let interpolation_index = named.index("interpolation")?;
         let basis = match (basis, &args[interpolation_index]) {
             (Basis::Value(written), Arg::Interpolation(field, true))
                 if explicit && written != interpolation_named(field) =>
@@ -158,16 +154,16 @@ impl Checker {
         };
         let key = TableKey {
             basis,
-            seed: constant(2) as u64,
+            seed: constant("seed") as u64,
         };
-        Some(if def.kind == Kind::Noise {
-            (Op::Noise(key), smallvec![input(0)])
+        Some(if def.lowering == Lowering::Noise {
+            (Op::Noise(key), smallvec![input("input")])
         } else {
             let params = FractalParams {
-                octaves: constant(3),
-                lacunarity: constant(4),
-                gain: constant(5),
-                first_octave: constant(6) as u32,
+                octaves: constant("octaves"),
+                lacunarity: constant("lacunarity"),
+                gain: constant("gain"),
+                first_octave: constant("first_octave") as u32,
                 turbulence: def.lowering == Lowering::Fractal { turbulence: true },
             };
             // Octave frequencies and amplitudes grow as powers: keep them finite.
@@ -194,7 +190,7 @@ impl Checker {
                 );
                 return None;
             }
-            (Op::Fractal(key, params), smallvec![input(0)])
+            (Op::Fractal(key, params), smallvec![input("input")])
         })
     }
 
@@ -208,5 +204,51 @@ impl Checker {
         ids.iter()
             .map(|&id| self.builder.broadcast(id, ty, here))
             .collect()
+    }
+}
+
+/// A node's checked arguments read by name, through its catalogue entry: lowering never depends
+/// on an argument's position, so reordering or adding arguments cannot silently misread one.
+struct Named<'a> {
+    def: &'a NodeDef,
+    args: &'a [Arg],
+}
+
+impl Named<'_> {
+    /// The position of argument `name` in the catalogue entry.
+    fn index(&self, name: &str) -> Option<usize> {
+        self.def.args.iter().position(|a| a.name == name)
+    }
+
+    /// The checked argument `name`.
+    fn get(&self, name: &str) -> Option<&Arg> {
+        self.index(name).and_then(|i| self.args.get(i))
+    }
+
+    /// The node an input argument reads. A name the entry lacks is a bug in this file: loud in
+    /// debug builds (every kind goes through the conformance tests), node 0 in release.
+    fn input(&self, name: &str) -> NodeId {
+        debug_assert!(
+            self.index(name).is_some(),
+            "{} has no argument `{name}`",
+            self.def.name
+        );
+        match self.get(name) {
+            Some(Arg::Input(id)) => *id,
+            _ => unreachable_arg(),
+        }
+    }
+
+    /// A constant argument's value (a name the entry lacks: as for [`Named::input`]).
+    fn constant(&self, name: &str) -> f64 {
+        debug_assert!(
+            self.index(name).is_some(),
+            "{} has no argument `{name}`",
+            self.def.name
+        );
+        match self.get(name) {
+            Some(Arg::Const(v)) => *v,
+            _ => 0.0,
+        }
     }
 }

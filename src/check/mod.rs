@@ -19,9 +19,7 @@ use crate::graph::{
     Args, CheckedGraph, FractalParams, GraphBuilder, NodeId, Op, Origin, Output, TableKey, Type,
 };
 use crate::limits;
-use crate::nodes::{
-    self, ArgDef, ArgKind, DefaultValue, InputType, Kind, Lowering, NodeDef, OutputType,
-};
+use crate::nodes::{self, ArgDef, ArgKind, DefaultValue, InputType, Lowering, NodeDef, OutputType};
 use crate::noise::{Basis, Interpolation};
 use crate::ops::{self, BinaryOp, Curve, Hermite, Ramp, SplineInterpolation};
 use crate::syntax::{self, Text, Value, ValueKind};
