@@ -13,9 +13,9 @@
 //!    non-finite coordinates) uses the contract formula `m = c - 256 floor(c / 256)` itself.
 //! 2. The corner hashes: on CPUs with AVX-512 VBMI by byte shuffles, 64 lanes per instruction
 //!    (`vbmi.rs`, the one place with intrinsics); otherwise inside loop 3 as seven gathers per
-//!    lane vector from the paired permutation (`Kernel::hashes`).
+//!    lane vector from the paired permutation (`LatticeKernel::hashes`).
 //! 3. The interior, in S with the hashes as bytes: Perlin's `grad` as selects, the gradients or
-//!    values as gathers, the fades and lerps (`Kernel::interior`). With AVX-512 that is 16 f32
+//!    values as gathers, the fades and lerps (`LatticeKernel::interior`). With AVX-512 that is 16 f32
 //!    lanes per instruction.
 //!
 //! A fractal sum runs the octaves outside the lanes, and each lane sees `sum = sum + amp · n` in
@@ -41,7 +41,7 @@
 use multiversion::multiversion;
 use multiversion::target::target_cfg_f;
 
-use super::{canonical_nan, Kernel};
+use super::{canonical_nan, LatticeKernel};
 use crate::real::Real;
 
 /// Lanes per chunk: the stack arrays hold this many (cell bytes, fractions, hashes: 4.8 KB in
@@ -58,7 +58,13 @@ const OCTAVE_LANES: usize = 32;
 
 /// `out[i] = k.eval(p_i)` bit for bit.
 #[inline]
-pub(super) fn sample<S: Real, K: Kernel>(k: &K, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
+pub(super) fn sample<S: Real, K: LatticeKernel>(
+    k: &K,
+    x: &[f64],
+    y: &[f64],
+    z: &[f64],
+    out: &mut [S],
+) {
     if out.len() < SMALL {
         point_loop(k, x, y, z, out);
     } else {
@@ -69,7 +75,7 @@ pub(super) fn sample<S: Real, K: Kernel>(k: &K, x: &[f64], y: &[f64], z: &[f64],
 /// `out[i] = Σ_o amp_o · k.eval(p_i · freq_o)` (|·| when `TURB`), summed as
 /// [`fractal`](super::fractal) does, bit for bit.
 #[inline]
-pub(super) fn fractal<S: Real, K: Kernel, const TURB: bool>(
+pub(super) fn fractal<S: Real, K: LatticeKernel, const TURB: bool>(
     k: &K,
     freqs: &[f64],
     amps: &[f64],
@@ -90,7 +96,7 @@ pub(super) fn fractal<S: Real, K: Kernel, const TURB: bool>(
 
 /// The per-point reference over a batch.
 #[inline(always)]
-fn point_loop<S: Real, K: Kernel>(k: &K, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
+fn point_loop<S: Real, K: LatticeKernel>(k: &K, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
     for (((o, &x), &y), &z) in out.iter_mut().zip(x).zip(y).zip(z) {
         *o = k.eval([x, y, z]);
     }
@@ -98,7 +104,7 @@ fn point_loop<S: Real, K: Kernel>(k: &K, x: &[f64], y: &[f64], z: &[f64], out: &
 
 /// The per-point reference of a fractal sum over a batch (octaves inside, per lane).
 #[inline(always)]
-fn fractal_point_loop<S: Real, K: Kernel, const TURB: bool>(
+fn fractal_point_loop<S: Real, K: LatticeKernel, const TURB: bool>(
     k: &K,
     freqs: &[f64],
     amps: &[f64],
@@ -162,7 +168,7 @@ impl<S: Real, const N: usize> Lattice<S, N> {
     /// (`ACC == false`) or `out[i] = out[i] + amp · k(lane i)` (|k| when `TURB`), for the first
     /// `out.len()` lanes.
     #[inline(always)]
-    pub(super) fn noise<K: Kernel, const ACC: bool, const TURB: bool, const WIDE: bool>(
+    pub(super) fn noise<K: LatticeKernel, const ACC: bool, const TURB: bool, const WIDE: bool>(
         &self,
         k: &K,
         amp: S,
@@ -183,7 +189,12 @@ impl<S: Real, const N: usize> Lattice<S, N> {
     /// Step 3 with the hashes of step 2 already in `self.hashes` (see
     /// [`Lattice::shuffle_hashes`]); otherwise as [`Lattice::noise`].
     #[inline(always)]
-    pub(super) fn noise_hashed<K: Kernel, const ACC: bool, const TURB: bool, const WIDE: bool>(
+    pub(super) fn noise_hashed<
+        K: LatticeKernel,
+        const ACC: bool,
+        const TURB: bool,
+        const WIDE: bool,
+    >(
         &self,
         k: &K,
         amp: S,
@@ -208,7 +219,7 @@ impl<S: Real> Lattice<S, CHUNK> {
     /// The CPU must support avx512f, avx512bw and avx512vbmi.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn shuffle_hashes<K: Kernel>(&mut self, k: &K, n: usize) {
+    unsafe fn shuffle_hashes<K: LatticeKernel>(&mut self, k: &K, n: usize) {
         // SAFETY: the caller guarantees the target features.
         unsafe {
             if K::PERLIN_HASH {
@@ -222,7 +233,7 @@ impl<S: Real> Lattice<S, CHUNK> {
     /// Never called: no CPU of this architecture has AVX-512 VBMI.
     #[cfg(not(target_arch = "x86_64"))]
     #[inline(always)]
-    unsafe fn shuffle_hashes<K: Kernel>(&mut self, _: &K, _: usize) {
+    unsafe fn shuffle_hashes<K: LatticeKernel>(&mut self, _: &K, _: usize) {
         unreachable!("AVX-512 VBMI on a non-x86-64 target")
     }
 }
@@ -320,12 +331,12 @@ macro_rules! simd_targets {
 
 simd_targets! {
 /// [`sample`] for batches of [`SMALL`] lanes or more.
-fn sample_lanes<S: Real, K: Kernel>(k: &K, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
+fn sample_lanes<S: Real, K: LatticeKernel>(k: &K, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
     if !target_cfg_f!(target_feature = "sse4.1") {
         return point_loop(k, x, y, z, out);
     }
     let shuffle = target_cfg_f!(target_feature = "avx512vbmi");
-    // Hash bits tested in bytes where AVX-512BW compares bytes into masks (see `Kernel::interior`).
+    // Hash bits tested in bytes where AVX-512BW compares bytes into masks (see `LatticeKernel::interior`).
     const WIDE: bool = !target_cfg_f!(target_feature = "avx512bw");
     let mut lattice = Lattice::<S>::new();
     let chunks = out.chunks_mut(CHUNK).zip(x.chunks(CHUNK).zip(y.chunks(CHUNK)).zip(z.chunks(CHUNK)));
@@ -346,7 +357,7 @@ fn sample_lanes<S: Real, K: Kernel>(k: &K, x: &[f64], y: &[f64], z: &[f64], out:
 
 simd_targets! {
 /// [`fractal`] for batches of [`SMALL`] lanes or more.
-fn fractal_lanes<S: Real, K: Kernel, const TURB: bool>(
+fn fractal_lanes<S: Real, K: LatticeKernel, const TURB: bool>(
     k: &K,
     freqs: &[f64],
     amps: &[f64],
@@ -390,7 +401,7 @@ simd_targets! {
 /// hand-written scalar octave loop (benches/eval.rs). The terms are then summed in octave
 /// order, starting from zero, exactly as [`fractal_point_loop`] sums them; each term is the
 /// batch kernels' (bit-identical to the per-point kernel), so the result is the same bits.
-fn fractal_octave_lanes<S: Real, K: Kernel, const TURB: bool>(
+fn fractal_octave_lanes<S: Real, K: LatticeKernel, const TURB: bool>(
     k: &K,
     freqs: &[f64],
     amps: &[f64],
@@ -428,7 +439,7 @@ fn fractal_octave_lanes<S: Real, K: Kernel, const TURB: bool>(
 /// The first `L` lanes of [`fractal_octave_lanes`]: `terms[i] = k(p · f[i])`, through the
 /// batch kernels' own lattice and noise steps.
 #[inline(always)]
-fn octave_terms<S: Real, K: Kernel, const WIDE: bool, const L: usize>(
+fn octave_terms<S: Real, K: LatticeKernel, const WIDE: bool, const L: usize>(
     k: &K,
     p: [f64; 3],
     f: &[f64; OCTAVE_LANES],

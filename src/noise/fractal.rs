@@ -1,6 +1,8 @@
 //! Fractal sums of one basis over an octave schedule: fBm and turbulence.
 
-use super::{batch, Basis, GradientKernel, Interpolation, NoiseTable, PerlinKernel, ValueKernel};
+use super::{
+    Basis, GradientKernel, Interpolation, NoiseKernel, NoiseTable, PerlinKernel, ValueKernel,
+};
 use crate::real::Real;
 
 /// Octave schedule of Fbm / Turbulence, precomputed at compile time.
@@ -114,9 +116,9 @@ pub fn fractal_batch<S: Real>(
     let (f, a) = (&octaves.frequencies[..], &octaves.amplitudes[..]);
     with_kernel!(table, k => {
         if turbulence {
-            batch::fractal::<S, _, true>(&k, f, a, x, y, z, out)
+            k.fractal_batch::<S, true>(f, a, x, y, z, out)
         } else {
-            batch::fractal::<S, _, false>(&k, f, a, x, y, z, out)
+            k.fractal_batch::<S, false>(f, a, x, y, z, out)
         }
     });
 }

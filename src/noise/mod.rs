@@ -19,6 +19,75 @@ mod rng;
 /// The crate's one fixed generator, also used for sample sets (report, level of detail).
 pub(crate) use rng::SplitMix64;
 
+/// A noise basis as everything outside this module sees it (the interpreter, fractal sums,
+/// constant folding, level of detail, the stability survey): a per-point reference and its
+/// batch forms. A basis on the integer lattice implements [`LatticeKernel`] and gets the SIMD
+/// batch kernels of `batch.rs` (points as lanes, or one point's octaves as lanes) through the
+/// blanket implementation below. A basis on another grid — cellular noise's neighbour cells,
+/// simplex noise's skewed grid — implements this trait itself: `sample` alone is complete and
+/// correct (the batch forms default to per-point loops, bit-identical by construction), and its
+/// own batch kernels override them, held to `sample`'s bits by the same tests. Its range and
+/// Lipschitz bound go on [`Basis`], whose matches are exhaustive.
+pub(crate) trait NoiseKernel {
+    /// One sample at `p` (positions in f64, interior arithmetic in `S`; NaN canonical).
+    fn sample<S: Real>(&self, p: [f64; 3]) -> S;
+
+    /// `out[i] = sample(p_i)` bit for bit.
+    fn sample_batch<S: Real>(&self, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
+        for (((o, &x), &y), &z) in out.iter_mut().zip(x).zip(y).zip(z) {
+            *o = self.sample([x, y, z]);
+        }
+    }
+
+    /// `out[i] = Σ_o amp_o · sample(p_i · freq_o)` (|·| when `TURB`), summed in octave order
+    /// from `S::ZERO` as [`fractal`] does, bit for bit.
+    #[allow(clippy::too_many_arguments)]
+    fn fractal_batch<S: Real, const TURB: bool>(
+        &self,
+        freqs: &[f64],
+        amps: &[f64],
+        x: &[f64],
+        y: &[f64],
+        z: &[f64],
+        out: &mut [S],
+    ) {
+        for (((o, &x), &y), &z) in out.iter_mut().zip(x).zip(y).zip(z) {
+            let mut sum = S::ZERO;
+            for (&f, &a) in freqs.iter().zip(amps) {
+                let n: S = self.sample([x * f, y * f, z * f]);
+                let n = if TURB { n.abs() } else { n };
+                sum = sum + S::from_f64(a) * n;
+            }
+            *o = canonical_nan(sum);
+        }
+    }
+}
+
+impl<K: LatticeKernel> NoiseKernel for K {
+    #[inline(always)]
+    fn sample<S: Real>(&self, p: [f64; 3]) -> S {
+        self.eval(p)
+    }
+
+    #[inline]
+    fn sample_batch<S: Real>(&self, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
+        batch::sample(self, x, y, z, out);
+    }
+
+    #[inline]
+    fn fractal_batch<S: Real, const TURB: bool>(
+        &self,
+        freqs: &[f64],
+        amps: &[f64],
+        x: &[f64],
+        y: &[f64],
+        z: &[f64],
+        out: &mut [S],
+    ) {
+        batch::fractal::<S, K, TURB>(self, freqs, amps, x, y, z, out);
+    }
+}
+
 /// The lattice noise function of one basis, as one monomorphic kernel per basis, so the batch
 /// loops can dispatch on the basis once per batch instead of once per lane.
 ///
@@ -28,7 +97,7 @@ pub(crate) use rng::SplitMix64;
 /// written without branches or byte tables so that a loop over lanes vectorises (and so that the
 /// hashes can come from elsewhere, see `vbmi.rs`). Both give the same bits for every input
 /// (proved by the tests, not assumed).
-trait Kernel {
+trait LatticeKernel {
     /// Whether the corner hashes are Perlin's (`perlin::hashes_paired`) or Ebert's
     /// (`lattice::corner_hashes`, as Gradient and Value hash).
     const PERLIN_HASH: bool;
@@ -52,7 +121,8 @@ trait Kernel {
     fn interior<S: Real, const WIDE: bool>(&self, h: [u8; 8], frac: [S; 3]) -> S;
 }
 
-/// Runs `$body` with `$k` bound to the [`Kernel`] of `$table`'s basis.
+/// Runs `$body` with `$k` bound to the [`NoiseKernel`] of `$table`'s basis (today each a
+/// [`LatticeKernel`]).
 macro_rules! with_kernel {
     ($table:expr, $k:ident => $body:expr) => {{
         let t: &NoiseTable = $table;
@@ -213,7 +283,7 @@ impl NoiseTable {
     /// is fine.
     #[inline]
     pub fn sample<S: Real>(&self, p: [f64; 3]) -> S {
-        with_kernel!(self, k => k.eval(p))
+        with_kernel!(self, k => NoiseKernel::sample(&k, p))
     }
 
     /// `out[i] = sample(x[i], y[i], z[i])` bit for bit: one basis dispatch per batch, then the
@@ -223,7 +293,7 @@ impl NoiseTable {
     /// Panics only if the slices' lengths differ (a caller bug).
     pub fn sample_batch<S: Real>(&self, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
         check_lengths(x, y, z, out.len());
-        with_kernel!(self, k => batch::sample(&k, x, y, z, out));
+        with_kernel!(self, k => k.sample_batch(x, y, z, out));
     }
 
     /// Guaranteed `[min, max]` of [`NoiseTable::sample`] for finite input, in f32 and in f64,
@@ -332,7 +402,7 @@ struct PerlinKernel<'a> {
     pairs: &'a [i32; 512],
 }
 
-impl Kernel for PerlinKernel<'_> {
+impl LatticeKernel for PerlinKernel<'_> {
     const PERLIN_HASH: bool = true;
     #[inline(always)]
     fn eval<S: Real>(&self, p: [f64; 3]) -> S {
@@ -359,7 +429,7 @@ struct GradientKernel<'a> {
     grads: &'a [[f32; 3]; 256],
 }
 
-impl Kernel for GradientKernel<'_> {
+impl LatticeKernel for GradientKernel<'_> {
     const PERLIN_HASH: bool = false;
     #[inline(always)]
     fn eval<S: Real>(&self, p: [f64; 3]) -> S {
@@ -386,7 +456,7 @@ struct ValueKernel<'a, const SMOOTH: bool> {
     values: &'a [f32; 256],
 }
 
-impl<const SMOOTH: bool> Kernel for ValueKernel<'_, SMOOTH> {
+impl<const SMOOTH: bool> LatticeKernel for ValueKernel<'_, SMOOTH> {
     const PERLIN_HASH: bool = false;
     #[inline(always)]
     fn eval<S: Real>(&self, p: [f64; 3]) -> S {

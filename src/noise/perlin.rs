@@ -106,7 +106,7 @@ pub(super) fn sample<S: Real>(p: &[u8; 512], pos: [f64; 3]) -> S {
 /// test each): h < 8 is bit 3 clear, h < 4 is bits 2 and 3 clear, and h == 12 || h == 14 is
 /// bits 3, 2, 0 equal to 1, 1, 0.
 ///
-/// `H` is the integer type the bits are tested in (see `Kernel::interior`'s `WIDE`).
+/// `H` is the integer type the bits are tested in (see `LatticeKernel::interior`'s `WIDE`).
 #[inline(always)]
 fn grad_select<S: Real, H>(hash: H, x: S, y: S, z: S) -> S
 where

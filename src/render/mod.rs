@@ -484,7 +484,7 @@ fn load_input_tracking(
         RenderError::from_load(e)
     })?;
     match input_kind(&source.text) {
-        InputKind::Scene => scene::load_scene_tracking(path, files),
+        InputKind::Scene => scene::load_scene_source(path, &source, files),
         InputKind::Graph => Scene::from_graph_default_tracking(path, defaults, files),
     }
 }
