@@ -15,8 +15,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     )?;
     println!(
         "{} compiled to {} instructions",
-        graph.file.name,
-        tape.instrs.len()
+        graph.file().name,
+        tape.instructions().len()
     );
 
     // Per point: the outputs' channels in order (colour r g b, then vein).

@@ -199,17 +199,45 @@ pub struct GraphStats {
 /// cannot fail except for a request naming an output it does not have.
 #[derive(Clone, Debug)]
 pub struct CheckedGraph {
-    pub file: Arc<SourceFile>,
-    pub nodes: Vec<Node>,
-    pub outputs: Vec<Output>,
+    pub(crate) file: Arc<SourceFile>,
+    pub(crate) nodes: Vec<Node>,
+    pub(crate) outputs: Vec<Output>,
     /// The file's node ids and what each became (a folded node points at its constant).
-    pub named: Vec<(crate::syntax::Text, NodeId)>,
+    pub(crate) named: Vec<(crate::syntax::Text, NodeId)>,
     /// Params after `--set` overrides, in file order.
-    pub params: Vec<(String, f64)>,
-    pub stats: GraphStats,
+    pub(crate) params: Vec<(String, f64)>,
+    pub(crate) stats: GraphStats,
 }
 
+/// A checked graph is built only by [`crate::check`]; its fields are private to the crate and
+/// read through these accessors.
 impl CheckedGraph {
+    /// The file it was read from (name and text, for diagnostics).
+    pub fn file(&self) -> &Arc<SourceFile> {
+        &self.file
+    }
+
+    /// The outputs, in file order.
+    pub fn outputs(&self) -> &[Output] {
+        &self.outputs
+    }
+
+    /// The params after `--set` overrides, in file order.
+    pub fn params(&self) -> &[(String, f64)] {
+        &self.params
+    }
+
+    /// Nodes declared, written, deduplicated and folded.
+    pub fn stats(&self) -> &GraphStats {
+        &self.stats
+    }
+
+    /// The nodes of the typed DAG (arguments before their users).
+    pub fn nodes(&self) -> &[Node] {
+        &self.nodes
+    }
+
+    /// The output named `name`.
     pub fn output(&self, name: &str) -> Option<&Output> {
         self.outputs.iter().find(|o| o.name == name)
     }
@@ -237,8 +265,8 @@ impl CheckedGraph {
     }
 }
 
-/// Creates nodes with deduplication and constant folding.
-pub struct GraphBuilder {
+/// Creates nodes with deduplication and constant folding (the checker's; not public API).
+pub(crate) struct GraphBuilder {
     pub nodes: Vec<Node>,
     /// Interning: an operation and its arguments → the node. Inline keys and a fast hash:
     /// checking creates a node per expression, so this map is the checker's hot path.

@@ -161,28 +161,56 @@ pub struct TapeStats {
 #[derive(Debug)]
 pub struct Tape {
     pub(crate) id: u64,
-    pub instrs: Vec<Instr>,
-    pub scalar_slots: usize,
-    pub vec3_slots: usize,
+    pub(crate) instrs: Vec<Instr>,
+    pub(crate) scalar_slots: usize,
+    pub(crate) vec3_slots: usize,
     /// Constant slots, filled once when a workspace is bound to this tape.
-    pub scalar_constants: Vec<(Slot, f64)>,
-    pub vec3_constants: Vec<(Slot, [f64; 3])>,
-    pub outputs: Vec<TapeOutput>,
-    pub tables: Vec<(TableKey, Arc<NoiseTable>)>,
-    pub octaves: Vec<Octaves>,
+    pub(crate) scalar_constants: Vec<(Slot, f64)>,
+    pub(crate) vec3_constants: Vec<(Slot, [f64; 3])>,
+    pub(crate) outputs: Vec<TapeOutput>,
+    pub(crate) tables: Vec<(TableKey, Arc<NoiseTable>)>,
+    pub(crate) octaves: Vec<Octaves>,
     /// For each octave schedule: the octaves written and those kept by level of detail.
-    pub octave_counts: Vec<(f64, f64)>,
-    pub matrices: Vec<[[f64; 3]; 3]>,
-    pub axes: Vec<[f64; 3]>,
-    pub hermites: Vec<Hermite>,
-    pub ramps: Vec<Arc<Ramp>>,
-    pub curves: Vec<Arc<Curve>>,
+    pub(crate) octave_counts: Vec<(f64, f64)>,
+    pub(crate) matrices: Vec<[[f64; 3]; 3]>,
+    pub(crate) axes: Vec<[f64; 3]>,
+    pub(crate) hermites: Vec<Hermite>,
+    pub(crate) ramps: Vec<Arc<Ramp>>,
+    pub(crate) curves: Vec<Arc<Curve>>,
     /// For each instruction, the graph node id it was written in (disassembly comments).
-    pub origins: Vec<std::sync::Arc<str>>,
-    pub stats: TapeStats,
+    pub(crate) origins: Vec<std::sync::Arc<str>>,
+    pub(crate) stats: TapeStats,
 }
 
+/// A tape is built only by [`crate::compile`]: its fields are private to the crate, so no caller
+/// can assemble one the interpreter would read out of bounds. What a caller needs is read through
+/// these accessors.
 impl Tape {
+    /// The outputs, in the order requested, each with its type and first channel.
+    pub fn outputs(&self) -> &[TapeOutput] {
+        &self.outputs
+    }
+
+    /// The instructions, in execution order (the disassembly is `Display`).
+    pub fn instructions(&self) -> &[Instr] {
+        &self.instrs
+    }
+
+    /// Scalar slots a workspace holds for this tape (constants included).
+    pub fn scalar_slots(&self) -> usize {
+        self.scalar_slots
+    }
+
+    /// Vec3 slots a workspace holds for this tape (constants included).
+    pub fn vec3_slots(&self) -> usize {
+        self.vec3_slots
+    }
+
+    /// Nodes kept and pruned by compiling.
+    pub fn stats(&self) -> &TapeStats {
+        &self.stats
+    }
+
     /// Total output channels: 1 per scalar output, 3 per vec3 output.
     pub fn channels(&self) -> usize {
         self.outputs.iter().map(|o| o.ty.channels()).sum()

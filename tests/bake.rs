@@ -49,7 +49,7 @@ fn load_with(path: &str, overrides: &[(&str, f64)]) -> (Tape, Vec<(String, f64)>
     };
     let (graph, tape) = texgraph::load_tape(&root().join(path), &check, &CompileOptions::default())
         .unwrap_or_else(|e| panic!("{path}: {e}"));
-    (tape, graph.params.clone())
+    (tape, graph.params().to_vec())
 }
 
 fn load(path: &str) -> Tape {
@@ -129,7 +129,7 @@ fn expected(tape: &Tape, grid: &Grid) -> Vec<Expected> {
     let mut workspace = Workspace::<f32>::new();
     let mut out = vec![0f32; tape.channels()];
     let mut outputs: Vec<Expected> = tape
-        .outputs
+        .outputs()
         .iter()
         .map(|o| Expected {
             name: o.name.clone(),
@@ -144,7 +144,7 @@ fn expected(tape: &Tape, grid: &Grid) -> Vec<Expected> {
             [centre(grid, 0, i), centre(grid, 1, j), centre(grid, 2, k)],
             &mut out,
         );
-        for (expected, o) in outputs.iter_mut().zip(&tape.outputs) {
+        for (expected, o) in outputs.iter_mut().zip(tape.outputs()) {
             expected
                 .values
                 .extend_from_slice(&out[o.first_channel..o.first_channel + o.ty.channels()]);

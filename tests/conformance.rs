@@ -544,7 +544,10 @@ fn folded_constants_equal_the_reference() {
                     literal(a),
                     literal(b)
                 ));
-                assert!(t.instrs.is_empty(), "{name}({a}, {b}) was not folded");
+                assert!(
+                    t.instructions().is_empty(),
+                    "{name}({a}, {b}) was not folded"
+                );
                 let (r32, r64) = run(&t, &[[0.0; 3]]);
                 let e: f64 = binary_reference!(name, a, b);
                 assert!(
@@ -565,7 +568,7 @@ fn folded_constants_equal_the_reference() {
                 r#"Graph(outputs: {{ "s": {name}({}) }})"#,
                 literal(a)
             ));
-            assert!(t.instrs.is_empty());
+            assert!(t.instructions().is_empty());
             let (_, r64) = run(&t, &[[0.0; 3]]);
             let e = reference_unary(name, a);
             assert!(

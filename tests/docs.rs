@@ -227,7 +227,7 @@ fn eval_lines<S: Real>(tape: &Tape, point: [f64; 3]) -> Vec<(String, Vec<f64>)> 
     let mut workspace = Workspace::<S>::new();
     let mut out = vec![S::ZERO; tape.channels()];
     tape.eval_point(&mut workspace, point, &mut out);
-    tape.outputs
+    tape.outputs()
         .iter()
         .map(|o| {
             (

@@ -108,7 +108,7 @@ fn golden_text(path: &Path, tape: &Tape, points: &[[f64; 3]]) -> String {
     let n = points.len();
     let mut text = String::new();
     let outputs: Vec<String> = tape
-        .outputs
+        .outputs()
         .iter()
         .map(|o| format!("{} ({})", o.name, o.ty))
         .collect();
@@ -200,10 +200,10 @@ fn picture(tape: &Tape) -> image::RgbImage {
     let values = evaluate::<f32>(tape, &points);
     let n = points.len();
     let output = tape
-        .outputs
+        .outputs()
         .iter()
         .find(|o| o.ty == Type::Vec3)
-        .unwrap_or(&tape.outputs[0]);
+        .unwrap_or(&tape.outputs()[0]);
     let to_byte = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8; // NaN clamps to NaN → 0
     image::RgbImage::from_fn(PICTURE as u32, PICTURE as u32, |i, j| {
         let k = j as usize * PICTURE + i as usize;

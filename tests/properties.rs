@@ -187,9 +187,13 @@ fn a_chain_of_ten_thousand_nodes_compiles_without_recursion() {
         n - 1
     );
     let tape = tape(&source);
-    assert_eq!(tape.instrs.len(), 2 + 2 * (n - 1));
+    assert_eq!(tape.instructions().len(), 2 + 2 * (n - 1));
     // Slot reuse keeps the frame tiny however long the chain.
-    assert!(tape.scalar_slots <= 6, "{} scalar slots", tape.scalar_slots);
+    assert!(
+        tape.scalar_slots() <= 6,
+        "{} scalar slots",
+        tape.scalar_slots()
+    );
     let mut out = [0f64];
     tape.eval_point(&mut Workspace::new(), [0.5, 0.25, 0.125], &mut out);
     assert!(out[0].is_finite());
@@ -225,9 +229,9 @@ fn only_requested_outputs_are_compiled() {
         },
     )
     .expect("compiles");
-    assert!(vein.instrs.len() < all.instrs.len());
-    assert_eq!(vein.outputs.len(), 1);
-    assert!(vein.stats.pruned_nodes >= 1);
+    assert!(vein.instructions().len() < all.instructions().len());
+    assert_eq!(vein.outputs().len(), 1);
+    assert!(vein.stats().pruned_nodes >= 1);
     // The shared part computes the same values.
     let p = [0.3, 0.6, 0.9];
     let mut a = vec![0f32; all.channels()];
@@ -248,13 +252,13 @@ fn identical_subgraphs_are_deduplicated_and_constants_folded() {
         }, outputs: { "sum": Add("a", "b"), "c": "c" })"#,
     );
     let fractals = t
-        .instrs
+        .instructions()
         .iter()
         .filter(|i| matches!(i, texgraph::tape::Instr::Fractal { .. }))
         .count();
     assert_eq!(fractals, 1, "{t}");
     // "c" is a constant: no instruction computes it.
-    assert_eq!(t.instrs.len(), 3, "{t}"); // position, fbm, add
+    assert_eq!(t.instructions().len(), 3, "{t}"); // position, fbm, add
     let mut out = [0f64; 2];
     t.eval_point(&mut Workspace::new(), [0.0; 3], &mut out);
     assert_eq!(out[1], 6.0f64.sin() + 0.5f64.cos());

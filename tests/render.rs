@@ -290,7 +290,7 @@ fn a_graph_shared_by_materials_is_compiled_once_for_the_outputs_bound() {
     assert_eq!(textures.len(), 2, "{textures:#?}");
     assert_eq!(textures[0].outputs, ["colour"]);
     assert_eq!(textures[0].overrides, [("octaves".to_string(), 2.0)]);
-    assert_eq!(textures[0].tape.outputs.len(), 1);
+    assert_eq!(textures[0].tape.outputs().len(), 1);
     // "c": colour for diffuse by default, the first scalar output ("vein") for shininess.
     assert_eq!(textures[1].outputs, ["colour", "vein"]);
     assert!(scene.files().contains(&graph));
