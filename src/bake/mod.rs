@@ -592,17 +592,22 @@ fn bake_with<S: Real>(
                     || {
                         (
                             Workspace::<S>::new(),
-                            Vec::with_capacity(seg_len),
+                            // The x coordinates of the last segment, and where it started: rows
+                            // that fit in one segment reuse them for every row.
+                            (Vec::with_capacity(seg_len), usize::MAX),
                             Vec::with_capacity(seg_len),
                             Vec::with_capacity(seg_len),
                             vec![S::ZERO; block],
                         )
                     },
-                    |(workspace, xs, ys, zs, out), (s, target)| {
+                    |(workspace, (xs, xs_start), ys, zs, out), (s, target)| {
                         let segment = layout.segment(grid, first + s as u64);
                         let n = segment.len;
-                        xs.clear();
-                        xs.extend((segment.i0..segment.i0 + n).map(|i| grid.centre(0, i)));
+                        if *xs_start != segment.i0 || xs.len() != n {
+                            xs.clear();
+                            xs.extend((segment.i0..segment.i0 + n).map(|i| grid.centre(0, i)));
+                            *xs_start = segment.i0;
+                        }
                         ys.clear();
                         ys.resize(n, grid.centre(1, segment.j));
                         zs.clear();
