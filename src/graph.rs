@@ -1,6 +1,6 @@
 //! Stage 2's output: the checked graph, a typed DAG of operations.
 //!
-//! Nodes are created through [`GraphBuilder`], which deduplicates identical subgraphs
+//! Nodes are created through `GraphBuilder` (crate-private), which deduplicates identical subgraphs
 //! (hash-consing: an operation with the same inputs is the same node) and folds constants as it
 //! goes (an operation whose inputs are all constant becomes one constant). Scalar operands of
 //! vec3 operations are broadcast with explicit `Splat` nodes, so every later stage sees operands
@@ -209,7 +209,7 @@ pub struct CheckedGraph {
     pub(crate) stats: GraphStats,
 }
 
-/// A checked graph is built only by [`crate::check`]; its fields are private to the crate and
+/// A checked graph is built only by [`crate::check()`]; its fields are private to the crate and
 /// read through these accessors.
 impl CheckedGraph {
     /// The file it was read from (name and text, for diagnostics).

@@ -1,8 +1,8 @@
 //! texgraph: procedural solid textures from RON node graphs.
 //!
 //! The pipeline, one module per stage (ARCHITECTURE.md has the map):
-//! parse ([`syntax`]) → check ([`check`], producing a [`graph::CheckedGraph`]) → compile
-//! ([`compile`], producing a [`tape::Tape`]) → evaluate ([`eval`], per point or per batch, in
+//! parse (`syntax`) → check ([`check()`], producing a [`graph::CheckedGraph`]) → compile
+//! ([`compile()`], producing a [`tape::Tape`]) → evaluate ([`eval`], per point or per batch, in
 //! f32 or f64).
 //!
 //! ```
@@ -16,6 +16,16 @@
 //! assert_eq!(out[0], 0.13691995878400012); // Ken Perlin's reference implementation
 //! ```
 
+//! The public API, by stage: [`load_graph`] / [`load_tape`] (read a file, check, compile),
+//! [`check()`] → [`CheckedGraph`], [`compile()`] → [`Tape`], [`Tape::eval_point`] /
+//! [`Tape::eval_batch`] with a [`Workspace`] (f32 or f64 through [`Real`]); [`bake`] (volumes
+//! and files), [`render`] (previews), [`report`] and [`stability`] (error against run time);
+//! [`diagnostic`] (located messages), [`nodes`] (the catalogue), [`noise`] (the bases and their
+//! tables), [`ops`] (the per-lane semantics), [`output`] (where and how texgraph writes),
+//! [`limits`]. The parser, level of detail, the check summary and the points reader are
+//! crate-private; `cli` is the binary's. A `CheckedGraph` and a `Tape` can only be made by
+//! checking and compiling, so evaluation never meets a malformed tape.
+
 // `unsafe` lives only in the SIMD modules (`noise/batch.rs`, `noise/vbmi.rs`), allowed there by
 // name, each block with a `// SAFETY:` comment.
 #![deny(unsafe_code)]
@@ -23,6 +33,8 @@
 
 pub mod bake;
 pub mod check;
+/// The commands of the `texgraph` binary (its implementation, not a library API).
+#[doc(hidden)]
 pub mod cli;
 pub mod compile;
 pub mod diagnostic;
@@ -30,17 +42,17 @@ pub mod eval;
 pub mod graph;
 pub mod limits;
 pub mod load;
-pub mod lod;
+pub(crate) mod lod;
 pub mod nodes;
 pub mod noise;
 pub mod ops;
 pub mod output;
-pub mod points;
+pub(crate) mod points;
 pub mod real;
 pub mod report;
 pub mod stability;
-pub mod summary;
-pub mod syntax;
+pub(crate) mod summary;
+pub(crate) mod syntax;
 pub mod tape;
 
 pub use check::{check, CheckOptions};

@@ -1,10 +1,9 @@
 //! Where texgraph writes, and how: every file a command writes (bake outputs and sidecars, PNG
 //! slices, renders, report plots) goes through this module.
 //!
-//! - [`file_name`] turns a name that came from a graph file (an output name) into one path
-//!   component and nothing else; [`join_inside`] joins it under the folder the user named and
-//!   asserts the result is a direct child of that folder (defence in depth: the checker already
-//!   refuses such names, see [`valid_output_name`]).
+//! - [`valid_output_name`] accepts only names from the documented character set (the checker
+//!   uses it), and [`join_inside`] joins a name under the folder the user named and asserts the
+//!   result is a direct child of that folder (defence in depth).
 //! - [`check_destination`] refuses a destination that exists and is not what texgraph writes:
 //!   a device, a FIFO, a socket, a symbolic link, or a folder where a file goes (and the reverse).
 //!   A write renames a temporary over its destination, which would replace a device node.

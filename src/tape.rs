@@ -40,7 +40,7 @@ pub enum Instr {
         y: Slot,
         z: Slot,
     },
-    /// dst(scalar) = src(vec3)[axis].
+    /// dst(scalar) = src(vec3)`[axis]`.
     Component {
         dst: Slot,
         src: Slot,
@@ -91,7 +91,7 @@ pub enum Instr {
         dst: Slot,
         src: Slot,
     },
-    /// dst(vec3) = matrices[matrix] · src: a rotation whose angle is constant.
+    /// dst(vec3) = `matrices[matrix]` · src: a rotation whose angle is constant.
     RotateConst {
         dst: Slot,
         src: Slot,
@@ -182,7 +182,7 @@ pub struct Tape {
     pub(crate) stats: TapeStats,
 }
 
-/// A tape is built only by [`crate::compile`]: its fields are private to the crate, so no caller
+/// A tape is built only by [`crate::compile()`]: its fields are private to the crate, so no caller
 /// can assemble one the interpreter would read out of bounds. What a caller needs is read through
 /// these accessors.
 impl Tape {

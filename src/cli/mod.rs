@@ -1,6 +1,6 @@
 //! The commands of the `texgraph` binary, as library code: each module holds one command's
 //! arguments (clap) and its implementation; `main.rs` only parses and dispatches. Exit codes are
-//! decided in one place, [`Failure::code`].
+//! decided in one place, `Failure::code`.
 
 pub mod bake;
 pub mod check;
