@@ -490,6 +490,21 @@ fn scene_error(text: &str) -> (RenderError, String) {
     (error, message)
 }
 
+#[test]
+fn a_material_defined_twice_is_an_error_not_an_override() {
+    let (error, message) = scene_error(&with(
+        "        \"m\": Material(diffuse: Value(0.5)),\n        \"m\": Material(diffuse: Value(0.9)),",
+        "        Object(shape: Sphere(), material: \"m\"),",
+    ));
+    assert_eq!(error.exit_code(), 1);
+    assert!(
+        message.contains(
+            "error[duplicate-name]: DIR/scene.ron:6:9: scene: material \"m\" is defined twice"
+        ),
+        "{message}"
+    );
+}
+
 fn with(materials: &str, objects: &str) -> String {
     format!(
         "Scene(\n    camera: Camera(position: (0, 0, 4), look_at: (0, 0, 0)),\n    lights: [Point(position: (1, 2, 3))],\n    materials: {{\n{materials}\n    }},\n    objects: [\n{objects}\n    ],\n)\n"

@@ -210,3 +210,39 @@ pub(super) fn offset_of(text: &str, line: usize, col: usize) -> usize {
         .map_or(line_end, |(i, _)| i);
     offset + within
 }
+
+/// A diagnostic for every material name the scene's `materials` map defines a second time (ron
+/// reads the map keeping the last definition, silently).
+pub(super) fn duplicate_materials(tree: &syntax::Value) -> Vec<crate::diagnostic::Diagnostic> {
+    use crate::diagnostic::{Diagnostic, DiagnosticClass};
+    let syntax::ValueKind::Struct { fields, .. } = &tree.kind else {
+        return Vec::new();
+    };
+    let Some((_, materials)) = fields.iter().find(|(k, _)| k.value.as_str() == "materials") else {
+        return Vec::new();
+    };
+    let syntax::ValueKind::Map(entries) = &materials.kind else {
+        return Vec::new();
+    };
+    let mut seen: Vec<&str> = Vec::new();
+    let mut found = Vec::new();
+    for (key, _) in entries {
+        let syntax::ValueKind::Str(name) = &key.kind else {
+            continue;
+        };
+        if seen.contains(&name.as_str()) {
+            found.push(
+                Diagnostic::new(
+                    DiagnosticClass::DuplicateName,
+                    format!("scene: material \"{name}\" is defined twice"),
+                )
+                .at(key.span)
+                .label("second definition")
+                .help("rename one of them; objects name the material they use"),
+            );
+        } else {
+            seen.push(name.as_str());
+        }
+    }
+    found
+}

@@ -482,6 +482,16 @@ fn resolve_source(
     // The generic tree only locates later problems; a file ron accepts but it does not is
     // still rendered, with locations left out.
     let tree = syntax::parse(&source.text).ok();
+    if let Some(tree) = &tree {
+        // `materials` is read into a map, where a second definition would silently win.
+        let twice = diagnostics::duplicate_materials(tree);
+        if !twice.is_empty() {
+            return Err(RenderError::Invalid(vec![crate::diagnostic::Diagnostics {
+                file: source.clone(),
+                list: twice,
+            }]));
+        }
+    }
     let base = path.parent().unwrap_or(Path::new(""));
     let located = Located {
         source,
