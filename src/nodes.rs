@@ -480,6 +480,16 @@ const _: () = {
     }
 };
 
+/// The names of the catalogue's kinds whose lowering `keep` accepts, in catalogue order (the
+/// test generators and the fuzz harness iterate the table through this).
+pub fn names_where(keep: impl Fn(Lowering) -> bool) -> Vec<&'static str> {
+    CATALOGUE
+        .iter()
+        .filter(|d| keep(d.lowering))
+        .map(|d| d.name)
+        .collect()
+}
+
 /// The closest catalogue name to a misspelt one, for "did you mean" hints.
 pub fn suggest(name: &str) -> Option<&'static str> {
     suggest_from(name, CATALOGUE.iter().map(|d| d.name))

@@ -324,6 +324,17 @@ pub fn write_atomic(
     Ok(())
 }
 
+/// Writes `image` as a PNG file, atomically ([`write_atomic`]).
+pub fn write_png(path: &Path, image: &image::RgbImage) -> Result<(), OutputError> {
+    write_atomic(path, |w| {
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        image
+            .write_to(&mut bytes, image::ImageFormat::Png)
+            .map_err(std::io::Error::other)?;
+        w.write_all(bytes.get_ref())
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

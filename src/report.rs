@@ -594,14 +594,7 @@ pub fn plot(rows: &[Row], title: &str, path: &std::path::Path) -> Result<(), Str
     }
     let image =
         image::RgbImage::from_raw(width, height, buffer).ok_or("plot buffer has the wrong size")?;
-    crate::output::write_atomic(path, |w| {
-        let mut bytes = std::io::Cursor::new(Vec::new());
-        image
-            .write_to(&mut bytes, image::ImageFormat::Png)
-            .map_err(std::io::Error::other)?;
-        w.write_all(bytes.get_ref())
-    })
-    .map_err(|e| e.to_string())
+    crate::output::write_png(path, &image).map_err(|e| e.to_string())
 }
 
 /// The introduction of docs/accuracy.md, printed once by `texgraph report --markdown`.

@@ -186,13 +186,7 @@ fn epsilon_of<T: Epsilon>(_: T) -> T {
 
 /// The catalogue's math kinds, read from the table: a new one is tested here at once, and fails
 /// until the references above know it.
-fn math_kinds(keep: impl Fn(Lowering) -> bool) -> Vec<&'static str> {
-    texgraph::nodes::CATALOGUE
-        .iter()
-        .filter(|d| keep(d.lowering))
-        .map(|d| d.name)
-        .collect()
-}
+use texgraph::nodes::names_where as math_kinds;
 
 fn unary_kinds() -> Vec<&'static str> {
     math_kinds(|l| matches!(l, Lowering::Unary(_)))

@@ -26,42 +26,11 @@ fn doc() -> String {
     std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
-/// A fenced code block: its info string (`ron`, `ron invalid`, `text`), its text (fence
-/// indentation removed) and the 1-based line of its opening fence.
-struct Block {
-    info: String,
-    text: String,
-    line: usize,
-}
+mod common;
+use common::{code_blocks as blocks_of, Block};
 
 fn code_blocks(doc: &str) -> Vec<Block> {
-    let mut blocks = Vec::new();
-    let mut open: Option<(Block, usize)> = None;
-    for (i, line) in doc.lines().enumerate() {
-        let trimmed = line.trim_start();
-        let indent = line.len() - trimmed.len();
-        match open.take() {
-            None => {
-                if let Some(info) = trimmed.strip_prefix("```") {
-                    let block = Block {
-                        info: info.trim().to_string(),
-                        text: String::new(),
-                        line: i + 1,
-                    };
-                    open = Some((block, indent));
-                }
-            }
-            Some((block, _)) if trimmed == "```" => blocks.push(block),
-            Some((mut block, fence_indent)) => {
-                let strip = indent.min(fence_indent);
-                block.text.push_str(&line[strip..]);
-                block.text.push('\n');
-                open = Some((block, fence_indent));
-            }
-        }
-    }
-    assert!(open.is_none(), "{DOC}: a code block is never closed");
-    blocks
+    blocks_of(DOC, doc)
 }
 
 /// A graph example: its first line that is not blank or a `//` comment starts with `Graph(`.

@@ -8,15 +8,9 @@ use proptest::prelude::*;
 use texgraph::nodes::Lowering;
 use texgraph::{check, compile, CheckOptions, CompileOptions, SourceFile, Workspace};
 
-/// The catalogue's kinds whose lowering `keep` accepts: the generator iterates the table, so a
-/// new math kind is generated without touching this file.
-fn math_kinds(keep: impl Fn(Lowering) -> bool) -> Vec<&'static str> {
-    texgraph::nodes::CATALOGUE
-        .iter()
-        .filter(|d| keep(d.lowering))
-        .map(|d| d.name)
-        .collect()
-}
+// The catalogue's kinds whose lowering is accepted: the generator iterates the table, so a new
+// math kind is generated without touching this file.
+use texgraph::nodes::names_where as math_kinds;
 
 /// A random scalar expression of at most `depth` levels, as graph text.
 fn scalar(depth: u32) -> BoxedStrategy<String> {

@@ -882,47 +882,6 @@ fn timing_table_print() {
 
 const SCENES_DOC: &str = "docs/scenes.md";
 
-/// A fenced code block of a document: its info string (`ron`, `ron invalid`, `text`), its text
-/// (fence indentation removed) and the 1-based line of its opening fence.
-struct DocBlock {
-    info: String,
-    text: String,
-    line: usize,
-}
-
-/// The fenced code blocks of `doc`, read as tests/docs.rs reads docs/format.md. A line opens a
-/// block when it starts with three backticks and its info string has none (inline code such as
-/// ```` ```ron ```` does not).
-fn doc_blocks(doc: &str) -> Vec<DocBlock> {
-    let mut blocks = Vec::new();
-    let mut open: Option<(DocBlock, usize)> = None;
-    for (i, line) in doc.lines().enumerate() {
-        let trimmed = line.trim_start();
-        let indent = line.len() - trimmed.len();
-        match open.take() {
-            None => {
-                if let Some(info) = trimmed.strip_prefix("```").filter(|i| !i.contains('`')) {
-                    let block = DocBlock {
-                        info: info.trim().to_string(),
-                        text: String::new(),
-                        line: i + 1,
-                    };
-                    open = Some((block, indent));
-                }
-            }
-            Some((block, _)) if trimmed == "```" => blocks.push(block),
-            Some((mut block, fence_indent)) => {
-                let strip = indent.min(fence_indent);
-                block.text.push_str(&line[strip..]);
-                block.text.push('\n');
-                open = Some((block, fence_indent));
-            }
-        }
-    }
-    assert!(open.is_none(), "{SCENES_DOC}: a code block is never closed");
-    blocks
-}
-
 /// The files a scene example names: the strings after `graph:` and `path:`.
 fn referenced_files(text: &str) -> Vec<String> {
     let mut files = Vec::new();
@@ -940,7 +899,7 @@ fn referenced_files(text: &str) -> Vec<String> {
 
 /// Saves an example as `dir/name` next to copies of the repository's files it names (examples
 /// are written as if saved in the repository root) and returns the scene's path.
-fn save_doc_example(dir: &Path, block: &DocBlock, name: &str) -> PathBuf {
+fn save_doc_example(dir: &Path, block: &common::Block, name: &str) -> PathBuf {
     for file in referenced_files(&block.text) {
         let relative = Path::new(&file);
         assert!(
@@ -964,7 +923,7 @@ fn save_doc_example(dir: &Path, block: &DocBlock, name: &str) -> PathBuf {
 }
 
 /// A scene example: its first line that is not blank or a `//` comment starts with `Scene(`.
-fn is_scene(block: &DocBlock) -> bool {
+fn is_scene(block: &common::Block) -> bool {
     block
         .text
         .lines()
@@ -980,7 +939,7 @@ fn is_scene(block: &DocBlock) -> bool {
 #[test]
 fn docs_scenes_md_examples_load_and_render() {
     let doc = std::fs::read_to_string(SCENES_DOC).expect(SCENES_DOC);
-    let blocks = doc_blocks(&doc);
+    let blocks = common::code_blocks(SCENES_DOC, &doc);
     let options = RenderOptions {
         size: Some((16, 12)),
         samples: Some(1),

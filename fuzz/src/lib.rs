@@ -372,20 +372,12 @@ struct Generator {
 /// generator iterates the table, so a new math kind is generated without touching this file.
 fn unary_kinds() -> &'static [&'static str] {
     static KINDS: OnceLock<Vec<&'static str>> = OnceLock::new();
-    KINDS.get_or_init(|| kinds_where(|l| matches!(l, Lowering::Unary(_))))
+    KINDS.get_or_init(|| texgraph::nodes::names_where(|l| matches!(l, Lowering::Unary(_))))
 }
 
 fn binary_kinds() -> &'static [&'static str] {
     static KINDS: OnceLock<Vec<&'static str>> = OnceLock::new();
-    KINDS.get_or_init(|| kinds_where(|l| matches!(l, Lowering::Binary(_))))
-}
-
-fn kinds_where(keep: impl Fn(Lowering) -> bool) -> Vec<&'static str> {
-    texgraph::nodes::CATALOGUE
-        .iter()
-        .filter(|d| keep(d.lowering))
-        .map(|d| d.name)
-        .collect()
+    KINDS.get_or_init(|| texgraph::nodes::names_where(|l| matches!(l, Lowering::Binary(_))))
 }
 
 impl Generator {

@@ -94,12 +94,10 @@ pub(super) fn fractal<S: Real, K: LatticeKernel, const TURB: bool>(
     }
 }
 
-/// The per-point reference over a batch.
+/// The per-point reference over a batch (shared with [`super::NoiseKernel`]'s default).
 #[inline(always)]
 fn point_loop<S: Real, K: LatticeKernel>(k: &K, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
-    for (((o, &x), &y), &z) in out.iter_mut().zip(x).zip(y).zip(z) {
-        *o = k.eval([x, y, z]);
-    }
+    super::reference_batch(|p| k.eval(p), x, y, z, out);
 }
 
 /// The per-point reference of a fractal sum over a batch (octaves inside, per lane).
@@ -113,15 +111,7 @@ fn fractal_point_loop<S: Real, K: LatticeKernel, const TURB: bool>(
     z: &[f64],
     out: &mut [S],
 ) {
-    for (((o, &x), &y), &z) in out.iter_mut().zip(x).zip(y).zip(z) {
-        let mut sum = S::ZERO;
-        for (&f, &a) in freqs.iter().zip(amps) {
-            let n: S = k.eval([x * f, y * f, z * f]);
-            let n = if TURB { n.abs() } else { n };
-            sum = sum + S::from_f64(a) * n;
-        }
-        *o = canonical_nan(sum);
-    }
+    super::reference_fractal::<S, TURB>(|p| k.eval(p), freqs, amps, x, y, z, out);
 }
 
 /// The working arrays of one chunk of `N` lanes: the lattice step's output (cell indices mod 256

@@ -34,9 +34,7 @@ pub(crate) trait NoiseKernel {
 
     /// `out[i] = sample(p_i)` bit for bit.
     fn sample_batch<S: Real>(&self, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
-        for (((o, &x), &y), &z) in out.iter_mut().zip(x).zip(y).zip(z) {
-            *o = self.sample([x, y, z]);
-        }
+        reference_batch(|p| self.sample(p), x, y, z, out);
     }
 
     /// `out[i] = Σ_o amp_o · sample(p_i · freq_o)` (|·| when `TURB`), summed in octave order
@@ -51,15 +49,44 @@ pub(crate) trait NoiseKernel {
         z: &[f64],
         out: &mut [S],
     ) {
-        for (((o, &x), &y), &z) in out.iter_mut().zip(x).zip(y).zip(z) {
-            let mut sum = S::ZERO;
-            for (&f, &a) in freqs.iter().zip(amps) {
-                let n: S = self.sample([x * f, y * f, z * f]);
-                let n = if TURB { n.abs() } else { n };
-                sum = sum + S::from_f64(a) * n;
-            }
-            *o = canonical_nan(sum);
+        reference_fractal::<S, TURB>(|p| self.sample(p), freqs, amps, x, y, z, out);
+    }
+}
+
+/// `out[i] = eval(p_i)`: the per-point reference over a batch.
+#[inline(always)]
+fn reference_batch<S: Real>(
+    eval: impl Fn([f64; 3]) -> S,
+    x: &[f64],
+    y: &[f64],
+    z: &[f64],
+    out: &mut [S],
+) {
+    for (((o, &x), &y), &z) in out.iter_mut().zip(x).zip(y).zip(z) {
+        *o = eval([x, y, z]);
+    }
+}
+
+/// The per-point reference of a fractal sum over a batch: per lane, the octaves summed in order
+/// from `S::ZERO` as [`fractal`] does, NaN made canonical.
+#[inline(always)]
+fn reference_fractal<S: Real, const TURB: bool>(
+    eval: impl Fn([f64; 3]) -> S,
+    freqs: &[f64],
+    amps: &[f64],
+    x: &[f64],
+    y: &[f64],
+    z: &[f64],
+    out: &mut [S],
+) {
+    for (((o, &x), &y), &z) in out.iter_mut().zip(x).zip(y).zip(z) {
+        let mut sum = S::ZERO;
+        for (&f, &a) in freqs.iter().zip(amps) {
+            let n: S = eval([x * f, y * f, z * f]);
+            let n = if TURB { n.abs() } else { n };
+            sum = sum + S::from_f64(a) * n;
         }
+        *o = canonical_nan(sum);
     }
 }
 

@@ -232,14 +232,7 @@ impl RenderedImage {
 /// Writes an image as PNG atomically (temporary file in the same folder + rename), refusing a
 /// destination that is not a regular file (`output::write_atomic`).
 pub fn write_png(image: &image::RgbImage, path: &Path) -> Result<(), RenderError> {
-    crate::output::write_atomic(path, |w| {
-        let mut bytes = std::io::Cursor::new(Vec::new());
-        image
-            .write_to(&mut bytes, image::ImageFormat::Png)
-            .map_err(std::io::Error::other)?;
-        w.write_all(bytes.get_ref())
-    })
-    .map_err(|e| match e {
+    crate::output::write_png(path, image).map_err(|e| match e {
         crate::output::OutputError::Io { path, source } => RenderError::Io { path, source },
         other => RenderError::Options(other.to_string()),
     })

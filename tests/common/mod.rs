@@ -49,3 +49,44 @@ pub fn kinds_missing(found: &BTreeSet<&'static str>) -> Vec<&'static str> {
         .filter(|name| !found.contains(name))
         .collect()
 }
+
+/// A fenced code block of a document: its info string (`ron`, `ron invalid`, `text`), its text
+/// (fence indentation removed) and the 1-based line of its opening fence.
+pub struct Block {
+    pub info: String,
+    pub text: String,
+    pub line: usize,
+}
+
+/// The fenced code blocks of the document `name` (its text `doc`). A line opens a block when it
+/// starts with three backticks and its info string has none (inline code such as
+/// ```` ```ron ```` does not); a block never closed fails the test.
+pub fn code_blocks(name: &str, doc: &str) -> Vec<Block> {
+    let mut blocks = Vec::new();
+    let mut open: Option<(Block, usize)> = None;
+    for (i, line) in doc.lines().enumerate() {
+        let trimmed = line.trim_start();
+        let indent = line.len() - trimmed.len();
+        match open.take() {
+            None => {
+                if let Some(info) = trimmed.strip_prefix("```").filter(|i| !i.contains('`')) {
+                    let block = Block {
+                        info: info.trim().to_string(),
+                        text: String::new(),
+                        line: i + 1,
+                    };
+                    open = Some((block, indent));
+                }
+            }
+            Some((block, _)) if trimmed == "```" => blocks.push(block),
+            Some((mut block, fence_indent)) => {
+                let strip = indent.min(fence_indent);
+                block.text.push_str(&line[strip..]);
+                block.text.push('\n');
+                open = Some((block, fence_indent));
+            }
+        }
+    }
+    assert!(open.is_none(), "{name}: a code block is never closed");
+    blocks
+}
