@@ -4,7 +4,7 @@
 //! and folded to a constant. Written once, stamped out for every operation (fidget style).
 
 use texgraph::nodes::Lowering;
-use texgraph::{check, compile, CheckOptions, CompileOptions, SourceFile, Tape, Workspace};
+use texgraph::{check, compile, CheckOptions, CompileOptions, SourceFile, Tape};
 
 const SPICY: [f64; 17] = [
     0.0,
@@ -338,38 +338,15 @@ fn vector_and_domain_nodes_match_their_definitions() {
     }
 }
 
-/// Evaluates a tape with outputs ("s" scalar, "v" vec3) at points, per point and per batch, in
-/// both precisions; asserts point == batch bit for bit and returns the f32 and f64 results.
+/// Evaluates a tape at points, per point and per batch, in both precisions; asserts point ==
+/// batch bit for bit (NaN included) and returns the f32 and f64 results.
 fn run(tape: &Tape, points: &[[f64; 3]]) -> (Vec<f32>, Vec<f64>) {
-    let n = points.len();
-    let x: Vec<f64> = points.iter().map(|p| p[0]).collect();
-    let y: Vec<f64> = points.iter().map(|p| p[1]).collect();
-    let z: Vec<f64> = points.iter().map(|p| p[2]).collect();
-    let channels = tape.channels();
-    let mut batch32 = vec![0f32; channels * n];
-    let mut batch64 = vec![0f64; channels * n];
-    tape.eval_batch(&mut Workspace::new(), &x, &y, &z, &mut batch32);
-    tape.eval_batch(&mut Workspace::new(), &x, &y, &z, &mut batch64);
-    let (mut ws32, mut ws64) = (Workspace::<f32>::new(), Workspace::<f64>::new());
-    for (i, p) in points.iter().enumerate() {
-        let mut p32 = vec![0f32; channels];
-        let mut p64 = vec![0f64; channels];
-        tape.eval_point(&mut ws32, *p, &mut p32);
-        tape.eval_point(&mut ws64, *p, &mut p64);
-        for c in 0..channels {
-            assert_eq!(
-                p32[c].to_bits(),
-                batch32[c * n + i].to_bits(),
-                "point/batch f32 at {p:?}"
-            );
-            assert_eq!(
-                p64[c].to_bits(),
-                batch64[c * n + i].to_bits(),
-                "point/batch f64 at {p:?}"
-            );
-        }
-    }
-    (batch32, batch64)
+    let f32s = common::point_and_batch::<f32>(tape, points, common::Agree::Bits);
+    let f64s = common::point_and_batch::<f64>(tape, points, common::Agree::Bits);
+    (
+        f32s.unwrap_or_else(|e| panic!("{e}")),
+        f64s.unwrap_or_else(|e| panic!("{e}")),
+    )
 }
 
 #[test]

@@ -93,12 +93,8 @@ fn sample_points() -> Vec<[f64; 3]> {
 }
 
 fn evaluate<S: texgraph::Real>(tape: &Tape, points: &[[f64; 3]]) -> Vec<S> {
-    let x: Vec<f64> = points.iter().map(|p| p[0]).collect();
-    let y: Vec<f64> = points.iter().map(|p| p[1]).collect();
-    let z: Vec<f64> = points.iter().map(|p| p[2]).collect();
-    let mut out = vec![S::ZERO; tape.channels() * points.len()];
-    tape.eval_batch(&mut Workspace::<S>::new(), &x, &y, &z, &mut out);
-    out
+    // Per point and per batch, bit for bit: a golden is only as good as both paths agreeing.
+    common::point_and_batch(tape, points, common::Agree::Bits).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The golden text: one line per point and precision, channels in output order.

@@ -128,27 +128,14 @@ proptest! {
             }
         };
         let tape = compile(&graph, &CompileOptions::default()).expect("a checked graph compiles");
-        let n = points.len();
-        let x: Vec<f64> = points.iter().map(|p| p[0]).collect();
-        let y: Vec<f64> = points.iter().map(|p| p[1]).collect();
-        let z: Vec<f64> = points.iter().map(|p| p[2]).collect();
-        let channels = tape.channels();
-        let mut b32 = vec![0f32; channels * n];
-        let mut b64 = vec![0f64; channels * n];
-        tape.eval_batch(&mut Workspace::new(), &x, &y, &z, &mut b32);
-        tape.eval_batch(&mut Workspace::new(), &x, &y, &z, &mut b64);
-        let (mut w32, mut w64) = (Workspace::<f32>::new(), Workspace::<f64>::new());
-        for (i, p) in points.iter().enumerate() {
-            let mut p32 = vec![0f32; channels];
-            let mut p64 = vec![0f64; channels];
-            tape.eval_point(&mut w32, *p, &mut p32);
-            tape.eval_point(&mut w64, *p, &mut p64);
-            for c in 0..channels {
-                let (u, v) = (p32[c], b32[c * n + i]);
-                prop_assert!(u.to_bits() == v.to_bits() || (u.is_nan() && v.is_nan()), "f32 point {u} vs batch {v} at {p:?}\n{text}");
-                let (u, v) = (p64[c], b64[c * n + i]);
-                prop_assert!(u.to_bits() == v.to_bits() || (u.is_nan() && v.is_nan()), "f64 point {u} vs batch {v} at {p:?}\n{text}");
-            }
+        for problem in [
+            common::point_and_batch::<f32>(&tape, &points, common::Agree::BitsOrNan).err(),
+            common::point_and_batch::<f64>(&tape, &points, common::Agree::BitsOrNan).err(),
+        ]
+        .into_iter()
+        .flatten()
+        {
+            prop_assert!(false, "{problem}\n{text}");
         }
     }
 

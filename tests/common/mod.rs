@@ -5,6 +5,7 @@
 
 use std::collections::BTreeSet;
 use texgraph::nodes::CATALOGUE;
+use texgraph::{Real, Tape, Workspace};
 
 /// Whether this run re-blesses goldens: `TEXGRAPH_BLESS=1` (the one documented variable for every
 /// golden of the project: values, pictures, tapes, diagnostics).
@@ -89,4 +90,48 @@ pub fn code_blocks(name: &str, doc: &str) -> Vec<Block> {
     }
     assert!(open.is_none(), "{name}: a code block is never closed");
     blocks
+}
+
+/// How per-point and batch results must agree.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub enum Agree {
+    /// Bit for bit, NaN included (the interpreter's promise where NaN is made canonical).
+    Bits,
+    /// Bit for bit, except that any NaN equals any NaN.
+    BitsOrNan,
+}
+
+/// The one point = batch harness: evaluates `tape` at `points` per batch (planar: channel `c`
+/// of point `i` at `c · n + i`) and per point, both in precision `S`, with fresh workspaces.
+/// Returns the batch values, or a message naming the first point and channel that differ.
+pub fn point_and_batch<S: Real>(
+    tape: &Tape,
+    points: &[[f64; 3]],
+    agree: Agree,
+) -> Result<Vec<S>, String> {
+    let n = points.len();
+    let x: Vec<f64> = points.iter().map(|p| p[0]).collect();
+    let y: Vec<f64> = points.iter().map(|p| p[1]).collect();
+    let z: Vec<f64> = points.iter().map(|p| p[2]).collect();
+    let channels = tape.channels();
+    let mut batch = vec![S::ZERO; channels * n];
+    tape.eval_batch(&mut Workspace::<S>::new(), &x, &y, &z, &mut batch);
+    let mut workspace = Workspace::<S>::new();
+    let mut one = vec![S::ZERO; channels];
+    for (i, p) in points.iter().enumerate() {
+        tape.eval_point(&mut workspace, *p, &mut one);
+        for (c, &u) in one.iter().enumerate() {
+            let v = batch[c * n + i];
+            let (a, b) = (u.to_f64(), v.to_f64());
+            let same = a.to_bits() == b.to_bits()
+                || (agree == Agree::BitsOrNan && a.is_nan() && b.is_nan());
+            if !same {
+                return Err(format!(
+                    "point {a} vs batch {b} at {p:?}, channel {c} ({})",
+                    std::any::type_name::<S>()
+                ));
+            }
+        }
+    }
+    Ok(batch)
 }
