@@ -1139,15 +1139,23 @@ fn paired_hashes_match_the_permutation_reads() {
 }
 
 #[cfg(target_arch = "x86_64")]
+fn has_vbmi() -> bool {
+    is_x86_feature_detected!("avx512f")
+        && is_x86_feature_detected!("avx512bw")
+        && is_x86_feature_detected!("avx512vbmi")
+}
+
+#[cfg(target_arch = "x86_64")]
 #[test]
 fn byte_shuffle_hashes_match_the_paired_hashes() {
     use super::batch::CHUNK;
     use super::lattice::corner_hashes_paired;
-    if !(is_x86_feature_detected!("avx512f")
-        && is_x86_feature_detected!("avx512bw")
-        && is_x86_feature_detected!("avx512vbmi"))
-    {
-        eprintln!("no AVX-512 VBMI on this CPU: byte-shuffle hashing not tested");
+    if !has_vbmi() {
+        eprintln!(
+            "NOTE: no AVX-512 VBMI on this CPU: the byte-shuffle hashing itself is not run here; \
+             its table lookup is tested through the portable emulation \
+             (byte_lookup_reads_the_whole_table)"
+        );
         return;
     }
     let cells = hash_cells();
@@ -1175,6 +1183,38 @@ fn byte_shuffle_hashes_match_the_paired_hashes() {
                     assert_eq!(perlin_h[k][i], want_p[k], "seed {seed} {c:?} corner {k}");
                     assert_eq!(ebert_h[k][i], want_e[k], "seed {seed} {c:?} corner {k}");
                 }
+            }
+        }
+    }
+}
+
+/// The byte-shuffle table lookup, on every x86-64 CPU through its portable emulation (every
+/// index 0..=255 reads its table entry, for several tables), and on a CPU with VBMI the
+/// instructions themselves against the emulation, byte for byte.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn byte_lookup_reads_the_whole_table() {
+    use super::vbmi::{lookup_bytes, lookup_portable};
+    let vbmi = has_vbmi();
+    for seed in [0, 5, 1234] {
+        let t = NoiseTable::new(Basis::Perlin, seed);
+        let table: [[u8; 64]; 4] =
+            std::array::from_fn(|r| std::array::from_fn(|j| t.perm[r * 64 + j]));
+        for part in 0..4 {
+            // Indices in a scrambled order, so lanes do not just read their own position.
+            let idx: [u8; 64] = std::array::from_fn(|j| ((part * 64 + j) as u8).wrapping_mul(167));
+            let got = lookup_portable(&table, &idx);
+            for j in 0..64 {
+                assert_eq!(
+                    got[j], t.perm[idx[j] as usize],
+                    "seed {seed} index {}",
+                    idx[j]
+                );
+            }
+            if vbmi {
+                // SAFETY: the features were detected above.
+                let real = unsafe { lookup_bytes(&table, &idx) };
+                assert_eq!(real, got, "seed {seed} part {part}");
             }
         }
     }

@@ -44,11 +44,7 @@ pub(super) fn corner_hashes<const PERLIN: bool>(
         load(&table[2]),
         load(&table[3]),
     ];
-    let lookup = |i: __m512i| {
-        let low = _mm512_permutex2var_epi8(table[0], i, table[1]); // entries 0..=127
-        let high = _mm512_permutex2var_epi8(table[2], i, table[3]); // entries 128..=255
-        _mm512_mask_blend_epi8(_mm512_movepi8_mask(i), low, high) // index bit 7
-    };
+    let lookup = |i: __m512i| lookup(&table, i);
     let add = |a, b| _mm512_add_epi8(a, b);
     let one = _mm512_set1_epi8(1);
     for k in 0..n.div_ceil(V) {
@@ -95,6 +91,55 @@ pub(super) fn corner_hashes<const PERLIN: bool>(
             store(&mut o.as_chunks_mut::<V>().0[k], h);
         }
     }
+}
+
+/// Lane-wise `table[i]` for the 256-entry table held in four registers: two two-register byte
+/// permutes look up entries 0..=127 and 128..=255 by index bits 0-6, and index bit 7 (the byte's
+/// sign bit) picks between them. [`lookup_portable`] writes the same out instruction by
+/// instruction; the tests hold this to it on CPUs that have VBMI.
+#[inline]
+#[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
+fn lookup(table: &[__m512i; 4], i: __m512i) -> __m512i {
+    let low = _mm512_permutex2var_epi8(table[0], i, table[1]); // entries 0..=127
+    let high = _mm512_permutex2var_epi8(table[2], i, table[3]); // entries 128..=255
+    _mm512_mask_blend_epi8(_mm512_movepi8_mask(i), low, high) // index bit 7
+}
+
+/// [`lookup`] on byte arrays, for the tests: loads, looks up, stores.
+#[cfg(test)]
+#[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
+pub(super) fn lookup_bytes(table: &[[u8; V]; 4], i: &[u8; V]) -> [u8; V] {
+    let table = [
+        load(&table[0]),
+        load(&table[1]),
+        load(&table[2]),
+        load(&table[3]),
+    ];
+    let mut out = [0u8; V];
+    store(&mut out, lookup(&table, load(i)));
+    out
+}
+
+/// [`lookup`]'s three instructions written out on plain arrays (Intel's definitions of
+/// VPERMI2B — index bits 0-5 pick a byte, bit 6 the first or second source —, VPMOVB2M — the
+/// sign bit of each byte — and VPBLENDMB — the second source where the mask bit is set), so
+/// the way the table is split over four registers is tested on every CPU.
+#[cfg(test)]
+pub(super) fn lookup_portable(table: &[[u8; V]; 4], i: &[u8; V]) -> [u8; V] {
+    let permute2 = |a: &[u8; V], b: &[u8; V], idx: u8| {
+        let source = if idx & 0x40 == 0 { a } else { b };
+        source[(idx & 0x3f) as usize]
+    };
+    std::array::from_fn(|j| {
+        let idx = i[j];
+        let low = permute2(&table[0], &table[1], idx);
+        let high = permute2(&table[2], &table[3], idx);
+        if idx & 0x80 != 0 {
+            high
+        } else {
+            low
+        }
+    })
 }
 
 /// Loads 64 bytes.
