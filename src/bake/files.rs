@@ -436,15 +436,13 @@ fn held_bytes(tape: &Tape, options: &BakeFileOptions) -> u64 {
         .fold(0, u64::saturating_add)
 }
 
-fn bake_into_files(
+/// One writer per output, each on its hidden temporary next to its final path.
+fn open_pending(
     tape: &Tape,
     options: &BakeFileOptions,
     finals: &[PathBuf],
-    voxels: u64,
-    progress: &mut dyn FnMut(u64),
-) -> Result<BakeReport, BakeError> {
+) -> Result<Vec<Pending>, BakeError> {
     let grid = options.bake.grid;
-
     let srgb = options.transfer == Transfer::Srgb;
     let digits = grid.size[2].saturating_sub(1).to_string().len().max(4);
     let mut pending = Vec::with_capacity(finals.len());
@@ -511,6 +509,18 @@ fn bake_into_files(
             }
         });
     }
+    Ok(pending)
+}
+
+fn bake_into_files(
+    tape: &Tape,
+    options: &BakeFileOptions,
+    finals: &[PathBuf],
+    voxels: u64,
+    progress: &mut dyn FnMut(u64),
+) -> Result<BakeReport, BakeError> {
+    let grid = options.bake.grid;
+    let mut pending = open_pending(tape, options, finals)?;
 
     let temps: Vec<(PathBuf, PathBuf)> = pending
         .iter()
