@@ -121,19 +121,17 @@ pub fn join_inside(dir: &Path, name: &str) -> Result<PathBuf, OutputError> {
         dir: dir.to_path_buf(),
         name: name.to_string(),
     };
+    // Exactly one normal component, spelt as given (no separator, `.`, `..`, root or prefix);
+    // `\` and NUL are refused too, since they separate or end paths elsewhere.
     let mut components = Path::new(name).components();
     match (components.next(), components.next()) {
-        (Some(Component::Normal(one)), None) if one == std::ffi::OsStr::new(name) => {}
-        _ => return Err(escapes()),
+        (Some(Component::Normal(one)), None)
+            if one == std::ffi::OsStr::new(name) && !name.contains(['\\', '\0']) =>
+        {
+            Ok(dir.join(name))
+        }
+        _ => Err(escapes()),
     }
-    if name.contains('/') || name.contains('\\') || name.contains('\0') {
-        return Err(escapes());
-    }
-    let joined = dir.join(name);
-    if joined.parent() != Some(dir) && !(dir.as_os_str().is_empty()) {
-        return Err(escapes());
-    }
-    Ok(joined)
 }
 
 /// What kind of thing is at `path`, in words, if it is not a plain file or folder.

@@ -314,6 +314,14 @@ impl Layout {
         })
     }
 
+    /// How many voxels come before segment `index` in file order (the whole grid for
+    /// `index == total`).
+    pub fn voxels_before(&self, grid: &Grid, index: u64) -> u64 {
+        let nx = grid.size[0] as u64;
+        let (rows, part) = (index / self.per_row as u64, index % self.per_row as u64);
+        rows * nx + (part * self.segment_len as u64).min(nx)
+    }
+
     /// Where segment `index` of the grid lies.
     #[inline]
     pub fn segment(&self, grid: &Grid, index: u64) -> Segment {
@@ -572,7 +580,6 @@ fn bake_with<S: Real>(
     let seg_len = layout.segment_len;
     let block = channels * seg_len;
     let mut buffer = vec![0f32; layout.per_window * block];
-    let mut done = 0u64;
     let mut first = 0u64;
     while first < layout.total {
         if options
@@ -629,9 +636,7 @@ fn bake_with<S: Real>(
                 )
                 .collect()
         });
-        let mut voxels = 0u64;
-        for (s, part) in segment_stats.iter().enumerate() {
-            voxels += layout.segment(grid, first + s as u64).len as u64;
+        for part in &segment_stats {
             for (total, part) in stats.iter_mut().zip(part) {
                 total.merge(part);
             }
@@ -647,8 +652,7 @@ fn bake_with<S: Real>(
         };
         // Inside the pool, so a sink that encodes in parallel (PNG slices) uses its threads.
         pool.install(|| sink.window(&window))?;
-        done += voxels;
-        progress(done);
+        progress(layout.voxels_before(grid, first + count as u64));
         first += count as u64;
     }
     Ok(collect_stats(tape, &stats))
@@ -700,6 +704,12 @@ mod tests {
                 };
             }
             assert_eq!(next, (0, 0, size[2]));
+            assert_eq!(layout.voxels_before(&g, layout.total), g.voxels().unwrap());
+            let mut before = 0;
+            for index in 0..layout.total {
+                assert_eq!(layout.voxels_before(&g, index), before, "{size:?} {index}");
+                before += layout.segment(&g, index).len as u64;
+            }
         }
     }
 

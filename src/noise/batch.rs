@@ -66,7 +66,7 @@ pub(super) fn sample<S: Real, K: LatticeKernel>(
     out: &mut [S],
 ) {
     if out.len() < SMALL {
-        point_loop(k, x, y, z, out);
+        super::reference_batch(|p| k.eval(p), x, y, z, out);
     } else {
         sample_lanes(k, x, y, z, out);
     }
@@ -92,26 +92,6 @@ pub(super) fn fractal<S: Real, K: LatticeKernel, const TURB: bool>(
     } else {
         fractal_lanes::<S, K, TURB>(k, freqs, amps, x, y, z, out);
     }
-}
-
-/// The per-point reference over a batch (shared with [`super::NoiseKernel`]'s default).
-#[inline(always)]
-fn point_loop<S: Real, K: LatticeKernel>(k: &K, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
-    super::reference_batch(|p| k.eval(p), x, y, z, out);
-}
-
-/// The per-point reference of a fractal sum over a batch (octaves inside, per lane).
-#[inline(always)]
-fn fractal_point_loop<S: Real, K: LatticeKernel, const TURB: bool>(
-    k: &K,
-    freqs: &[f64],
-    amps: &[f64],
-    x: &[f64],
-    y: &[f64],
-    z: &[f64],
-    out: &mut [S],
-) {
-    super::reference_fractal::<S, TURB>(|p| k.eval(p), freqs, amps, x, y, z, out);
 }
 
 /// The working arrays of one chunk of `N` lanes: the lattice step's output (cell indices mod 256
@@ -323,7 +303,7 @@ simd_targets! {
 /// [`sample`] for batches of [`SMALL`] lanes or more.
 fn sample_lanes<S: Real, K: LatticeKernel>(k: &K, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
     if !target_cfg_f!(target_feature = "sse4.1") {
-        return point_loop(k, x, y, z, out);
+        return super::reference_batch(|p| k.eval(p), x, y, z, out);
     }
     let shuffle = target_cfg_f!(target_feature = "avx512vbmi");
     // Hash bits tested in bytes where AVX-512BW compares bytes into masks (see `LatticeKernel::interior`).
@@ -357,7 +337,7 @@ fn fractal_lanes<S: Real, K: LatticeKernel, const TURB: bool>(
     out: &mut [S],
 ) {
     if !target_cfg_f!(target_feature = "sse4.1") {
-        return fractal_point_loop::<S, K, TURB>(k, freqs, amps, x, y, z, out);
+        return super::reference_fractal::<S, TURB>(|p| k.eval(p), freqs, amps, x, y, z, out);
     }
     let shuffle = target_cfg_f!(target_feature = "avx512vbmi");
     const WIDE: bool = !target_cfg_f!(target_feature = "avx512bw"); // see `sample_lanes`
@@ -389,7 +369,7 @@ simd_targets! {
 /// samples (the point scaled by each frequency), so one point's fbm vectorises as a batch of
 /// points does. This makes per-point evaluation (`eval_point`) of an fbm faster than a
 /// hand-written scalar octave loop (benches/eval.rs). The terms are then summed in octave
-/// order, starting from zero, exactly as [`fractal_point_loop`] sums them; each term is the
+/// order, starting from zero, exactly as [`super::reference_fractal`] sums them; each term is the
 /// batch kernels' (bit-identical to the per-point kernel), so the result is the same bits.
 fn fractal_octave_lanes<S: Real, K: LatticeKernel, const TURB: bool>(
     k: &K,
@@ -400,7 +380,7 @@ fn fractal_octave_lanes<S: Real, K: LatticeKernel, const TURB: bool>(
     let n = freqs.len().min(amps.len());
     if !target_cfg_f!(target_feature = "sse4.1") || n > OCTAVE_LANES {
         let mut out = [S::ZERO];
-        fractal_point_loop::<S, K, TURB>(k, freqs, amps, &[p[0]], &[p[1]], &[p[2]], &mut out);
+        super::reference_fractal::<S, TURB>(|p| k.eval(p), freqs, amps, &[p[0]], &[p[1]], &[p[2]], &mut out);
         return out[0];
     }
     const WIDE: bool = !target_cfg_f!(target_feature = "avx512bw"); // see `sample_lanes`

@@ -73,14 +73,6 @@ impl Octaves {
     pub fn is_empty(&self) -> bool {
         self.frequencies.is_empty()
     }
-
-    #[inline(always)]
-    fn pairs(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
-        self.frequencies
-            .iter()
-            .copied()
-            .zip(self.amplitudes.iter().copied())
-    }
 }
 
 /// Σ amp_i · basis(p · freq_i) (or Σ amp_i · |basis(...)| when `turbulence`), summed in S in
@@ -88,13 +80,18 @@ impl Octaves {
 /// returned as the canonical NaN (see `canonical_nan` in `noise`). Scaling p · freq is
 /// done in f64, so high octaves keep their lattice cell exact.
 pub fn fractal<S: Real>(table: &NoiseTable, octaves: &Octaves, turbulence: bool, p: [f64; 3]) -> S {
-    let mut sum = S::ZERO;
-    for (f, a) in octaves.pairs() {
-        let n: S = table.sample([p[0] * f, p[1] * f, p[2] * f]);
-        let n = if turbulence { n.abs() } else { n };
-        sum = sum + S::from_f64(a) * n;
-    }
-    super::canonical_nan(sum)
+    let (f, a) = (&octaves.frequencies[..], &octaves.amplitudes[..]);
+    let mut out = [S::ZERO];
+    let ([x], [y], [z]) = ([p[0]], [p[1]], [p[2]]);
+    with_kernel!(table, k => {
+        let sample = |q| NoiseKernel::sample(&k, q);
+        if turbulence {
+            super::reference_fractal::<S, true>(sample, f, a, &[x], &[y], &[z], &mut out)
+        } else {
+            super::reference_fractal::<S, false>(sample, f, a, &[x], &[y], &[z], &mut out)
+        }
+    });
+    out[0]
 }
 
 /// Per-lane bit-identical to [`fractal`]: the octave loop is outside the lane loop (so the basis
