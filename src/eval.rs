@@ -266,115 +266,147 @@ impl Tape {
                     }
                     ws.vec3s[dst as usize] = out;
                 }
-                Instr::Dot { dst, a, b } => {
-                    let (a, b) = (&ws.vec3s[a as usize], &ws.vec3s[b as usize]);
-                    let out = &mut ws.scalars[dst as usize][..n];
-                    for (i, o) in out.iter_mut().enumerate() {
-                        let lane = |v: &[f64]| [v[i], v[LANES + i], v[2 * LANES + i]];
-                        *o = S::from_f64(ops::dot(lane(a), lane(b)));
-                    }
-                }
-                Instr::Length { dst, src } => {
-                    let a = &ws.vec3s[src as usize];
-                    let out = &mut ws.scalars[dst as usize][..n];
-                    for (i, o) in out.iter_mut().enumerate() {
-                        *o = S::from_f64(ops::length([a[i], a[LANES + i], a[2 * LANES + i]]));
-                    }
-                }
-                Instr::RotateConst { dst, src, matrix } => {
-                    let m = &self.matrices[matrix as usize];
-                    let mut out = take(&mut ws.vec3s[dst as usize]);
-                    let a = &ws.vec3s[src as usize];
-                    for i in 0..n {
-                        let p = ops::apply_matrix(m, [a[i], a[LANES + i], a[2 * LANES + i]]);
-                        out[i] = p[0];
-                        out[LANES + i] = p[1];
-                        out[2 * LANES + i] = p[2];
-                    }
-                    ws.vec3s[dst as usize] = out;
-                }
-                Instr::RotateVarying {
-                    dst,
-                    src,
-                    degrees,
-                    axis,
-                } => {
-                    let axis = self.axes[axis as usize];
-                    let mut out = take(&mut ws.vec3s[dst as usize]);
-                    let a = &ws.vec3s[src as usize];
-                    let d = &ws.scalars[degrees as usize];
-                    for i in 0..n {
-                        let m = ops::rotation_matrix(axis, d[i].to_f64());
-                        let p = ops::apply_matrix(&m, [a[i], a[LANES + i], a[2 * LANES + i]]);
-                        out[i] = p[0];
-                        out[LANES + i] = p[1];
-                        out[2 * LANES + i] = p[2];
-                    }
-                    ws.vec3s[dst as usize] = out;
-                }
-                Instr::Noise { dst, src, table } => {
-                    let a = &ws.vec3s[src as usize];
-                    let table = &self.tables[table as usize].1;
-                    table.sample_batch(
-                        &a[..n],
-                        &a[LANES..LANES + n],
-                        &a[2 * LANES..2 * LANES + n],
-                        &mut ws.scalars[dst as usize][..n],
-                    );
-                }
-                Instr::Fractal {
-                    dst,
-                    src,
-                    table,
-                    octaves,
-                    turbulence,
-                    bias,
-                } => {
-                    let a = &ws.vec3s[src as usize];
-                    let table = &self.tables[table as usize].1;
-                    noise::fractal_batch(
-                        table,
-                        &self.octaves[octaves as usize],
-                        turbulence,
-                        &a[..n],
-                        &a[LANES..LANES + n],
-                        &a[2 * LANES..2 * LANES + n],
-                        &mut ws.scalars[dst as usize][..n],
-                    );
-                    if bias != 0.0 {
-                        let bias = S::from_f64(bias);
-                        for v in &mut ws.scalars[dst as usize][..n] {
-                            *v = *v + bias;
-                        }
-                    }
-                }
-                Instr::Hermite { dst, src, spline } => {
-                    let h = self.hermites[spline as usize];
-                    let mut out = take(&mut ws.scalars[dst as usize]);
-                    for (o, v) in out[..n].iter_mut().zip(&ws.scalars[src as usize][..n]) {
-                        *o = h.apply(*v);
-                    }
-                    ws.scalars[dst as usize] = out;
-                }
-                Instr::Ramp { dst, src, ramp } => {
-                    let ramp = &self.ramps[ramp as usize];
-                    let out = &mut ws.vec3s[dst as usize];
-                    for (i, t) in ws.scalars[src as usize][..n].iter().enumerate() {
-                        let c = ramp.eval(t.to_f64());
-                        out[i] = c[0];
-                        out[LANES + i] = c[1];
-                        out[2 * LANES + i] = c[2];
-                    }
-                }
-                Instr::Curve { dst, src, curve } => {
-                    let curve = &self.curves[curve as usize];
-                    let mut out = take(&mut ws.scalars[dst as usize]);
-                    for (o, t) in out[..n].iter_mut().zip(&ws.scalars[src as usize][..n]) {
-                        *o = S::from_f64(curve.eval(t.to_f64())[0]);
-                    }
-                    ws.scalars[dst as usize] = out;
+                Instr::Dot { .. }
+                | Instr::Length { .. }
+                | Instr::RotateConst { .. }
+                | Instr::RotateVarying { .. } => self.geometry(instr, ws, n),
+                Instr::Noise { .. } | Instr::Fractal { .. } => self.noise(instr, ws, n),
+                Instr::Hermite { .. } | Instr::Ramp { .. } | Instr::Curve { .. } => {
+                    self.splines(instr, ws, n)
                 }
             }
+        }
+    }
+
+    /// Per-lane vector geometry: dot, length, rotation.
+    #[inline(always)]
+    fn geometry<S: Real>(&self, instr: &Instr, ws: &mut Workspace<S>, n: usize) {
+        match *instr {
+            Instr::Dot { dst, a, b } => {
+                let (a, b) = (&ws.vec3s[a as usize], &ws.vec3s[b as usize]);
+                let out = &mut ws.scalars[dst as usize][..n];
+                for (i, o) in out.iter_mut().enumerate() {
+                    let lane = |v: &[f64]| [v[i], v[LANES + i], v[2 * LANES + i]];
+                    *o = S::from_f64(ops::dot(lane(a), lane(b)));
+                }
+            }
+            Instr::Length { dst, src } => {
+                let a = &ws.vec3s[src as usize];
+                let out = &mut ws.scalars[dst as usize][..n];
+                for (i, o) in out.iter_mut().enumerate() {
+                    *o = S::from_f64(ops::length([a[i], a[LANES + i], a[2 * LANES + i]]));
+                }
+            }
+            Instr::RotateConst { dst, src, matrix } => {
+                let m = &self.matrices[matrix as usize];
+                let mut out = take(&mut ws.vec3s[dst as usize]);
+                let a = &ws.vec3s[src as usize];
+                for i in 0..n {
+                    let p = ops::apply_matrix(m, [a[i], a[LANES + i], a[2 * LANES + i]]);
+                    out[i] = p[0];
+                    out[LANES + i] = p[1];
+                    out[2 * LANES + i] = p[2];
+                }
+                ws.vec3s[dst as usize] = out;
+            }
+            Instr::RotateVarying {
+                dst,
+                src,
+                degrees,
+                axis,
+            } => {
+                let axis = self.axes[axis as usize];
+                let mut out = take(&mut ws.vec3s[dst as usize]);
+                let a = &ws.vec3s[src as usize];
+                let d = &ws.scalars[degrees as usize];
+                for i in 0..n {
+                    let m = ops::rotation_matrix(axis, d[i].to_f64());
+                    let p = ops::apply_matrix(&m, [a[i], a[LANES + i], a[2 * LANES + i]]);
+                    out[i] = p[0];
+                    out[LANES + i] = p[1];
+                    out[2 * LANES + i] = p[2];
+                }
+                ws.vec3s[dst as usize] = out;
+            }
+            _ => unreachable!("run_chunk dispatches only geometry instructions here"),
+        }
+    }
+
+    /// Noise samples and fractal sums, through the tables' batch kernels.
+    #[inline(always)]
+    fn noise<S: Real>(&self, instr: &Instr, ws: &mut Workspace<S>, n: usize) {
+        match *instr {
+            Instr::Noise { dst, src, table } => {
+                let a = &ws.vec3s[src as usize];
+                let table = &self.tables[table as usize].1;
+                table.sample_batch(
+                    &a[..n],
+                    &a[LANES..LANES + n],
+                    &a[2 * LANES..2 * LANES + n],
+                    &mut ws.scalars[dst as usize][..n],
+                );
+            }
+            Instr::Fractal {
+                dst,
+                src,
+                table,
+                octaves,
+                turbulence,
+                bias,
+            } => {
+                let a = &ws.vec3s[src as usize];
+                let table = &self.tables[table as usize].1;
+                noise::fractal_batch(
+                    table,
+                    &self.octaves[octaves as usize],
+                    turbulence,
+                    &a[..n],
+                    &a[LANES..LANES + n],
+                    &a[2 * LANES..2 * LANES + n],
+                    &mut ws.scalars[dst as usize][..n],
+                );
+                if bias != 0.0 {
+                    let bias = S::from_f64(bias);
+                    for v in &mut ws.scalars[dst as usize][..n] {
+                        *v = *v + bias;
+                    }
+                }
+            }
+            _ => unreachable!("run_chunk dispatches only noise instructions here"),
+        }
+    }
+
+    /// Splines: Hermite, colour ramps and curves.
+    #[inline(always)]
+    fn splines<S: Real>(&self, instr: &Instr, ws: &mut Workspace<S>, n: usize) {
+        match *instr {
+            Instr::Hermite { dst, src, spline } => {
+                let h = self.hermites[spline as usize];
+                let mut out = take(&mut ws.scalars[dst as usize]);
+                for (o, v) in out[..n].iter_mut().zip(&ws.scalars[src as usize][..n]) {
+                    *o = h.apply(*v);
+                }
+                ws.scalars[dst as usize] = out;
+            }
+            Instr::Ramp { dst, src, ramp } => {
+                let ramp = &self.ramps[ramp as usize];
+                let out = &mut ws.vec3s[dst as usize];
+                for (i, t) in ws.scalars[src as usize][..n].iter().enumerate() {
+                    let c = ramp.eval(t.to_f64());
+                    out[i] = c[0];
+                    out[LANES + i] = c[1];
+                    out[2 * LANES + i] = c[2];
+                }
+            }
+            Instr::Curve { dst, src, curve } => {
+                let curve = &self.curves[curve as usize];
+                let mut out = take(&mut ws.scalars[dst as usize]);
+                for (o, t) in out[..n].iter_mut().zip(&ws.scalars[src as usize][..n]) {
+                    *o = S::from_f64(curve.eval(t.to_f64())[0]);
+                }
+                ws.scalars[dst as usize] = out;
+            }
+            _ => unreachable!("run_chunk dispatches only splines instructions here"),
         }
     }
 }

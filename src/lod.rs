@@ -14,74 +14,113 @@
 //! `amplitude × E[|noise|]` for turbulence), so the filtered texture keeps its mean brightness.
 
 use crate::graph::{CheckedGraph, FractalParams, Op, TableKey};
+use crate::nodes::{self, Lowering, Slope};
 use crate::noise::NoiseTable;
-use crate::ops::{BinaryOp, TernaryOp, UnaryOp};
+use crate::ops;
 use std::collections::HashMap;
 use std::sync::{Mutex, OnceLock};
 
 /// Upper bounds of each node's rate of change per unit of world distance; `None` where no
 /// useful bound is known (discontinuous or unbounded operations), which disables LOD for noise
-/// downstream of it.
+/// downstream of it. Each node follows its kind's catalogue rule (`nodes::Slope`).
 pub fn stretches(graph: &CheckedGraph) -> Vec<Option<f64>> {
     let mut s: Vec<Option<f64>> = Vec::with_capacity(graph.nodes.len());
     for node in &graph.nodes {
-        let arg = |i: usize| -> Option<f64> { node.args.get(i).and_then(|&a| s[a as usize]) };
-        let constant = |i: usize| -> Option<[f64; 3]> {
-            node.args
-                .get(i)
-                .and_then(|&a| match graph.nodes[a as usize].op {
-                    Op::ConstScalar(v) => Some([v; 3]),
-                    Op::ConstVec3(v) => Some(v),
-                    _ => None,
-                })
-        };
-        let largest = |v: [f64; 3]| v.iter().fold(0.0f64, |m, c| m.max(c.abs()));
-        let smallest = |v: [f64; 3]| v.iter().fold(f64::INFINITY, |m, c| m.min(c.abs()));
-        // A closure, so `?` can give up on an unknown argument.
-        let value: Option<f64> = (|| match &node.op {
-            Op::Position => Some(1.0),
+        let bounds: Vec<Option<f64>> = node.args.iter().map(|&a| s[a as usize]).collect();
+        let constants: Vec<Option<[f64; 3]>> = node
+            .args
+            .iter()
+            .map(|&a| match graph.nodes[a as usize].op {
+                Op::ConstScalar(v) => Some([v; 3]),
+                Op::ConstVec3(v) => Some(v),
+                _ => None,
+            })
+            .collect();
+        let value = match &node.op {
             Op::ConstScalar(_) | Op::ConstVec3(_) => Some(0.0),
-            Op::Splat | Op::Component(_) => arg(0),
-            Op::Combine => Some((arg(0)?.powi(2) + arg(1)?.powi(2) + arg(2)?.powi(2)).sqrt()),
-            Op::Unary(UnaryOp::Neg | UnaryOp::Abs | UnaryOp::Sin | UnaryOp::Cos) => arg(0),
-            // Unbounded slope (Sqrt at 0, Exp) or discontinuous (Floor, Fract): no bound. Listed, not
-            // defaulted, so a new operation must say what its bound is.
-            Op::Unary(UnaryOp::Sqrt | UnaryOp::Floor | UnaryOp::Fract | UnaryOp::Exp) => None,
-            Op::Binary(BinaryOp::Add | BinaryOp::Sub) => Some(arg(0)? + arg(1)?),
-            Op::Binary(BinaryOp::Min | BinaryOp::Max) => Some(arg(0)?.max(arg(1)?)),
-            Op::Binary(BinaryOp::Mul) => match (constant(0), constant(1)) {
-                (Some(c), _) => Some(largest(c) * arg(1)?),
-                (_, Some(c)) => Some(largest(c) * arg(0)?),
-                _ => None,
-            },
-            Op::Binary(BinaryOp::Div) => constant(1)
-                .filter(|c| smallest(*c) > 0.0)
-                .and_then(|c| Some(arg(0)? / smallest(c))),
-            // Pow and Atan2 have unbounded slopes; Mod is discontinuous.
-            Op::Binary(BinaryOp::Pow | BinaryOp::Atan2 | BinaryOp::Mod) => None,
-            Op::Ternary(TernaryOp::Clamp) => constant(1).and(constant(2)).and_then(|_| arg(0)),
-            Op::Ternary(TernaryOp::Mix) => constant(2)
-                .and_then(|t| Some(largest(t.map(|v| 1.0 - v)) * arg(0)? + largest(t) * arg(1)?)),
-            Op::Ternary(TernaryOp::Smoothstep) => match (constant(0), constant(1)) {
-                (Some(e0), Some(e1)) => {
-                    let width = smallest([e1[0] - e0[0], e1[1] - e0[1], e1[2] - e0[2]]);
-                    (width > 0.0)
-                        .then(|| 1.5 / width)
-                        .and_then(|slope| Some(slope * arg(2)?))
-                }
-                _ => None,
-            },
-            Op::Dot => match (constant(0), constant(1)) {
-                (Some(c), _) => Some(c.iter().map(|v| v * v).sum::<f64>().sqrt() * arg(1)?),
-                (_, Some(c)) => Some(c.iter().map(|v| v * v).sum::<f64>().sqrt() * arg(0)?),
-                _ => None,
-            },
-            Op::Length => arg(0),
-            Op::Rotate { .. } => match graph.nodes.get(node.args[1] as usize).map(|n| &n.op) {
-                Some(Op::ConstScalar(_)) => arg(0),
-                _ => None,
-            },
+            // The checker's own plumbing (no catalogue kind): a copy of one input.
+            Op::Splat | Op::Component(_) => bounds[0],
+            op => slope(op, rule(op), &bounds, &constants),
+        };
+        s.push(value.filter(|v| v.is_finite()));
+    }
+    s
+}
+
+/// The catalogue's slope rule for an operation a kind lowers to (Scale shares Mul's rule,
+/// Translate Add's: a test pins that the shared rules agree).
+fn rule(op: &Op) -> Slope {
+    let lowering = match op {
+        Op::Position => Lowering::Position,
+        Op::Combine => Lowering::Combine,
+        Op::Unary(u) => Lowering::Unary(*u),
+        Op::Binary(b) => Lowering::Binary(*b),
+        Op::Ternary(t) => Lowering::Ternary(*t),
+        Op::Dot => Lowering::Dot,
+        Op::Length => Lowering::Length,
+        Op::Rotate { .. } => Lowering::Rotate,
+        Op::Noise(_) => Lowering::Noise,
+        Op::Fractal(_, p) => Lowering::Fractal {
+            turbulence: p.turbulence,
+        },
+        Op::Hermite(_) => Lowering::Hermite,
+        Op::Ramp(_) => Lowering::Ramp,
+        Op::Curve(_) => Lowering::Curve,
+        Op::ConstScalar(_) | Op::ConstVec3(_) | Op::Splat | Op::Component(_) => {
+            return Slope::Identity
+        }
+    };
+    nodes::CATALOGUE
+        .iter()
+        .find(|d| d.lowering == lowering)
+        .map_or(Slope::Unbounded("no catalogue kind"), |d| d.slope)
+}
+
+/// Evaluates one slope rule over a node's argument bounds (`bounds`) and constant arguments.
+fn slope(
+    op: &Op,
+    rule: Slope,
+    bounds: &[Option<f64>],
+    constants: &[Option<[f64; 3]>],
+) -> Option<f64> {
+    let arg = |i: usize| bounds.get(i).copied().flatten();
+    let constant = |i: usize| constants.get(i).copied().flatten();
+    let largest = |v: [f64; 3]| v.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+    let smallest = |v: [f64; 3]| v.iter().fold(f64::INFINITY, |m, c| m.min(c.abs()));
+    match rule {
+        Slope::Identity => Some(1.0),
+        Slope::NoSteeper => arg(0),
+        Slope::Steepest => Some(arg(0)?.max(arg(1)?)),
+        Slope::Sum => Some(arg(0)? + arg(1)?),
+        Slope::Euclidean => Some((arg(0)?.powi(2) + arg(1)?.powi(2) + arg(2)?.powi(2)).sqrt()),
+        Slope::ConstantFactor => match (constant(0), constant(1)) {
+            (Some(c), _) => Some(largest(c) * arg(1)?),
+            (_, Some(c)) => Some(largest(c) * arg(0)?),
+            _ => None,
+        },
+        Slope::ConstantProjection => match (constant(0), constant(1)) {
+            (Some(c), _) => Some(ops::length(c) * arg(1)?),
+            (_, Some(c)) => Some(ops::length(c) * arg(0)?),
+            _ => None,
+        },
+        Slope::ConstantDivisor => constant(1)
+            .filter(|c| smallest(*c) > 0.0)
+            .and_then(|c| Some(arg(0)? / smallest(c))),
+        Slope::ConstantBounds => constant(1).and(constant(2)).and_then(|_| arg(0)),
+        Slope::ConstantBlend => constant(2)
+            .and_then(|t| Some(largest(t.map(|v| 1.0 - v)) * arg(0)? + largest(t) * arg(1)?)),
+        Slope::ConstantEdges => {
+            let (e0, e1) = (constant(0)?, constant(1)?);
+            let width = smallest([e1[0] - e0[0], e1[1] - e0[1], e1[2] - e0[2]]);
+            (width > 0.0).then_some(1.5 / width * arg(2)?)
+        }
+        // The angle is argument 1; a varying angle (a twist) has no bound here.
+        Slope::RigidMotion => constant(1).and_then(|_| arg(0)),
+        Slope::Basis => match op {
             Op::Noise(key) => Some(table_lipschitz(*key) * arg(0)?),
+            _ => None,
+        },
+        Slope::FractalSum => match op {
             Op::Fractal(key, params) => {
                 let schedule = params.schedule();
                 let sum: f64 = schedule
@@ -92,17 +131,15 @@ pub fn stretches(graph: &CheckedGraph) -> Vec<Option<f64>> {
                     .sum();
                 Some(table_lipschitz(*key) * sum * arg(0)?)
             }
-            Op::Hermite(_) => None,
-            Op::Ramp(r) => {
-                spline_slope(r.knots(), r.values()).and_then(|slope| Some(slope * arg(0)?))
-            }
-            Op::Curve(c) => {
-                spline_slope(c.knots(), c.values()).and_then(|slope| Some(slope * arg(0)?))
-            }
-        })();
-        s.push(value.filter(|v| v.is_finite()));
+            _ => None,
+        },
+        Slope::SteepestSegment => match op {
+            Op::Ramp(r) => spline_slope(r.knots(), r.values()).and_then(|m| Some(m * arg(0)?)),
+            Op::Curve(c) => spline_slope(c.knots(), c.values()).and_then(|m| Some(m * arg(0)?)),
+            _ => None,
+        },
+        Slope::Unbounded(_) => None,
     }
-    s
 }
 
 /// The steepest segment of a spline (largest change of any channel per unit of input); `None`
@@ -225,6 +262,22 @@ mod tests {
             gain: 0.5,
             first_octave: 0,
             turbulence: false,
+        }
+    }
+
+    /// Kinds lowering to the same operation (Scale to Mul, Translate to Add) state the same
+    /// rule, so the rule found for the operation is each kind's own.
+    #[test]
+    fn kinds_sharing_an_operation_share_their_rule() {
+        let of = |k: nodes::Kind| nodes::def(k).slope;
+        assert_eq!(of(nodes::Kind::Scale), of(nodes::Kind::Mul));
+        assert_eq!(of(nodes::Kind::Translate), of(nodes::Kind::Add));
+        for d in nodes::CATALOGUE {
+            let shared: Vec<_> = nodes::CATALOGUE
+                .iter()
+                .filter(|o| o.lowering == d.lowering)
+                .collect();
+            assert_eq!(shared.len(), 1, "{} shares its lowering", d.name);
         }
     }
 

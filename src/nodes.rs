@@ -164,12 +164,86 @@ pub enum OutputType {
     Broadcast,
 }
 
+/// How a node's slope bound — its Lipschitz constant per unit of world distance, which level of
+/// detail needs to know each octave's world frequency — follows from its arguments' bounds.
+/// `lod::stretches` evaluates this rule for every node of a checked graph; a new kind states
+/// its rule here, and the exhaustive `match` there makes a new rule a compile error until it
+/// is evaluated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Slope {
+    /// The sample point itself: 1.
+    Identity,
+    /// `|f'| <= 1`: no steeper than its (only varying) input — Neg, Abs, Sin, Cos, Length.
+    NoSteeper,
+    /// No steeper than the steeper operand (Min, Max).
+    Steepest,
+    /// The sum of the operands' bounds (Add, Sub, Translate).
+    Sum,
+    /// `sqrt(x'^2 + y'^2 + z'^2)` of the three components' bounds (Combine).
+    Euclidean,
+    /// A constant operand's largest component times the other operand's bound (Mul, Scale);
+    /// unbounded when neither operand is constant.
+    ConstantFactor,
+    /// A constant vector's length times the other operand's bound (Dot).
+    ConstantProjection,
+    /// The dividend's bound over the constant divisor's smallest magnitude (Div).
+    ConstantDivisor,
+    /// The input's bound when both bounds are constant (Clamp).
+    ConstantBounds,
+    /// `|1 - t| a' + |t| b'` for a constant `t` (Mix).
+    ConstantBlend,
+    /// `1.5 / (edge1 - edge0)` times the input's bound, for constant edges (Smoothstep).
+    ConstantEdges,
+    /// The point's bound, for a constant angle (Rotate).
+    RigidMotion,
+    /// The basis' Lipschitz constant times the input's bound (Noise).
+    Basis,
+    /// The basis' constant times the sum over octaves of `|frequency x amplitude|` (Fbm,
+    /// Turbulence).
+    FractalSum,
+    /// The steepest segment of the spline times the input's bound (ColorRamp, Curve).
+    SteepestSegment,
+    /// No useful bound (the reason): level of detail is off for noise downstream.
+    Unbounded(&'static str),
+}
+
+/// How the derivative of a node follows from its arguments' derivatives: the slot the
+/// `Gradient` node's chain rule dispatches on. The per-operation derivatives of the math
+/// kinds live next to their values in `ops.rs` (`UnaryOp::derivative`, `BinaryOp::partials`,
+/// `TernaryOp::partials`), checked against finite differences.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Derivative {
+    /// The sample point: the identity Jacobian.
+    Identity,
+    /// Assembled from the inputs' derivatives alone (Combine: one row each).
+    Assemble,
+    /// `f'(x) x'` (chain rule), `f'` from `UnaryOp::derivative`.
+    Unary,
+    /// `df/da a' + df/db b'`, from `BinaryOp::partials` (Scale and Translate lower to Mul/Add).
+    Binary,
+    /// The three partials of `TernaryOp::partials`.
+    Ternary,
+    /// Dot: `a' . b + a . b'`; Length: `(v . v') / |v|`.
+    Vector,
+    /// Rotate: `R p' + (dR/dtheta p) theta'`.
+    Rotation,
+    /// The basis' analytic gradient at the point, times the input's Jacobian; fractals sum it
+    /// over octaves with the chain factor `lacunarity^i`.
+    NoiseGradient,
+    /// The slope of the spline segment the input falls in, times the input's derivative.
+    Spline,
+}
+
 #[derive(Clone, Copy, Debug)]
 pub struct NodeDef {
     pub kind: Kind,
     /// What the checker turns this kind into: each entry names its own operation, so a new
     /// kind can never be lowered as another one by a fall-through.
     pub lowering: Lowering,
+    /// Its Lipschitz rule, for level of detail.
+    pub slope: Slope,
+    /// Its derivative rule, for `Gradient`.
+    pub derivative: Derivative,
     pub name: &'static str,
     pub args: &'static [ArgDef],
     pub output: OutputType,
@@ -295,30 +369,30 @@ const FRACTAL_ARGS: &[ArgDef] = &[
 
 /// Every node kind, in the order `texgraph nodes` lists them.
 pub const CATALOGUE: &[NodeDef] = &[
-    NodeDef { kind: Kind::Position, lowering: Lowering::Position, name: "Position", args: &[], output: OutputType::Vec3, doc: "The sample point (x, y, z)." },
+    NodeDef { kind: Kind::Position, lowering: Lowering::Position, slope: Slope::Identity, derivative: Derivative::Identity, name: "Position", args: &[], output: OutputType::Vec3, doc: "The sample point (x, y, z)." },
     NodeDef {
-        kind: Kind::Combine, lowering: Lowering::Combine,
+        kind: Kind::Combine, lowering: Lowering::Combine, slope: Slope::Euclidean, derivative: Derivative::Assemble,
         name: "Combine",
         args: &[input("x", InputType::Scalar, "x component"), input("y", InputType::Scalar, "y component"), input("z", InputType::Scalar, "z component")],
         output: OutputType::Vec3,
         doc: "Builds a vec3 from three scalars.",
     },
     NodeDef {
-        kind: Kind::Scale, lowering: Lowering::Scale,
+        kind: Kind::Scale, lowering: Lowering::Scale, slope: Slope::ConstantFactor, derivative: Derivative::Binary,
         name: "Scale",
         args: &[input("input", InputType::Vec3, "the point"), input("by", InputType::Any, "scale factor, scalar or per axis")],
         output: OutputType::Vec3,
         doc: "Component-wise product input * by (seed 001's texture repeat vector).",
     },
     NodeDef {
-        kind: Kind::Translate, lowering: Lowering::Translate,
+        kind: Kind::Translate, lowering: Lowering::Translate, slope: Slope::Sum, derivative: Derivative::Binary,
         name: "Translate",
         args: &[input("input", InputType::Vec3, "the point"), input("by", InputType::Any, "offset, scalar or per axis")],
         output: OutputType::Vec3,
         doc: "Adds an offset: input + by.",
     },
     NodeDef {
-        kind: Kind::Rotate, lowering: Lowering::Rotate,
+        kind: Kind::Rotate, lowering: Lowering::Rotate, slope: Slope::RigidMotion, derivative: Derivative::Rotation,
         name: "Rotate",
         args: &[
             input("input", InputType::Vec3, "the point"),
@@ -329,7 +403,7 @@ pub const CATALOGUE: &[NodeDef] = &[
         doc: "Rotates the point about an axis through the origin; the pattern appears rotated the other way.",
     },
     NodeDef {
-        kind: Kind::Noise, lowering: Lowering::Noise,
+        kind: Kind::Noise, lowering: Lowering::Noise, slope: Slope::Basis, derivative: Derivative::NoiseGradient,
         name: "Noise",
         args: &[
             input("input", InputType::Vec3, "the point to sample"),
@@ -346,73 +420,73 @@ pub const CATALOGUE: &[NodeDef] = &[
         doc: "One lattice noise sample: Perlin (improved, 2002), Gradient (seed 000) or Value (seeds 002/004).",
     },
     NodeDef {
-        kind: Kind::Fbm, lowering: Lowering::Fractal { turbulence: false },
+        kind: Kind::Fbm, lowering: Lowering::Fractal { turbulence: false }, slope: Slope::FractalSum, derivative: Derivative::NoiseGradient,
         name: "Fbm",
         args: FRACTAL_ARGS,
         output: OutputType::Scalar,
         doc: "Fractal sum: sum over octaves i of gain^i * basis(input * lacunarity^i).",
     },
     NodeDef {
-        kind: Kind::Turbulence, lowering: Lowering::Fractal { turbulence: true },
+        kind: Kind::Turbulence, lowering: Lowering::Fractal { turbulence: true }, slope: Slope::FractalSum, derivative: Derivative::NoiseGradient,
         name: "Turbulence",
         args: FRACTAL_ARGS,
         output: OutputType::Scalar,
         doc: "Perlin's turbulence: sum over octaves i of gain^i * |basis(input * lacunarity^i)|.",
     },
-    NodeDef { kind: Kind::Add, lowering: Lowering::Binary(BinaryOp::Add), name: "Add", args: ANY_AB, output: OutputType::Broadcast, doc: "a + b." },
-    NodeDef { kind: Kind::Sub, lowering: Lowering::Binary(BinaryOp::Sub), name: "Sub", args: ANY_AB, output: OutputType::Broadcast, doc: "a - b." },
-    NodeDef { kind: Kind::Mul, lowering: Lowering::Binary(BinaryOp::Mul), name: "Mul", args: ANY_AB, output: OutputType::Broadcast, doc: "a * b." },
-    NodeDef { kind: Kind::Div, lowering: Lowering::Binary(BinaryOp::Div), name: "Div", args: ANY_AB, output: OutputType::Broadcast, doc: "a / b (IEEE: x/0 is +-inf, 0/0 is NaN)." },
-    NodeDef { kind: Kind::Min, lowering: Lowering::Binary(BinaryOp::Min), name: "Min", args: ANY_AB, output: OutputType::Broadcast, doc: "The smaller of a and b; NaN if either is NaN." },
-    NodeDef { kind: Kind::Max, lowering: Lowering::Binary(BinaryOp::Max), name: "Max", args: ANY_AB, output: OutputType::Broadcast, doc: "The larger of a and b; NaN if either is NaN." },
-    NodeDef { kind: Kind::Pow, lowering: Lowering::Binary(BinaryOp::Pow), name: "Pow", args: ANY_AB, output: OutputType::Broadcast, doc: "a raised to b (IEEE pow: a negative a with a non-integer b is NaN)." },
+    NodeDef { kind: Kind::Add, lowering: Lowering::Binary(BinaryOp::Add), slope: Slope::Sum, derivative: Derivative::Binary, name: "Add", args: ANY_AB, output: OutputType::Broadcast, doc: "a + b." },
+    NodeDef { kind: Kind::Sub, lowering: Lowering::Binary(BinaryOp::Sub), slope: Slope::Sum, derivative: Derivative::Binary, name: "Sub", args: ANY_AB, output: OutputType::Broadcast, doc: "a - b." },
+    NodeDef { kind: Kind::Mul, lowering: Lowering::Binary(BinaryOp::Mul), slope: Slope::ConstantFactor, derivative: Derivative::Binary, name: "Mul", args: ANY_AB, output: OutputType::Broadcast, doc: "a * b." },
+    NodeDef { kind: Kind::Div, lowering: Lowering::Binary(BinaryOp::Div), slope: Slope::ConstantDivisor, derivative: Derivative::Binary, name: "Div", args: ANY_AB, output: OutputType::Broadcast, doc: "a / b (IEEE: x/0 is +-inf, 0/0 is NaN)." },
+    NodeDef { kind: Kind::Min, lowering: Lowering::Binary(BinaryOp::Min), slope: Slope::Steepest, derivative: Derivative::Binary, name: "Min", args: ANY_AB, output: OutputType::Broadcast, doc: "The smaller of a and b; NaN if either is NaN." },
+    NodeDef { kind: Kind::Max, lowering: Lowering::Binary(BinaryOp::Max), slope: Slope::Steepest, derivative: Derivative::Binary, name: "Max", args: ANY_AB, output: OutputType::Broadcast, doc: "The larger of a and b; NaN if either is NaN." },
+    NodeDef { kind: Kind::Pow, lowering: Lowering::Binary(BinaryOp::Pow), slope: Slope::Unbounded("the slope of a^b grows without bound"), derivative: Derivative::Binary, name: "Pow", args: ANY_AB, output: OutputType::Broadcast, doc: "a raised to b (IEEE pow: a negative a with a non-integer b is NaN)." },
     NodeDef {
-        kind: Kind::Atan2, lowering: Lowering::Binary(BinaryOp::Atan2),
+        kind: Kind::Atan2, lowering: Lowering::Binary(BinaryOp::Atan2), slope: Slope::Unbounded("the slope of atan2 grows without bound near the origin"), derivative: Derivative::Binary,
         name: "Atan2",
         args: &[input("y", InputType::Any, "y"), input("x", InputType::Any, "x")],
         output: OutputType::Broadcast,
         doc: "The angle of (x, y) in radians, in [-pi, pi]; Atan2(0, 0) is 0.",
     },
-    NodeDef { kind: Kind::Mod, lowering: Lowering::Binary(BinaryOp::Mod), name: "Mod", args: ANY_AB, output: OutputType::Broadcast, doc: "Floored modulo: the result takes the sign of b; Mod(a, 0) is NaN." },
-    NodeDef { kind: Kind::Abs, lowering: Lowering::Unary(UnaryOp::Abs), name: "Abs", args: ANY_X, output: OutputType::Broadcast, doc: "|x|." },
-    NodeDef { kind: Kind::Neg, lowering: Lowering::Unary(UnaryOp::Neg), name: "Neg", args: ANY_X, output: OutputType::Broadcast, doc: "-x." },
-    NodeDef { kind: Kind::Sin, lowering: Lowering::Unary(UnaryOp::Sin), name: "Sin", args: ANY_X, output: OutputType::Broadcast, doc: "sin(x), x in radians." },
-    NodeDef { kind: Kind::Cos, lowering: Lowering::Unary(UnaryOp::Cos), name: "Cos", args: ANY_X, output: OutputType::Broadcast, doc: "cos(x), x in radians." },
-    NodeDef { kind: Kind::Sqrt, lowering: Lowering::Unary(UnaryOp::Sqrt), name: "Sqrt", args: ANY_X, output: OutputType::Broadcast, doc: "Square root; NaN for negative x." },
-    NodeDef { kind: Kind::Floor, lowering: Lowering::Unary(UnaryOp::Floor), name: "Floor", args: ANY_X, output: OutputType::Broadcast, doc: "The largest integer <= x." },
-    NodeDef { kind: Kind::Fract, lowering: Lowering::Unary(UnaryOp::Fract), name: "Fract", args: ANY_X, output: OutputType::Broadcast, doc: "x - floor(x), in [0, 1); NaN for infinite x." },
-    NodeDef { kind: Kind::Exp, lowering: Lowering::Unary(UnaryOp::Exp), name: "Exp", args: ANY_X, output: OutputType::Broadcast, doc: "e^x; overflows to inf above about 88.72 (f32) or 709.78 (f64)." },
-    NodeDef { kind: Kind::Length, lowering: Lowering::Length, name: "Length", args: &[input("v", InputType::Vec3, "the vector")], output: OutputType::Scalar, doc: "Euclidean length of a vec3." },
+    NodeDef { kind: Kind::Mod, lowering: Lowering::Binary(BinaryOp::Mod), slope: Slope::Unbounded("a floored modulo jumps"), derivative: Derivative::Binary, name: "Mod", args: ANY_AB, output: OutputType::Broadcast, doc: "Floored modulo: the result takes the sign of b; Mod(a, 0) is NaN." },
+    NodeDef { kind: Kind::Abs, lowering: Lowering::Unary(UnaryOp::Abs), slope: Slope::NoSteeper, derivative: Derivative::Unary, name: "Abs", args: ANY_X, output: OutputType::Broadcast, doc: "|x|." },
+    NodeDef { kind: Kind::Neg, lowering: Lowering::Unary(UnaryOp::Neg), slope: Slope::NoSteeper, derivative: Derivative::Unary, name: "Neg", args: ANY_X, output: OutputType::Broadcast, doc: "-x." },
+    NodeDef { kind: Kind::Sin, lowering: Lowering::Unary(UnaryOp::Sin), slope: Slope::NoSteeper, derivative: Derivative::Unary, name: "Sin", args: ANY_X, output: OutputType::Broadcast, doc: "sin(x), x in radians." },
+    NodeDef { kind: Kind::Cos, lowering: Lowering::Unary(UnaryOp::Cos), slope: Slope::NoSteeper, derivative: Derivative::Unary, name: "Cos", args: ANY_X, output: OutputType::Broadcast, doc: "cos(x), x in radians." },
+    NodeDef { kind: Kind::Sqrt, lowering: Lowering::Unary(UnaryOp::Sqrt), slope: Slope::Unbounded("the slope of a square root is unbounded at 0"), derivative: Derivative::Unary, name: "Sqrt", args: ANY_X, output: OutputType::Broadcast, doc: "Square root; NaN for negative x." },
+    NodeDef { kind: Kind::Floor, lowering: Lowering::Unary(UnaryOp::Floor), slope: Slope::Unbounded("floor jumps"), derivative: Derivative::Unary, name: "Floor", args: ANY_X, output: OutputType::Broadcast, doc: "The largest integer <= x." },
+    NodeDef { kind: Kind::Fract, lowering: Lowering::Unary(UnaryOp::Fract), slope: Slope::Unbounded("fract jumps"), derivative: Derivative::Unary, name: "Fract", args: ANY_X, output: OutputType::Broadcast, doc: "x - floor(x), in [0, 1); NaN for infinite x." },
+    NodeDef { kind: Kind::Exp, lowering: Lowering::Unary(UnaryOp::Exp), slope: Slope::Unbounded("the slope of e^x grows without bound"), derivative: Derivative::Unary, name: "Exp", args: ANY_X, output: OutputType::Broadcast, doc: "e^x; overflows to inf above about 88.72 (f32) or 709.78 (f64)." },
+    NodeDef { kind: Kind::Length, lowering: Lowering::Length, slope: Slope::NoSteeper, derivative: Derivative::Vector, name: "Length", args: &[input("v", InputType::Vec3, "the vector")], output: OutputType::Scalar, doc: "Euclidean length of a vec3." },
     NodeDef {
-        kind: Kind::Dot, lowering: Lowering::Dot,
+        kind: Kind::Dot, lowering: Lowering::Dot, slope: Slope::ConstantProjection, derivative: Derivative::Vector,
         name: "Dot",
         args: &[input("a", InputType::Vec3, "left vector"), input("b", InputType::Vec3, "right vector")],
         output: OutputType::Scalar,
         doc: "Dot product of two vec3.",
     },
     NodeDef {
-        kind: Kind::Clamp, lowering: Lowering::Ternary(TernaryOp::Clamp),
+        kind: Kind::Clamp, lowering: Lowering::Ternary(TernaryOp::Clamp), slope: Slope::ConstantBounds, derivative: Derivative::Ternary,
         name: "Clamp",
         args: &[input("input", InputType::Any, "the value"), input_or("min", InputType::Any, 0.0, "lower bound"), input_or("max", InputType::Any, 1.0, "upper bound")],
         output: OutputType::Broadcast,
         doc: "min(max(input, min), max); NaN stays NaN.",
     },
     NodeDef {
-        kind: Kind::Mix, lowering: Lowering::Ternary(TernaryOp::Mix),
+        kind: Kind::Mix, lowering: Lowering::Ternary(TernaryOp::Mix), slope: Slope::ConstantBlend, derivative: Derivative::Ternary,
         name: "Mix",
         args: &[input("a", InputType::Any, "value at t = 0"), input("b", InputType::Any, "value at t = 1"), input("t", InputType::Any, "blend factor, not clamped")],
         output: OutputType::Broadcast,
         doc: "Linear blend a + t * (b - a), t not clamped.",
     },
     NodeDef {
-        kind: Kind::Smoothstep, lowering: Lowering::Ternary(TernaryOp::Smoothstep),
+        kind: Kind::Smoothstep, lowering: Lowering::Ternary(TernaryOp::Smoothstep), slope: Slope::ConstantEdges, derivative: Derivative::Ternary,
         name: "Smoothstep",
         args: &[input("edge0", InputType::Any, "where the step starts"), input("edge1", InputType::Any, "where the step ends"), input("x", InputType::Any, "the value")],
         output: OutputType::Broadcast,
         doc: "GLSL smoothstep: t = clamp((x - edge0) / (edge1 - edge0), 0, 1), t*t*(3 - 2t); a hard step at edge0 when edge0 = edge1.",
     },
     NodeDef {
-        kind: Kind::Hermite, lowering: Lowering::Hermite,
+        kind: Kind::Hermite, lowering: Lowering::Hermite, slope: Slope::Unbounded("not yet bounded (its steepest slope depends on the tangents)"), derivative: Derivative::Spline,
         name: "Hermite",
         args: &[
             input("input", InputType::Scalar, "the value; clamped to [0, 1]"),
@@ -425,7 +499,7 @@ pub const CATALOGUE: &[NodeDef] = &[
         doc: "Cubic Hermite spline on t = clamp(input, 0, 1) from p0 (slope m0) to p1 (slope m1): seed 000's crack sharpening.",
     },
     NodeDef {
-        kind: Kind::ColorRamp, lowering: Lowering::Ramp,
+        kind: Kind::ColorRamp, lowering: Lowering::Ramp, slope: Slope::SteepestSegment, derivative: Derivative::Spline,
         name: "ColorRamp",
         args: &[
             input("input", InputType::Scalar, "the value; clamped to the first and last stop"),
@@ -441,7 +515,7 @@ pub const CATALOGUE: &[NodeDef] = &[
         doc: "Colour spline: maps a scalar to a colour through sorted stops.",
     },
     NodeDef {
-        kind: Kind::Curve, lowering: Lowering::Curve,
+        kind: Kind::Curve, lowering: Lowering::Curve, slope: Slope::SteepestSegment, derivative: Derivative::Spline,
         name: "Curve",
         args: &[
             input("input", InputType::Scalar, "the value; clamped to the first and last point"),

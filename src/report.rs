@@ -278,23 +278,39 @@ pub fn accuracy_report(
             spacing: None,
         };
         let tape = compile(graph, &single)?;
-        let channels = tape.channels();
         let reference = batch::<f64>(&tape, &planes);
         let reference_time = median_time(options.runs, || {
             std::hint::black_box(batch::<f64>(&tape, &planes));
         });
-        let mut row = |strategy: String,
-                       time: f64,
-                       values: &[f64],
-                       memory: Option<u64>,
-                       tape_length: Option<usize>| {
-            let e = errors(&reference, values);
+        let output_index = all
+            .outputs
+            .iter()
+            .position(|o| &o.name == name)
+            .unwrap_or(0);
+        let mut measured = direct_strategies(&tape, &points, &planes, options.runs);
+        measured.extend(lod_strategies(graph, name, &planes, options)?);
+        measured.extend(baked_strategies(
+            &volumes,
+            output_index,
+            tape.channels(),
+            &points,
+            options.runs,
+        ));
+        let reference_row = Measured {
+            strategy: "f64 reference (batch)".into(),
+            time: reference_time,
+            values: reference.clone(),
+            memory: None,
+            tape_length: Some(tape.instrs.len()),
+        };
+        for m in std::iter::once(reference_row).chain(measured) {
+            let e = errors(&reference, &m.values);
             rows.push(Row {
                 output: name.clone(),
-                strategy,
-                ns_per_point: time / n * 1e9,
-                speedup: if time > 0.0 {
-                    reference_time / time
+                strategy: m.strategy,
+                ns_per_point: m.time / n * 1e9,
+                speedup: if m.time > 0.0 {
+                    reference_time / m.time
                 } else {
                     f64::INFINITY
                 },
@@ -302,100 +318,123 @@ pub fn accuracy_report(
                 rms_error: e.rms,
                 psnr_db: e.psnr,
                 non_finite: e.non_finite,
-                memory_bytes: memory,
-                tape_length,
+                memory_bytes: m.memory,
+                tape_length: m.tape_length,
             });
-        };
-        let length = Some(tape.instrs.len());
-        row(
-            "f64 reference (batch)".into(),
-            reference_time,
-            &reference,
-            None,
-            length,
-        );
-        let values = per_point::<f64>(&tape, &points);
-        let time = median_time(options.runs, || {
-            std::hint::black_box(per_point::<f64>(&tape, &points));
-        });
-        row("f64 per point".into(), time, &values, None, length);
-        let values = per_point::<f32>(&tape, &points);
-        let time = median_time(options.runs, || {
-            std::hint::black_box(per_point::<f32>(&tape, &points));
-        });
-        row("f32 per point".into(), time, &values, None, length);
-        let values = batch::<f32>(&tape, &planes);
-        let time = median_time(options.runs, || {
-            std::hint::black_box(batch::<f32>(&tape, &planes));
-        });
-        row("f32 batch".into(), time, &values, None, length);
-        for &spacing in &options.lod_spacings {
-            let lod = compile(
-                graph,
-                &CompileOptions {
-                    outputs: vec![name.clone()],
-                    spacing: Some(spacing),
-                },
-            )?;
-            let kept: Vec<String> = lod
-                .fractal_octaves()
-                .iter()
-                .map(|(_, _, k)| format!("{}", (k * 100.0).round() / 100.0))
-                .collect();
-            let values = batch::<f32>(&lod, &planes);
-            let time = median_time(options.runs, || {
-                std::hint::black_box(batch::<f32>(&lod, &planes));
-            });
-            let octaves = if kept.is_empty() {
-                String::new()
-            } else {
-                format!(", octaves {}", kept.join("/"))
-            };
-            row(
-                format!(
-                    "f32 batch, LOD spacing 1/{}{octaves}",
-                    (1.0 / spacing).round()
-                ),
-                time,
-                &values,
-                None,
-                Some(lod.instrs.len()),
-            );
-        }
-        let output_index = all
-            .outputs
-            .iter()
-            .position(|o| &o.name == name)
-            .unwrap_or(0);
-        for (size, volume, bake_seconds) in &volumes {
-            let mut values = vec![0.0; channels * points.len()];
-            let mut one = [0.0f64; 3];
-            let sample_all = |values: &mut Vec<f64>, one: &mut [f64; 3]| {
-                for (i, p) in points.iter().enumerate() {
-                    sample_trilinear(volume, output_index, *p, one);
-                    for c in 0..channels {
-                        values[c * points.len() + i] = one[c];
-                    }
-                }
-            };
-            sample_all(&mut values, &mut one);
-            let time = median_time(options.runs, || {
-                let mut scratch = vec![0.0; channels * points.len()];
-                let mut one = [0.0f64; 3];
-                sample_all(&mut scratch, &mut one);
-                std::hint::black_box(&scratch);
-            });
-            let memory = (volume.grid.voxels().unwrap_or(0) as usize * channels * 4) as u64;
-            row(
-                format!("baked {size}³ f32, trilinear (bake {:.2} s)", bake_seconds),
-                time,
-                &values,
-                Some(memory),
-                None,
-            );
         }
     }
     Ok(rows)
+}
+
+/// One strategy's values and median time for one output, before its errors are measured.
+struct Measured {
+    strategy: String,
+    time: f64,
+    values: Vec<f64>,
+    memory: Option<u64>,
+    tape_length: Option<usize>,
+}
+
+/// The tape evaluated directly: f64 per point, f32 per point, f32 batch.
+fn direct_strategies(
+    tape: &Tape,
+    points: &[[f64; 3]],
+    planes: &Planes,
+    runs: usize,
+) -> Vec<Measured> {
+    let length = Some(tape.instrs.len());
+    let measure = |strategy: &str, run: &dyn Fn() -> Vec<f64>| Measured {
+        strategy: strategy.into(),
+        time: median_time(runs, || {
+            std::hint::black_box(run());
+        }),
+        values: run(),
+        memory: None,
+        tape_length: length,
+    };
+    vec![
+        measure("f64 per point", &|| per_point::<f64>(tape, points)),
+        measure("f32 per point", &|| per_point::<f32>(tape, points)),
+        measure("f32 batch", &|| batch::<f32>(tape, planes)),
+    ]
+}
+
+/// The output compiled with level of detail at each requested spacing, evaluated as f32 batches.
+fn lod_strategies(
+    graph: &CheckedGraph,
+    name: &str,
+    planes: &Planes,
+    options: &ReportOptions,
+) -> Result<Vec<Measured>, crate::Diagnostics> {
+    let mut measured = Vec::new();
+    for &spacing in &options.lod_spacings {
+        let lod = compile(
+            graph,
+            &CompileOptions {
+                outputs: vec![name.to_string()],
+                spacing: Some(spacing),
+            },
+        )?;
+        let kept: Vec<String> = lod
+            .fractal_octaves()
+            .iter()
+            .map(|(_, _, k)| format!("{}", (k * 100.0).round() / 100.0))
+            .collect();
+        let octaves = if kept.is_empty() {
+            String::new()
+        } else {
+            format!(", octaves {}", kept.join("/"))
+        };
+        measured.push(Measured {
+            strategy: format!(
+                "f32 batch, LOD spacing 1/{}{octaves}",
+                (1.0 / spacing).round()
+            ),
+            time: median_time(options.runs, || {
+                std::hint::black_box(batch::<f32>(&lod, planes));
+            }),
+            values: batch::<f32>(&lod, planes),
+            memory: None,
+            tape_length: Some(lod.instrs.len()),
+        });
+    }
+    Ok(measured)
+}
+
+/// Each baked volume sampled trilinearly at the points (the volume's memory reported).
+fn baked_strategies(
+    volumes: &[(usize, Volume, f64)],
+    output_index: usize,
+    channels: usize,
+    points: &[[f64; 3]],
+    runs: usize,
+) -> Vec<Measured> {
+    let mut measured = Vec::new();
+    for (size, volume, bake_seconds) in volumes {
+        let sample_all = || {
+            let mut values = vec![0.0; channels * points.len()];
+            let mut one = [0.0f64; 3];
+            for (i, p) in points.iter().enumerate() {
+                sample_trilinear(volume, output_index, *p, &mut one);
+                for c in 0..channels {
+                    values[c * points.len() + i] = one[c];
+                }
+            }
+            values
+        };
+        let time = median_time(runs, || {
+            std::hint::black_box(sample_all());
+        });
+        let memory = (volume.grid.voxels().unwrap_or(0) as usize * channels * 4) as u64;
+        measured.push(Measured {
+            strategy: format!("baked {size}³ f32, trilinear (bake {:.2} s)", bake_seconds),
+            time,
+            values: sample_all(),
+            memory: Some(memory),
+            tape_length: None,
+        });
+    }
+    measured
 }
 
 /// The rows as a plain-text table (one block per output).

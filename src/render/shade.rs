@@ -174,11 +174,94 @@ pub(crate) fn render_tile(
     texture_time: &mut std::time::Duration,
 ) -> Counters {
     let mut counters = Counters::default();
+    let n_samples = (tile.w * tile.h * samples) as usize;
+    let hits = primary_hits(scene, tile, width, height, samples, &mut counters);
+    counters.hits = hits.len() as u64;
+    let textures = evaluate_textures(scene, scratch, &hits, &mut counters, texture_time);
+    let TextureValues {
+        counts,
+        slot_base,
+        slots,
+        values,
+    } = textures;
+
+    // Pass 3: shade.
+    let mut sample_colours = vec![scene.background; n_samples];
+    for (h, hit) in hits.iter().enumerate() {
+        let object = &scene.objects[hit.object as usize];
+        let material = &scene.materials[object.material];
+        let mut fetch = |channel: &Channel| -> Vec3 {
+            match *channel {
+                Channel::Constant(c) => c,
+                Channel::Texture {
+                    slot,
+                    channel,
+                    vec3,
+                    multiply,
+                } => {
+                    let g = material.groups[slot];
+                    let n = counts[g];
+                    let i = slots[slot_base[h] as usize + slot] as usize;
+                    let v = &values[g];
+                    let c = if vec3 {
+                        Vec3::new(
+                            v[channel * n + i],
+                            v[(channel + 1) * n + i],
+                            v[(channel + 2) * n + i],
+                        )
+                    } else {
+                        Vec3::splat(v[channel * n + i])
+                    };
+                    let c = c * multiply;
+                    if c.is_finite() {
+                        c
+                    } else {
+                        counters.non_finite += 1;
+                        Vec3::select(c.is_finite_mask(), c, Vec3::ZERO)
+                    }
+                }
+            }
+        };
+        let ambient = fetch(&material.ambient);
+        let diffuse = fetch(&material.diffuse);
+        let specular = fetch(&material.specular);
+        let shininess = fetch(&material.shininess).x.clamp(0.0, 1e4);
+        sample_colours[hit.sample as usize] = shade(
+            scene,
+            hit,
+            ambient,
+            diffuse,
+            specular,
+            shininess,
+            &mut counters,
+        );
+    }
+
+    // Average each pixel's samples, in sample order.
+    out.clear();
+    let inv = 1.0 / samples as f32;
+    for pixel in sample_colours.chunks_exact(samples as usize) {
+        let mut sum = Vec3::ZERO;
+        for c in pixel {
+            sum += *c;
+        }
+        out.push(sum * inv);
+    }
+    counters
+}
+
+/// Pass 1: a tile's primary rays and the nearest hit of each (misses are left out).
+fn primary_hits(
+    scene: &Scene,
+    tile: Tile,
+    width: u32,
+    height: u32,
+    samples: u32,
+    counters: &mut Counters,
+) -> Vec<Hit> {
     let cam = &scene.camera;
     let aspect = width as f32 / height as f32;
     let n_samples = (tile.w * tile.h * samples) as usize;
-
-    // Pass 1: primary rays.
     let mut hits: Vec<Hit> = Vec::with_capacity(n_samples);
     for py in 0..tile.h {
         for px in 0..tile.w {
@@ -227,17 +310,36 @@ pub(crate) fn render_tile(
             }
         }
     }
-    counters.hits = hits.len() as u64;
 
-    // Pass 2: texture points per evaluation group, one batch each.
+    hits
+}
+
+/// The texture values of a tile's hits: per evaluation group, one batch of all its points.
+struct TextureValues {
+    /// Points in each group's batch.
+    counts: Vec<usize>,
+    /// For hit h, `slots[slot_base[h] + j]` is its index in the batch of its material's group j.
+    slot_base: Vec<u32>,
+    slots: Vec<u32>,
+    /// Per group, channel-major values (`channel * count + index`).
+    values: Vec<Vec<f32>>,
+}
+
+/// Pass 2: texture points per evaluation group, one batch each.
+fn evaluate_textures(
+    scene: &Scene,
+    scratch: &mut Scratch,
+    hits: &[Hit],
+    counters: &mut Counters,
+    texture_time: &mut std::time::Duration,
+) -> TextureValues {
     let groups = &scene.groups;
     let mut xs: Vec<Vec<f64>> = vec![Vec::new(); groups.len()];
     let mut ys: Vec<Vec<f64>> = vec![Vec::new(); groups.len()];
     let mut zs: Vec<Vec<f64>> = vec![Vec::new(); groups.len()];
-    // For hit h, `slots[slot_base[h] + j]` is its index in the batch of its material's group j.
     let mut slot_base: Vec<u32> = Vec::with_capacity(hits.len());
     let mut slots: Vec<u32> = Vec::new();
-    for hit in &hits {
+    for hit in hits {
         let object = &scene.objects[hit.object as usize];
         let material = &scene.materials[object.material];
         slot_base.push(slots.len() as u32);
@@ -274,69 +376,12 @@ pub(crate) fn render_tile(
     }
     *texture_time += started.elapsed();
 
-    // Pass 3: shade.
-    let mut sample_colours = vec![scene.background; n_samples];
-    for (h, hit) in hits.iter().enumerate() {
-        let object = &scene.objects[hit.object as usize];
-        let material = &scene.materials[object.material];
-        let mut fetch = |channel: &Channel| -> Vec3 {
-            match *channel {
-                Channel::Constant(c) => c,
-                Channel::Texture {
-                    slot,
-                    channel,
-                    vec3,
-                    multiply,
-                } => {
-                    let g = material.groups[slot];
-                    let n = xs[g].len();
-                    let i = slots[slot_base[h] as usize + slot] as usize;
-                    let v = &values[g];
-                    let c = if vec3 {
-                        Vec3::new(
-                            v[channel * n + i],
-                            v[(channel + 1) * n + i],
-                            v[(channel + 2) * n + i],
-                        )
-                    } else {
-                        Vec3::splat(v[channel * n + i])
-                    };
-                    let c = c * multiply;
-                    if c.is_finite() {
-                        c
-                    } else {
-                        counters.non_finite += 1;
-                        Vec3::select(c.is_finite_mask(), c, Vec3::ZERO)
-                    }
-                }
-            }
-        };
-        let ambient = fetch(&material.ambient);
-        let diffuse = fetch(&material.diffuse);
-        let specular = fetch(&material.specular);
-        let shininess = fetch(&material.shininess).x.clamp(0.0, 1e4);
-        sample_colours[hit.sample as usize] = shade(
-            scene,
-            hit,
-            ambient,
-            diffuse,
-            specular,
-            shininess,
-            &mut counters,
-        );
+    TextureValues {
+        counts: xs.iter().map(Vec::len).collect(),
+        slot_base,
+        slots,
+        values,
     }
-
-    // Average each pixel's samples, in sample order.
-    out.clear();
-    let inv = 1.0 / samples as f32;
-    for pixel in sample_colours.chunks_exact(samples as usize) {
-        let mut sum = Vec3::ZERO;
-        for c in pixel {
-            sum += *c;
-        }
-        out.push(sum * inv);
-    }
-    counters
 }
 
 /// Blinn–Phong: ambient light × ambient + Σ over lights reaching the point of radiance ×
