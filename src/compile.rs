@@ -359,7 +359,7 @@ impl Emitter {
                     src: arg(0),
                     table,
                     octaves: (self.octaves.len() - 1) as u32,
-                    turbulence: params.turbulence,
+                    style: params.style,
                     bias: lod.bias,
                 }
             }

@@ -351,15 +351,15 @@ impl Tape {
                 src,
                 table,
                 octaves,
-                turbulence,
+                style,
                 bias,
             } => {
                 let a = &ws.vec3s[src as usize];
                 let table = &self.tables[table as usize].1;
-                noise::fractal_batch(
+                noise::fractal_styled_batch(
                     table,
                     &self.octaves[octaves as usize],
-                    turbulence,
+                    style,
                     &a[..n],
                     &a[LANES..LANES + n],
                     &a[2 * LANES..2 * LANES + n],

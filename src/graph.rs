@@ -7,7 +7,7 @@
 //! of exactly the types it expects.
 
 use crate::diagnostic::{SourceFile, Span};
-use crate::noise::{self, Basis, NoiseTable, Octaves};
+use crate::noise::{self, Basis, NoiseTable, Octaves, Style};
 use crate::ops::{self, BinaryOp, Curve, Hermite, Ramp, TernaryOp, UnaryOp};
 use rustc_hash::FxHashMap;
 use smallvec::SmallVec;
@@ -56,7 +56,8 @@ pub struct FractalParams {
     pub lacunarity: f64,
     pub gain: f64,
     pub first_octave: u32,
-    pub turbulence: bool,
+    /// How each octave enters the sum (Fbm, Turbulence, Billow, Ridged).
+    pub style: Style,
 }
 
 impl FractalParams {
@@ -96,12 +97,33 @@ impl Op {
     /// Encodes the operation (not its arguments) for hash-consing; floats by their bits so that
     /// NaN payloads and -0.0 are kept apart.
     fn key(&self, out: &mut OpKey) {
-        fn basis_code(basis: Basis) -> u64 {
-            match basis {
+        fn basis_code(basis: Basis) -> [u64; 2] {
+            let jitter = match basis {
+                Basis::Cellular(c) => c.jitter().to_bits(),
+                _ => 0,
+            };
+            let tag = match basis {
                 Basis::Perlin => 0,
                 Basis::Gradient => 1,
                 Basis::Value(noise::Interpolation::Linear) => 2,
                 Basis::Value(noise::Interpolation::Smooth) => 3,
+                Basis::Simplex => 4,
+                Basis::White => 5,
+                Basis::Cellular(c) => {
+                    let metric = c.metric as u64;
+                    let value = c.value as u64;
+                    // The jitter's bits do not fit beside the tags: its own word follows.
+                    6 | metric << 8 | value << 16
+                }
+            };
+            [tag, jitter]
+        }
+        fn style_code(style: Style) -> [u64; 3] {
+            match style {
+                Style::Fbm => [0, 0, 0],
+                Style::Turbulence => [1, 0, 0],
+                Style::Billow => [2, 0, 0],
+                Style::Ridged { offset, sharpness } => [3, offset.to_bits(), sharpness.to_bits()],
             }
         }
         match self {
@@ -119,17 +141,23 @@ impl Op {
             Op::Rotate { axis } => {
                 out.extend([11, axis[0].to_bits(), axis[1].to_bits(), axis[2].to_bits()])
             }
-            Op::Noise(t) => out.extend([12, basis_code(t.basis), t.seed]),
-            Op::Fractal(t, p) => out.extend([
-                13,
-                basis_code(t.basis),
-                t.seed,
-                p.octaves.to_bits(),
-                p.lacunarity.to_bits(),
-                p.gain.to_bits(),
-                p.first_octave as u64,
-                p.turbulence as u64,
-            ]),
+            Op::Noise(t) => {
+                out.push(12);
+                out.extend(basis_code(t.basis));
+                out.push(t.seed);
+            }
+            Op::Fractal(t, p) => {
+                out.push(13);
+                out.extend(basis_code(t.basis));
+                out.extend([
+                    t.seed,
+                    p.octaves.to_bits(),
+                    p.lacunarity.to_bits(),
+                    p.gain.to_bits(),
+                    p.first_octave as u64,
+                ]);
+                out.extend(style_code(p.style));
+            }
             Op::Hermite(h) => out.extend([
                 14,
                 h.p0.to_bits(),
@@ -469,10 +497,10 @@ impl GraphBuilder {
             }
             Op::Fractal(key, params) if all_vec3 => {
                 let table = self.table(*key);
-                Op::ConstScalar(noise::fractal::<f64>(
+                Op::ConstScalar(noise::fractal_styled::<f64>(
                     &table,
                     &params.schedule(),
-                    params.turbulence,
+                    params.style,
                     v[0],
                 ))
             }

@@ -14,8 +14,9 @@
 //! `amplitude × E[|noise|]` for turbulence), so the filtered texture keeps its mean brightness.
 
 use crate::graph::{CheckedGraph, FractalParams, Op, TableKey};
-use crate::nodes::{self, Lowering, Slope};
+use crate::nodes::{self, FractalKind, Lowering, Slope};
 use crate::noise::NoiseTable;
+use crate::noise::Style;
 use crate::ops;
 use std::collections::HashMap;
 use std::sync::{Mutex, OnceLock};
@@ -60,9 +61,12 @@ fn rule(op: &Op) -> Slope {
         Op::Length => Lowering::Length,
         Op::Rotate { .. } => Lowering::Rotate,
         Op::Noise(_) => Lowering::Noise,
-        Op::Fractal(_, p) => Lowering::Fractal {
-            turbulence: p.turbulence,
-        },
+        Op::Fractal(_, p) => Lowering::Fractal(match p.style {
+            Style::Fbm => FractalKind::Fbm,
+            Style::Turbulence => FractalKind::Turbulence,
+            Style::Billow => FractalKind::Billow,
+            Style::Ridged { .. } => FractalKind::Ridged,
+        }),
         Op::Hermite(_) => Lowering::Hermite,
         Op::Ramp(_) => Lowering::Ramp,
         Op::Curve(_) => Lowering::Curve,
@@ -129,7 +133,13 @@ fn slope(
                     .zip(&schedule.amplitudes)
                     .map(|(f, a)| (f * a).abs())
                     .sum();
-                Some(table_lipschitz(*key) * sum * arg(0)?)
+                // Billow's 2|n| doubles each octave's slope.
+                let shaping = if params.style == Style::Billow {
+                    2.0
+                } else {
+                    1.0
+                };
+                Some(shaping * table_lipschitz(*key) * sum * arg(0)?)
             }
             _ => None,
         },
@@ -138,7 +148,7 @@ fn slope(
             Op::Curve(c) => spline_slope(c.knots(), c.values()).and_then(|m| Some(m * arg(0)?)),
             _ => None,
         },
-        Slope::Unbounded(_) => None,
+        Slope::Unbounded(_) | Slope::Composite => None,
     }
 }
 
@@ -198,7 +208,14 @@ pub fn fractal_lod(
     }
     // The dropped share of each octave's amplitude, times the basis' mean (or mean magnitude).
     let (mean, mean_abs) = expectations(key);
-    let expected = if params.turbulence { mean_abs } else { mean };
+    // Ridged: the dropped octaves' signal (offset - |n|)^sharpness at the mean |n|, an estimate
+    // (the weights w <= 1 of those octaves are left out).
+    let expected = match params.style {
+        Style::Fbm => mean,
+        Style::Turbulence => mean_abs,
+        Style::Billow => 2.0 * mean_abs - 1.0,
+        Style::Ridged { offset, sharpness } => (offset - mean_abs).max(0.0).powf(sharpness),
+    };
     let mut bias = 0.0;
     let count = params.octaves.ceil() as u32;
     for n in 0..count {
@@ -226,16 +243,21 @@ fn expectations(key: TableKey) -> (f64, f64) {
     let mut rng = crate::noise::SplitMix64::new(0x10D);
     let mut next = || rng.next_f64() * 256.0;
     let n = 8192;
-    let mut sum_abs = 0.0;
+    let (mut sum, mut sum_abs) = (0.0, 0.0);
     for _ in 0..n {
         let v: f64 = table.sample([next(), next(), next()]);
+        sum += v;
         sum_abs += v.abs();
     }
     // The mean is known exactly: gradient bases are zero-mean by construction (a sampled
     // estimate would only add noise), and value noise averages to its table's mean, which the
     // 256 lattice points of one row along x visit exactly once each (the hash is a permutation).
     let mean = match key.basis {
-        crate::noise::Basis::Perlin | crate::noise::Basis::Gradient => 0.0,
+        crate::noise::Basis::Perlin
+        | crate::noise::Basis::Gradient
+        | crate::noise::Basis::Simplex => 0.0,
+        // No closed form: the same scatter's estimate.
+        crate::noise::Basis::Cellular(_) | crate::noise::Basis::White => sum / n as f64,
         crate::noise::Basis::Value(_) => {
             (0..256)
                 .map(|x| table.sample::<f64>([x as f64, 0.0, 0.0]))
@@ -261,7 +283,7 @@ mod tests {
             lacunarity: 2.0,
             gain: 0.5,
             first_octave: 0,
-            turbulence: false,
+            style: Style::Fbm,
         }
     }
 
@@ -308,7 +330,7 @@ mod tests {
             seed: 0,
         };
         let mut p = params(8.0);
-        p.turbulence = true;
+        p.style = Style::Turbulence;
         let lod = fractal_lod(key, &p, Some(1.0), 0.25);
         assert!((lod.octaves - 2.0).abs() < 1e-9, "{lod:?}");
         assert!(lod.bias > 0.0, "{lod:?}");

@@ -16,6 +16,13 @@ pub enum Kind {
     Noise,
     Fbm,
     Turbulence,
+    Ridged,
+    Billow,
+    Cellular,
+    WhiteNoise,
+    VecNoise,
+    VecFbm,
+    Warp,
     Add,
     Sub,
     Mul,
@@ -54,9 +61,17 @@ pub enum Lowering {
     Translate,
     Rotate,
     Noise,
-    Fractal {
-        turbulence: bool,
-    },
+    Fractal(FractalKind),
+    /// A cellular noise sample (a `Noise` with the Cellular basis).
+    Cellular,
+    /// A white-noise sample (a `Noise` with the internal White basis).
+    White,
+    /// Three decorrelated noise samples combined into a vec3.
+    VecNoise,
+    /// Three decorrelated fractal sums combined into a vec3.
+    VecFractal,
+    /// `input + amount * VecFbm(input)`.
+    Warp,
     /// A per-lane math operation of `ops.rs` (scalars or vec3 component-wise).
     Unary(UnaryOp),
     Binary(BinaryOp),
@@ -66,6 +81,15 @@ pub enum Lowering {
     Hermite,
     Ramp,
     Curve,
+}
+
+/// The fractal sums: how each octave's noise enters the sum (see `noise::Style`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FractalKind {
+    Fbm,
+    Turbulence,
+    Ridged,
+    Billow,
 }
 
 /// The type an input expression must have.
@@ -132,8 +156,8 @@ pub enum ArgKind {
     ConstAxis,
     /// `Perlin`, `Gradient`, `Value` or `Value(interpolation: Linear | Smooth)`.
     Basis,
-    /// One of the listed interpolation names.
-    Interpolation(&'static [&'static str]),
+    /// One of the listed names (an interpolation, a metric, ...).
+    Choice(&'static [&'static str]),
     /// `[(t, (r, g, b)), ...]`, constant, sorted by t.
     Stops,
     /// `[(x, y), ...]`, constant, sorted by x.
@@ -205,6 +229,9 @@ pub enum Slope {
     SteepestSegment,
     /// No useful bound (the reason): level of detail is off for noise downstream.
     Unbounded(&'static str),
+    /// Lowered into other kinds' operations (VecNoise, VecFbm, Warp), each bounded by its own
+    /// rule.
+    Composite,
 }
 
 /// How the derivative of a node follows from its arguments' derivatives: the slot the
@@ -232,6 +259,8 @@ pub enum Derivative {
     NoiseGradient,
     /// The slope of the spline segment the input falls in, times the input's derivative.
     Spline,
+    /// Lowered into other kinds' operations, each differentiated by its own rule.
+    Composite,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -326,45 +355,146 @@ const GAIN: Range = Range {
 const NOISE_INTERPOLATION: &[&str] = &["Linear", "Smooth"];
 const RAMP_INTERPOLATION: &[&str] = &["Linear", "Smooth", "Constant"];
 
+pub(crate) const METRICS: &[&str] = &["Euclidean", "Manhattan", "Chebyshev"];
+pub(crate) const CELLULAR_VALUES: &[&str] = &["F1", "F2", "F2MinusF1", "CellValue", "Edge"];
+
+const JITTER: Range = Range {
+    min: 0.0,
+    max: 1.0,
+    min_inclusive: true,
+    integer: false,
+};
+const SHARPNESS: Range = Range {
+    min: 0.0,
+    max: 64.0,
+    min_inclusive: false,
+    integer: false,
+};
+
+const INPUT: ArgDef = input("input", InputType::Vec3, "the point to sample");
+const BASIS: ArgDef = ArgDef {
+    name: "basis",
+    kind: ArgKind::Basis,
+    default: None,
+    doc: "the noise: Perlin, Gradient, Value, Simplex or Cellular",
+};
+const SEED_ARG: ArgDef = constant(
+    "seed",
+    SEED,
+    Some(0.0),
+    "selects the tables; 0 is the reference table for Perlin",
+);
+const OCTAVES_ARG: ArgDef = constant(
+    "octaves",
+    OCTAVES,
+    None,
+    "how many octaves; a fraction weights the last, partial octave",
+);
+const LACUNARITY_ARG: ArgDef = constant(
+    "lacunarity",
+    LACUNARITY,
+    Some(2.0),
+    "frequency ratio between octaves",
+);
+const GAIN_ARG: ArgDef = constant("gain", GAIN, Some(0.5), "amplitude ratio between octaves");
+const FIRST_OCTAVE_ARG: ArgDef = constant(
+    "first_octave",
+    FIRST_OCTAVE,
+    Some(0.0),
+    "index of the first octave summed (seed 004's n1)",
+);
+const INTERPOLATION_ARG: ArgDef = ArgDef {
+    name: "interpolation",
+    kind: ArgKind::Choice(NOISE_INTERPOLATION),
+    default: Some(DefaultValue::Name("Linear")),
+    doc: "Value basis only: Linear (trilinear) or Smooth",
+};
+const JITTER_ARG: ArgDef = constant(
+    "jitter",
+    JITTER,
+    Some(1.0),
+    "Cellular only: how far feature points stray from their cell centres (0: a regular grid)",
+);
+const METRIC_ARG: ArgDef = ArgDef {
+    name: "metric",
+    kind: ArgKind::Choice(METRICS),
+    default: Some(DefaultValue::Name("Euclidean")),
+    doc: "Cellular only: the distance measured",
+};
+const VALUE_ARG: ArgDef = ArgDef {
+    name: "value",
+    kind: ArgKind::Choice(CELLULAR_VALUES),
+    default: Some(DefaultValue::Name("F1")),
+    doc: "Cellular only: F1, F2 (nearest, second nearest distance), F2MinusF1, CellValue (a random value per cell) or Edge ((F2 - F1) / 2)",
+};
+
+const NOISE_ARGS: &[ArgDef] = &[
+    INPUT,
+    BASIS,
+    SEED_ARG,
+    INTERPOLATION_ARG,
+    JITTER_ARG,
+    METRIC_ARG,
+    VALUE_ARG,
+];
+
 const FRACTAL_ARGS: &[ArgDef] = &[
-    input("input", InputType::Vec3, "the point to sample"),
-    ArgDef {
-        name: "basis",
-        kind: ArgKind::Basis,
-        default: None,
-        doc: "the noise summed: Perlin, Gradient or Value",
-    },
+    INPUT,
+    BASIS,
+    SEED_ARG,
+    OCTAVES_ARG,
+    LACUNARITY_ARG,
+    GAIN_ARG,
+    FIRST_OCTAVE_ARG,
+    INTERPOLATION_ARG,
+    JITTER_ARG,
+    METRIC_ARG,
+    VALUE_ARG,
+];
+
+const RIDGED_ARGS: &[ArgDef] = &[
+    INPUT,
+    BASIS,
+    SEED_ARG,
+    OCTAVES_ARG,
+    LACUNARITY_ARG,
+    GAIN_ARG,
     constant(
-        "seed",
-        SEED,
-        Some(0.0),
-        "selects the lattice tables; 0 is the reference table for Perlin",
+        "offset",
+        GAIN,
+        Some(1.0),
+        "the ridge height: each octave's signal is offset - |noise|",
     ),
     constant(
-        "octaves",
-        OCTAVES,
-        None,
-        "how many octaves; a fraction weights the last, partial octave",
-    ),
-    constant(
-        "lacunarity",
-        LACUNARITY,
+        "sharpness",
+        SHARPNESS,
         Some(2.0),
-        "frequency ratio between octaves",
+        "the exponent the signal is raised to: higher is sharper ridges",
     ),
-    constant("gain", GAIN, Some(0.5), "amplitude ratio between octaves"),
-    constant(
-        "first_octave",
-        FIRST_OCTAVE,
-        Some(0.0),
-        "index of the first octave summed (seed 004's n1)",
+    FIRST_OCTAVE_ARG,
+    INTERPOLATION_ARG,
+    JITTER_ARG,
+    METRIC_ARG,
+    VALUE_ARG,
+];
+
+const WARP_ARGS: &[ArgDef] = &[
+    INPUT,
+    input(
+        "amount",
+        InputType::Any,
+        "how far the point moves: scalar or per axis, may vary per point",
     ),
-    ArgDef {
-        name: "interpolation",
-        kind: ArgKind::Interpolation(NOISE_INTERPOLATION),
-        default: Some(DefaultValue::Name("Linear")),
-        doc: "Value basis only: Linear (trilinear) or Smooth",
-    },
+    BASIS,
+    SEED_ARG,
+    OCTAVES_ARG,
+    LACUNARITY_ARG,
+    GAIN_ARG,
+    FIRST_OCTAVE_ARG,
+    INTERPOLATION_ARG,
+    JITTER_ARG,
+    METRIC_ARG,
+    VALUE_ARG,
 ];
 
 /// Every node kind, in the order `texgraph nodes` lists them.
@@ -405,33 +535,72 @@ pub const CATALOGUE: &[NodeDef] = &[
     NodeDef {
         kind: Kind::Noise, lowering: Lowering::Noise, slope: Slope::Basis, derivative: Derivative::NoiseGradient,
         name: "Noise",
-        args: &[
-            input("input", InputType::Vec3, "the point to sample"),
-            ArgDef { name: "basis", kind: ArgKind::Basis, default: None, doc: "Perlin, Gradient or Value" },
-            constant("seed", SEED, Some(0.0), "selects the lattice tables; 0 is the reference table for Perlin"),
-            ArgDef {
-                name: "interpolation",
-                kind: ArgKind::Interpolation(NOISE_INTERPOLATION),
-                default: Some(DefaultValue::Name("Linear")),
-                doc: "Value basis only: Linear (trilinear) or Smooth",
-            },
-        ],
+        args: NOISE_ARGS,
         output: OutputType::Scalar,
-        doc: "One lattice noise sample: Perlin (improved, 2002), Gradient (seed 000) or Value (seeds 002/004).",
+        doc: "One noise sample: Perlin (improved, 2002), Gradient (seed 000), Value (seeds 002/004), Simplex or Cellular.",
     },
     NodeDef {
-        kind: Kind::Fbm, lowering: Lowering::Fractal { turbulence: false }, slope: Slope::FractalSum, derivative: Derivative::NoiseGradient,
+        kind: Kind::Fbm, lowering: Lowering::Fractal(FractalKind::Fbm), slope: Slope::FractalSum, derivative: Derivative::NoiseGradient,
         name: "Fbm",
         args: FRACTAL_ARGS,
         output: OutputType::Scalar,
         doc: "Fractal sum: sum over octaves i of gain^i * basis(input * lacunarity^i).",
     },
     NodeDef {
-        kind: Kind::Turbulence, lowering: Lowering::Fractal { turbulence: true }, slope: Slope::FractalSum, derivative: Derivative::NoiseGradient,
+        kind: Kind::Turbulence, lowering: Lowering::Fractal(FractalKind::Turbulence), slope: Slope::FractalSum, derivative: Derivative::NoiseGradient,
         name: "Turbulence",
         args: FRACTAL_ARGS,
         output: OutputType::Scalar,
         doc: "Perlin's turbulence: sum over octaves i of gain^i * |basis(input * lacunarity^i)|.",
+    },
+    NodeDef {
+        kind: Kind::Ridged, lowering: Lowering::Fractal(FractalKind::Ridged), slope: Slope::Unbounded("each octave is weighted by the one before"), derivative: Derivative::NoiseGradient,
+        name: "Ridged",
+        args: RIDGED_ARGS,
+        output: OutputType::Scalar,
+        doc: "Musgrave's ridged multifractal: sum of gain^i * s_i, s_i = max(offset - |n_i|, 0)^sharpness * w_i, w_0 = 1, w_i+1 = clamp(2 s_i, 0, 1).",
+    },
+    NodeDef {
+        kind: Kind::Billow, lowering: Lowering::Fractal(FractalKind::Billow), slope: Slope::FractalSum, derivative: Derivative::NoiseGradient,
+        name: "Billow",
+        args: FRACTAL_ARGS,
+        output: OutputType::Scalar,
+        doc: "Billowy fractal: sum over octaves i of gain^i * (2 |basis(input * lacunarity^i)| - 1).",
+    },
+    NodeDef {
+        kind: Kind::Cellular, lowering: Lowering::Cellular, slope: Slope::Basis, derivative: Derivative::NoiseGradient,
+        name: "Cellular",
+        args: &[INPUT, SEED_ARG, JITTER_ARG, METRIC_ARG, VALUE_ARG],
+        output: OutputType::Scalar,
+        doc: "Worley's cellular noise: distances to the nearest feature points, one point per integer cell (exact search).",
+    },
+    NodeDef {
+        kind: Kind::WhiteNoise, lowering: Lowering::White, slope: Slope::Unbounded("white noise jumps at every cell face"), derivative: Derivative::NoiseGradient,
+        name: "WhiteNoise",
+        args: &[INPUT, SEED_ARG],
+        output: OutputType::Scalar,
+        doc: "A random value in [0, 1] per integer cell of the point (a hash, no interpolation).",
+    },
+    NodeDef {
+        kind: Kind::VecNoise, lowering: Lowering::VecNoise, slope: Slope::Composite, derivative: Derivative::Composite,
+        name: "VecNoise",
+        args: NOISE_ARGS,
+        output: OutputType::Vec3,
+        doc: "Three decorrelated noise samples as a vec3: x uses `seed`, y and z the tables of seed + 2^53 and seed + 2^54.",
+    },
+    NodeDef {
+        kind: Kind::VecFbm, lowering: Lowering::VecFractal, slope: Slope::Composite, derivative: Derivative::Composite,
+        name: "VecFbm",
+        args: FRACTAL_ARGS,
+        output: OutputType::Vec3,
+        doc: "Three decorrelated fbm sums as a vec3 (seeds as VecNoise).",
+    },
+    NodeDef {
+        kind: Kind::Warp, lowering: Lowering::Warp, slope: Slope::Composite, derivative: Derivative::Composite,
+        name: "Warp",
+        args: WARP_ARGS,
+        output: OutputType::Vec3,
+        doc: "Domain warping: input + amount * VecFbm(input, ...); use it as the input of any node, nest it to warp the warp.",
     },
     NodeDef { kind: Kind::Add, lowering: Lowering::Binary(BinaryOp::Add), slope: Slope::Sum, derivative: Derivative::Binary, name: "Add", args: ANY_AB, output: OutputType::Broadcast, doc: "a + b." },
     NodeDef { kind: Kind::Sub, lowering: Lowering::Binary(BinaryOp::Sub), slope: Slope::Sum, derivative: Derivative::Binary, name: "Sub", args: ANY_AB, output: OutputType::Broadcast, doc: "a - b." },
@@ -506,7 +675,7 @@ pub const CATALOGUE: &[NodeDef] = &[
             ArgDef { name: "stops", kind: ArgKind::Stops, default: None, doc: "[(t, (r, g, b)), ...] sorted by t; equal t make a hard edge" },
             ArgDef {
                 name: "interpolation",
-                kind: ArgKind::Interpolation(RAMP_INTERPOLATION),
+                kind: ArgKind::Choice(RAMP_INTERPOLATION),
                 default: Some(DefaultValue::Name("Linear")),
                 doc: "Linear, Smooth (smoothstep-eased) or Constant (hold each stop)",
             },
@@ -522,7 +691,7 @@ pub const CATALOGUE: &[NodeDef] = &[
             ArgDef { name: "points", kind: ArgKind::Points, default: None, doc: "[(x, y), ...] sorted by x; equal x make a jump" },
             ArgDef {
                 name: "interpolation",
-                kind: ArgKind::Interpolation(RAMP_INTERPOLATION),
+                kind: ArgKind::Choice(RAMP_INTERPOLATION),
                 default: Some(DefaultValue::Name("Linear")),
                 doc: "Linear, Smooth (smoothstep-eased) or Constant (hold each point)",
             },
@@ -603,8 +772,8 @@ fn describe_arg(arg: &ArgDef) -> String {
         ArgKind::Input(InputType::Any) => "scalar|vec3".into(),
         ArgKind::ConstScalar(range) => format!("constant, {}", range.describe()),
         ArgKind::ConstAxis => "constant non-zero vec3".into(),
-        ArgKind::Basis => "Perlin|Gradient|Value".into(),
-        ArgKind::Interpolation(names) => names.join("|"),
+        ArgKind::Basis => "Perlin|Gradient|Value|Simplex|Cellular".into(),
+        ArgKind::Choice(names) => names.join("|"),
         ArgKind::Stops => "[(t, (r, g, b)), ...]".into(),
         ArgKind::Points => "[(x, y), ...]".into(),
     }
@@ -702,7 +871,7 @@ mod tests {
             assert_eq!(def(a.kind).name, a.name);
             assert_eq!(lookup(a.name).map(|d| d.kind), Some(a.kind));
         }
-        assert_eq!(CATALOGUE.len(), 33);
+        assert_eq!(CATALOGUE.len(), 40);
     }
 
     /// Each entry lowers to its own operation: a math kind to the `ops` operation of the same
@@ -715,8 +884,9 @@ mod tests {
                 Lowering::Unary(op) => format!("{op:?}"),
                 Lowering::Binary(op) => format!("{op:?}"),
                 Lowering::Ternary(op) => format!("{op:?}"),
-                Lowering::Fractal { turbulence: true } => "Turbulence".into(),
-                Lowering::Fractal { turbulence: false } => "Fbm".into(),
+                Lowering::Fractal(kind) => format!("{kind:?}"),
+                Lowering::White => "WhiteNoise".into(),
+                Lowering::VecFractal => "VecFbm".into(),
                 Lowering::Ramp => "ColorRamp".into(),
                 other => format!("{other:?}"),
             };

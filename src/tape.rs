@@ -14,7 +14,7 @@
 //! lives in a per-thread `Workspace`.
 
 use crate::graph::{TableKey, Type};
-use crate::noise::{Basis, Interpolation, NoiseTable, Octaves};
+use crate::noise::{Basis, Interpolation, NoiseTable, Octaves, Style};
 use crate::ops::{BinaryOp, Curve, Hermite, Ramp, TernaryOp, UnaryOp};
 use std::fmt;
 use std::sync::Arc;
@@ -116,7 +116,7 @@ pub enum Instr {
         src: Slot,
         table: u32,
         octaves: u32,
-        turbulence: bool,
+        style: Style,
         bias: f64,
     },
     Hermite {
@@ -236,12 +236,33 @@ impl Tape {
     }
 }
 
+/// A fractal style as the disassembly writes it.
+fn style_name(style: &Style) -> String {
+    match style {
+        Style::Fbm => "fbm".into(),
+        Style::Turbulence => "turbulence".into(),
+        Style::Billow => "billow".into(),
+        Style::Ridged { offset, sharpness } => {
+            format!("ridged offset={offset} sharpness={sharpness}")
+        }
+    }
+}
+
 fn basis_name(key: &TableKey) -> String {
     match key.basis {
         Basis::Perlin => format!("perlin seed={}", key.seed),
         Basis::Gradient => format!("gradient seed={}", key.seed),
         Basis::Value(Interpolation::Linear) => format!("value seed={}", key.seed),
         Basis::Value(Interpolation::Smooth) => format!("value-smooth seed={}", key.seed),
+        Basis::Simplex => format!("simplex seed={}", key.seed),
+        Basis::White => format!("white seed={}", key.seed),
+        Basis::Cellular(c) => format!(
+            "cellular jitter={} metric={:?} value={:?} seed={}",
+            c.jitter(),
+            c.metric,
+            c.value,
+            key.seed
+        ),
     }
 }
 
@@ -315,7 +336,7 @@ impl fmt::Display for Tape {
                     src,
                     table,
                     octaves,
-                    turbulence,
+                    style,
                     bias,
                 } => {
                     let schedule = &self.octaves[*octaves as usize];
@@ -330,7 +351,7 @@ impl fmt::Display for Tape {
                         schedule.frequencies.iter().map(|a| a.to_string()).collect();
                     format!(
                         "s{dst} = {} v{src} {} octaves={} frequencies=[{}] amplitudes=[{}]",
-                        if *turbulence { "turbulence" } else { "fbm" },
+                        style_name(style),
                         basis_name(&self.tables[*table as usize].0),
                         schedule.len(),
                         frequencies.join(", "),

@@ -201,6 +201,15 @@ fn ternary_kinds() -> Vec<&'static str> {
 }
 const SHAPING: [&str; 3] = ["Hermite", "Curve", "ColorRamp"];
 const NOISE: [&str; 3] = ["Noise", "Fbm", "Turbulence"];
+const NOISE_FAMILIES: [&str; 7] = [
+    "Ridged",
+    "Billow",
+    "Cellular",
+    "WhiteNoise",
+    "VecNoise",
+    "VecFbm",
+    "Warp",
+];
 const VECTOR: [&str; 7] = [
     "Position",
     "Combine",
@@ -232,6 +241,7 @@ fn every_node_kind_has_a_conformance_reference() {
         &ternary_kinds(),
         &SHAPING,
         &NOISE,
+        &NOISE_FAMILIES,
         &VECTOR,
     ]
     .concat();
@@ -652,6 +662,152 @@ fn noise_nodes_match_the_noise_library() {
             assert!(
                 (r32[c * n + i] as f64 - e).abs() < 1e-5,
                 "f32 output {c} at {p:?}"
+            );
+        }
+    }
+}
+
+/// Cellular noise against a brute-force search in plain f64 over the 7³ cells around the point
+/// (its feature points read through `NoiseTable::feature_point`): exactness of the pruned search
+/// for every value and metric.
+fn cellular_reference(
+    table: &texgraph::noise::NoiseTable,
+    metric: &str,
+    value: &str,
+    p: [f64; 3],
+) -> f64 {
+    let base = p.map(|c| c.floor() as i64);
+    let mut found: Vec<(f64, [i64; 3])> = Vec::new();
+    for dz in -3..=3 {
+        for dy in -3..=3 {
+            for dx in -3..=3 {
+                let cell = [base[0] + dx, base[1] + dy, base[2] + dz];
+                let q = table.feature_point(cell).unwrap();
+                let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]].map(f64::abs);
+                let dist = match metric {
+                    "Euclidean" => (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt(),
+                    "Manhattan" => d[0] + d[1] + d[2],
+                    _ => d[0].max(d[1]).max(d[2]),
+                };
+                found.push((dist, cell));
+            }
+        }
+    }
+    found.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (f1, f2) = (found[0].0, found[1].0);
+    match value {
+        "F1" => f1,
+        "F2" => f2,
+        "F2MinusF1" => f2 - f1,
+        "Edge" => (f2 - f1) / 2.0,
+        _ => table.cell_value(found[0].1).unwrap(),
+    }
+}
+
+#[test]
+fn noise_family_nodes_match_their_definitions() {
+    let source = r#"Graph(nodes: { "p": Position }, outputs: {
+            "f1": Cellular(input: "p", seed: 3),
+            "f2": Cellular(input: "p", metric: Manhattan, value: F2, jitter: 0.7),
+            "diff": Cellular(input: "p", metric: Chebyshev, value: F2MinusF1),
+            "edge": Cellular(input: "p", value: Edge, jitter: 0.25),
+            "cells": Cellular(input: "p", value: CellValue, seed: 9),
+            "white": WhiteNoise(input: "p", seed: 5),
+            "ridged": Ridged(input: "p", basis: Perlin, octaves: 4.5, offset: 0.9, sharpness: 3.0),
+            "billow": Billow(input: "p", basis: Simplex, octaves: 3.0, gain: 0.6),
+            "vecnoise": VecNoise(input: "p", basis: Gradient, seed: 4),
+            "vecfbm": VecFbm(input: "p", basis: Perlin, octaves: 3.0),
+            "warp": Warp(input: "p", amount: 0.75, basis: Value, octaves: 2.0),
+        })"#;
+    assert_covers(source, &NOISE_FAMILIES);
+    let t = tape(source);
+    use texgraph::noise::{
+        Basis, Cellular, CellularValue, Interpolation, Metric, NoiseTable, Octaves,
+    };
+    let cellular = |seed, jitter, metric, value| {
+        NoiseTable::new(Basis::Cellular(Cellular::new(jitter, metric, value)), seed)
+    };
+    let f1 = cellular(3, 1.0, Metric::Euclidean, CellularValue::F1);
+    let f2 = cellular(0, 0.7, Metric::Manhattan, CellularValue::F2);
+    let diff = cellular(0, 1.0, Metric::Chebyshev, CellularValue::F2MinusF1);
+    let edge = cellular(0, 0.25, Metric::Euclidean, CellularValue::Edge);
+    let cells = cellular(9, 1.0, Metric::Euclidean, CellularValue::CellValue);
+    // White noise is the value-noise table at the cell's lower corner.
+    let value5 = NoiseTable::new(Basis::Value(Interpolation::Linear), 5);
+    let perlin = NoiseTable::new(Basis::Perlin, 0);
+    let simplex = NoiseTable::new(Basis::Simplex, 0);
+    // The vector kinds: components from seeds seed, seed + 2^53, seed + 2^54.
+    let three = |basis, seed: u64| [0u64, 1, 2].map(|k| NoiseTable::new(basis, seed + (k << 53)));
+    let gradient4 = three(Basis::Gradient, 4);
+    let perlin0 = three(Basis::Perlin, 0);
+    let value0 = three(Basis::Value(Interpolation::Linear), 0);
+    let points: Vec<[f64; 3]> = (0..250)
+        .map(|i| {
+            [
+                i as f64 * 0.173 - 20.0,
+                (i as f64 * 0.37).sin() * 9.0,
+                -(i as f64) * 0.041 + 0.5,
+            ]
+        })
+        .collect();
+    let (r32, r64) = run(&t, &points);
+    let n = points.len();
+    // Plain octave loops (not the library's fractal code).
+    let octave_sum = |p: [f64; 3],
+                      octaves: f64,
+                      gain: f64,
+                      table: &NoiseTable,
+                      shape: &dyn Fn(f64, &mut f64) -> f64| {
+        let schedule = Octaves::new(octaves, 2.0, gain, 0);
+        let mut state = 1.0;
+        let mut sum = 0.0;
+        for (f, a) in schedule.frequencies.iter().zip(&schedule.amplitudes) {
+            let v = table.sample::<f64>([p[0] * f, p[1] * f, p[2] * f]);
+            sum += a * shape(v, &mut state);
+        }
+        sum
+    };
+    let fbm = |p: [f64; 3], octaves: f64, table: &NoiseTable| {
+        octave_sum(p, octaves, 0.5, table, &|v, _| v)
+    };
+    for (i, &p) in points.iter().enumerate() {
+        let ridged = octave_sum(p, 4.5, 0.5, &perlin, &|v, weight| {
+            let signal = (0.9 - v.abs()).max(0.0).powf(3.0) * *weight;
+            *weight = (2.0 * signal).clamp(0.0, 1.0);
+            signal
+        });
+        let billow = octave_sum(p, 3.0, 0.6, &simplex, &|v, _| 2.0 * v.abs() - 1.0);
+        let vf: Vec<f64> = perlin0.iter().map(|t| fbm(p, 3.0, t)).collect();
+        let warp: Vec<f64> = (0..3)
+            .map(|a| p[a] + 0.75 * fbm(p, 2.0, &value0[a]))
+            .collect();
+        let mut expected = vec![
+            (cellular_reference(&f1, "Euclidean", "F1", p), 1e-12),
+            (cellular_reference(&f2, "Manhattan", "F2", p), 1e-12),
+            (
+                cellular_reference(&diff, "Chebyshev", "F2MinusF1", p),
+                1e-12,
+            ),
+            (cellular_reference(&edge, "Euclidean", "Edge", p), 1e-12),
+            (cellular_reference(&cells, "Euclidean", "CellValue", p), 0.0),
+            (value5.sample::<f64>(p.map(f64::floor)), 0.0),
+            (ridged, 1e-12),
+            (billow, 1e-12),
+        ];
+        expected.extend(gradient4.iter().map(|t| (t.sample::<f64>(p), 0.0)));
+        expected.extend(vf.iter().map(|&v| (v, 1e-12)));
+        expected.extend(warp.iter().map(|&v| (v, 1e-12)));
+        for (c, (e, tolerance)) in expected.iter().enumerate() {
+            let got = r64[c * n + i];
+            assert!(
+                (got - e).abs() <= *tolerance,
+                "output channel {c} at {p:?}: {got} vs {e}"
+            );
+            // f32 within 1e-5 of f64 (|p| <= 1e4), the cell value exactly where no tie is near.
+            let got32 = r32[c * n + i] as f64;
+            assert!(
+                (got32 - got).abs() < 1e-5 || c == 4,
+                "f32 channel {c} at {p:?}: {got32} vs {got}"
             );
         }
     }

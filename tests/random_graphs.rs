@@ -24,7 +24,8 @@ fn scalar(depth: u32) -> BoxedStrategy<String> {
             Just("Perlin"),
             Just("Gradient"),
             Just("Value"),
-            Just("Value(Smooth)")
+            Just("Value(Smooth)"),
+            Just("Simplex"),
         ]
         .prop_map(|b| format!("Noise(input: \"p\", basis: {b})")),
     ];
@@ -52,10 +53,32 @@ fn scalar(depth: u32) -> BoxedStrategy<String> {
                 let kind = if turbulence { "Turbulence" } else { "Fbm" };
                 format!("{kind}(input: {v}, basis: {basis}, seed: 7, octaves: {octaves:?}, lacunarity: {lacunarity:?}, gain: {gain:?}, first_octave: {first})")
             }),
+        1 => (vec.clone(), 0.0f64..5.0, 1.01f64..3.0, -1.0f64..1.0, 0.0f64..1.5, 0.5f64..4.0, any::<bool>(), small_basis())
+            .prop_map(|(v, octaves, lacunarity, gain, offset, sharpness, ridged, basis)| if ridged {
+                format!("Ridged(input: {v}, basis: {basis}, octaves: {octaves:?}, lacunarity: {lacunarity:?}, gain: {gain:?}, offset: {offset:?}, sharpness: {sharpness:?})")
+            } else {
+                format!("Billow(input: {v}, basis: {basis}, octaves: {octaves:?}, lacunarity: {lacunarity:?}, gain: {gain:?})")
+            }),
+        1 => (vec.clone(), 0u32..100, 0.0f64..=1.0, prop::sample::select(vec!["Euclidean", "Manhattan", "Chebyshev"]), prop::sample::select(vec!["F1", "F2", "F2MinusF1", "CellValue", "Edge"]))
+            .prop_map(|(v, seed, jitter, metric, value)| format!("Cellular(input: {v}, seed: {seed}, jitter: {jitter:?}, metric: {metric}, value: {value})")),
+        1 => (vec.clone(), 0u32..100).prop_map(|(v, seed)| format!("WhiteNoise(input: {v}, seed: {seed})")),
         1 => vec.clone().prop_map(|v| format!("Length({v})")),
         1 => (vec.clone(), vec).prop_map(|(a, b)| format!("Dot({a}, {b})")),
         1 => Just("\"q.y\"".to_string()),
     ]
+    .boxed()
+}
+
+/// A basis for the noise families (every basis, cellular with its parameters).
+fn small_basis() -> BoxedStrategy<&'static str> {
+    prop::sample::select(vec![
+        "Perlin",
+        "Gradient",
+        "Value(Smooth)",
+        "Simplex",
+        "Cellular",
+        "Cellular(jitter: 0.5, metric: Manhattan, value: F2MinusF1)",
+    ])
     .boxed()
 }
 
@@ -78,6 +101,9 @@ fn vec3(depth: u32) -> BoxedStrategy<String> {
         1 => (inner.clone(), s.clone(), -1.0f64..1.0, 0.1f64..1.0).prop_map(|(v, d, ax, ay)| format!("Rotate(input: {v}, axis: ({ax:?}, {ay:?}, 0.3), degrees: {d})")),
         1 => (s.clone(), s.clone(), s.clone()).prop_map(|(x, y, z)| format!("Combine({x}, {y}, {z})")),
         1 => (inner.clone(), inner.clone()).prop_map(|(a, b)| format!("Add({a}, {b})")),
+        1 => (inner.clone(), small_basis()).prop_map(|(v, basis)| format!("VecNoise(input: {v}, basis: {basis}, seed: 3)")),
+        1 => (inner.clone(), 0.0f64..4.0, small_basis()).prop_map(|(v, octaves, basis)| format!("VecFbm(input: {v}, basis: {basis}, octaves: {octaves:?})")),
+        1 => (inner.clone(), s.clone(), 0.0f64..3.0, small_basis()).prop_map(|(v, amount, octaves, basis)| format!("Warp(input: {v}, amount: {amount}, basis: {basis}, octaves: {octaves:?})")),
         1 => inner.clone().prop_map(|a| format!("Fract({a})")),
         1 => (s, prop::collection::vec(-1.0f64..2.0, 1..4)).prop_map(|(x, mut ts)| {
             ts.sort_by(f64::total_cmp);

@@ -434,7 +434,7 @@ impl Generator {
             }),
             9 | 10 => self.nested(|g| {
                 let v = g.vec3(u)?;
-                let kind = u.choose(&["Fbm", "Turbulence"])?;
+                let kind = u.choose(&["Fbm", "Turbulence", "Ridged", "Billow"])?;
                 let (basis, interpolation) = basis(u)?;
                 let seed = u.int_in_range(0u64..=(1 << 53) - 1)?;
                 let octaves = in_range(u, 0.0, 12.0)?;
@@ -447,7 +447,16 @@ impl Generator {
                 let v = g.vec3(u)?;
                 let (basis, interpolation) = basis(u)?;
                 let seed = u.int_in_range(0u64..=1000)?;
-                Ok(format!("Noise(input: {v}, basis: {basis}, seed: {seed}{interpolation})"))
+                Ok(match u.int_in_range(0u8..=2)? {
+                    0 => format!("Noise(input: {v}, basis: {basis}, seed: {seed}{interpolation})"),
+                    1 => {
+                        let jitter = in_range(u, 0.0, 1.0)?;
+                        let metric = u.choose(&["Euclidean", "Manhattan", "Chebyshev"])?;
+                        let value = u.choose(&["F1", "F2", "F2MinusF1", "CellValue", "Edge"])?;
+                        format!("Cellular(input: {v}, seed: {seed}, jitter: {jitter:?}, metric: {metric}, value: {value})")
+                    }
+                    _ => format!("WhiteNoise(input: {v}, seed: {seed})"),
+                })
             }),
             12 => self.nested(|g| Ok(format!("Length({})", g.vec3(u)?))),
             13 => self.nested(|g| Ok(format!("Dot({}, {})", g.vec3(u)?, g.vec3(u)?))),
@@ -479,7 +488,7 @@ impl Generator {
         let choice = if leaf_only {
             0
         } else {
-            u.int_in_range(0u8..=12)?
+            u.int_in_range(0u8..=14)?
         };
         match choice {
             0..=2 => Ok(u
@@ -539,6 +548,24 @@ impl Generator {
                 let op = u.choose(unary_kinds())?;
                 Ok(format!("{op}({})", g.vec3(u)?))
             }),
+            11 => self.nested(|g| {
+                let v = g.vec3(u)?;
+                let (basis, extra) = basis(u)?;
+                let octaves = in_range(u, 0.0, 6.0)?;
+                Ok(if u.arbitrary()? {
+                    format!("VecNoise(input: {v}, basis: {basis}{extra})")
+                } else {
+                    format!("VecFbm(input: {v}, basis: {basis}, octaves: {octaves:?}{extra})")
+                })
+            }),
+            12 => self.nested(|g| {
+                let (v, amount) = (g.vec3(u)?, g.scalar(u)?);
+                let (basis, extra) = basis(u)?;
+                let octaves = in_range(u, 0.0, 6.0)?;
+                Ok(format!(
+                    "Warp(input: {v}, amount: {amount}, basis: {basis}, octaves: {octaves:?}{extra})"
+                ))
+            }),
             9 => self.nested(|g| {
                 let (a, b, c) = (g.vec3(u)?, g.vec3(u)?, g.scalar(u)?);
                 Ok(match u.int_in_range(0u8..=2)? {
@@ -577,12 +604,17 @@ impl Generator {
     }
 }
 
-/// A noise basis and, for Value, sometimes its interpolation argument (with a leading comma).
+/// A noise basis and, for Value and Cellular, sometimes their own arguments (with a leading
+/// comma).
 fn basis(u: &mut Unstructured) -> Result<(&'static str, &'static str)> {
-    Ok(match u.int_in_range(0u8..=3)? {
+    Ok(match u.int_in_range(0u8..=7)? {
         0 => ("Perlin", ""),
         1 => ("Gradient", ""),
         2 => ("Value", ""),
-        _ => ("Value", ", interpolation: Smooth"),
+        3 => ("Value", ", interpolation: Smooth"),
+        4 => ("Simplex", ""),
+        5 => ("Cellular", ""),
+        6 => ("Cellular", ", jitter: 0.3, metric: Chebyshev, value: Edge"),
+        _ => ("Cellular(metric: Manhattan, value: CellValue)", ""),
     })
 }

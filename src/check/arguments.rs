@@ -163,7 +163,7 @@ impl Checker {
             }
             (DefaultValue::Number(v), _) => Arg::Const(v),
             (DefaultValue::Vec3(v), _) => Arg::Axis(v),
-            (DefaultValue::Name(n), _) => Arg::Interpolation(n, false),
+            (DefaultValue::Name(n), _) => Arg::Choice(n, false),
         }
     }
 
@@ -208,13 +208,13 @@ impl Checker {
             ArgKind::Basis => self
                 .basis(value, origin)
                 .map(|(b, explicit)| Arg::Basis(b, explicit)),
-            ArgKind::Interpolation(allowed) => {
+            ArgKind::Choice(allowed) => {
                 let name = match &value.kind {
                     ValueKind::Ident(n) => allowed.iter().find(|a| **a == n.as_str()).copied(),
                     _ => None,
                 };
                 match name {
-                    Some(n) => Some(Arg::Interpolation(n, true)),
+                    Some(n) => Some(Arg::Choice(n, true)),
                     None => {
                         self.error(
                             Diagnostic::new(
@@ -229,7 +229,7 @@ impl Checker {
                             )
                             .in_node(&*origin.node)
                             .at(value.span)
-                            .label("unknown interpolation"),
+                            .label(format!("not a known `{}`", arg.name)),
                         );
                         None
                     }
@@ -422,7 +422,12 @@ impl Checker {
         let basis = match name {
             "Perlin" if inner.is_none() => Basis::Perlin,
             "Gradient" if inner.is_none() => Basis::Gradient,
-            "Perlin" | "Gradient" => {
+            "Simplex" if inner.is_none() => Basis::Simplex,
+            "Cellular" => {
+                let fields = inner.unwrap_or(&[]);
+                return Some((self.cellular_basis(fields, origin)?, !fields.is_empty()));
+            }
+            "Perlin" | "Gradient" | "Simplex" => {
                 self.error(
                     Diagnostic::new(
                         Class::BadParameter,
@@ -430,7 +435,7 @@ impl Checker {
                     )
                     .in_node(&*origin.node)
                     .at(value.span)
-                    .label("only Value noise has an interpolation")
+                    .label("only Value and Cellular noise take arguments")
                     .help(format!("write `basis: {name}`")),
                 );
                 return None;
@@ -469,16 +474,67 @@ impl Checker {
                 .in_node(&*origin.node)
                 .at(span)
                 .label("not a basis");
-                d = d.help(
-                    match nodes::suggest_from(name, ["Perlin", "Gradient", "Value"].into_iter()) {
-                        Some(s) if !name.is_empty() => format!("did you mean `{s}`?"),
-                        _ => "the bases are Perlin, Gradient and Value".into(),
-                    },
-                );
+                d = d.help(match nodes::suggest_from(name, BASES.into_iter()) {
+                    Some(s) if !name.is_empty() => format!("did you mean `{s}`?"),
+                    _ => "the bases are Perlin, Gradient, Value, Simplex and Cellular".into(),
+                });
                 self.error(d);
                 return None;
             }
         };
         Some((basis, false))
     }
+
+    /// `Cellular(jitter: J, metric: M, value: V)`'s fields (each optional, defaults as the
+    /// node arguments of the same names: jitter 1, Euclidean, F1).
+    fn cellular_basis(
+        &mut self,
+        fields: &[(Spanned<Text>, Value)],
+        origin: &Origin,
+    ) -> Option<Basis> {
+        let (mut jitter, mut metric, mut value) = (1.0, "Euclidean", "F1");
+        for (field, v) in fields {
+            let ok = match (field.value.as_str(), &v.kind) {
+                ("jitter", &ValueKind::Number(j)) if (0.0..=1.0).contains(&j) => {
+                    jitter = j;
+                    true
+                }
+                ("metric", ValueKind::Ident(m)) => nodes::METRICS
+                    .iter()
+                    .find(|n| **n == m.as_str())
+                    .map(|n| metric = n)
+                    .is_some(),
+                ("value", ValueKind::Ident(m)) => nodes::CELLULAR_VALUES
+                    .iter()
+                    .find(|n| **n == m.as_str())
+                    .map(|n| value = n)
+                    .is_some(),
+                _ => false,
+            };
+            if !ok {
+                self.error(
+                    Diagnostic::new(
+                        Class::BadParameter,
+                        format!(
+                            "Cellular takes `jitter: 0..1`, `metric: {}` and `value: {}`",
+                            nodes::METRICS.join(" | "),
+                            nodes::CELLULAR_VALUES.join(" | ")
+                        ),
+                    )
+                    .in_node(&*origin.node)
+                    .at(field.span.to(v.span))
+                    .label("not understood"),
+                );
+                return None;
+            }
+        }
+        Some(Basis::Cellular(Cellular::new(
+            jitter,
+            super::lowering::metric_named(metric),
+            super::lowering::cellular_value_named(value),
+        )))
+    }
 }
+
+/// The basis names `basis:` accepts, for "did you mean" hints.
+const BASES: [&str; 5] = ["Perlin", "Gradient", "Value", "Simplex", "Cellular"];

@@ -46,9 +46,13 @@ impl Checker {
                     smallvec![input("input"), input("degrees")],
                 )
             }
-            Lowering::Noise | Lowering::Fractal { .. } => {
-                self.noise(def, &args, given, whole, here)?
-            }
+            Lowering::Noise
+            | Lowering::Fractal(_)
+            | Lowering::Cellular
+            | Lowering::White
+            | Lowering::VecNoise
+            | Lowering::VecFractal
+            | Lowering::Warp => self.noise(def, &args, given, whole, here)?,
             Lowering::Binary(op) => (Op::Binary(op), self.broadcast_all(&operands, here)),
             Lowering::Unary(op) => (unary(op), operands),
             Lowering::Length => (Op::Length, smallvec![input("v")]),
@@ -65,8 +69,8 @@ impl Checker {
             ),
             Lowering::Ramp | Lowering::Curve => {
                 let interpolation = match named.get("interpolation") {
-                    Some(Arg::Interpolation("Smooth", _)) => SplineInterpolation::Smooth,
-                    Some(Arg::Interpolation("Constant", _)) => SplineInterpolation::Constant,
+                    Some(Arg::Choice("Smooth", _)) => SplineInterpolation::Smooth,
+                    Some(Arg::Choice("Constant", _)) => SplineInterpolation::Constant,
                     _ => SplineInterpolation::Linear,
                 };
                 let table = named.get("stops").or_else(|| named.get("points"));
@@ -96,8 +100,10 @@ impl Checker {
         Some(self.builder.add(op, op_args, here))
     }
 
-    /// `Noise`, `Fbm` and `Turbulence`: the basis (with its interpolation, given once), the
-    /// seed, and for the fractals an octave schedule whose scales stay finite.
+    /// The noise kinds: the basis (with its interpolation or cellular parameters, each given
+    /// once), the seed, for the fractals an octave schedule whose scales stay finite, and for
+    /// the vector kinds three decorrelated samples (tables `seed`, `seed + 2^53`, `seed + 2^54`:
+    /// seeds no node can write, as seeds stop at 2^53 - 1).
     fn noise(
         &mut self,
         def: &NodeDef,
@@ -107,42 +113,113 @@ impl Checker {
         here: &Origin,
     ) -> Option<(Op, Args)> {
         let named = Named { def, args };
-        let input = |name: &str| named.input(name);
-        let constant = |name: &str| named.constant(name);
+        let input = named.input("input");
+        let basis = match def.lowering {
+            Lowering::White => Basis::White,
+            Lowering::Cellular => Basis::Cellular(cellular_params(&named)),
+            _ => self.resolve_basis(&named, given, whole, here)?,
+        };
+        let seed = named.constant("seed") as u64;
+        let key = |k: u64| TableKey {
+            basis,
+            seed: seed.wrapping_add(k << 53),
+        };
+        let style = match def.lowering {
+            Lowering::Fractal(FractalKind::Fbm) | Lowering::VecFractal | Lowering::Warp => {
+                Some(Style::Fbm)
+            }
+            Lowering::Fractal(FractalKind::Turbulence) => Some(Style::Turbulence),
+            Lowering::Fractal(FractalKind::Billow) => Some(Style::Billow),
+            Lowering::Fractal(FractalKind::Ridged) => Some(Style::Ridged {
+                offset: named.constant("offset"),
+                sharpness: named.constant("sharpness"),
+            }),
+            _ => None,
+        };
+        let params = match style {
+            Some(style) => Some(self.fractal_params(&named, style, whole, here)?),
+            None => None,
+        };
+        let one = |k: u64| match params {
+            Some(p) => Op::Fractal(key(k), p),
+            None => Op::Noise(key(k)),
+        };
+        let vector = |checker: &mut Self| -> Args {
+            (0..3)
+                .map(|k| checker.builder.add(one(k), smallvec![input], here))
+                .collect()
+        };
+        Some(match def.lowering {
+            Lowering::VecNoise | Lowering::VecFractal => (Op::Combine, vector(self)),
+            Lowering::Warp => {
+                let components = vector(self);
+                let offset = self.builder.add(Op::Combine, components, here);
+                let amount = self
+                    .builder
+                    .broadcast(named.input("amount"), Type::Vec3, here);
+                let moved =
+                    self.builder
+                        .add(Op::Binary(BinaryOp::Mul), smallvec![amount, offset], here);
+                (Op::Binary(BinaryOp::Add), smallvec![input, moved])
+            }
+            _ => (one(0), smallvec![input]),
+        })
+    }
+
+    /// The basis of a noise kind that takes one: `basis` with the node's `interpolation`
+    /// (Value only) or `jitter`/`metric`/`value` (Cellular only), each said at most once.
+    fn resolve_basis(
+        &mut self,
+        named: &Named,
+        given: &[Option<&Value>],
+        whole: &Value,
+        here: &Origin,
+    ) -> Option<Basis> {
         let Some(&Arg::Basis(basis, explicit)) = named.get("basis") else {
             return None;
         };
-        let interpolation_index = named.index("interpolation")?;
-        let basis = match (basis, &args[interpolation_index]) {
-            (Basis::Value(written), Arg::Interpolation(field, true))
+        let span_of = |name: &str| {
+            named
+                .index(name)
+                .and_then(|i| given.get(i).copied().flatten())
+                .map(|v| v.span)
+        };
+        let cellular_given = ["jitter", "metric", "value"]
+            .into_iter()
+            .find_map(|n| span_of(n).map(|s| (n, s)));
+        let interpolation = match named.get("interpolation") {
+            Some(Arg::Choice(field, true)) => Some(*field),
+            _ => None,
+        };
+        let interpolation_span = span_of("interpolation").unwrap_or(whole.span);
+        let twice = |what: &str| {
+            Diagnostic::new(
+                Class::BadParameter,
+                format!("the {what} is given twice: in `basis` and as the node's own argument"),
+            )
+            .in_node(&*here.node)
+            .label("also given in the basis")
+            .help("give it once")
+        };
+        let basis = match (basis, interpolation, cellular_given) {
+            (Basis::Value(written), Some(field), _)
                 if explicit && written != interpolation_named(field) =>
             {
-                let span = given[interpolation_index].map_or(whole.span, |v| v.span);
-                self.error(
-                    Diagnostic::new(
-                        Class::BadParameter,
-                        "the interpolation is given twice, differently: in `basis` and in `interpolation`",
-                    )
-                    .in_node(&*here.node)
-                    .at(span)
-                    .label("contradicts the basis")
-                    .help("give it once"),
-                );
+                self.error(twice("interpolation").at(interpolation_span));
                 return None;
             }
-            (Basis::Value(_), Arg::Interpolation("Smooth", true)) => {
-                Basis::Value(Interpolation::Smooth)
+            (Basis::Value(_), Some(field), _) => Basis::Value(interpolation_named(field)),
+            (Basis::Cellular(_), _, Some((name, span))) if explicit => {
+                self.error(twice(&format!("cellular `{name}`")).at(span));
+                return None;
             }
-            (Basis::Value(_), Arg::Interpolation("Linear", true)) => {
-                Basis::Value(Interpolation::Linear)
-            }
-            (Basis::Value(i), _) => Basis::Value(i),
-            (other, Arg::Interpolation(_, true)) => {
-                let span = given[interpolation_index].map_or(whole.span, |v| v.span);
+            (Basis::Cellular(c), _, _) if explicit => Basis::Cellular(c),
+            (Basis::Cellular(_), _, _) => Basis::Cellular(cellular_params(named)),
+            (other, _, Some((name, span))) => {
                 self.error(
                     Diagnostic::new(
                         Class::BadParameter,
-                        format!("`interpolation` applies to the Value basis only, not {other:?}"),
+                        format!("`{name}` applies to the Cellular basis only, not {other:?}"),
                     )
                     .in_node(&*here.node)
                     .at(span)
@@ -150,48 +227,64 @@ impl Checker {
                 );
                 return None;
             }
-            (other, _) => other,
-        };
-        let key = TableKey {
-            basis,
-            seed: constant("seed") as u64,
-        };
-        Some(if def.lowering == Lowering::Noise {
-            (Op::Noise(key), smallvec![input("input")])
-        } else {
-            let params = FractalParams {
-                octaves: constant("octaves"),
-                lacunarity: constant("lacunarity"),
-                gain: constant("gain"),
-                first_octave: constant("first_octave") as u32,
-                turbulence: def.lowering == Lowering::Fractal { turbulence: true },
-            };
-            // Octave frequencies and amplitudes grow as powers: keep them finite.
-            let schedule = params.schedule();
-            let worst = schedule
-                .frequencies
-                .iter()
-                .chain(&schedule.amplitudes)
-                .fold(0.0f64, |m, v| m.max(v.abs()));
-            if worst > limits::MAX_OCTAVE_SCALE {
+            (Basis::Value(i), None, _) => Basis::Value(i),
+            (other, Some(_), _) => {
                 self.error(
                     Diagnostic::new(
                         Class::BadParameter,
-                        format!(
-                            "octave frequencies or amplitudes reach {}, above the limit {}",
-                            crate::diagnostic::number(worst),
-                            crate::diagnostic::number(limits::MAX_OCTAVE_SCALE)
-                        ),
+                        format!("`interpolation` applies to the Value basis only, not {other:?}"),
                     )
                     .in_node(&*here.node)
-                    .at(whole.span)
-                    .label("lacunarity^i or gain^i too large")
-                    .help("use fewer octaves, a smaller first_octave, lacunarity or gain"),
+                    .at(interpolation_span)
+                    .label("not used by this basis"),
                 );
                 return None;
             }
-            (Op::Fractal(key, params), smallvec![input("input")])
-        })
+            (other, None, None) => other,
+        };
+        Some(basis)
+    }
+
+    /// The octave schedule of a fractal kind, refused when its scales overflow.
+    fn fractal_params(
+        &mut self,
+        named: &Named,
+        style: Style,
+        whole: &Value,
+        here: &Origin,
+    ) -> Option<FractalParams> {
+        let params = FractalParams {
+            octaves: named.constant("octaves"),
+            lacunarity: named.constant("lacunarity"),
+            gain: named.constant("gain"),
+            first_octave: named.constant("first_octave") as u32,
+            style,
+        };
+        // Octave frequencies and amplitudes grow as powers: keep them finite.
+        let schedule = params.schedule();
+        let worst = schedule
+            .frequencies
+            .iter()
+            .chain(&schedule.amplitudes)
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        if worst > limits::MAX_OCTAVE_SCALE {
+            self.error(
+                Diagnostic::new(
+                    Class::BadParameter,
+                    format!(
+                        "octave frequencies or amplitudes reach {}, above the limit {}",
+                        crate::diagnostic::number(worst),
+                        crate::diagnostic::number(limits::MAX_OCTAVE_SCALE)
+                    ),
+                )
+                .in_node(&*here.node)
+                .at(whole.span)
+                .label("lacunarity^i or gain^i too large")
+                .help("use fewer octaves, a smaller first_octave, lacunarity or gain"),
+            );
+            return None;
+        }
+        Some(params)
     }
 
     /// Splats scalar operands when any operand is a vec3 (component-wise math).
@@ -239,6 +332,14 @@ impl Named<'_> {
         }
     }
 
+    /// A choice argument's name (a name the entry lacks: as for [`Named::input`]).
+    fn choice(&self, name: &str) -> &'static str {
+        match self.get(name) {
+            Some(Arg::Choice(n, _)) => n,
+            _ => "",
+        }
+    }
+
     /// A constant argument's value (a name the entry lacks: as for [`Named::input`]).
     fn constant(&self, name: &str) -> f64 {
         debug_assert!(
@@ -250,5 +351,34 @@ impl Named<'_> {
             Some(Arg::Const(v)) => *v,
             _ => 0.0,
         }
+    }
+}
+
+/// The cellular parameters of a node's own `jitter`, `metric` and `value` arguments.
+fn cellular_params(named: &Named) -> Cellular {
+    Cellular::new(
+        named.constant("jitter"),
+        metric_named(named.choice("metric")),
+        cellular_value_named(named.choice("value")),
+    )
+}
+
+/// A metric by its name in the catalogue's list.
+pub(super) fn metric_named(name: &str) -> Metric {
+    match name {
+        "Manhattan" => Metric::Manhattan,
+        "Chebyshev" => Metric::Chebyshev,
+        _ => Metric::Euclidean,
+    }
+}
+
+/// A cellular value by its name in the catalogue's list.
+pub(super) fn cellular_value_named(name: &str) -> CellularValue {
+    match name {
+        "F2" => CellularValue::F2,
+        "F2MinusF1" => CellularValue::F2MinusF1,
+        "CellValue" => CellularValue::CellValue,
+        "Edge" => CellularValue::Edge,
+        _ => CellularValue::F1,
     }
 }

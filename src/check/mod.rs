@@ -19,8 +19,10 @@ use crate::graph::{
     Args, CheckedGraph, FractalParams, GraphBuilder, NodeId, Op, Origin, Output, TableKey, Type,
 };
 use crate::limits;
-use crate::nodes::{self, ArgDef, ArgKind, DefaultValue, InputType, Lowering, NodeDef, OutputType};
-use crate::noise::{Basis, Interpolation};
+use crate::nodes::{
+    self, ArgDef, ArgKind, DefaultValue, FractalKind, InputType, Lowering, NodeDef, OutputType,
+};
+use crate::noise::{Basis, Cellular, CellularValue, Interpolation, Metric, Style};
 use crate::ops::{self, BinaryOp, Curve, Hermite, Ramp, SplineInterpolation};
 use crate::syntax::{self, Text, Value, ValueKind};
 use rustc_hash::FxHashMap as HashMap;
@@ -88,7 +90,7 @@ enum Arg {
     Const(f64),
     Axis([f64; 3]),
     Basis(Basis, bool),
-    Interpolation(&'static str, bool),
+    Choice(&'static str, bool),
     Stops(Vec<(f64, [f64; 3])>),
     Points(Vec<(f64, f64)>),
 }

@@ -4,7 +4,7 @@
 use crate::real::Real;
 
 /// 2^52: every f64 at least this large in magnitude is an integer.
-const TWO52: f64 = 4_503_599_627_370_496.0;
+pub(super) const TWO52: f64 = 4_503_599_627_370_496.0;
 
 /// Splits one coordinate into its lattice cell index mod 256 and its fraction within the cell.
 ///

@@ -13,8 +13,12 @@
 //! They return the point functions' bits (Rust never contracts or reassociates float arithmetic;
 //! NaN results are made canonical on both paths); the tests hold them to it.
 
+mod cellular;
 mod lattice;
 mod rng;
+mod simplex;
+
+pub use cellular::{Cellular, CellularValue, Metric};
 
 /// The crate's one fixed generator, also used for sample sets (report, level of detail).
 pub(crate) use rng::SplitMix64;
@@ -148,8 +152,7 @@ trait LatticeKernel {
     fn interior<S: Real, const WIDE: bool>(&self, h: [u8; 8], frac: [S; 3]) -> S;
 }
 
-/// Runs `$body` with `$k` bound to the [`NoiseKernel`] of `$table`'s basis (today each a
-/// [`LatticeKernel`]).
+/// Runs `$body` with `$k` bound to the [`NoiseKernel`] of `$table`'s basis.
 macro_rules! with_kernel {
     ($table:expr, $k:ident => $body:expr) => {{
         let t: &NoiseTable = $table;
@@ -185,6 +188,26 @@ macro_rules! with_kernel {
                 };
                 $body
             }
+            Basis::Simplex => {
+                let $k = SimplexKernel { perm: &t.perm };
+                $body
+            }
+            Basis::Cellular(params) => {
+                let $k = CellularKernel {
+                    perm: &t.perm,
+                    features: &t.features,
+                    values: &t.values,
+                    params,
+                };
+                $body
+            }
+            Basis::White => {
+                let $k = WhiteKernel {
+                    perm: &t.perm,
+                    values: &t.values,
+                };
+                $body
+            }
         }
     }};
 }
@@ -205,11 +228,11 @@ mod value;
 #[allow(unsafe_code)]
 mod vbmi;
 
-pub use fractal::{fractal, fractal_batch, Octaves};
+pub use fractal::{fractal, fractal_batch, fractal_styled, fractal_styled_batch, Octaves, Style};
 
 use crate::real::Real;
 
-/// The lattice noise function underlying a noise node.
+/// The noise function underlying a noise node.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Basis {
     /// Ken Perlin's 2002 improved noise; seed 0 is the published reference. Range within ±1.04.
@@ -218,6 +241,12 @@ pub enum Basis {
     Gradient,
     /// Value noise: random values in [0, 1] on lattice points, interpolated.
     Value(Interpolation),
+    /// Simplex gradient noise on the skewed grid (see `simplex.rs`); range ±1.
+    Simplex,
+    /// Cellular (Worley) noise (see `cellular.rs`).
+    Cellular(Cellular),
+    /// A per-cell random value in [0, 1] (the `WhiteNoise` node; not a fractal basis).
+    White,
 }
 
 /// Interpolation of value noise between lattice points.
@@ -246,8 +275,11 @@ pub struct NoiseTable {
     pairs: [i32; 512],
     /// Gradient basis: unit vectors (f32 precision, see the module docs).
     grads: [[f32; 3]; 256],
-    /// Value basis: lattice values in [0, 1] (f32 precision).
+    /// Value basis: lattice values in [0, 1] (f32 precision); Cellular: the per-cell values of
+    /// `CellValue`; White: the per-cell values.
     values: [f32; 256],
+    /// Cellular basis: the jittered feature point of each hash value, in [0, 1]³ (f32).
+    features: [[f32; 3]; 256],
 }
 
 impl std::fmt::Debug for NoiseTable {
@@ -281,8 +313,14 @@ impl NoiseTable {
             _ => [[0.0; 3]; 256],
         };
         let values = match basis {
-            Basis::Value(_) => value::values(seed ^ rng::VALUE_SALT),
+            Basis::Value(_) | Basis::Cellular(_) | Basis::White => {
+                value::values(seed ^ rng::VALUE_SALT)
+            }
             _ => [0.0; 256],
+        };
+        let features = match basis {
+            Basis::Cellular(c) => cellular::features(seed ^ rng::CELL_SALT, c.jitter()),
+            _ => [[0.0; 3]; 256],
         };
         let pairs = std::array::from_fn(|i| perm[i] as i32 | (perm[(i + 1) % 512] as i32) << 8);
         NoiseTable {
@@ -292,6 +330,7 @@ impl NoiseTable {
             pairs,
             grads,
             values,
+            features,
         }
     }
 
@@ -303,6 +342,32 @@ impl NoiseTable {
     /// The seed the tables were built from.
     pub fn seed(&self) -> u64 {
         self.seed
+    }
+
+    /// Cellular basis: the feature point of integer cell `cell`, in world coordinates (the
+    /// cell's corner plus its jittered offset); `None` for other bases. For independent
+    /// references (a brute-force search over many cells) and tools.
+    pub fn feature_point(&self, cell: [i64; 3]) -> Option<[f64; 3]> {
+        let Basis::Cellular(_) = self.basis else {
+            return None;
+        };
+        let offset = self.features[self.cell_hash(cell)];
+        Some(std::array::from_fn(|a| cell[a] as f64 + offset[a] as f64))
+    }
+
+    /// Cellular and White bases: the random value in [0, 1] of integer cell `cell` (what
+    /// `CellValue` and `WhiteNoise` return there); `None` for other bases.
+    pub fn cell_value(&self, cell: [i64; 3]) -> Option<f64> {
+        match self.basis {
+            Basis::Cellular(_) | Basis::White => Some(self.values[self.cell_hash(cell)] as f64),
+            _ => None,
+        }
+    }
+
+    /// The hash of an integer cell (indices mod 256), as every basis hashes a lattice point.
+    fn cell_hash(&self, cell: [i64; 3]) -> usize {
+        let [i, j, k] = cell.map(|c| c.rem_euclid(256) as usize);
+        lattice::corner_hashes(&self.perm, i, j, k)[0]
     }
 
     /// One sample at p. Positions are f64 (always, also on the f32 path); the interior
@@ -350,7 +415,9 @@ impl NoiseTable {
         match self.basis {
             Basis::Perlin => (-PERLIN_RANGE, PERLIN_RANGE),
             Basis::Gradient => (-GRADIENT_RANGE, GRADIENT_RANGE),
-            Basis::Value(_) => (0.0, 1.0),
+            Basis::Value(_) | Basis::White => (0.0, 1.0),
+            Basis::Simplex => (-simplex::RANGE, simplex::RANGE),
+            Basis::Cellular(c) => c.range(),
         }
     }
 
@@ -384,7 +451,17 @@ impl Basis {
             Basis::Gradient => 8.795,
             Basis::Value(Interpolation::Linear) => 1.7321,
             Basis::Value(Interpolation::Smooth) => 2.5981,
+            Basis::Simplex => simplex::LIPSCHITZ,
+            Basis::Cellular(c) => c.lipschitz(),
+            // Jumps at every cell face.
+            Basis::White => f64::INFINITY,
         }
+    }
+
+    /// Whether the basis can be summed by `Fbm`, `Turbulence` and the other fractals (all but
+    /// white noise, which has no frequency content to scale).
+    pub fn is_fractal(self) -> bool {
+        !matches!(self, Basis::White)
     }
 }
 
@@ -500,5 +577,51 @@ impl<const SMOOTH: bool> LatticeKernel for ValueKernel<'_, SMOOTH> {
     #[inline(always)]
     fn interior<S: Real, const WIDE: bool>(&self, h: [u8; 8], frac: [S; 3]) -> S {
         canonical_nan(value::interior::<S, SMOOTH>(self.values, h, frac))
+    }
+}
+
+/// [`Basis::Simplex`]'s kernel (per-point batches for now: bit-identical by construction).
+struct SimplexKernel<'a> {
+    perm: &'a [u8; 512],
+}
+
+impl NoiseKernel for SimplexKernel<'_> {
+    #[inline(always)]
+    fn sample<S: Real>(&self, p: [f64; 3]) -> S {
+        canonical_nan(simplex::sample(self.perm, p))
+    }
+}
+
+/// [`Basis::Cellular`]'s kernel (per-point batches for now: bit-identical by construction).
+struct CellularKernel<'a> {
+    perm: &'a [u8; 512],
+    features: &'a [[f32; 3]; 256],
+    values: &'a [f32; 256],
+    params: Cellular,
+}
+
+impl NoiseKernel for CellularKernel<'_> {
+    #[inline(always)]
+    fn sample<S: Real>(&self, p: [f64; 3]) -> S {
+        canonical_nan(cellular::sample(
+            self.perm,
+            self.features,
+            self.values,
+            self.params,
+            p,
+        ))
+    }
+}
+
+/// [`Basis::White`]'s kernel.
+struct WhiteKernel<'a> {
+    perm: &'a [u8; 512],
+    values: &'a [f32; 256],
+}
+
+impl NoiseKernel for WhiteKernel<'_> {
+    #[inline(always)]
+    fn sample<S: Real>(&self, p: [f64; 3]) -> S {
+        canonical_nan(value::white(self.perm, self.values, p))
     }
 }

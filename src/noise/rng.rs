@@ -17,6 +17,9 @@ pub(super) const GRAD_SALT: u64 = u64::from_be_bytes(*b"grad-tab");
 /// Salt of the Value basis's value table; see [`PERM_SALT`].
 pub(super) const VALUE_SALT: u64 = u64::from_be_bytes(*b"valu-tab");
 
+/// Salt of the Cellular basis's feature-point table; see [`PERM_SALT`].
+pub(super) const CELL_SALT: u64 = u64::from_be_bytes(*b"cell-tab");
+
 /// SplitMix64: 64 bits of state, advanced by the golden-ratio increment and then mixed.
 #[derive(Clone, Debug)]
 pub(crate) struct SplitMix64 {

@@ -1,5 +1,6 @@
 use super::lattice::lattice;
 use super::rng::{shuffled_permutation, SplitMix64, GRAD_SALT, PERM_SALT, VALUE_SALT};
+use super::simplex;
 use super::*;
 
 const BASES: [Basis; 4] = [
@@ -8,6 +9,34 @@ const BASES: [Basis; 4] = [
     Basis::Value(Interpolation::Linear),
     Basis::Value(Interpolation::Smooth),
 ];
+
+fn cellular(jitter: f64, metric: Metric, value: CellularValue) -> Basis {
+    Basis::Cellular(Cellular::new(jitter, metric, value))
+}
+
+/// The lattice bases, simplex and cellular noise with a spread of parameters: every basis
+/// that is continuous.
+fn continuous_bases() -> Vec<Basis> {
+    let mut all = BASES.to_vec();
+    all.extend([
+        Basis::Simplex,
+        cellular(1.0, Metric::Euclidean, CellularValue::F1),
+        cellular(0.8, Metric::Manhattan, CellularValue::F2),
+        cellular(1.0, Metric::Chebyshev, CellularValue::F2MinusF1),
+        cellular(0.5, Metric::Euclidean, CellularValue::Edge),
+    ]);
+    all
+}
+
+/// Every basis, the discontinuous ones (cell values, white noise) included.
+fn every_basis() -> Vec<Basis> {
+    let mut all = continuous_bases();
+    all.extend([
+        cellular(1.0, Metric::Euclidean, CellularValue::CellValue),
+        Basis::White,
+    ]);
+    all
+}
 
 /// Deterministic test points: uniform in [-scale, scale)^3.
 fn points(seed: u64, n: usize, scale: f64) -> Vec<[f64; 3]> {
@@ -208,7 +237,7 @@ fn tables_are_pinned() {
 
 #[test]
 fn tables_are_deterministic_and_seed_dependent() {
-    for basis in BASES {
+    for basis in every_basis() {
         let a = NoiseTable::new(basis, 7);
         let b = NoiseTable::new(basis, 7);
         let c = NoiseTable::new(basis, 8);
@@ -401,7 +430,10 @@ fn f32_path_tracks_f64_path() {
     pts.extend(points(9, 2000, 2f64.powi(31)));
     pts.extend(points(10, 2000, 1e8));
     pts.extend(awkward_points());
-    for basis in BASES {
+    let mut bases = continuous_bases();
+    // Not CellValue: near a border, the f32 and f64 distances may pick different cells.
+    bases.push(Basis::White);
+    for basis in bases {
         for seed in [0, 1] {
             let t = NoiseTable::new(basis, seed);
             let mut worst = 0.0f64;
@@ -414,7 +446,11 @@ fn f32_path_tracks_f64_path() {
             // t * 6 - 15 in [-15, -9] (half an ulp there is 4.8e-7) and the lerps scale
             // weight errors by gradient differences up to 4. Measured over 2e7 random points:
             // at most 2.6e-6 for Perlin, 3.1e-7 for Gradient, 2.3e-7 for Value.
-            let tolerance = if basis == Basis::Perlin { 5e-6 } else { 1e-6 };
+            let tolerance = if matches!(basis, Basis::Perlin | Basis::Simplex) {
+                5e-6
+            } else {
+                1e-6
+            };
             assert!(
                 worst < tolerance,
                 "{basis:?} seed {seed}: |f32 - f64| up to {worst:e}"
@@ -486,7 +522,7 @@ fn value_noise_equals_table_entry_on_lattice_points() {
 #[test]
 fn continuous_across_cell_boundaries() {
     let mut rng = SplitMix64::new(13);
-    for basis in BASES {
+    for basis in continuous_bases() {
         let t = NoiseTable::new(basis, 21);
         let l = t.lipschitz();
         for _ in 0..3000 {
@@ -500,7 +536,11 @@ fn continuous_across_cell_boundaries() {
             let d64 = (t.sample::<f64>(a) - t.sample::<f64>(b)).abs();
             assert!(d64 <= l * dist + 1e-12, "{basis:?} {a:?}: jump {d64:e}");
             // Plus the f32 rounding of both sides (see f32_path_tracks_f64_path).
-            let rounding = if basis == Basis::Perlin { 1e-5 } else { 2e-6 };
+            let rounding = if matches!(basis, Basis::Perlin | Basis::Simplex) {
+                1e-5
+            } else {
+                2e-6
+            };
             let d32 = (t.sample::<f32>(a) - t.sample::<f32>(b)).abs() as f64;
             assert!(
                 d32 <= l * dist + rounding,
@@ -513,7 +553,7 @@ fn continuous_across_cell_boundaries() {
 #[test]
 fn lipschitz_bound_holds_on_random_pairs() {
     let mut rng = SplitMix64::new(14);
-    for basis in BASES {
+    for basis in continuous_bases() {
         let t = NoiseTable::new(basis, 2);
         let l = t.lipschitz();
         let mut worst = 0.0f64;
@@ -539,14 +579,22 @@ fn lipschitz_bound_holds_on_random_pairs() {
 
 #[test]
 fn samples_stay_inside_range() {
-    let mut pts = points(16, 200_000, 256.0);
-    pts.extend(awkward_points());
-    for basis in BASES {
+    // Awkward points first: the shorter share below keeps them.
+    let mut pts = awkward_points();
+    pts.extend(points(16, 200_000, 256.0));
+    for basis in every_basis() {
         for seed in [0, 1, 77] {
             let t = NoiseTable::new(basis, seed);
             let (lo, hi) = t.range();
+            // The lattice bases on every point; the others (10x the work per sample in a debug
+            // build) on a tenth of them.
+            let pts = if BASES.contains(&basis) {
+                &pts[..]
+            } else {
+                &pts[..pts.len() / 10]
+            };
             let (mut min, mut max) = (f64::INFINITY, f64::NEG_INFINITY);
-            for &p in &pts {
+            for &p in pts {
                 let v = t.sample::<f64>(p);
                 let w = t.sample::<f32>(p) as f64;
                 min = min.min(v).min(w);
@@ -557,8 +605,14 @@ fn samples_stay_inside_range() {
                 "{basis:?} {seed}: [{min}, {max}] vs [{lo}, {hi}]"
             );
             // And the range is not vacuous: random sampling reaches a good part of it.
+            // Cellular's bounds hold for adversarial feature points; random ones stay nearer.
+            let share = if matches!(basis, Basis::Cellular(_)) {
+                0.25
+            } else {
+                0.6
+            };
             assert!(
-                max - min > 0.6 * (hi - lo),
+                max - min > share * (hi - lo),
                 "{basis:?} {seed}: [{min}, {max}]"
             );
         }
@@ -633,7 +687,7 @@ fn perlin_range_bound_is_proved() {
 
 #[test]
 fn non_finite_input_gives_nan_without_panicking() {
-    for basis in BASES {
+    for basis in every_basis() {
         let t = NoiseTable::new(basis, 5);
         for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
             for axis in 0..3 {
@@ -663,7 +717,7 @@ fn huge_and_tiny_coordinates_are_fine() {
         5e-324,
         -0.0,
     ];
-    for basis in BASES {
+    for basis in every_basis() {
         let t = NoiseTable::new(basis, 6);
         let (lo, hi) = t.range();
         for &a in &specials {
@@ -696,7 +750,7 @@ fn batch_equals_point_bit_for_bit() {
     let x: Vec<f64> = pts.iter().map(|p| p[0]).collect();
     let y: Vec<f64> = pts.iter().map(|p| p[1]).collect();
     let z: Vec<f64> = pts.iter().map(|p| p[2]).collect();
-    for basis in BASES {
+    for basis in every_basis() {
         let t = NoiseTable::new(basis, 8);
         let mut o64 = vec![0.0f64; pts.len()];
         let mut o32 = vec![0.0f32; pts.len()];
@@ -854,7 +908,7 @@ fn fractal_batch_equals_fractal_bit_for_bit() {
         Octaves::new(2.5, 1.93, 0.6, 3),
         Octaves::new(0.5, 2.0, 0.5, 0),
     ];
-    for basis in BASES {
+    for basis in every_basis() {
         let t = NoiseTable::new(basis, 11);
         for o in &schedules {
             for turbulence in [false, true] {
@@ -990,7 +1044,7 @@ fn batch_kernels_equal_point_functions_on_long_batches() {
     pts.extend(batch_pool(35, 300, 12));
     pts.extend(batch_pool(36, 301, 10));
     let schedule = Octaves::new(8.0, 2.0, 0.5, 0);
-    for basis in BASES {
+    for basis in every_basis() {
         for seed in [0, 7] {
             let t = NoiseTable::new(basis, seed);
             check_batches::<f32>(&t, &schedule, &pts, &format!("{basis:?} seed {seed}"));
@@ -1226,25 +1280,64 @@ fn byte_lookup_reads_the_whole_table() {
 fn both_forms_of_the_lane_loop_agree() {
     use super::batch::{Lattice, CHUNK};
     fn run<S: Real>(t: &NoiseTable, pts: &[[f64; 3]]) {
+        match t.basis {
+            Basis::Perlin => run_kernel::<S, _>(
+                t,
+                &PerlinKernel {
+                    perm: &t.perm,
+                    pairs: &t.pairs,
+                },
+                pts,
+            ),
+            Basis::Gradient => run_kernel::<S, _>(
+                t,
+                &GradientKernel {
+                    perm: &t.perm,
+                    pairs: &t.pairs,
+                    grads: &t.grads,
+                },
+                pts,
+            ),
+            Basis::Value(Interpolation::Linear) => run_kernel::<S, _>(
+                t,
+                &ValueKernel::<false> {
+                    perm: &t.perm,
+                    pairs: &t.pairs,
+                    values: &t.values,
+                },
+                pts,
+            ),
+            Basis::Value(Interpolation::Smooth) => run_kernel::<S, _>(
+                t,
+                &ValueKernel::<true> {
+                    perm: &t.perm,
+                    pairs: &t.pairs,
+                    values: &t.values,
+                },
+                pts,
+            ),
+            // Not lattice bases: no lattice loop to compare.
+            Basis::Simplex | Basis::Cellular(_) | Basis::White => {}
+        }
+    }
+    fn run_kernel<S: Real, K: LatticeKernel>(t: &NoiseTable, k: &K, pts: &[[f64; 3]]) {
         let [x, y, z] = planes(pts);
         let n = pts.len();
-        with_kernel!(t, k => {
-            let mut lattice = Lattice::<S>::new();
-            lattice.fill::<false>(false, 1.0, [&x, &y, &z]);
-            let mut fused = vec![S::ZERO; n];
-            lattice.noise::<_, false, false, false>(&k, S::ONE, &mut fused);
-            for i in 0..n {
-                let h = k.hashes([0, 1, 2].map(|a| lattice.cell[a][i] as i32));
-                for (plane, h) in lattice.hashes.iter_mut().zip(h) {
-                    plane[i] = h;
-                }
+        let mut lattice = Lattice::<S>::new();
+        lattice.fill::<false>(false, 1.0, [&x, &y, &z]);
+        let mut fused = vec![S::ZERO; n];
+        lattice.noise::<_, false, false, false>(k, S::ONE, &mut fused);
+        for i in 0..n {
+            let h = k.hashes([0, 1, 2].map(|a| lattice.cell[a][i] as i32));
+            for (plane, h) in lattice.hashes.iter_mut().zip(h) {
+                plane[i] = h;
             }
-            let mut split = vec![S::ZERO; n];
-            lattice.noise_hashed::<_, false, false, true>(&k, S::ONE, &mut split);
-            assert_eq!(bits_of(&fused), bits_of(&split), "{:?}", t.basis());
-            let want: Vec<S> = pts.iter().map(|&p| t.sample(p)).collect();
-            assert_eq!(bits_of(&fused), bits_of(&want), "{:?}", t.basis());
-        });
+        }
+        let mut split = vec![S::ZERO; n];
+        lattice.noise_hashed::<_, false, false, true>(k, S::ONE, &mut split);
+        assert_eq!(bits_of(&fused), bits_of(&split), "{:?}", t.basis());
+        let want: Vec<S> = pts.iter().map(|&p| t.sample(p)).collect();
+        assert_eq!(bits_of(&fused), bits_of(&want), "{:?}", t.basis());
     }
     let pts = batch_pool(38, CHUNK, 12);
     for basis in BASES {
@@ -1252,4 +1345,320 @@ fn both_forms_of_the_lane_loop_agree() {
         run::<f32>(&t, &pts);
         run::<f64>(&t, &pts);
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Simplex
+
+/// An independent simplex reference: from absolute coordinates, every vertex of the skewed
+/// grid within six cells of the point, no tetrahedron logic, plain f64.
+fn simplex_brute_force(t: &NoiseTable, p: [f64; 3]) -> f64 {
+    let skew = (p[0] + p[1] + p[2]) / 3.0;
+    let base = p.map(|c| (c + skew).floor() as i64);
+    let mut sum = 0.0;
+    for i in -3..=3 {
+        for j in -3..=3 {
+            for k in -3..=3 {
+                let v = [base[0] + i, base[1] + j, base[2] + k];
+                let unskew = (v[0] + v[1] + v[2]) as f64 / 6.0;
+                let d: [f64; 3] = std::array::from_fn(|a| p[a] - (v[a] as f64 - unskew));
+                let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                if r2 >= 0.6 {
+                    continue;
+                }
+                let [a, b, c] = v.map(|x| x.rem_euclid(256) as usize);
+                let h = t.perm[a + t.perm[b + t.perm[c] as usize] as usize] as usize;
+                let g = simplex::GRADIENTS[h % 12].map(f64::from);
+                sum += (0.6 - r2).powi(4) * (g[0] * d[0] + g[1] * d[1] + g[2] * d[2]);
+            }
+        }
+    }
+    32.0 * sum
+}
+
+/// The eight vertices per tetrahedron are all the kernel reaches: the noise equals the sum over
+/// every vertex (also checks the exact integer skew and the tetrahedron choice).
+#[test]
+fn simplex_matches_a_brute_force_sum_over_every_vertex() {
+    for seed in [0, 9] {
+        let t = NoiseTable::new(Basis::Simplex, seed);
+        let mut pts = points(40, 20_000, 60.0);
+        pts.extend(points(41, 2000, 3.0));
+        for p in pts {
+            let want = simplex_brute_force(&t, p);
+            let got = t.sample::<f64>(p);
+            assert!((got - want).abs() < 1e-12, "{p:?}: {got} vs {want}");
+        }
+    }
+}
+
+/// Zero on the grid's vertices: the integer points whose coordinates sum to a multiple of 3
+/// are vertices, exactly representable at every magnitude.
+#[test]
+fn simplex_is_zero_on_its_vertices() {
+    let t = NoiseTable::new(Basis::Simplex, 4);
+    let mut rng = SplitMix64::new(42);
+    let mut checked = 0;
+    for scale in [10.0, 1e6, 2f64.powi(31), 2f64.powi(45)] {
+        for _ in 0..300 {
+            let p = [0; 3].map(|_: i32| (rng.next_signed() * scale).round());
+            let sum = p[0] + p[1] + p[2];
+            let p = [p[0], p[1], p[2] - sum.rem_euclid(3.0)];
+            assert_eq!(t.sample::<f64>(p), 0.0, "{p:?}");
+            assert_eq!(t.sample::<f32>(p), 0.0, "{p:?}");
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 1200);
+    // Other points of a cell are not zero: the noise is not trivially flat.
+    assert_ne!(t.sample::<f64>([1.0, 0.0, 0.0]), 0.0);
+}
+
+/// Exact at any magnitude: far out, the noise of `p` equals that of `p` moved back by a whole
+/// number of periods (768 along each axis), bit for bit.
+#[test]
+fn simplex_repeats_every_768_exactly_far_out() {
+    let t = NoiseTable::new(Basis::Simplex, 5);
+    for p in points(43, 2000, 100.0) {
+        for far in [768.0 * 1e6, 768.0 * 2f64.powi(30), -768.0 * 3.0e9] {
+            let q = [p[0] + far, p[1] - far, p[2] + 2.0 * far];
+            // The fraction must survive the shift for the comparison to be fair.
+            if q[0] - far != p[0] || q[1] + far != p[1] || q[2] - 2.0 * far != p[2] {
+                continue;
+            }
+            assert_eq!(
+                t.sample::<f64>(q).to_bits(),
+                t.sample::<f64>(p).to_bits(),
+                "{p:?} + {far}"
+            );
+        }
+    }
+}
+
+/// Sum over every vertex within reach of unskewed offset `x0` from a cell's base vertex of
+/// `term(r², d)`, and a bound on the sum's change within distance `slack`: the sum over the
+/// vertices that can come within reach of `slope(r_lo, r_hi)`, the largest slope of one term
+/// for a vertex at a distance in [r_lo, r_hi].
+fn simplex_vertex_sum(
+    x0: [f64; 3],
+    slack: f64,
+    term: &dyn Fn(f64, [f64; 3]) -> f64,
+    slope: &dyn Fn(f64, f64) -> f64,
+) -> (f64, f64) {
+    let reach = 0.6f64.sqrt();
+    let (mut sum, mut change) = (0.0, 0.0);
+    for i in -1..=2i64 {
+        for j in -1..=2i64 {
+            for k in -1..=2i64 {
+                let g = (i + j + k) as f64 / 6.0;
+                let d = [
+                    x0[0] - i as f64 + g,
+                    x0[1] - j as f64 + g,
+                    x0[2] - k as f64 + g,
+                ];
+                let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                if r2 < 0.6 {
+                    sum += term(r2, d);
+                }
+                let r = r2.sqrt();
+                if r - slack < reach {
+                    change += slack * slope((r - slack).max(0.0), (r + slack).min(reach));
+                }
+            }
+        }
+    }
+    (sum, change)
+}
+
+/// Branch and bound over the skewed cell [0, 1]³ (its sorted sixth u_x >= u_y >= u_z: the grid
+/// and the terms are symmetric under axis permutations): is the vertex sum of `term` at most
+/// `target` everywhere? A box's bound is the sum at its centre plus the change bound of
+/// [`simplex_vertex_sum`] over the box's half-diagonal (unskewing does not stretch distances:
+/// its matrix I - 11ᵀ/6 has norm 1).
+fn simplex_sum_below(
+    term: &dyn Fn(f64, [f64; 3]) -> f64,
+    slope: &dyn Fn(f64, f64) -> f64,
+    target: f64,
+) -> bool {
+    let mut stack = vec![([0.0f64; 3], [1.0f64; 3])];
+    while let Some((lo, hi)) = stack.pop() {
+        if hi[0] < lo[1] || hi[1] < lo[2] {
+            continue;
+        }
+        let c: [f64; 3] = std::array::from_fn(|a| 0.5 * (lo[a] + hi[a]));
+        let half: f64 = (0..3)
+            .map(|a| (0.5 * (hi[a] - lo[a])).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let g = (c[0] + c[1] + c[2]) / 6.0;
+        let (value, change) = simplex_vertex_sum(c.map(|u| u - g), half, term, slope);
+        if value + change <= target {
+            continue;
+        }
+        if half < 1e-6 {
+            return false;
+        }
+        for o in 0..8 {
+            let (mut l, mut h) = (lo, hi);
+            for a in 0..3 {
+                if (o >> a) & 1 == 0 {
+                    h[a] = c[a];
+                } else {
+                    l[a] = c[a];
+                }
+            }
+            stack.push((l, h));
+        }
+    }
+    true
+}
+
+/// The range ±1: |N| <= 32 Σ (0.6 - r²)⁴ |g · d| <= 32 Σ (0.6 - r²)⁴ T(d), T the sum of the two
+/// largest |components| (the largest |g · d| over the 12 edge gradients), and that sum stays
+/// below 1/32. Each term's gradient is at most √2 (0.6 - r²)³ (0.6 + 7 r²) <= 0.2309.
+/// The Lipschitz bound: |∇N| <= 32 Σ √2 (0.6 - r²)³ (0.6 + 7 r²) (see `simplex::LIPSCHITZ`),
+/// and that sum stays below 12.5 / 32 = 0.3906 (its maximum is about 0.3797); each of its terms
+/// has slope at most 0.8375 (the
+/// maximum of |d/dr| of it, at most √2 r (0.6 - r²)² |4.8 - 56 r²|).
+#[test]
+fn simplex_range_and_lipschitz_bounds_are_proved() {
+    let (lo, hi) = NoiseTable::new(Basis::Simplex, 0).range();
+    assert_eq!((lo, hi), (-1.0, 1.0));
+    let adversary = |r2: f64, d: [f64; 3]| {
+        let mut a = d.map(f64::abs);
+        a.sort_by(f64::total_cmp);
+        (0.6 - r2).powi(4) * (a[1] + a[2])
+    };
+    // One term's gradient, √2 (0.6 - r²)³ (0.6 + 7 r²), rises to its peak at r² = 0.6/7 and
+    // falls after: its maximum over [a, b] is at the point of [a, b] nearest the peak.
+    let term_slope = |r: f64| 2f64.sqrt() * (0.6 - r * r).powi(3) * (0.6 + 7.0 * r * r);
+    let peak = (0.6f64 / 7.0).sqrt();
+    let range_slope = |a: f64, b: f64| term_slope(peak.clamp(a, b));
+    assert!(simplex_sum_below(&adversary, &range_slope, hi / 32.0));
+    let slope = |r2: f64, _: [f64; 3]| term_slope(r2.sqrt());
+    assert!(simplex_sum_below(
+        &slope,
+        &|_, _| 0.8375,
+        simplex::LIPSCHITZ / 32.0
+    ));
+    // Both are nearly tight: the adversary reaches 0.9787 of the range.
+    let x0 = [0.2018f64, 0.7982, 1.0];
+    let g = (x0[0] + x0[1] + x0[2]) / 6.0;
+    assert!(32.0 * simplex_vertex_sum(x0.map(|u| u - g), 0.0, &adversary, &range_slope).0 > 0.978);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Cellular
+
+/// F1 >= 0, F2 >= F1 (same feature points: same seed and jitter), Edge = (F2 - F1) / 2,
+/// and Euclidean F1 is 1-Lipschitz at every distance, not only for close pairs.
+#[test]
+fn cellular_invariants() {
+    for metric in [Metric::Euclidean, Metric::Manhattan, Metric::Chebyshev] {
+        for jitter in [1.0, 0.6, 0.0] {
+            let table = |value| NoiseTable::new(cellular(jitter, metric, value), 3);
+            let (f1, f2, edge) = (
+                table(CellularValue::F1),
+                table(CellularValue::F2),
+                table(CellularValue::Edge),
+            );
+            for p in points(50, 3000, 50.0) {
+                let (a, b) = (f1.sample::<f64>(p), f2.sample::<f64>(p));
+                assert!(a >= 0.0 && b >= a, "{metric:?} {jitter} {p:?}: {a} {b}");
+                assert_eq!(edge.sample::<f64>(p), (b - a) * 0.5);
+            }
+        }
+    }
+    let f1 = NoiseTable::new(cellular(1.0, Metric::Euclidean, CellularValue::F1), 8);
+    let pts = points(51, 4000, 20.0);
+    for pair in pts.windows(2) {
+        let (p, q) = (pair[0], pair[1]);
+        let dist = ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt();
+        let dn = (f1.sample::<f64>(p) - f1.sample::<f64>(q)).abs();
+        assert!(dn <= dist * (1.0 + 1e-12), "{p:?} {q:?}");
+    }
+}
+
+/// Jitter 0 is the regular grid: F1 is exactly the distance to the nearest cell centre (the
+/// centre of the point's own cell).
+#[test]
+fn cellular_jitter_zero_is_the_regular_grid() {
+    let t = NoiseTable::new(cellular(0.0, Metric::Euclidean, CellularValue::F1), 6);
+    for p in points(52, 5000, 1000.0) {
+        let d = p.map(|c| 0.5 - (c - c.floor()));
+        let want = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        assert_eq!(t.sample::<f64>(p), want, "{p:?}");
+    }
+}
+
+/// CellValue is constant over a cell's region: the segment from a point to its nearest feature
+/// point lies inside that point's (convex) Voronoi cell.
+#[test]
+fn cellular_cell_value_is_constant_inside_a_cell() {
+    let basis = |value| cellular(0.9, Metric::Euclidean, value);
+    let values = NoiseTable::new(basis(CellularValue::CellValue), 2);
+    let points_table = NoiseTable::new(basis(CellularValue::F1), 2);
+    for p in points(53, 500, 30.0) {
+        let base = p.map(|c| c.floor() as i64);
+        let mut nearest = (f64::INFINITY, [0.0; 3]);
+        for o in 0..27i64 {
+            let cell = [
+                base[0] + o % 3 - 1,
+                base[1] + (o / 3) % 3 - 1,
+                base[2] + o / 9 - 1,
+            ];
+            let q = points_table.feature_point(cell).unwrap();
+            let d = ((q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2) + (q[2] - p[2]).powi(2)).sqrt();
+            if d < nearest.0 {
+                nearest = (d, q);
+            }
+        }
+        let here = values.sample::<f64>(p);
+        for s in 1..10 {
+            let t = s as f64 / 10.0;
+            let on: [f64; 3] = std::array::from_fn(|a| p[a] + t * (nearest.1[a] - p[a]));
+            assert_eq!(
+                values.sample::<f64>(on),
+                here,
+                "{p:?} towards {:?}",
+                nearest.1
+            );
+        }
+    }
+}
+
+/// Exact F2 against a 7³ brute force, and how often a 27-cell search (what many libraries do)
+/// would have been enough: always, at these random points; the outer rings are searched only
+/// when the bound cannot rule them out, so exactness costs nothing measurable.
+#[test]
+fn cellular_f2_is_exact() {
+    let t = NoiseTable::new(cellular(1.0, Metric::Euclidean, CellularValue::F2), 1);
+    let mut wrong_27 = 0;
+    let pts = points(54, 20_000, 100.0);
+    for &p in &pts {
+        let base = p.map(|c| c.floor() as i64);
+        let mut near: Vec<f64> = Vec::new();
+        let mut near_27: Vec<f64> = Vec::new();
+        for i in -3..=3i64 {
+            for j in -3..=3i64 {
+                for k in -3..=3i64 {
+                    let q = t
+                        .feature_point([base[0] + i, base[1] + j, base[2] + k])
+                        .unwrap();
+                    let d = ((q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2) + (q[2] - p[2]).powi(2))
+                        .sqrt();
+                    near.push(d);
+                    if i.abs() <= 1 && j.abs() <= 1 && k.abs() <= 1 {
+                        near_27.push(d);
+                    }
+                }
+            }
+        }
+        near.sort_by(f64::total_cmp);
+        near_27.sort_by(f64::total_cmp);
+        let got = t.sample::<f64>(p);
+        assert!((got - near[1]).abs() < 1e-12, "{p:?}: {got} vs {}", near[1]);
+        wrong_27 += usize::from(near_27[1] != near[1]);
+    }
+    assert!(wrong_27 < pts.len() / 1000, "{wrong_27} of {}", pts.len());
 }

@@ -68,3 +68,18 @@ pub(super) fn interior<S: Real, const SMOOTH: bool>(
     let vz1 = lerp(wy, vy0, vy1);
     lerp(wz, vz0, vz1)
 }
+
+/// White noise: the table value of the point's lattice cell (the value-noise value at the
+/// cell's lower corner, held over the whole cell): a per-cell random value in [0, 1], NaN for
+/// non-finite input.
+#[inline(always)]
+pub(super) fn white<S: Real>(perm: &[u8; 512], values: &[f32; 256], p: [f64; 3]) -> S {
+    let (ix, fx) = lattice(p[0]);
+    let (iy, fy) = lattice(p[1]);
+    let (iz, fz) = lattice(p[2]);
+    if fx.is_nan() || fy.is_nan() || fz.is_nan() {
+        return S::NAN;
+    }
+    let h = corner_hashes(perm, ix, iy, iz)[0];
+    S::from_f64(values[h & 255] as f64)
+}
