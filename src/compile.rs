@@ -442,7 +442,9 @@ impl Emitter {
         }
         self.tables.push((
             key,
-            std::sync::Arc::new(crate::noise::NoiseTable::new(key.basis, key.seed)),
+            std::sync::Arc::new(crate::noise::NoiseTable::periodic(
+                key.basis, key.seed, key.period,
+            )),
         ));
         (self.tables.len() - 1) as u32
     }

@@ -7,7 +7,7 @@
 //! of exactly the types it expects.
 
 use crate::diagnostic::{SourceFile, Span};
-use crate::noise::{self, Basis, NoiseTable, Octaves, Style};
+use crate::noise::{self, Basis, NoiseTable, Octaves, Period, Style};
 use crate::ops::{self, BinaryOp, Curve, Hermite, Ramp, TernaryOp, UnaryOp};
 use rustc_hash::FxHashMap;
 use smallvec::SmallVec;
@@ -47,6 +47,8 @@ pub type NodeId = u32;
 pub struct TableKey {
     pub basis: Basis,
     pub seed: u64,
+    /// A `Noise`'s tiling period (fractal sums keep theirs in [`FractalParams`]).
+    pub period: Option<Period>,
 }
 
 /// The parameters of an Fbm or Turbulence, as written (before level of detail).
@@ -58,11 +60,14 @@ pub struct FractalParams {
     pub first_octave: u32,
     /// How each octave enters the sum (Fbm, Turbulence, Billow, Ridged).
     pub style: Style,
+    /// Tiling period of the first octave written (octave i: times lacunarity^i).
+    pub period: Option<Period>,
 }
 
 impl FractalParams {
     pub fn schedule(&self) -> Octaves {
         Octaves::new(self.octaves, self.lacunarity, self.gain, self.first_octave)
+            .with_period(self.period)
     }
 }
 
@@ -145,6 +150,7 @@ impl Op {
                 out.push(12);
                 out.extend(basis_code(t.basis));
                 out.push(t.seed);
+                out.extend(t.period.unwrap_or([0; 3]));
             }
             Op::Fractal(t, p) => {
                 out.push(13);
@@ -157,6 +163,7 @@ impl Op {
                     p.first_octave as u64,
                 ]);
                 out.extend(style_code(p.style));
+                out.extend(p.period.unwrap_or([0; 3]));
             }
             Op::Hermite(h) => out.extend([
                 14,
@@ -438,7 +445,7 @@ impl GraphBuilder {
     pub fn table(&mut self, key: TableKey) -> Arc<NoiseTable> {
         self.tables
             .entry(key)
-            .or_insert_with(|| Arc::new(NoiseTable::new(key.basis, key.seed)))
+            .or_insert_with(|| Arc::new(NoiseTable::periodic(key.basis, key.seed, key.period)))
             .clone()
     }
 

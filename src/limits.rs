@@ -20,3 +20,7 @@ pub const MAX_OCTAVE_SCALE: f64 = 1e30;
 pub const MAX_RAMP_STOPS: usize = 4096;
 /// Largest noise seed (seeds are integers, exactly representable in f64).
 pub const MAX_SEED: f64 = 9_007_199_254_740_991.0; // 2^53 - 1
+
+/// The largest tiling period per axis, in cells (2^20): far beyond any texture's repeat, and
+/// small enough that an octave's period (times lacunarity^i) stays an exact integer.
+pub const MAX_PERIOD: f64 = 1_048_576.0;

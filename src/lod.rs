@@ -284,6 +284,7 @@ mod tests {
             gain: 0.5,
             first_octave: 0,
             style: Style::Fbm,
+            period: None,
         }
     }
 
@@ -308,6 +309,7 @@ mod tests {
         let key = TableKey {
             basis: Basis::Perlin,
             seed: 0,
+            period: None,
         };
         // Spacing 1/128: Nyquist 64 = 2^6, so octaves 0..=6 stay: 7 octaves.
         let lod = fractal_lod(key, &params(8.0), Some(1.0), 1.0 / 128.0);
@@ -328,6 +330,7 @@ mod tests {
         let key = TableKey {
             basis: Basis::Perlin,
             seed: 0,
+            period: None,
         };
         let mut p = params(8.0);
         p.style = Style::Turbulence;

@@ -162,6 +162,8 @@ pub enum ArgKind {
     Stops,
     /// `[(x, y), ...]`, constant, sorted by x.
     Points,
+    /// A tiling period: a constant whole number or vec3 of whole numbers, each 1 to 2^20.
+    Period,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -169,6 +171,8 @@ pub enum DefaultValue {
     Number(f64),
     Vec3([f64; 3]),
     Name(&'static str),
+    /// Optional without a value (no tiling).
+    Nothing,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -428,6 +432,13 @@ const VALUE_ARG: ArgDef = ArgDef {
     doc: "Cellular only: F1, F2 (nearest, second nearest distance), F2MinusF1, CellValue (a random value per cell) or Edge ((F2 - F1) / 2)",
 };
 
+const PERIOD_ARG: ArgDef = ArgDef {
+    name: "period",
+    kind: ArgKind::Period,
+    default: Some(DefaultValue::Nothing),
+    doc: "seamless tiling: the noise repeats exactly every period cells along each axis (octave i of a fractal: period * lacunarity^i, lacunarity a whole number)",
+};
+
 const NOISE_ARGS: &[ArgDef] = &[
     INPUT,
     BASIS,
@@ -436,6 +447,7 @@ const NOISE_ARGS: &[ArgDef] = &[
     JITTER_ARG,
     METRIC_ARG,
     VALUE_ARG,
+    PERIOD_ARG,
 ];
 
 const FRACTAL_ARGS: &[ArgDef] = &[
@@ -450,6 +462,7 @@ const FRACTAL_ARGS: &[ArgDef] = &[
     JITTER_ARG,
     METRIC_ARG,
     VALUE_ARG,
+    PERIOD_ARG,
 ];
 
 const RIDGED_ARGS: &[ArgDef] = &[
@@ -476,6 +489,7 @@ const RIDGED_ARGS: &[ArgDef] = &[
     JITTER_ARG,
     METRIC_ARG,
     VALUE_ARG,
+    PERIOD_ARG,
 ];
 
 const WARP_ARGS: &[ArgDef] = &[
@@ -495,6 +509,7 @@ const WARP_ARGS: &[ArgDef] = &[
     JITTER_ARG,
     METRIC_ARG,
     VALUE_ARG,
+    PERIOD_ARG,
 ];
 
 /// Every node kind, in the order `texgraph nodes` lists them.
@@ -570,14 +585,14 @@ pub const CATALOGUE: &[NodeDef] = &[
     NodeDef {
         kind: Kind::Cellular, lowering: Lowering::Cellular, slope: Slope::Basis, derivative: Derivative::NoiseGradient,
         name: "Cellular",
-        args: &[INPUT, SEED_ARG, JITTER_ARG, METRIC_ARG, VALUE_ARG],
+        args: &[INPUT, SEED_ARG, JITTER_ARG, METRIC_ARG, VALUE_ARG, PERIOD_ARG],
         output: OutputType::Scalar,
         doc: "Worley's cellular noise: distances to the nearest feature points, one point per integer cell (exact search).",
     },
     NodeDef {
         kind: Kind::WhiteNoise, lowering: Lowering::White, slope: Slope::Unbounded("white noise jumps at every cell face"), derivative: Derivative::NoiseGradient,
         name: "WhiteNoise",
-        args: &[INPUT, SEED_ARG],
+        args: &[INPUT, SEED_ARG, PERIOD_ARG],
         output: OutputType::Scalar,
         doc: "A random value in [0, 1] per integer cell of the point (a hash, no interpolation).",
     },
@@ -776,6 +791,7 @@ fn describe_arg(arg: &ArgDef) -> String {
         ArgKind::Choice(names) => names.join("|"),
         ArgKind::Stops => "[(t, (r, g, b)), ...]".into(),
         ArgKind::Points => "[(x, y), ...]".into(),
+        ArgKind::Period => "constant whole number or (px, py, pz), each 1 to 2^20".into(),
     }
 }
 
@@ -785,6 +801,7 @@ fn describe_default(default: Option<DefaultValue>) -> String {
         Some(DefaultValue::Number(v)) => format!("default {v}"),
         Some(DefaultValue::Vec3([x, y, z])) => format!("default ({x}, {y}, {z})"),
         Some(DefaultValue::Name(n)) => format!("default {n}"),
+        Some(DefaultValue::Nothing) => "default none".into(),
     }
 }
 

@@ -249,7 +249,10 @@ fn style_name(style: &Style) -> String {
 }
 
 fn basis_name(key: &TableKey) -> String {
-    match key.basis {
+    let period = key.period.map_or(String::new(), |p| {
+        format!(" period=({}, {}, {})", p[0], p[1], p[2])
+    });
+    let name = match key.basis {
         Basis::Perlin => format!("perlin seed={}", key.seed),
         Basis::Gradient => format!("gradient seed={}", key.seed),
         Basis::Value(Interpolation::Linear) => format!("value seed={}", key.seed),
@@ -263,6 +266,21 @@ fn basis_name(key: &TableKey) -> String {
             c.value,
             key.seed
         ),
+    };
+    name + &period
+}
+
+/// A tiled schedule's per-octave periods, as the disassembly writes them ("" untiled).
+fn periods_text(schedule: &Octaves) -> String {
+    match &schedule.periods {
+        None => String::new(),
+        Some(periods) => {
+            let each: Vec<String> = periods
+                .iter()
+                .map(|p| format!("({}, {}, {})", p[0], p[1], p[2]))
+                .collect();
+            format!(" periods=[{}]", each.join(", "))
+        }
     }
 }
 
@@ -356,7 +374,8 @@ impl fmt::Display for Tape {
                         schedule.len(),
                         frequencies.join(", "),
                         amplitudes.join(", "),
-                    ) + &bias
+                    ) + &periods_text(schedule)
+                        + &bias
                 }
                 Instr::Hermite { dst, src, spline } => {
                     let h = &self.hermites[*spline as usize];

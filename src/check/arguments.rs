@@ -164,6 +164,7 @@ impl Checker {
             (DefaultValue::Number(v), _) => Arg::Const(v),
             (DefaultValue::Vec3(v), _) => Arg::Axis(v),
             (DefaultValue::Name(n), _) => Arg::Choice(n, false),
+            (DefaultValue::Nothing, _) => Arg::Period(None),
         }
     }
 
@@ -203,6 +204,33 @@ impl Checker {
                         );
                         None
                     }
+                }
+            }
+            ArgKind::Period => {
+                let v = self.constant_vec3(value, &ArgName(arg.name, def.name), origin)?;
+                let limit = limits::MAX_PERIOD;
+                if v.iter()
+                    .all(|c| c.fract() == 0.0 && (1.0..=limit).contains(c))
+                {
+                    Some(Arg::Period(Some(v.map(|c| c as u64))))
+                } else {
+                    self.error(
+                        Diagnostic::new(
+                            Class::BadParameter,
+                            format!(
+                                "a period is a whole number of cells from 1 to {} per axis, got ({}, {}, {})",
+                                limit,
+                                crate::diagnostic::number(v[0]),
+                                crate::diagnostic::number(v[1]),
+                                crate::diagnostic::number(v[2])
+                            ),
+                        )
+                        .in_node(&*origin.node)
+                        .at(value.span)
+                        .label("not a period")
+                        .help("write e.g. `period: 4` or `period: (4, 4, 1)`"),
+                    );
+                    None
                 }
             }
             ArgKind::Basis => self

@@ -120,9 +120,15 @@ impl Checker {
             _ => self.resolve_basis(&named, given, whole, here)?,
         };
         let seed = named.constant("seed") as u64;
+        let period = self.period(&named, basis, given, whole, here)?;
+        let fractal = matches!(
+            def.lowering,
+            Lowering::Fractal(_) | Lowering::VecFractal | Lowering::Warp
+        );
         let key = |k: u64| TableKey {
             basis,
             seed: seed.wrapping_add(k << 53),
+            period: if fractal { None } else { period },
         };
         let style = match def.lowering {
             Lowering::Fractal(FractalKind::Fbm) | Lowering::VecFractal | Lowering::Warp => {
@@ -137,7 +143,7 @@ impl Checker {
             _ => None,
         };
         let params = match style {
-            Some(style) => Some(self.fractal_params(&named, style, whole, here)?),
+            Some(style) => Some(self.fractal_params(&named, style, period, whole, here)?),
             None => None,
         };
         let one = |k: u64| match params {
@@ -245,11 +251,60 @@ impl Checker {
         Some(basis)
     }
 
+    /// The node's tiling period, refused where it cannot tile: with a fractional lacunarity
+    /// (octave i must repeat every `period · lacunarity^i` whole cells) and, for now, with the
+    /// Simplex basis (its skewed grid needs its own wrapping).
+    fn period(
+        &mut self,
+        named: &Named,
+        basis: Basis,
+        given: &[Option<&Value>],
+        whole: &Value,
+        here: &Origin,
+    ) -> Option<Option<Period>> {
+        let Some(Arg::Period(Some(period))) = named.get("period") else {
+            return Some(None);
+        };
+        let span = named
+            .index("period")
+            .and_then(|i| given.get(i).copied().flatten())
+            .map_or(whole.span, |v| v.span);
+        let refuse = |message: String, help: &str| {
+            Diagnostic::new(Class::BadParameter, message)
+                .in_node(&*here.node)
+                .at(span)
+                .label("cannot tile")
+                .help(help.to_string())
+        };
+        if basis == Basis::Simplex {
+            self.error(refuse(
+                "the Simplex basis cannot tile yet: its skewed grid does not line up with the period's box".into(),
+                "tile with Perlin, Gradient, Value or Cellular",
+            ));
+            return None;
+        }
+        if named.index("lacunarity").is_some() {
+            let lacunarity = named.constant("lacunarity");
+            if lacunarity.fract() != 0.0 {
+                self.error(refuse(
+                    format!(
+                        "a tiled fractal needs a whole-number lacunarity (octave i repeats every period × lacunarity^i cells), got {}",
+                        crate::diagnostic::number(lacunarity)
+                    ),
+                    "use lacunarity: 2 (or 3, ...), or drop the period",
+                ));
+                return None;
+            }
+        }
+        Some(Some(*period))
+    }
+
     /// The octave schedule of a fractal kind, refused when its scales overflow.
     fn fractal_params(
         &mut self,
         named: &Named,
         style: Style,
+        period: Option<Period>,
         whole: &Value,
         here: &Origin,
     ) -> Option<FractalParams> {
@@ -259,6 +314,7 @@ impl Checker {
             gain: named.constant("gain"),
             first_octave: named.constant("first_octave") as u32,
             style,
+            period,
         };
         // Octave frequencies and amplitudes grow as powers: keep them finite.
         let schedule = params.schedule();

@@ -22,7 +22,7 @@ use crate::limits;
 use crate::nodes::{
     self, ArgDef, ArgKind, DefaultValue, FractalKind, InputType, Lowering, NodeDef, OutputType,
 };
-use crate::noise::{Basis, Cellular, CellularValue, Interpolation, Metric, Style};
+use crate::noise::{Basis, Cellular, CellularValue, Interpolation, Metric, Period, Style};
 use crate::ops::{self, BinaryOp, Curve, Hermite, Ramp, SplineInterpolation};
 use crate::syntax::{self, Text, Value, ValueKind};
 use rustc_hash::FxHashMap as HashMap;
@@ -91,6 +91,7 @@ enum Arg {
     Axis([f64; 3]),
     Basis(Basis, bool),
     Choice(&'static str, bool),
+    Period(Option<[u64; 3]>),
     Stops(Vec<(f64, [f64; 3])>),
     Points(Vec<(f64, f64)>),
 }

@@ -24,6 +24,7 @@
 //! pattern is exact at any magnitude; distances are computed in `S` from small numbers.
 
 use super::lattice::lattice;
+use super::period::Period;
 use super::rng::SplitMix64;
 use crate::real::Real;
 
@@ -142,11 +143,21 @@ pub(super) fn sample<S: Real>(
     features: &[[f32; 3]; 256],
     values: &[f32; 256],
     params: Cellular,
+    period: Option<Period>,
     p: [f64; 3],
 ) -> S {
     let (ix, fx) = lattice(p[0]);
     let (iy, fy) = lattice(p[1]);
     let (iz, fz) = lattice(p[2]);
+    // Tiled: `p` is reduced into its period, so its cell is `floor(p)` < P exactly, and a
+    // neighbour's index is taken mod P before it is hashed.
+    let cell = |a: usize, i: usize| match period {
+        Some(period) if (1..=1 << 52).contains(&period[a]) => {
+            (p[a].floor() as i64, period[a] as i64)
+        }
+        _ => (i as i64, 256),
+    };
+    let (cx, cy, cz) = (cell(0, ix), cell(1, iy), cell(2, iz));
     if fx.is_nan() || fy.is_nan() || fz.is_nan() {
         return S::NAN;
     }
@@ -158,8 +169,8 @@ pub(super) fn sample<S: Real>(
         cell: 0,
     };
     let visit = |best: &mut Nearest<S>, o: [i64; 3]| {
-        let at = |i: usize, o: i64| (i as i64 + o).rem_euclid(256) as usize;
-        let h = hash(perm, at(ix, o[0]), at(iy, o[1]), at(iz, o[2]));
+        let at = |(c, m): (i64, i64), o: i64| ((c + o).rem_euclid(m) & 255) as usize;
+        let h = hash(perm, at(cx, o[0]), at(cy, o[1]), at(cz, o[2]));
         let point = features[h];
         let d: [S; 3] =
             std::array::from_fn(|a| S::from_f64(o[a] as f64) + S::from_f64(point[a] as f64) - f[a]);

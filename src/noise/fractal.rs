@@ -1,8 +1,8 @@
 //! Fractal sums of one basis over an octave schedule: fBm and turbulence.
 
 use super::{
-    Basis, CellularKernel, GradientKernel, Interpolation, NoiseKernel, NoiseTable, PerlinKernel,
-    SimplexKernel, ValueKernel, WhiteKernel,
+    Basis, CellularKernel, GradientKernel, Interpolation, NoiseKernel, NoiseTable, Period,
+    PerlinKernel, SimplexKernel, ValueKernel, WhiteKernel,
 };
 use crate::real::Real;
 
@@ -13,6 +13,9 @@ pub struct Octaves {
     pub frequencies: Vec<f64>,
     /// Weight of each octave in the sum.
     pub amplitudes: Vec<f64>,
+    /// Tiled sums: each octave's period, the base period times its frequency (a whole number:
+    /// the checker allows a period only with an integer lacunarity).
+    pub periods: Option<Vec<Period>>,
 }
 
 /// `base^exp` by binary exponentiation, in exactly the steps of compiler-rt's `__powidf2` (what
@@ -62,7 +65,20 @@ impl Octaves {
         Octaves {
             frequencies,
             amplitudes,
+            periods: None,
         }
+    }
+
+    /// The schedule tiled with `base`: octave i repeats every `base · frequency_i` (rounded to
+    /// a whole number of cells, saturating).
+    pub fn with_period(mut self, base: Option<Period>) -> Octaves {
+        self.periods = base.map(|base| {
+            self.frequencies
+                .iter()
+                .map(|&f| base.map(|p| (p as f64 * f.round()).min(u64::MAX as f64) as u64))
+                .collect()
+        });
+        self
     }
 
     /// Number of octaves (a partial last octave counts as one).
@@ -180,13 +196,22 @@ pub fn fractal_styled<S: Real>(
     style: Style,
     p: [f64; 3],
 ) -> S {
-    match style {
-        Style::Fbm => fractal(table, octaves, false, p),
-        Style::Turbulence => fractal(table, octaves, true, p),
-        Style::Billow | Style::Ridged { .. } => {
+    match (style, &octaves.periods) {
+        (Style::Fbm, None) => fractal(table, octaves, false, p),
+        (Style::Turbulence, None) => fractal(table, octaves, true, p),
+        (_, periods) => {
             let mut shaper = Shaper::<S>::START;
-            for (&f, &a) in octaves.frequencies.iter().zip(&octaves.amplitudes) {
-                let n: S = table.sample([p[0] * f, p[1] * f, p[2] * f]);
+            for (k, (&f, &a)) in octaves
+                .frequencies
+                .iter()
+                .zip(&octaves.amplitudes)
+                .enumerate()
+            {
+                let q = [p[0] * f, p[1] * f, p[2] * f];
+                let n: S = match periods {
+                    Some(periods) => table.sample_at_period(q, periods[k]),
+                    None => table.sample(q),
+                };
                 shaper.add(style, n, a);
             }
             super::canonical_nan(shaper.sum)
@@ -207,10 +232,10 @@ pub fn fractal_styled_batch<S: Real>(
     out: &mut [S],
 ) {
     super::check_lengths(x, y, z, out.len());
-    match style {
-        Style::Fbm => return fractal_batch(table, octaves, false, x, y, z, out),
-        Style::Turbulence => return fractal_batch(table, octaves, true, x, y, z, out),
-        Style::Billow | Style::Ridged { .. } => {}
+    match (style, &octaves.periods) {
+        (Style::Fbm, None) => return fractal_batch(table, octaves, false, x, y, z, out),
+        (Style::Turbulence, None) => return fractal_batch(table, octaves, true, x, y, z, out),
+        _ => {}
     }
     const CHUNK: usize = 64;
     let mut start = 0;
@@ -224,13 +249,27 @@ pub fn fractal_styled_batch<S: Real>(
         let mut shapers = [Shaper::<S>::START; CHUNK];
         let (mut sx, mut sy, mut sz) = ([0.0f64; CHUNK], [0.0f64; CHUNK], [0.0f64; CHUNK]);
         let mut n = [S::ZERO; CHUNK];
-        for (&f, &a) in octaves.frequencies.iter().zip(&octaves.amplitudes) {
+        for (k, (&f, &a)) in octaves
+            .frequencies
+            .iter()
+            .zip(&octaves.amplitudes)
+            .enumerate()
+        {
             for i in 0..m {
                 sx[i] = cx[i] * f;
                 sy[i] = cy[i] * f;
                 sz[i] = cz[i] * f;
             }
-            table.sample_batch(&sx[..m], &sy[..m], &sz[..m], &mut n[..m]);
+            match &octaves.periods {
+                Some(periods) => table.sample_batch_at_period(
+                    periods[k],
+                    &sx[..m],
+                    &sy[..m],
+                    &sz[..m],
+                    &mut n[..m],
+                ),
+                None => table.sample_batch(&sx[..m], &sy[..m], &sz[..m], &mut n[..m]),
+            }
             for (shaper, &v) in shapers[..m].iter_mut().zip(&n[..m]) {
                 shaper.add(style, v, a);
             }

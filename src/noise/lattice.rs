@@ -121,3 +121,33 @@ pub(super) fn corner_hashes_paired(pairs: &[i32; 512], cell: [i32; 3]) -> [u8; 8
         (h6 >> 8) as u8,
     ]
 }
+
+/// The eight corner hashes of a cell whose corner indices (each already mod 256) are given per
+/// axis, `lo` and `hi`, in corner order `[dx + 2 dy + 4 dz]`: the general form of
+/// [`corner_hashes`] (Ebert's order, z innermost) and of Perlin's (x innermost,
+/// `p[p[p[x] + y] + z]`), for tiling, where the upper corner of a period's last cell wraps to
+/// index 0 instead of following the lower one.
+#[inline(always)]
+pub(super) fn corner_hashes_wrapped(
+    perm: &[u8; 512],
+    perlin: bool,
+    lo: [usize; 3],
+    hi: [usize; 3],
+) -> [u8; 8] {
+    let at = |i: usize| perm[i & 511] as usize;
+    std::array::from_fn(|corner| {
+        let pick = |axis: usize| {
+            if (corner >> axis) & 1 == 1 {
+                hi[axis]
+            } else {
+                lo[axis]
+            }
+        };
+        let (x, y, z) = (pick(0), pick(1), pick(2));
+        if perlin {
+            at(at(at(x) + y) + z) as u8
+        } else {
+            at(x + at(y + at(z))) as u8
+        }
+    })
+}

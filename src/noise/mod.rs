@@ -15,8 +15,11 @@
 
 mod cellular;
 mod lattice;
+mod period;
 mod rng;
 mod simplex;
+
+pub use period::Period;
 
 pub use cellular::{Cellular, CellularValue, Metric};
 
@@ -39,6 +42,24 @@ pub(crate) trait NoiseKernel {
     /// `out[i] = sample(p_i)` bit for bit.
     fn sample_batch<S: Real>(&self, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
         reference_batch(|p| self.sample(p), x, y, z, out);
+    }
+
+    /// One sample of the noise tiled with `period` (see `period.rs`). The default reduces the
+    /// point into its period, which is all a basis without neighbours (white noise) needs.
+    fn sample_periodic<S: Real>(&self, p: [f64; 3], period: Period) -> S {
+        self.sample(period::reduce3(p, period).0)
+    }
+
+    /// `out[i] = sample_periodic(p_i, period)` bit for bit.
+    fn sample_batch_periodic<S: Real>(
+        &self,
+        period: Period,
+        x: &[f64],
+        y: &[f64],
+        z: &[f64],
+        out: &mut [S],
+    ) {
+        reference_batch(|p| self.sample_periodic(p, period), x, y, z, out);
     }
 
     /// `out[i] = Σ_o amp_o · sample(p_i · freq_o)` (|·| when `TURB`), summed in octave order
@@ -98,6 +119,54 @@ impl<K: LatticeKernel> NoiseKernel for K {
     #[inline(always)]
     fn sample<S: Real>(&self, p: [f64; 3]) -> S {
         self.eval(p)
+    }
+
+    /// The point reduced into its period; in a period's last cell the upper corner takes cell
+    /// 0's hash (the general corner hashes, then the same `interior` as the batch kernels).
+    #[inline]
+    fn sample_periodic<S: Real>(&self, p: [f64; 3], period: Period) -> S {
+        let (q, wrap) = period::reduce3(p, period);
+        if wrap == [false; 3] {
+            return self.eval(q);
+        }
+        let cells = q.map(lattice::lattice);
+        let lo = cells.map(|c| c.0);
+        let hi: [usize; 3] = std::array::from_fn(|a| if wrap[a] { 0 } else { (lo[a] + 1) & 255 });
+        let h = lattice::corner_hashes_wrapped(self.perm(), K::PERLIN_HASH, lo, hi);
+        self.interior::<S, false>(h, cells.map(|c| S::from_f64(c.1)))
+    }
+
+    /// Reduced points through the SIMD kernels, then the lanes in a period's last cell again
+    /// through [`NoiseKernel::sample_periodic`].
+    fn sample_batch_periodic<S: Real>(
+        &self,
+        period: Period,
+        x: &[f64],
+        y: &[f64],
+        z: &[f64],
+        out: &mut [S],
+    ) {
+        const CHUNK: usize = 256;
+        let mut start = 0;
+        while start < out.len() {
+            let m = CHUNK.min(out.len() - start);
+            let mut q = [[0.0f64; CHUNK]; 3];
+            let mut wrapped = [false; CHUNK];
+            for i in 0..m {
+                let p = [x[start + i], y[start + i], z[start + i]];
+                let (r, wrap) = period::reduce3(p, period);
+                for a in 0..3 {
+                    q[a][i] = r[a];
+                }
+                wrapped[i] = wrap != [false; 3];
+            }
+            let chunk = &mut out[start..start + m];
+            self.sample_batch(&q[0][..m], &q[1][..m], &q[2][..m], chunk);
+            for i in (0..m).filter(|&i| wrapped[i]) {
+                chunk[i] = self.sample_periodic([x[start + i], y[start + i], z[start + i]], period);
+            }
+            start += m;
+        }
     }
 
     #[inline]
@@ -266,6 +335,8 @@ pub enum Interpolation {
 pub struct NoiseTable {
     basis: Basis,
     seed: u64,
+    /// Tiling period of [`NoiseTable::sample`], if any.
+    period: Option<Period>,
     /// The permutation of 0..=255, doubled to 512 entries so that a hash plus an index <= 255
     /// needs no wrap.
     perm: [u8; 512],
@@ -326,12 +397,26 @@ impl NoiseTable {
         NoiseTable {
             basis,
             seed,
+            period: None,
             perm,
             pairs,
             grads,
             values,
             features,
         }
+    }
+
+    /// The same tables, sampled tiled with `period` (cells per axis, each at least 1).
+    pub fn periodic(basis: Basis, seed: u64, period: Option<Period>) -> Self {
+        NoiseTable {
+            period: period.filter(|p| p.iter().all(|&c| c >= 1)),
+            ..NoiseTable::new(basis, seed)
+        }
+    }
+
+    /// The tiling period of [`NoiseTable::sample`], if any.
+    pub fn period(&self) -> Option<Period> {
+        self.period
     }
 
     /// The basis these tables serve.
@@ -375,7 +460,30 @@ impl NoiseTable {
     /// is fine.
     #[inline]
     pub fn sample<S: Real>(&self, p: [f64; 3]) -> S {
-        with_kernel!(self, k => NoiseKernel::sample(&k, p))
+        match self.period {
+            None => with_kernel!(self, k => NoiseKernel::sample(&k, p)),
+            Some(period) => self.sample_at_period(p, period),
+        }
+    }
+
+    /// One sample of these tables tiled with `period` (whatever the table's own period): the
+    /// fractal sums sample octave i at their own period.
+    #[inline]
+    pub fn sample_at_period<S: Real>(&self, p: [f64; 3], period: Period) -> S {
+        with_kernel!(self, k => k.sample_periodic(p, period))
+    }
+
+    /// [`NoiseTable::sample_at_period`] over a batch, bit for bit.
+    pub fn sample_batch_at_period<S: Real>(
+        &self,
+        period: Period,
+        x: &[f64],
+        y: &[f64],
+        z: &[f64],
+        out: &mut [S],
+    ) {
+        check_lengths(x, y, z, out.len());
+        with_kernel!(self, k => k.sample_batch_periodic(period, x, y, z, out));
     }
 
     /// `out[i] = sample(x[i], y[i], z[i])` bit for bit: one basis dispatch per batch, then the
@@ -385,7 +493,10 @@ impl NoiseTable {
     /// Panics only if the slices' lengths differ (a caller bug).
     pub fn sample_batch<S: Real>(&self, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
         check_lengths(x, y, z, out.len());
-        with_kernel!(self, k => k.sample_batch(x, y, z, out));
+        match self.period {
+            None => with_kernel!(self, k => k.sample_batch(x, y, z, out)),
+            Some(period) => with_kernel!(self, k => k.sample_batch_periodic(period, x, y, z, out)),
+        }
     }
 
     /// Guaranteed `[min, max]` of [`NoiseTable::sample`] for finite input, in f32 and in f64,
@@ -608,7 +719,20 @@ impl NoiseKernel for CellularKernel<'_> {
             self.features,
             self.values,
             self.params,
+            None,
             p,
+        ))
+    }
+
+    /// The point reduced into its period, and the neighbour cells wrapped around it.
+    fn sample_periodic<S: Real>(&self, p: [f64; 3], period: Period) -> S {
+        canonical_nan(cellular::sample(
+            self.perm,
+            self.features,
+            self.values,
+            self.params,
+            Some(period),
+            period::reduce3(p, period).0,
         ))
     }
 }

@@ -1662,3 +1662,132 @@ fn cellular_f2_is_exact() {
     }
     assert!(wrong_27 < pts.len() / 1000, "{wrong_27} of {}", pts.len());
 }
+
+// ---------------------------------------------------------------------------------------------
+// Tiling
+
+/// The bases that tile (all but Simplex, for now), with a spread of periods.
+fn tiling_cases() -> Vec<(Basis, Period)> {
+    let mut cases = Vec::new();
+    for basis in every_basis().into_iter().filter(|b| *b != Basis::Simplex) {
+        for period in [
+            [1, 1, 1],
+            [3, 3, 3],
+            [2, 5, 7],
+            [256, 3, 300],
+            [1000, 1, 17],
+        ] {
+            cases.push((basis, period));
+        }
+    }
+    cases
+}
+
+/// `N(p + k P) = N(p)` bit for bit wherever `p + k P` is exact, in f32 and f64, and inside the
+/// first period (below its last cell) the tiled noise is the plain noise.
+#[test]
+fn tiled_noise_repeats_bit_for_bit() {
+    let mut rng = SplitMix64::new(60);
+    for (basis, period) in tiling_cases() {
+        let t = NoiseTable::periodic(basis, 3, Some(period));
+        let plain = NoiseTable::new(basis, 3);
+        for p in points(61, 400, 40.0) {
+            let k: [f64; 3] = std::array::from_fn(|_| (rng.next_signed() * 1000.0).round());
+            let q: [f64; 3] = std::array::from_fn(|a| p[a] + k[a] * period[a] as f64);
+            if (0..3).any(|a| q[a] - k[a] * period[a] as f64 != p[a]) {
+                continue;
+            }
+            assert_eq!(
+                t.sample::<f64>(p).to_bits(),
+                t.sample::<f64>(q).to_bits(),
+                "{basis:?} {period:?} {p:?} {q:?}"
+            );
+            assert_eq!(t.sample::<f32>(p).to_bits(), t.sample::<f32>(q).to_bits());
+            let inside: [f64; 3] = std::array::from_fn(|a| {
+                p[a].rem_euclid(period[a] as f64)
+                    .min(period[a] as f64 - 1.0)
+                    * 0.999
+            });
+            if !matches!(basis, Basis::Cellular(_)) {
+                assert_eq!(
+                    t.sample::<f64>(inside),
+                    plain.sample::<f64>(inside),
+                    "{basis:?} {inside:?}"
+                );
+            }
+        }
+    }
+}
+
+/// Continuous across the seam: just below and just above a multiple of the period differ by at
+/// most the Lipschitz bound times the step (plus f32 rounding).
+#[test]
+fn tiled_noise_is_continuous_across_the_seam() {
+    let mut rng = SplitMix64::new(62);
+    for (basis, period) in tiling_cases() {
+        if matches!(basis, Basis::White)
+            || matches!(basis, Basis::Cellular(c) if c.value == CellularValue::CellValue)
+        {
+            continue;
+        }
+        let t = NoiseTable::periodic(basis, 5, Some(period));
+        let l = t.lipschitz();
+        for _ in 0..300 {
+            let axis = (rng.next_u64() % 3) as usize;
+            let k = (rng.next_signed() * 20.0).round() * period[axis] as f64;
+            let mut a = [0; 3].map(|_: i32| rng.next_signed() * 50.0);
+            let mut b = a;
+            a[axis] = k - 1e-9;
+            b[axis] = k + 1e-9;
+            let d = (t.sample::<f64>(a) - t.sample::<f64>(b)).abs();
+            let dist = b[axis] - a[axis];
+            assert!(
+                d <= l * dist + 1e-11,
+                "{basis:?} {period:?} {a:?}: jump {d:e}"
+            );
+        }
+    }
+}
+
+/// Tiled batches (SIMD on the reduced points, the seam lanes again per point) give the point
+/// function's bits, also for fractal sums, whose octave i tiles at period × frequency.
+#[test]
+fn tiled_batch_equals_point_bit_for_bit() {
+    let mut pts = batch_pool(63, 600, 10);
+    // Many lanes in a period's last cell.
+    pts.extend(
+        points(64, 300, 6.0)
+            .into_iter()
+            .map(|p| p.map(|c| c.floor() + 0.999)),
+    );
+    let [x, y, z] = planes(&pts);
+    let schedule = Octaves::new(3.5, 2.0, 0.5, 1).with_period(Some([3, 2, 5]));
+    for (basis, period) in tiling_cases() {
+        let t = NoiseTable::periodic(basis, 7, Some(period));
+        let mut o32 = vec![0.0f32; pts.len()];
+        let mut o64 = vec![0.0f64; pts.len()];
+        t.sample_batch(&x, &y, &z, &mut o32);
+        t.sample_batch(&x, &y, &z, &mut o64);
+        let w32: Vec<f32> = pts.iter().map(|&p| t.sample(p)).collect();
+        let w64: Vec<f64> = pts.iter().map(|&p| t.sample(p)).collect();
+        assert_eq!(bits_of(&o32), bits_of(&w32), "{basis:?} {period:?}");
+        assert_eq!(bits_of(&o64), bits_of(&w64), "{basis:?} {period:?}");
+        if basis.is_fractal() {
+            let plain = NoiseTable::new(basis, 7);
+            for style in [
+                Style::Fbm,
+                Style::Ridged {
+                    offset: 1.0,
+                    sharpness: 2.0,
+                },
+            ] {
+                fractal_styled_batch(&plain, &schedule, style, &x, &y, &z, &mut o64);
+                let want: Vec<f64> = pts
+                    .iter()
+                    .map(|&p| fractal_styled(&plain, &schedule, style, p))
+                    .collect();
+                assert_eq!(bits_of(&o64), bits_of(&want), "{basis:?} {style:?}");
+            }
+        }
+    }
+}
