@@ -1964,3 +1964,56 @@ fn slices_larger_than_a_window_and_rows_longer_than_a_segment_bake_exactly() {
         );
     }
 }
+
+/// graphs/tiling_marble.ron repeats every unit: a 2×2 (×1) tiling of its bake of [0, 1]³ is,
+/// voxel for voxel and bit for bit, the bake of the doubled region [0, 2]² × [0, 1] (the voxel
+/// centres of the doubled grid are the unit grid's plus whole units: exact for a power-of-two
+/// size); and the unit bake's opposite faces match as neighbours would (the seam is continuous).
+#[test]
+fn the_tiling_marble_tiles() {
+    let tape = load_with("graphs/tiling_marble.ron", &[("octaves", 5.0)]).0;
+    let n = 16;
+    let bake = |grid: Grid| {
+        bake_volume(
+            &tape,
+            &BakeOptions {
+                grid,
+                threads: 2,
+                ..BakeOptions::default()
+            },
+        )
+        .expect("bake")
+    };
+    let unit = bake(grid_over([n, n, n], [0.0; 3], [1.0; 3]));
+    let doubled = bake(grid_over([2 * n, 2 * n, n], [0.0; 3], [2.0, 2.0, 1.0]));
+    let mut compared = 0;
+    for (u, d) in unit.outputs.iter().zip(&doubled.outputs) {
+        let channels = u.ty.channels();
+        for [i, j, k] in voxels([2 * n, 2 * n, n]) {
+            for c in 0..channels {
+                let want = u.get(&unit.grid, i % n, j % n, k, c);
+                let got = d.get(&doubled.grid, i, j, k, c);
+                assert!(
+                    same(got, want),
+                    "{} voxel {:?} channel {c}: {got} vs {want}",
+                    u.name,
+                    [i, j, k]
+                );
+                compared += 1;
+            }
+        }
+    }
+    assert_eq!(compared, 4 * n * n * n * 4);
+    // Without the period, the same marble does not tile: the test can fail.
+    let plain = load_text(
+        &std::fs::read_to_string(root().join("graphs/tiling_marble.ron"))
+            .unwrap()
+            .replace(", period: 4", ""),
+    );
+    let plain_value = |p: [f64; 3]| {
+        let mut out = [0f32; 4];
+        plain.eval_point(&mut Workspace::new(), p, &mut out);
+        out[3]
+    };
+    assert_ne!(plain_value([0.3, 0.4, 0.5]), plain_value([1.3, 0.4, 0.5]));
+}
