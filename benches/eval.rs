@@ -4,6 +4,9 @@
 //! on the 16 384 points of one z slice of the 128³ grid over [0, 8)³ (a fixed subset, so one
 //! iteration stays short), evaluated by texgraph per point and per batch (f32 and f64) and by a
 //! hand-written scalar Rust function of the same formula, so every ratio comes from one run.
+//! `eval/cellular`, `eval/cellular_fbm4`, `eval/simplex`, `eval/warp`, `eval/period`: the noise
+//! families against their peers (fastnoise-lite, noise-rs, simdnoise) on the same slab as
+//! `eval/fbm8`.
 //! `compile/N`: parse + check + compile of a generated graph of N nodes (inline nodes included).
 //!
 //! Run: `cargo bench --bench eval` (add `-- eval/` or `-- compile/` to pick a group).
@@ -312,6 +315,170 @@ fn peer_group(c: &mut Criterion, name: &str, source: &str, finish: fn(f32, f32) 
     group.finish();
 }
 
+/// texgraph's batch and per-point paths over the slab, as the first two functions of a group.
+fn texgraph_pair(
+    group: &mut criterion::BenchmarkGroup<criterion::measurement::WallTime>,
+    tape: &Tape,
+) {
+    let (x, y, z) = slab();
+    let n = x.len();
+    group.bench_function("texgraph_batch_f32", |b| {
+        let mut ws = Workspace::<f32>::new();
+        let mut out = vec![0f32; n];
+        b.iter(|| {
+            tape.eval_batch(&mut ws, &x, &y, &z, &mut out);
+            black_box(&out);
+        })
+    });
+    group.bench_function("texgraph_point_f32", |b| {
+        let mut ws = Workspace::<f32>::new();
+        let mut out = vec![0f32; n];
+        b.iter(|| {
+            for i in 0..n {
+                tape.eval_point(&mut ws, [x[i], y[i], z[i]], &mut out[i..i + 1]);
+            }
+            black_box(&out);
+        })
+    });
+}
+
+fn new_group<'a>(
+    c: &'a mut Criterion,
+    name: &str,
+) -> criterion::BenchmarkGroup<'a, criterion::measurement::WallTime> {
+    let mut group = c.benchmark_group(name.to_string());
+    group.throughput(Throughput::Elements(slab().0.len() as u64));
+    group
+        .sample_size(15)
+        .measurement_time(Duration::from_secs(3))
+        .warm_up_time(Duration::from_secs(1));
+    group
+}
+
+/// A peer evaluated point by point over the slab (f32 coordinates where the peer takes them).
+fn peer(
+    group: &mut criterion::BenchmarkGroup<criterion::measurement::WallTime>,
+    name: &str,
+    f: &dyn Fn([f64; 3]) -> f32,
+) {
+    let (x, y, z) = slab();
+    let n = x.len();
+    group.bench_function(name, |b| {
+        let mut out = vec![0f32; n];
+        b.iter(|| {
+            for i in 0..n {
+                out[i] = f([x[i], y[i], z[i]]);
+            }
+            black_box(&out);
+        })
+    });
+}
+
+/// The noise families (issue 14): cellular, simplex, warping and tiling, each against its
+/// peers on the slab (128 × 128 × 4 voxel centres of the 128³ grid over [0, 8)³).
+fn family_benches(c: &mut Criterion) {
+    // Cellular F1 (Euclidean, jitter 1) and a 4-octave cellular fbm.
+    let mut group = new_group(c, "eval/cellular");
+    texgraph_pair(
+        &mut group,
+        &compile_text(r#"Graph(outputs: { "c": Cellular(input: Position) })"#, &[]),
+    );
+    let mut fnl = fastnoise_lite::FastNoiseLite::new();
+    fnl.set_noise_type(Some(fastnoise_lite::NoiseType::Cellular));
+    fnl.set_cellular_distance_function(Some(fastnoise_lite::CellularDistanceFunction::Euclidean));
+    fnl.set_cellular_return_type(Some(fastnoise_lite::CellularReturnType::Distance));
+    fnl.set_cellular_jitter(Some(1.0));
+    fnl.set_frequency(Some(1.0));
+    peer(&mut group, "fastnoise_lite", &|p| {
+        fnl.get_noise_3d(p[0] as f32, p[1] as f32, p[2] as f32)
+    });
+    let worley = noise::Worley::new(0).set_return_type(noise::core::worley::ReturnType::Distance);
+    peer(&mut group, "noise_rs_worley", &|p| {
+        use noise::NoiseFn;
+        worley.get(p) as f32
+    });
+    group.finish();
+    let mut group = new_group(c, "eval/cellular_fbm4");
+    texgraph_pair(
+        &mut group,
+        &compile_text(
+            r#"Graph(outputs: { "c": Fbm(input: Position, basis: Cellular, octaves: 4.0) })"#,
+            &[],
+        ),
+    );
+    let mut fnl4 = fastnoise_lite::FastNoiseLite::new();
+    fnl4.set_noise_type(Some(fastnoise_lite::NoiseType::Cellular));
+    fnl4.set_cellular_return_type(Some(fastnoise_lite::CellularReturnType::Distance));
+    fnl4.set_fractal_type(Some(fastnoise_lite::FractalType::FBm));
+    fnl4.set_fractal_octaves(Some(4));
+    fnl4.set_frequency(Some(1.0));
+    peer(&mut group, "fastnoise_lite", &|p| {
+        fnl4.get_noise_3d(p[0] as f32, p[1] as f32, p[2] as f32)
+    });
+    group.finish();
+
+    // Simplex, one octave.
+    let mut group = new_group(c, "eval/simplex");
+    texgraph_pair(
+        &mut group,
+        &compile_text(
+            r#"Graph(outputs: { "s": Noise(input: Position, basis: Simplex) })"#,
+            &[],
+        ),
+    );
+    let mut os2 = fastnoise_lite::FastNoiseLite::new();
+    os2.set_noise_type(Some(fastnoise_lite::NoiseType::OpenSimplex2));
+    os2.set_frequency(Some(1.0));
+    peer(&mut group, "fastnoise_lite_opensimplex2", &|p| {
+        os2.get_noise_3d(p[0] as f32, p[1] as f32, p[2] as f32)
+    });
+    group.bench_function("simdnoise", |b| {
+        // simdnoise generates a whole grid (runtime SIMD dispatch).
+        b.iter(|| {
+            let (grid, _, _) = simdnoise::NoiseBuilder::gradient_3d(128, 128, 4)
+                .with_freq(8.0 / 128.0)
+                .generate();
+            black_box(grid);
+        })
+    });
+    group.finish();
+
+    // A two-level warp of Perlin fbm: fbm4(warp(warp(p))).
+    let mut group = new_group(c, "eval/warp");
+    texgraph_pair(
+        &mut group,
+        &compile_text(
+            r#"Graph(outputs: { "w": Fbm(input: Warp(input: Warp(input: Position, amount: 0.5, basis: Perlin, octaves: 3.0), amount: 0.5, basis: Perlin, seed: 1, octaves: 3.0), basis: Perlin, octaves: 4.0) })"#,
+            &[],
+        ),
+    );
+    group.finish();
+
+    // The cost of tiling: the same 8-octave Perlin fbm with and without a period.
+    let mut group = new_group(c, "eval/period");
+    let plain = compile_text(FBM8, &[]);
+    let tiled = compile_text(
+        r#"Graph(outputs: { "f": Fbm(input: Position, basis: Perlin, octaves: 8.0, period: 8) })"#,
+        &[],
+    );
+    let (x, y, z) = slab();
+    let n = x.len();
+    for (name, tape) in [
+        ("fbm8_batch_f32", &plain),
+        ("fbm8_period_batch_f32", &tiled),
+    ] {
+        group.bench_function(name, |b| {
+            let mut ws = Workspace::<f32>::new();
+            let mut out = vec![0f32; n];
+            b.iter(|| {
+                tape.eval_batch(&mut ws, &x, &y, &z, &mut out);
+                black_box(&out);
+            })
+        });
+    }
+    group.finish();
+}
+
 fn eval_benches(c: &mut Criterion) {
     peer_group(c, "fbm8", FBM8, |_, f| f);
     peer_group(c, "marble", MARBLE, |x, f| (6.0 * x + 4.0 * f).sin().abs());
@@ -434,5 +601,5 @@ fn compile_benches(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, eval_benches, compile_benches);
+criterion_group!(benches, eval_benches, family_benches, compile_benches);
 criterion_main!(benches);

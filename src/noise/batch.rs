@@ -41,7 +41,7 @@
 use multiversion::multiversion;
 use multiversion::target::target_cfg_f;
 
-use super::{canonical_nan, LatticeKernel};
+use super::{canonical_nan, LatticeKernel, NoiseKernel};
 use crate::real::Real;
 
 /// Lanes per chunk: the stack arrays hold this many (cell bytes, fractions, hashes: 4.8 KB in
@@ -420,4 +420,280 @@ fn octave_terms<S: Real, K: LatticeKernel, const WIDE: bool, const L: usize>(
     let mut lattice = Lattice::<S, L>::new();
     lattice.fill::<false>(fast, 1.0, [&lanes[0], &lanes[1], &lanes[2]]);
     lattice.noise::<K, false, false, WIDE>(k, S::ONE, &mut terms[..L]);
+}
+
+/// The tables and parameters a cellular batch reads.
+pub(super) struct CellularTables<'a> {
+    pub perm: &'a [u8; 512],
+    pub features: &'a [[f32; 3]; 256],
+    pub values: &'a [f32; 256],
+    pub params: super::Cellular,
+}
+
+/// Cellular noise over a batch, `out[i]` = `cellular::sample(p_i)` bit for bit: the 27 nearest
+/// cells of every lane at once (hash and feature reads as gathers, distances, branch-free
+/// minimum updates in the point function's scan order and with its comparisons), then per lane
+/// the ring test; a lane that needs a further ring (rare), or whose point is not finite, runs
+/// the point function instead.
+pub(super) fn cellular<S: Real>(
+    t: &CellularTables,
+    x: &[f64],
+    y: &[f64],
+    z: &[f64],
+    out: &mut [S],
+) {
+    use super::cellular::Metric;
+    match t.params.metric {
+        Metric::Euclidean => cellular_lanes::<S, 0>(t, x, y, z, out),
+        Metric::Manhattan => cellular_lanes::<S, 1>(t, x, y, z, out),
+        Metric::Chebyshev => cellular_lanes::<S, 2>(t, x, y, z, out),
+    }
+}
+
+simd_targets! {
+/// [`cellular`] for one metric (`METRIC`: 0 Euclidean, 1 Manhattan, 2 Chebyshev).
+fn cellular_lanes<S: Real, const METRIC: u8>(
+    t: &CellularTables,
+    x: &[f64],
+    y: &[f64],
+    z: &[f64],
+    out: &mut [S],
+) {
+    use super::cellular::{self, CellularValue, Metric, Nearest};
+    const N: usize = 64;
+    let metric = match METRIC {
+        0 => Metric::Euclidean,
+        1 => Metric::Manhattan,
+        _ => Metric::Chebyshev,
+    };
+    let point = |p: [f64; 3]| {
+        canonical_nan(cellular::sample::<S>(t.perm, t.features, t.values, t.params, None, p))
+    };
+    if !target_cfg_f!(target_feature = "sse4.1") {
+        return super::reference_batch(point, x, y, z, out);
+    }
+    let uses_f2 = !matches!(t.params.value, CellularValue::F1 | CellularValue::CellValue);
+    let jitter = t.params.jitter();
+    let infinity = S::from_f64(f64::INFINITY);
+    let chunks = out.chunks_mut(N).zip(x.chunks(N).zip(y.chunks(N)).zip(z.chunks(N)));
+    for (out, ((x, y), z)) in chunks {
+        let m = out.len();
+        let mut cell = [[0u8; N]; 3];
+        let mut frac = [[S::ZERO; N]; 3];
+        let mut frac64 = [[0.0f64; N]; 3];
+        for (a, src) in [x, y, z].into_iter().enumerate() {
+            for i in 0..m {
+                (cell[a][i], frac[a][i]) = lattice_lane_exact::<S>(src[i]);
+                frac64[a][i] = src[i] - src[i].floor();
+            }
+        }
+        let mut f1 = [infinity; N];
+        let mut f2 = [infinity; N];
+        let mut nearest = [0usize; N];
+        for dz in -1..=1i64 {
+            for dy in -1..=1i64 {
+                for dx in -1..=1i64 {
+                    let o = [dx, dy, dz];
+                    let offset = o.map(|v| S::from_f64(v as f64));
+                    let wrap = o.map(|v| (v + 256) as usize);
+                    for i in 0..m {
+                        let at = |a: usize| (cell[a][i] as usize + wrap[a]) & 255;
+                        let h = cellular::hash(t.perm, at(0), at(1), at(2));
+                        let q = t.features[h & 255];
+                        let d: [S; 3] = std::array::from_fn(|a| {
+                            offset[a] + S::from_f64(q[a] as f64) - frac[a][i]
+                        });
+                        let dist = cellular::distance(metric, d);
+                        let closer = dist < f1[i];
+                        let second = dist < f2[i];
+                        f2[i] = if closer {
+                            f1[i]
+                        } else if second {
+                            dist
+                        } else {
+                            f2[i]
+                        };
+                        nearest[i] = if closer { h } else { nearest[i] };
+                        f1[i] = if closer { dist } else { f1[i] };
+                    }
+                }
+            }
+        }
+        for i in 0..m {
+            let f = [frac64[0][i], frac64[1][i], frac64[2][i]];
+            let needed = if uses_f2 { f2[i] } else { f1[i] };
+            let gap = cellular::ring_gap::<S>(2, jitter, f);
+            let gap = if metric == Metric::Euclidean { gap * gap } else { gap };
+            out[i] = if f.iter().any(|v| v.is_nan()) || gap < needed {
+                point([x[i], y[i], z[i]])
+            } else {
+                let best = Nearest {
+                    f1: f1[i],
+                    f2: f2[i],
+                    cell: nearest[i],
+                };
+                canonical_nan(cellular::finish(metric, t.params.value, best, t.values))
+            };
+        }
+    }
+}
+}
+
+simd_targets! {
+/// Simplex noise over a batch, `out[i]` = the point function bit for bit: each lane's cell and
+/// tetrahedron found as the point function finds them (integer arithmetic, per lane), then the
+/// eight vertex terms over all lanes at once, vertex by vertex in the point function's order
+/// (the vertex offsets from a table by tetrahedron, hashes and gradients as gathers).
+#[allow(clippy::needless_range_loop)] // lanes indexed across parallel arrays, by design
+pub(super) fn simplex<S: Real>(perm: &[u8; 512], x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
+    use super::simplex::{self as sx, ORDERS};
+    const N: usize = 64;
+    let table: [[[i64; 3]; 8]; 6] = std::array::from_fn(|k| sx::vertices(ORDERS[k]));
+    let chunks = out.chunks_mut(N).zip(x.chunks(N).zip(y.chunks(N)).zip(z.chunks(N)));
+    for (out, ((x, y), z)) in chunks {
+        let m = out.len();
+        let mut cell = [[0i64; N]; 3];
+        let mut x0 = [[S::ZERO; 3]; N];
+        let mut order = [0usize; N];
+        for i in 0..m {
+            let at = sx::locate([x[i], y[i], z[i]]);
+            for a in 0..3 {
+                cell[a][i] = at.cell[a];
+            }
+            x0[i] = at.offset.map(S::from_f64);
+            order[i] = sx::order_number(at.order);
+        }
+        let mut sum = [S::ZERO; N];
+        for k in 0..8 {
+            for i in 0..m {
+                let v = table[order[i]][k];
+                let h = sx::hash(perm, cell[0][i] + v[0], cell[1][i] + v[1], cell[2][i] + v[2]);
+                sum[i] = sum[i] + sx::term(x0[i], v, h);
+            }
+        }
+        for i in 0..m {
+            out[i] = canonical_nan(S::from_f64(sx::SCALE) * sum[i]);
+        }
+    }
+}
+}
+
+/// `out[i] = k.sample_periodic(p_i, period)` bit for bit (see [`periodic_octaves`]).
+pub(super) fn periodic<S: Real, K: LatticeKernel>(
+    k: &K,
+    period: super::Period,
+    x: &[f64],
+    y: &[f64],
+    z: &[f64],
+    out: &mut [S],
+) {
+    if out.len() < SMALL || period.iter().any(|&p| p == 0 || p > 1 << 52) {
+        return super::reference_batch(|p| k.sample_periodic(p, period), x, y, z, out);
+    }
+    periodic_octaves::<S, K, false, false>(k, &[1.0], &[1.0], &[period], x, y, z, out);
+}
+
+/// A tiled fractal sum, `out[i] = Σ_o amp_o · k.sample_periodic(p_i · freq_o, period_o)` (|·|
+/// when `TURB`) in octave order from zero, bit for bit; `periods` holds each octave's period.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn periodic_fractal<S: Real, K: LatticeKernel, const TURB: bool>(
+    k: &K,
+    freqs: &[f64],
+    amps: &[f64],
+    periods: &[super::Period],
+    x: &[f64],
+    y: &[f64],
+    z: &[f64],
+    out: &mut [S],
+) {
+    let unusual = periods.iter().flatten().any(|&p| p == 0 || p > 1 << 52);
+    if out.len() < SMALL || unusual {
+        for (((o, &x), &y), &z) in out.iter_mut().zip(x).zip(y).zip(z) {
+            let mut sum = S::ZERO;
+            for ((&f, &a), &period) in freqs.iter().zip(amps).zip(periods) {
+                let n: S = k.sample_periodic([x * f, y * f, z * f], period);
+                sum = sum + S::from_f64(a) * if TURB { n.abs() } else { n };
+            }
+            *o = canonical_nan(sum);
+        }
+        return;
+    }
+    out.fill(S::ZERO);
+    periodic_octaves::<S, K, true, TURB>(k, freqs, amps, periods, x, y, z, out);
+    for o in out.iter_mut() {
+        *o = canonical_nan(*o);
+    }
+}
+
+simd_targets! {
+/// The tiled lattice kernels, per chunk and octave: the scaled points reduced into the
+/// octave's period (branch-free while every coordinate stays below 2^51, else per lane, both
+/// exactly `period::reduce`), the lattice step on the reduced points, the corner hashes
+/// gathered as for plain noise, then, for the lanes in a period's last cell, the general
+/// corner hashes with the upper corner wrapped to cell 0, and the interior over all lanes
+/// (stored, or accumulated as `out + amp · n` when `ACC`).
+#[allow(clippy::too_many_arguments)]
+fn periodic_octaves<S: Real, K: LatticeKernel, const ACC: bool, const TURB: bool>(
+    k: &K,
+    freqs: &[f64],
+    amps: &[f64],
+    periods: &[super::Period],
+    x: &[f64],
+    y: &[f64],
+    z: &[f64],
+    out: &mut [S],
+) {
+    use super::period;
+    const WIDE: bool = !target_cfg_f!(target_feature = "avx512bw"); // see `sample_lanes`
+    let mut lattice = Lattice::<S>::new();
+    let mut q = [[0.0f64; CHUNK]; 3];
+    let mut last = [[0.0f64; CHUNK]; 3];
+    let chunks = out.chunks_mut(CHUNK).zip(x.chunks(CHUNK).zip(y.chunks(CHUNK)).zip(z.chunks(CHUNK)));
+    for (out, ((x, y), z)) in chunks {
+        let m = out.len();
+        for ((&f, &amp), &period) in freqs.iter().zip(amps).zip(periods) {
+            let fast = fits([x, y, z], f);
+            for (a, src) in [x, y, z].into_iter().enumerate() {
+                let p = period[a] as f64;
+                for i in 0..m {
+                    let v = src[i] * f;
+                    (q[a][i], last[a][i]) = if fast {
+                        period::reduce_fast(v, p)
+                    } else {
+                        let (r, c) = period::reduce(v, period[a]);
+                        (r, if c == u64::MAX { -1.0 } else { c as f64 })
+                    };
+                }
+            }
+            let reduced = [&q[0][..m], &q[1][..m], &q[2][..m]];
+            lattice.fill::<false>(fits(reduced, 1.0), 1.0, reduced);
+            if target_cfg_f!(target_feature = "avx512vbmi") {
+                // SAFETY: this branch exists only in the clone compiled for avx512vbmi (which
+                // implies avx512f and avx512bw), which the dispatcher runs only on CPUs that
+                // have it.
+                unsafe { lattice.shuffle_hashes(k, m) };
+            } else {
+                for i in 0..m {
+                    let c = |a: usize| i32::from(lattice.cell[a][i]);
+                    let h = k.hashes([c(0), c(1), c(2)]);
+                    for (plane, h) in lattice.hashes.iter_mut().zip(h) {
+                        plane[i] = h;
+                    }
+                }
+            }
+            for i in 0..m {
+                let wrap: [bool; 3] = std::array::from_fn(|a| last[a][i] == period[a] as f64 - 1.0);
+                if wrap != [false; 3] {
+                    let lo: [usize; 3] = std::array::from_fn(|a| lattice.cell[a][i] as usize);
+                    let hi: [usize; 3] = std::array::from_fn(|a| if wrap[a] { 0 } else { (lo[a] + 1) & 255 });
+                    let h = super::lattice::corner_hashes_wrapped(k.perm(), K::PERLIN_HASH, lo, hi);
+                    for (plane, h) in lattice.hashes.iter_mut().zip(h) {
+                        plane[i] = h;
+                    }
+                }
+            }
+            lattice.noise_hashed::<K, ACC, TURB, WIDE>(k, S::from_f64(amp), out);
+        }
+    }
+}
 }

@@ -122,7 +122,7 @@ pub(super) fn features(seed: u64, jitter: f64) -> [[f32; 3]; 256] {
 
 /// The hash of a cell (indices mod 256), as the lattice bases hash a corner.
 #[inline(always)]
-fn hash(perm: &[u8; 512], i: usize, j: usize, k: usize) -> usize {
+pub(super) fn hash(perm: &[u8; 512], i: usize, j: usize, k: usize) -> usize {
     let pk = perm[k & 255] as usize;
     let pj = perm[((j & 255) + pk) & 511] as usize;
     perm[((i & 255) + pj) & 511] as usize
@@ -130,10 +130,10 @@ fn hash(perm: &[u8; 512], i: usize, j: usize, k: usize) -> usize {
 
 /// The two nearest distances so far (in the metric's comparable form: squared for Euclidean)
 /// and the hash of the nearest point's cell.
-struct Nearest<S> {
-    f1: S,
-    f2: S,
-    cell: usize,
+pub(super) struct Nearest<S> {
+    pub f1: S,
+    pub f2: S,
+    pub cell: usize,
 }
 
 /// One sample of cellular noise with the given tables.
@@ -220,7 +220,7 @@ pub(super) fn sample<S: Real>(
 
 /// The distance in `metric`, Euclidean left squared (compared squared, rooted at the end).
 #[inline(always)]
-fn distance<S: Real>(metric: Metric, d: [S; 3]) -> S {
+pub(super) fn distance<S: Real>(metric: Metric, d: [S; 3]) -> S {
     match metric {
         Metric::Euclidean => d[0] * d[0] + d[1] * d[1] + d[2] * d[2],
         Metric::Manhattan => d[0].abs() + d[1].abs() + d[2].abs(),
@@ -232,7 +232,7 @@ fn distance<S: Real>(metric: Metric, d: [S; 3]) -> S {
 /// cells at Chebyshev ring `ring`: the smallest per-axis gap to the nearest possible feature
 /// coordinate of a cell offset by ±ring along that axis.
 #[inline(always)]
-fn ring_gap<S: Real>(ring: i64, jitter: f64, f: [f64; 3]) -> S {
+pub(super) fn ring_gap<S: Real>(ring: i64, jitter: f64, f: [f64; 3]) -> S {
     let (lo, hi) = (0.5 - jitter / 2.0, 0.5 + jitter / 2.0);
     let r = ring as f64;
     let gap = f
@@ -245,7 +245,7 @@ fn ring_gap<S: Real>(ring: i64, jitter: f64, f: [f64; 3]) -> S {
 
 /// The requested value from the two nearest distances.
 #[inline(always)]
-fn finish<S: Real>(
+pub(super) fn finish<S: Real>(
     metric: Metric,
     value: CellularValue,
     best: Nearest<S>,

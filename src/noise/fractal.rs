@@ -232,9 +232,18 @@ pub fn fractal_styled_batch<S: Real>(
     out: &mut [S],
 ) {
     super::check_lengths(x, y, z, out.len());
+    let (f, a) = (&octaves.frequencies[..], &octaves.amplitudes[..]);
     match (style, &octaves.periods) {
         (Style::Fbm, None) => return fractal_batch(table, octaves, false, x, y, z, out),
         (Style::Turbulence, None) => return fractal_batch(table, octaves, true, x, y, z, out),
+        (Style::Fbm, Some(periods)) => {
+            with_kernel!(table, k => k.fractal_batch_periodic::<S, false>(f, a, periods, x, y, z, out));
+            return;
+        }
+        (Style::Turbulence, Some(periods)) => {
+            with_kernel!(table, k => k.fractal_batch_periodic::<S, true>(f, a, periods, x, y, z, out));
+            return;
+        }
         _ => {}
     }
     const CHUNK: usize = 64;

@@ -62,6 +62,47 @@ pub(crate) trait NoiseKernel {
         reference_batch(|p| self.sample_periodic(p, period), x, y, z, out);
     }
 
+    /// A tiled fractal sum: `out[i] = Σ_o amp_o · sample_periodic(p_i · freq_o, period_o)`
+    /// (|·| when `TURB`) in octave order from `S::ZERO`, NaN canonical, bit for bit.
+    #[allow(clippy::too_many_arguments)]
+    fn fractal_batch_periodic<S: Real, const TURB: bool>(
+        &self,
+        freqs: &[f64],
+        amps: &[f64],
+        periods: &[Period],
+        x: &[f64],
+        y: &[f64],
+        z: &[f64],
+        out: &mut [S],
+    ) {
+        const CHUNK: usize = 64;
+        let mut start = 0;
+        while start < out.len() {
+            let m = CHUNK.min(out.len() - start);
+            let mut scaled = [[0.0f64; CHUNK]; 3];
+            let mut n = [S::ZERO; CHUNK];
+            let mut sum = [S::ZERO; CHUNK];
+            for ((&f, &a), &period) in freqs.iter().zip(amps).zip(periods) {
+                for (plane, src) in scaled.iter_mut().zip([x, y, z]) {
+                    for i in 0..m {
+                        plane[i] = src[start + i] * f;
+                    }
+                }
+                let (sx, sy, sz) = (&scaled[0][..m], &scaled[1][..m], &scaled[2][..m]);
+                self.sample_batch_periodic(period, sx, sy, sz, &mut n[..m]);
+                let a = S::from_f64(a);
+                for i in 0..m {
+                    let v = if TURB { n[i].abs() } else { n[i] };
+                    sum[i] = sum[i] + a * v;
+                }
+            }
+            for i in 0..m {
+                out[start + i] = canonical_nan(sum[i]);
+            }
+            start += m;
+        }
+    }
+
     /// `out[i] = Σ_o amp_o · sample(p_i · freq_o)` (|·| when `TURB`), summed in octave order
     /// from `S::ZERO` as [`fractal`] does, bit for bit.
     #[allow(clippy::too_many_arguments)]
@@ -74,7 +115,41 @@ pub(crate) trait NoiseKernel {
         z: &[f64],
         out: &mut [S],
     ) {
-        reference_fractal::<S, TURB>(|p| self.sample(p), freqs, amps, x, y, z, out);
+        // Octaves outside, lanes inside: each octave is one `sample_batch` (the basis' own
+        // batch kernel) over a chunk, then the same additions per lane as the reference.
+        const CHUNK: usize = 64;
+        if out.len() < batch::SMALL {
+            return reference_fractal::<S, TURB>(|p| self.sample(p), freqs, amps, x, y, z, out);
+        }
+        let mut start = 0;
+        while start < out.len() {
+            let m = CHUNK.min(out.len() - start);
+            let mut scaled = [[0.0f64; CHUNK]; 3];
+            let mut n = [S::ZERO; CHUNK];
+            let mut sum = [S::ZERO; CHUNK];
+            for (&f, &a) in freqs.iter().zip(amps) {
+                for (plane, src) in scaled.iter_mut().zip([x, y, z]) {
+                    for i in 0..m {
+                        plane[i] = src[start + i] * f;
+                    }
+                }
+                self.sample_batch(
+                    &scaled[0][..m],
+                    &scaled[1][..m],
+                    &scaled[2][..m],
+                    &mut n[..m],
+                );
+                let a = S::from_f64(a);
+                for i in 0..m {
+                    let v = if TURB { n[i].abs() } else { n[i] };
+                    sum[i] = sum[i] + a * v;
+                }
+            }
+            for i in 0..m {
+                out[start + i] = canonical_nan(sum[i]);
+            }
+            start += m;
+        }
     }
 }
 
@@ -136,8 +211,28 @@ impl<K: LatticeKernel> NoiseKernel for K {
         self.interior::<S, false>(h, cells.map(|c| S::from_f64(c.1)))
     }
 
+    #[inline]
+    fn sample_batch<S: Real>(&self, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
+        batch::sample(self, x, y, z, out);
+    }
+
+    /// The tiled SIMD kernels (`batch::periodic`).
+    #[allow(clippy::too_many_arguments)]
+    fn fractal_batch_periodic<S: Real, const TURB: bool>(
+        &self,
+        freqs: &[f64],
+        amps: &[f64],
+        periods: &[Period],
+        x: &[f64],
+        y: &[f64],
+        z: &[f64],
+        out: &mut [S],
+    ) {
+        batch::periodic_fractal::<S, K, TURB>(self, freqs, amps, periods, x, y, z, out);
+    }
+
     /// Reduced points through the SIMD kernels, then the lanes in a period's last cell again
-    /// through [`NoiseKernel::sample_periodic`].
+    /// through [`NoiseKernel::sample_periodic`] (see `batch::periodic`).
     fn sample_batch_periodic<S: Real>(
         &self,
         period: Period,
@@ -146,32 +241,7 @@ impl<K: LatticeKernel> NoiseKernel for K {
         z: &[f64],
         out: &mut [S],
     ) {
-        const CHUNK: usize = 256;
-        let mut start = 0;
-        while start < out.len() {
-            let m = CHUNK.min(out.len() - start);
-            let mut q = [[0.0f64; CHUNK]; 3];
-            let mut wrapped = [false; CHUNK];
-            for i in 0..m {
-                let p = [x[start + i], y[start + i], z[start + i]];
-                let (r, wrap) = period::reduce3(p, period);
-                for a in 0..3 {
-                    q[a][i] = r[a];
-                }
-                wrapped[i] = wrap != [false; 3];
-            }
-            let chunk = &mut out[start..start + m];
-            self.sample_batch(&q[0][..m], &q[1][..m], &q[2][..m], chunk);
-            for i in (0..m).filter(|&i| wrapped[i]) {
-                chunk[i] = self.sample_periodic([x[start + i], y[start + i], z[start + i]], period);
-            }
-            start += m;
-        }
-    }
-
-    #[inline]
-    fn sample_batch<S: Real>(&self, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
-        batch::sample(self, x, y, z, out);
+        batch::periodic(self, period, x, y, z, out);
     }
 
     #[inline]
@@ -691,7 +761,7 @@ impl<const SMOOTH: bool> LatticeKernel for ValueKernel<'_, SMOOTH> {
     }
 }
 
-/// [`Basis::Simplex`]'s kernel (per-point batches for now: bit-identical by construction).
+/// [`Basis::Simplex`]'s kernel.
 struct SimplexKernel<'a> {
     perm: &'a [u8; 512],
 }
@@ -701,9 +771,17 @@ impl NoiseKernel for SimplexKernel<'_> {
     fn sample<S: Real>(&self, p: [f64; 3]) -> S {
         canonical_nan(simplex::sample(self.perm, p))
     }
+
+    /// The lane kernel of `batch.rs`, bit for bit `sample`.
+    fn sample_batch<S: Real>(&self, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
+        if out.len() < batch::SMALL {
+            return reference_batch(|p| self.sample(p), x, y, z, out);
+        }
+        batch::simplex(self.perm, x, y, z, out);
+    }
 }
 
-/// [`Basis::Cellular`]'s kernel (per-point batches for now: bit-identical by construction).
+/// [`Basis::Cellular`]'s kernel.
 struct CellularKernel<'a> {
     perm: &'a [u8; 512],
     features: &'a [[f32; 3]; 256],
@@ -722,6 +800,20 @@ impl NoiseKernel for CellularKernel<'_> {
             None,
             p,
         ))
+    }
+
+    /// The SIMD kernel of `batch.rs` (the 27 nearest cells over lanes), bit for bit `sample`.
+    fn sample_batch<S: Real>(&self, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
+        if out.len() < batch::SMALL {
+            return reference_batch(|p| self.sample(p), x, y, z, out);
+        }
+        let tables = batch::CellularTables {
+            perm: self.perm,
+            features: self.features,
+            values: self.values,
+            params: self.params,
+        };
+        batch::cellular(&tables, x, y, z, out);
     }
 
     /// The point reduced into its period, and the neighbour cells wrapped around it.

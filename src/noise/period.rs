@@ -18,6 +18,9 @@ pub type Period = [u64; 3];
 /// coordinate beyond 2^52 is an integer, and the reduction would be the identity anyway).
 const LIMIT: u64 = 1 << 52;
 
+/// 2^51: below it, [`reduce_fast`] applies.
+pub(super) const FAST: f64 = 2_251_799_813_685_248.0;
+
 /// `x` reduced into `[0, P)`, and its cell index there (`c mod P`); a non-finite `x` is kept
 /// as it is (the noise is NaN), and so is every `x` when `P` is beyond 2^52.
 #[inline(always)]
@@ -25,14 +28,37 @@ pub(super) fn reduce(x: f64, period: u64) -> (f64, u64) {
     if period == 0 || period > LIMIT {
         return (x, u64::MAX);
     }
+    if x.abs() < FAST {
+        let (q, m) = reduce_fast(x, period as f64);
+        (q, m as u64)
+    } else {
+        reduce_cold(x, period)
+    }
+}
+
+/// [`reduce`] for |x| < 2^51, branch-free (the batch kernels run it over lanes): with
+/// `c = floor(x)`, `k = floor(c / P)` is exact (c / P is at least 1/P from the next integer
+/// below, more than its rounding error of at most 2^-53 |c| / P < 1/(2P)), so `m = c - P k` is
+/// `c mod P` exactly (every product and difference is an integer below 2^52), and
+/// `x' = m + (x - c)`; inside `[0, P)` that is `x` itself.
+#[inline(always)]
+pub(super) fn reduce_fast(x: f64, period: f64) -> (f64, f64) {
+    let c = x.floor();
+    let m = c - period * (c / period).floor();
+    (m + (x - c), m)
+}
+
+/// [`reduce`] for |x| >= 2^51 and non-finite x: the same numbers through integer or `fmod`
+/// arithmetic (an |x| >= 2^52 is an integer already).
+#[cold]
+#[inline(never)]
+fn reduce_cold(x: f64, period: u64) -> (f64, u64) {
     if x.abs() < TWO52 {
-        let t = x as i64;
-        let c = t - ((t as f64) > x) as i64;
-        let f = x - (c as f64).copysign(x);
-        let m = c.rem_euclid(period as i64);
-        (m as f64 + f, m as u64)
+        let c = x.floor();
+        let m = (c as i64).rem_euclid(period as i64);
+        (m as f64 + (x - c), m as u64)
     } else if x.is_finite() {
-        // An integer already; `%` (fmod) is exact.
+        // `%` (fmod) is exact.
         let m = x % period as f64;
         let m = if m < 0.0 { m + period as f64 } else { m };
         (m, m as u64)

@@ -78,7 +78,7 @@ pub(super) fn cell768(x: f64) -> (i64, f64) {
 
 /// The hash of a vertex (cell indices mod 256), Ebert-style as the lattice bases hash.
 #[inline(always)]
-fn hash(perm: &[u8; 512], i: i64, j: i64, k: i64) -> usize {
+pub(super) fn hash(perm: &[u8; 512], i: i64, j: i64, k: i64) -> usize {
     let pk = perm[(k & 255) as usize] as usize;
     let pj = perm[((j & 255) as usize + pk) & 511] as usize;
     perm[((i & 255) as usize + pj) & 511] as usize
@@ -163,36 +163,60 @@ pub(super) fn vertices(order: [usize; 3]) -> [[i64; 3]; 8] {
     ]
 }
 
+/// The six axis orders [`locate`] can return, in a fixed numbering (for the batch kernel's
+/// vertex table).
+pub(super) const ORDERS: [[usize; 3]; 6] = [
+    [0, 1, 2],
+    [0, 2, 1],
+    [2, 0, 1],
+    [2, 1, 0],
+    [1, 2, 0],
+    [1, 0, 2],
+];
+
+/// The number of an axis order in [`ORDERS`].
+#[inline(always)]
+pub(super) fn order_number(order: [usize; 3]) -> usize {
+    ORDERS.iter().position(|o| *o == order).unwrap_or(0)
+}
+
+/// One vertex's term `(max(0.6 - r², 0))⁴ (g · d)` at offset `x0` from the cell's base vertex,
+/// for vertex `v` (an offset from the base) whose hash is `h`: the point function's and the
+/// batch kernel's arithmetic, in one place.
+#[inline(always)]
+pub(super) fn term<S: Real>(x0: [S; 3], v: [i64; 3], h: usize) -> S {
+    // The vertex's unskewed offset is v - G (v0 + v1 + v2); G times a small integer.
+    let g = S::from_f64((v[0] + v[1] + v[2]) as f64 / 6.0);
+    let d = [
+        x0[0] - S::from_f64(v[0] as f64) + g,
+        x0[1] - S::from_f64(v[1] as f64) + g,
+        x0[2] - S::from_f64(v[2] as f64) + g,
+    ];
+    let t = S::from_f64(RADIUS2) - (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    let t = if t > S::ZERO { t } else { S::ZERO };
+    let grad = GRADIENTS[h % 12];
+    let dot = S::from_f64(grad[0] as f64) * d[0]
+        + S::from_f64(grad[1] as f64) * d[1]
+        + S::from_f64(grad[2] as f64) * d[2];
+    let t2 = t * t;
+    t2 * t2 * dot
+}
+
 /// One sample. Positions in f64, the kernel arithmetic in `S` (the offsets are small numbers,
 /// computed in f64 and rounded once).
 #[inline(always)]
 pub(super) fn sample<S: Real>(perm: &[u8; 512], p: [f64; 3]) -> S {
     let at = locate(p);
     let x0 = at.offset.map(S::from_f64);
-    let radius2 = S::from_f64(RADIUS2);
     let mut sum = S::ZERO;
     for v in vertices(at.order) {
-        // The vertex's unskewed offset is v - G (v0 + v1 + v2); G times a small integer.
-        let g = S::from_f64((v[0] + v[1] + v[2]) as f64 / 6.0);
-        let d = [
-            x0[0] - S::from_f64(v[0] as f64) + g,
-            x0[1] - S::from_f64(v[1] as f64) + g,
-            x0[2] - S::from_f64(v[2] as f64) + g,
-        ];
-        let t = radius2 - (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        let t = if t > S::ZERO { t } else { S::ZERO };
         let h = hash(
             perm,
             at.cell[0] + v[0],
             at.cell[1] + v[1],
             at.cell[2] + v[2],
         );
-        let grad = GRADIENTS[h % 12];
-        let dot = S::from_f64(grad[0] as f64) * d[0]
-            + S::from_f64(grad[1] as f64) * d[1]
-            + S::from_f64(grad[2] as f64) * d[2];
-        let t2 = t * t;
-        sum = sum + t2 * t2 * dot;
+        sum = sum + term(x0, v, h);
     }
     S::from_f64(SCALE) * sum
 }

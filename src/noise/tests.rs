@@ -1791,3 +1791,40 @@ fn tiled_batch_equals_point_bit_for_bit() {
         }
     }
 }
+
+/// The cellular SIMD kernel against the point function for batch lengths around its chunk and
+/// the per-point threshold, on tame, edge and wild (huge, non-finite) points, for every metric
+/// and value.
+#[test]
+fn cellular_batch_equals_point_for_every_length() {
+    let pools = [
+        batch_pool(70, 200, 8),
+        batch_pool(71, 200, 10),
+        batch_pool(72, 200, 12),
+    ];
+    for metric in [Metric::Euclidean, Metric::Manhattan, Metric::Chebyshev] {
+        for value in [
+            CellularValue::F1,
+            CellularValue::F2,
+            CellularValue::F2MinusF1,
+            CellularValue::CellValue,
+            CellularValue::Edge,
+        ] {
+            let t = NoiseTable::new(cellular(0.85, metric, value), 13);
+            for len in [1, 7, 8, 9, 63, 64, 65, 130, 200] {
+                for pool in &pools {
+                    let pts = &pool[..len];
+                    let [x, y, z] = planes(pts);
+                    let mut o32 = vec![0.0f32; len];
+                    let mut o64 = vec![0.0f64; len];
+                    t.sample_batch(&x, &y, &z, &mut o32);
+                    t.sample_batch(&x, &y, &z, &mut o64);
+                    let w32: Vec<f32> = pts.iter().map(|&p| t.sample(p)).collect();
+                    let w64: Vec<f64> = pts.iter().map(|&p| t.sample(p)).collect();
+                    assert_eq!(bits_of(&o32), bits_of(&w32), "{metric:?} {value:?} {len}");
+                    assert_eq!(bits_of(&o64), bits_of(&w64), "{metric:?} {value:?} {len}");
+                }
+            }
+        }
+    }
+}
