@@ -252,8 +252,8 @@ impl Checker {
     }
 
     /// The node's tiling period, refused where it cannot tile: with a fractional lacunarity
-    /// (octave i must repeat every `period · lacunarity^i` whole cells) and, for now, with the
-    /// Simplex basis (its skewed grid needs its own wrapping).
+    /// (octave i must repeat every `period · lacunarity^i` whole cells) and, for the Simplex
+    /// basis, with a period not divisible by 3 (its grid repeats only every 3 cells).
     fn period(
         &mut self,
         named: &Named,
@@ -276,10 +276,13 @@ impl Checker {
                 .label("cannot tile")
                 .help(help.to_string())
         };
-        if basis == Basis::Simplex {
+        if basis == Basis::Simplex && period.iter().any(|p| p % 3 != 0) {
             self.error(refuse(
-                "the Simplex basis cannot tile yet: its skewed grid does not line up with the period's box".into(),
-                "tile with Perlin, Gradient, Value or Cellular",
+                format!(
+                    "the Simplex basis tiles only with periods divisible by 3, got ({}, {}, {}): its skewed grid repeats along an axis every 3 cells",
+                    period[0], period[1], period[2]
+                ),
+                "use a multiple of 3 (3, 6, 12, ...), or another basis",
             ));
             return None;
         }

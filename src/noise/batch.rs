@@ -547,28 +547,43 @@ simd_targets! {
 #[allow(clippy::needless_range_loop)] // lanes indexed across parallel arrays, by design
 pub(super) fn simplex<S: Real>(perm: &[u8; 512], x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
     use super::simplex::{self as sx, ORDERS};
+    type Vec3 = [f64; 3];
     const N: usize = 64;
+    // The constants of every (tetrahedron, vertex) and the gradient of every hash, as S.
     let table: [[[i64; 3]; 8]; 6] = std::array::from_fn(|k| sx::vertices(ORDERS[k]));
+    let constants: [[([S; 3], S); 8]; 6] =
+        std::array::from_fn(|k| std::array::from_fn(|j| sx::vertex_constants::<S>(table[k][j])));
+    let gradients: [[S; 3]; 256] = std::array::from_fn(sx::gradient::<S>);
     let chunks = out.chunks_mut(N).zip(x.chunks(N).zip(y.chunks(N)).zip(z.chunks(N)));
     for (out, ((x, y), z)) in chunks {
         let m = out.len();
         let mut cell = [[0i64; N]; 3];
         let mut x0 = [[S::ZERO; 3]; N];
         let mut order = [0usize; N];
+        let fast = [x, y, z].iter().all(|p| p.iter().all(|v| v.abs() < sx::FAST));
         for i in 0..m {
-            let at = sx::locate([x[i], y[i], z[i]]);
-            for a in 0..3 {
-                cell[a][i] = at.cell[a];
+            let at = if fast {
+                let (c, f): (Vec3, Vec3) = (
+                    [sx::cell768_fast(x[i]).0, sx::cell768_fast(y[i]).0, sx::cell768_fast(z[i]).0],
+                    [sx::cell768_fast(x[i]).1, sx::cell768_fast(y[i]).1, sx::cell768_fast(z[i]).1],
+                );
+                sx::locate_parts(c, f)
+            } else {
+                sx::locate([x[i], y[i], z[i]])
+            };
+            for (plane, c) in cell.iter_mut().zip(at.cell) {
+                plane[i] = c as i64;
             }
             x0[i] = at.offset.map(S::from_f64);
-            order[i] = sx::order_number(at.order);
+            order[i] = at.order;
         }
         let mut sum = [S::ZERO; N];
         for k in 0..8 {
             for i in 0..m {
                 let v = table[order[i]][k];
+                let (offset, g) = constants[order[i]][k];
                 let h = sx::hash(perm, cell[0][i] + v[0], cell[1][i] + v[1], cell[2][i] + v[2]);
-                sum[i] = sum[i] + sx::term(x0[i], v, h);
+                sum[i] = sum[i] + sx::term_with(x0[i], offset, g, gradients[h]);
             }
         }
         for i in 0..m {

@@ -779,6 +779,11 @@ impl NoiseKernel for SimplexKernel<'_> {
         }
         batch::simplex(self.perm, x, y, z, out);
     }
+
+    /// Vertices hashed as their translates into the period box (`simplex::sample_periodic`).
+    fn sample_periodic<S: Real>(&self, p: [f64; 3], period: Period) -> S {
+        canonical_nan(simplex::sample_periodic(self.perm, p, period))
+    }
 }
 
 /// [`Basis::Cellular`]'s kernel.

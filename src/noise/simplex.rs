@@ -17,13 +17,13 @@
 //! gradient chosen adversarially is 32 × 0.030585 = 0.9787; random samples reach ±0.975).
 //! Lipschitz bound: see [`LIPSCHITZ`].
 //!
-//! Precision: the skewed cell is computed exactly at any magnitude. With `X = floor(x)` (and so
+//! Precision: the skewed cell is computed exactly at any magnitude (small-integer arithmetic,
+//! carried in f64 so that the batch kernel runs it over lanes). With `X = floor(x)` (and so
 //! on) as integers and `f = x - X` exact, the skew `(x + y + z) / 3` splits into the integer
 //! part of `(X + Y + Z) / 3` (`q`, with remainder `r`) and `(r + fx + fy + fz) / 3`, so the cell
 //! is `X + q + L` with a small `L` and the offset inside it involves small numbers only. Only
 //! residues of the indices are needed (mod 768 = 3 × 256, so that `q mod 256` and `r` are right).
 
-use super::lattice::TWO52;
 use crate::real::Real;
 
 /// The 12 cube-edge gradients (Gustavson's `grad3`), picked by `hash % 12`.
@@ -58,22 +58,39 @@ pub(super) const RANGE: f64 = 1.0;
 /// |∇N| <= 12.5; measured slopes reach about 6.
 pub(super) const LIPSCHITZ: f64 = 12.5;
 
-/// One coordinate as its integer cell residue mod 768 and its fraction in [0, 1] (the
-/// fraction as [`super::lattice::lattice`] computes it; NaN for non-finite input).
+/// 2^51: below it, [`cell768_fast`] applies.
+pub(super) const FAST: f64 = 2_251_799_813_685_248.0;
+
+/// One coordinate as its integer cell residue mod 768 (an exact small integer, as f64) and its
+/// fraction in [0, 1] (as [`super::lattice::lattice`] computes it; NaN for non-finite input).
 #[inline(always)]
-pub(super) fn cell768(x: f64) -> (i64, f64) {
-    if x.abs() < TWO52 {
-        let t = x as i64;
-        let i = t - ((t as f64) > x) as i64;
-        let c = (i as f64).copysign(x);
-        (i.rem_euclid(768), x - c)
+pub(super) fn cell768(x: f64) -> (f64, f64) {
+    if x.abs() < FAST {
+        cell768_fast(x)
     } else {
-        // Already an integer (fraction 0) or not finite (fraction NaN). `%` (fmod) is exact.
-        let c = x.floor();
-        let m = c % 768.0;
-        let m = if m < 0.0 { m + 768.0 } else { m };
-        (m as i64, x - c)
+        cell768_cold(x)
     }
+}
+
+/// [`cell768`] for |x| < 2^51, branch-free (the batch kernel runs it over lanes): with
+/// `c = floor(x)`, `floor(c / 768)` is exact (c / 768 is at least 1/768 from the next integer
+/// below, more than its rounding error), so `c - 768 floor(c / 768)` is `c mod 768` exactly.
+#[inline(always)]
+pub(super) fn cell768_fast(x: f64) -> (f64, f64) {
+    let c = x.floor();
+    (c - 768.0 * (c / 768.0).floor(), x - c)
+}
+
+/// [`cell768`] for |x| >= 2^51 and non-finite x.
+#[cold]
+#[inline(never)]
+fn cell768_cold(x: f64) -> (f64, f64) {
+    // Already an integer beyond 2^52 (fraction 0), or not finite (fraction NaN, cell 0).
+    // `%` (fmod) is exact.
+    let c = x.floor();
+    let m = c % 768.0;
+    let m = if m < 0.0 { m + 768.0 } else { m };
+    (if m.is_finite() { m } else { 0.0 }, x - c)
 }
 
 /// The hash of a vertex (cell indices mod 256), Ebert-style as the lattice bases hash.
@@ -84,12 +101,13 @@ pub(super) fn hash(perm: &[u8; 512], i: i64, j: i64, k: i64) -> usize {
     perm[((i & 255) as usize + pj) & 511] as usize
 }
 
-/// Where a point lies: the skewed cell's base vertex (mod 256), the offset from it (unskewed),
-/// and the order of the offset's components (largest first), which picks the tetrahedron.
+/// Where a point lies: the skewed cell's base vertex (an exact small integer per axis, as
+/// f64, equal to the true index mod 256), the offset from it (unskewed), and which of the six
+/// tetrahedra (a number into [`ORDERS`]).
 pub(super) struct Located {
-    pub cell: [i64; 3],
+    pub cell: [f64; 3],
     pub offset: [f64; 3],
-    pub order: [usize; 3],
+    pub order: usize,
 }
 
 /// Finds the skewed cell and tetrahedron of `p` (see the module docs for the exact split).
@@ -98,41 +116,64 @@ pub(super) fn locate(p: [f64; 3]) -> Located {
     let (cx, fx) = cell768(p[0]);
     let (cy, fy) = cell768(p[1]);
     let (cz, fz) = cell768(p[2]);
-    let sum = (cx + cy + cz) % 768;
-    let (q, r) = (sum / 3, (sum % 3) as f64);
-    let skew = (r + fx + fy + fz) / 3.0;
-    let l = [
-        (fx + skew).floor(),
-        (fy + skew).floor(),
-        (fz + skew).floor(),
-    ];
-    // Non-finite input: the NaN fraction gives NaN `l`; keep the indices harmless (0).
-    let li = l.map(|v| if v.is_finite() { v as i64 } else { 0 });
-    let unskew = (r + l[0] + l[1] + l[2]) / 6.0;
-    let offset = [fx - l[0] + unskew, fy - l[1] + unskew, fz - l[2] + unskew];
-    let [a, b, c] = offset;
-    // Ties go to the lower axis, as Gustavson's `>=` comparisons do.
-    let order = if a >= b {
-        if b >= c {
-            [0, 1, 2]
-        } else if a >= c {
-            [0, 2, 1]
-        } else {
-            [2, 0, 1]
-        }
-    } else if b < c {
-        [2, 1, 0]
-    } else if a < c {
-        [1, 2, 0]
+    locate_parts([cx, cy, cz], [fx, fy, fz])
+}
+
+/// [`locate`] from each coordinate's cell residue mod 768 and fraction: branch-free, exact
+/// small-integer arithmetic in f64 (every intermediate is an integer below 2^12, or a fraction).
+#[inline(always)]
+pub(super) fn locate_parts(c: [f64; 3], f: [f64; 3]) -> Located {
+    locate_from::<true>(c, f)
+}
+
+/// [`locate_parts`]; without `REDUCE`, from full cell indices (below 2^50 in magnitude), giving
+/// the full index of the skewed cell (tiling needs it).
+#[inline(always)]
+fn locate_from<const REDUCE: bool>(c: [f64; 3], f: [f64; 3]) -> Located {
+    let sum = c[0] + c[1] + c[2];
+    let sum = if REDUCE {
+        sum - 768.0 * (sum / 768.0).floor()
     } else {
-        [1, 0, 2]
+        sum
     };
+    // sum / 3 is exact when 3 divides sum and at least 1/3 from an integer otherwise.
+    let q = (sum / 3.0).floor();
+    let r = sum - 3.0 * q;
+    let skew = (r + f[0] + f[1] + f[2]) / 3.0;
+    let l = [
+        (f[0] + skew).floor(),
+        (f[1] + skew).floor(),
+        (f[2] + skew).floor(),
+    ];
+    let unskew = (r + l[0] + l[1] + l[2]) / 6.0;
+    let offset = [
+        f[0] - l[0] + unskew,
+        f[1] - l[1] + unskew,
+        f[2] - l[2] + unskew,
+    ];
+    let [a, b, cc] = offset;
+    // Gustavson's comparisons (ties go to the lower axis) as an index: a >= b, b >= c, a >= c.
+    let index = 4 * usize::from(a >= b) + 2 * usize::from(b >= cc) + usize::from(a >= cc);
+    // Non-finite input: NaN everywhere; keep the cell harmless (0); the result is NaN anyway.
+    let cell: [f64; 3] = std::array::from_fn(|k| {
+        let v = c[k] + q + l[k];
+        if v.is_finite() {
+            v
+        } else {
+            0.0
+        }
+    });
     Located {
-        cell: [cx + q + li[0], cy + q + li[1], cz + q + li[2]],
+        cell,
         offset,
-        order,
+        order: ORDER_OF_COMPARISONS[index],
     }
 }
+
+/// The tetrahedron (its number in [`ORDERS`]) for each outcome of the comparisons
+/// `4 (a >= b) + 2 (b >= c) + (a >= c)` of the offset's components; the two impossible
+/// outcomes (1 and 6) map to a neighbour.
+const ORDER_OF_COMPARISONS: [usize; 8] = [3, 3, 4, 5, 2, 1, 0, 0];
 
 /// The eight vertices in reach of a point in the tetrahedron with axis order `order`, as
 /// offsets from the cell's base vertex: the tetrahedron's own four `v0 = 0, v1 = e_a,
@@ -163,8 +204,8 @@ pub(super) fn vertices(order: [usize; 3]) -> [[i64; 3]; 8] {
     ]
 }
 
-/// The six axis orders [`locate`] can return, in a fixed numbering (for the batch kernel's
-/// vertex table).
+/// The six tetrahedra of a skewed cell, by the order of the offset's components (largest
+/// first), numbered as [`locate`] reports them.
 pub(super) const ORDERS: [[usize; 3]; 6] = [
     [0, 1, 2],
     [0, 2, 1],
@@ -174,30 +215,37 @@ pub(super) const ORDERS: [[usize; 3]; 6] = [
     [1, 0, 2],
 ];
 
-/// The number of an axis order in [`ORDERS`].
-#[inline(always)]
-pub(super) fn order_number(order: [usize; 3]) -> usize {
-    ORDERS.iter().position(|o| *o == order).unwrap_or(0)
-}
-
 /// One vertex's term `(max(0.6 - r², 0))⁴ (g · d)` at offset `x0` from the cell's base vertex,
-/// for vertex `v` (an offset from the base) whose hash is `h`: the point function's and the
-/// batch kernel's arithmetic, in one place.
+/// for vertex `v` (an offset from the base) whose hash is `h`.
 #[inline(always)]
 pub(super) fn term<S: Real>(x0: [S; 3], v: [i64; 3], h: usize) -> S {
-    // The vertex's unskewed offset is v - G (v0 + v1 + v2); G times a small integer.
-    let g = S::from_f64((v[0] + v[1] + v[2]) as f64 / 6.0);
-    let d = [
-        x0[0] - S::from_f64(v[0] as f64) + g,
-        x0[1] - S::from_f64(v[1] as f64) + g,
-        x0[2] - S::from_f64(v[2] as f64) + g,
-    ];
+    let (offset, g) = vertex_constants::<S>(v);
+    term_with(x0, offset, g, gradient::<S>(h))
+}
+
+/// A vertex offset as `S`, and its unskew `G (v0 + v1 + v2)` (G times a small integer).
+#[inline(always)]
+pub(super) fn vertex_constants<S: Real>(v: [i64; 3]) -> ([S; 3], S) {
+    (
+        v.map(|c| S::from_f64(c as f64)),
+        S::from_f64((v[0] + v[1] + v[2]) as f64 / 6.0),
+    )
+}
+
+/// The gradient a hash picks, as `S`.
+#[inline(always)]
+pub(super) fn gradient<S: Real>(h: usize) -> [S; 3] {
+    GRADIENTS[h % 12].map(|c| S::from_f64(c as f64))
+}
+
+/// [`term`]'s arithmetic from its constants: the point function's and the batch kernel's
+/// (which reads the constants from tables), in one place.
+#[inline(always)]
+pub(super) fn term_with<S: Real>(x0: [S; 3], v: [S; 3], g: S, grad: [S; 3]) -> S {
+    let d = [x0[0] - v[0] + g, x0[1] - v[1] + g, x0[2] - v[2] + g];
     let t = S::from_f64(RADIUS2) - (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     let t = if t > S::ZERO { t } else { S::ZERO };
-    let grad = GRADIENTS[h % 12];
-    let dot = S::from_f64(grad[0] as f64) * d[0]
-        + S::from_f64(grad[1] as f64) * d[1]
-        + S::from_f64(grad[2] as f64) * d[2];
+    let dot = grad[0] * d[0] + grad[1] * d[1] + grad[2] * d[2];
     let t2 = t * t;
     t2 * t2 * dot
 }
@@ -208,14 +256,42 @@ pub(super) fn term<S: Real>(x0: [S; 3], v: [i64; 3], h: usize) -> S {
 pub(super) fn sample<S: Real>(perm: &[u8; 512], p: [f64; 3]) -> S {
     let at = locate(p);
     let x0 = at.offset.map(S::from_f64);
+    let cell = at.cell.map(|c| c as i64);
     let mut sum = S::ZERO;
-    for v in vertices(at.order) {
-        let h = hash(
-            perm,
-            at.cell[0] + v[0],
-            at.cell[1] + v[1],
-            at.cell[2] + v[2],
-        );
+    for v in vertices(ORDERS[at.order]) {
+        let h = hash(perm, cell[0] + v[0], cell[1] + v[1], cell[2] + v[2]);
+        sum = sum + term(x0, v, h);
+    }
+    S::from_f64(SCALE) * sum
+}
+
+/// One sample tiled with `period` (each a multiple of 3, which the checker ensures: the skewed
+/// grid is invariant under a translation by `(P, 0, 0)` exactly when 3 divides P, the vertex
+/// index moving by `(4P/3, P/3, P/3)`). The point is reduced into its period (so the full cell
+/// index is small and exact), and each vertex is hashed as its translate into the period box:
+/// its unskewed position times 6, `U = 6 V - (V0 + V1 + V2)`, is reduced mod `6 P` per axis and
+/// turned back into a vertex index (`V = (U + ΣU / 3) / 6`, exact integers). A vertex and its
+/// translates by whole periods get one hash, so the noise repeats; it is the same kernel sum,
+/// so it stays continuous.
+pub(super) fn sample_periodic<S: Real>(perm: &[u8; 512], p: [f64; 3], period: [u64; 3]) -> S {
+    let q = super::period::reduce3(p, period).0;
+    if q.iter().any(|v| !v.is_finite()) || period.iter().any(|&p| p == 0 || p % 3 != 0) {
+        return sample(perm, q);
+    }
+    // Full cell indices: the reduced coordinates are below 2^21.
+    let c = q.map(f64::floor);
+    let at = locate_from::<false>(c, [q[0] - c[0], q[1] - c[1], q[2] - c[2]]);
+    let x0 = at.offset.map(S::from_f64);
+    let cell = at.cell.map(|v| v as i64);
+    let mut sum = S::ZERO;
+    for v in vertices(ORDERS[at.order]) {
+        let vertex = [cell[0] + v[0], cell[1] + v[1], cell[2] + v[2]];
+        let s = vertex[0] + vertex[1] + vertex[2];
+        let u: [i64; 3] =
+            std::array::from_fn(|a| (6 * vertex[a] - s).rem_euclid(6 * period[a] as i64));
+        let s = (u[0] + u[1] + u[2]) / 3;
+        let wrapped: [i64; 3] = std::array::from_fn(|a| (u[a] + s) / 6);
+        let h = hash(perm, wrapped[0], wrapped[1], wrapped[2]);
         sum = sum + term(x0, v, h);
     }
     S::from_f64(SCALE) * sum
