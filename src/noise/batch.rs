@@ -452,6 +452,7 @@ pub(super) fn cellular<S: Real>(
 
 simd_targets! {
 /// [`cellular`] for one metric (`METRIC`: 0 Euclidean, 1 Manhattan, 2 Chebyshev).
+#[allow(clippy::needless_range_loop)] // lanes indexed across parallel arrays, by design
 fn cellular_lanes<S: Real, const METRIC: u8>(
     t: &CellularTables,
     x: &[f64],
