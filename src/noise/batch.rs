@@ -476,6 +476,9 @@ fn cellular_lanes<S: Real, const METRIC: u8>(
     let uses_f2 = !matches!(t.params.value, CellularValue::F1 | CellularValue::CellValue);
     let jitter = t.params.jitter();
     let infinity = S::from_f64(f64::INFINITY);
+    // The feature points as three planes of S (gathers of one value each), the same numbers.
+    let features: [[S; 256]; 3] =
+        std::array::from_fn(|a| std::array::from_fn(|k| S::from_f64(t.features[k][a] as f64)));
     let chunks = out.chunks_mut(N).zip(x.chunks(N).zip(y.chunks(N)).zip(z.chunks(N)));
     for (out, ((x, y), z)) in chunks {
         let m = out.len();
@@ -490,28 +493,30 @@ fn cellular_lanes<S: Real, const METRIC: u8>(
         }
         let mut f1 = [infinity; N];
         let mut f2 = [infinity; N];
-        let mut nearest = [0usize; N];
+        let mut nearest = [0u32; N];
         // The hash `perm[x + perm[y + perm[z]]]` of the 27 cells, its inner levels shared: 3
         // reads for the z neighbours, 9 for (y, z), 27 for the cells.
-        let at = |a: usize, i: usize, o: i64| (cell[a][i] as usize + (o + 256) as usize) & 255;
+        let at = |a: usize, i: usize, o: i64| (u32::from(cell[a][i]) + (o + 256) as u32) & 255;
         for dz in -1..=1i64 {
-            let mut pz = [0usize; N];
+            let mut pz = [0u32; N];
             for i in 0..m {
-                pz[i] = t.perm[at(2, i, dz)] as usize;
+                pz[i] = u32::from(t.perm[at(2, i, dz) as usize]);
             }
             for dy in -1..=1i64 {
-                let mut py = [0usize; N];
+                let mut py = [0u32; N];
                 for i in 0..m {
-                    py[i] = t.perm[(at(1, i, dy) + pz[i]) & 511] as usize;
+                    py[i] = u32::from(t.perm[((at(1, i, dy) + pz[i]) & 511) as usize]);
                 }
                 for dx in -1..=1i64 {
+                    let mut h = [0u32; N];
+                    for i in 0..m {
+                        h[i] = u32::from(t.perm[((at(0, i, dx) + py[i]) & 511) as usize]);
+                    }
                     let offset = [dx, dy, dz].map(|v| S::from_f64(v as f64));
                     for i in 0..m {
-                        let h = t.perm[(at(0, i, dx) + py[i]) & 511] as usize;
-                        let q = t.features[h & 255];
-                        let d: [S; 3] = std::array::from_fn(|a| {
-                            offset[a] + S::from_f64(q[a] as f64) - frac[a][i]
-                        });
+                        let k = (h[i] & 255) as usize;
+                        let q = [features[0][k], features[1][k], features[2][k]];
+                        let d: [S; 3] = std::array::from_fn(|a| offset[a] + q[a] - frac[a][i]);
                         let dist = cellular::distance(metric, d);
                         let closer = dist < f1[i];
                         let second = dist < f2[i];
@@ -522,7 +527,7 @@ fn cellular_lanes<S: Real, const METRIC: u8>(
                         } else {
                             f2[i]
                         };
-                        nearest[i] = if closer { h } else { nearest[i] };
+                        nearest[i] = if closer { h[i] } else { nearest[i] };
                         f1[i] = if closer { dist } else { f1[i] };
                     }
                 }
@@ -539,7 +544,7 @@ fn cellular_lanes<S: Real, const METRIC: u8>(
                 let best = Nearest {
                     f1: f1[i],
                     f2: f2[i],
-                    cell: nearest[i],
+                    cell: nearest[i] as usize,
                 };
                 canonical_nan(cellular::finish(metric, t.params.value, best, t.values))
             };
