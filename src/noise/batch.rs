@@ -684,14 +684,17 @@ fn periodic_octaves<S: Real, K: LatticeKernel, const ACC: bool, const TURB: bool
             let fast = fits([x, y, z], f);
             for (a, src) in [x, y, z].into_iter().enumerate() {
                 let p = period[a] as f64;
-                for i in 0..m {
-                    let v = src[i] * f;
-                    (q[a][i], last[a][i]) = if fast {
-                        period::reduce_fast(v, p)
-                    } else {
-                        let (r, c) = period::reduce(v, period[a]);
-                        (r, if c == u64::MAX { -1.0 } else { c as f64 })
-                    };
+                let inverse = 1.0 / p;
+                // Two loops, not one with a branch: the fast one vectorises.
+                if fast {
+                    for i in 0..m {
+                        (q[a][i], last[a][i]) = period::reduce_fast(src[i] * f, p, inverse);
+                    }
+                } else {
+                    for i in 0..m {
+                        let (r, c) = period::reduce(src[i] * f, period[a]);
+                        (q[a][i], last[a][i]) = (r, if c == u64::MAX { -1.0 } else { c as f64 });
+                    }
                 }
             }
             let reduced = [&q[0][..m], &q[1][..m], &q[2][..m]];
@@ -710,9 +713,19 @@ fn periodic_octaves<S: Real, K: LatticeKernel, const ACC: bool, const TURB: bool
                     }
                 }
             }
+            // Which lanes sit in a period's last cell: a vectorised pass, and nothing more
+            // when none does (the common case for long periods).
+            let top = period.map(|p| p as f64 - 1.0);
+            let mut wraps = [0u8; CHUNK];
             for i in 0..m {
-                let wrap: [bool; 3] = std::array::from_fn(|a| last[a][i] == period[a] as f64 - 1.0);
-                if wrap != [false; 3] {
+                wraps[i] = u8::from(last[0][i] == top[0])
+                    | u8::from(last[1][i] == top[1]) << 1
+                    | u8::from(last[2][i] == top[2]) << 2;
+            }
+            let any = wraps[..m].iter().fold(0u8, |acc, &w| acc | w);
+            for i in (0..m).filter(|_| any != 0) {
+                let wrap: [bool; 3] = std::array::from_fn(|a| wraps[i] >> a & 1 == 1);
+                if wraps[i] != 0 {
                     let lo: [usize; 3] = std::array::from_fn(|a| lattice.cell[a][i] as usize);
                     let hi: [usize; 3] = std::array::from_fn(|a| if wrap[a] { 0 } else { (lo[a] + 1) & 255 });
                     let h = super::lattice::corner_hashes_wrapped(k.perm(), K::PERLIN_HASH, lo, hi);

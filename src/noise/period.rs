@@ -29,22 +29,25 @@ pub(super) fn reduce(x: f64, period: u64) -> (f64, u64) {
         return (x, u64::MAX);
     }
     if x.abs() < FAST {
-        let (q, m) = reduce_fast(x, period as f64);
+        let (q, m) = reduce_fast(x, period as f64, 1.0 / period as f64);
         (q, m as u64)
     } else {
         reduce_cold(x, period)
     }
 }
 
-/// [`reduce`] for |x| < 2^51, branch-free (the batch kernels run it over lanes): with
-/// `c = floor(x)`, `k = floor(c / P)` is exact (c / P is at least 1/P from the next integer
-/// below, more than its rounding error of at most 2^-53 |c| / P < 1/(2P)), so `m = c - P k` is
-/// `c mod P` exactly (every product and difference is an integer below 2^52), and
-/// `x' = m + (x - c)`; inside `[0, P)` that is `x` itself.
+/// [`reduce`] for |x| < 2^51, branch-free (the batch kernels run it over lanes), `inverse`
+/// being `1 / P` rounded: with `c = floor(x)`, `c · inverse` is within 2^-52 |c / P| < 1/2 of
+/// `c / P`, so `k = floor(c · inverse)` is `floor(c / P)` or one off, and `m = c - P k`, exact
+/// (every product and difference is an integer below 2^52), is `c mod P` after at most one
+/// correction by P either way; then
+/// `x' = m + (x - c)`, which inside `[0, P)` is `x` itself.
 #[inline(always)]
-pub(super) fn reduce_fast(x: f64, period: f64) -> (f64, f64) {
+pub(super) fn reduce_fast(x: f64, period: f64, inverse: f64) -> (f64, f64) {
     let c = x.floor();
-    let m = c - period * (c / period).floor();
+    let m = c - period * (c * inverse).floor();
+    let m = if m < 0.0 { m + period } else { m };
+    let m = if m >= period { m - period } else { m };
     (m + (x - c), m)
 }
 
