@@ -681,24 +681,32 @@ fn periodic_octaves<S: Real, K: LatticeKernel, const ACC: bool, const TURB: bool
     for (out, ((x, y), z)) in chunks {
         let m = out.len();
         for ((&f, &amp), &period) in freqs.iter().zip(amps).zip(periods) {
-            let fast = fits([x, y, z], f);
+            // Every scaled coordinate, and so every reduced one, below 2^51 (the periods too).
+            let fast = fits([x, y, z], f) && period.iter().all(|&p| (p as f64) < TWO51);
             for (a, src) in [x, y, z].into_iter().enumerate() {
                 let p = period[a] as f64;
                 let inverse = 1.0 / p;
-                // Two loops, not one with a branch: the fast one vectorises.
+                // Two loops, not one with a branch: the fast one vectorises, and goes on to the
+                // lattice step in the same pass (a reduced coordinate is in [0, P), below 2^51
+                // on this path, where `lattice_lane_fast` is exact).
                 if fast {
                     for i in 0..m {
-                        (q[a][i], last[a][i]) = period::reduce_fast(src[i] * f, p, inverse);
+                        let (r, c) = period::reduce_fast(src[i] * f, p, inverse);
+                        last[a][i] = c;
+                        (lattice.cell[a][i], lattice.frac[a][i]) = lattice_lane_fast::<S>(r);
                     }
                 } else {
                     for i in 0..m {
                         let (r, c) = period::reduce(src[i] * f, period[a]);
-                        (q[a][i], last[a][i]) = (r, if c == u64::MAX { -1.0 } else { c as f64 });
+                        q[a][i] = r;
+                        last[a][i] = if c == u64::MAX { -1.0 } else { c as f64 };
                     }
                 }
             }
-            let reduced = [&q[0][..m], &q[1][..m], &q[2][..m]];
-            lattice.fill::<false>(fits(reduced, 1.0), 1.0, reduced);
+            if !fast {
+                let reduced = [&q[0][..m], &q[1][..m], &q[2][..m]];
+                lattice.fill::<false>(fits(reduced, 1.0), 1.0, reduced);
+            }
             if target_cfg_f!(target_feature = "avx512vbmi") {
                 // SAFETY: this branch exists only in the clone compiled for avx512vbmi (which
                 // implies avx512f and avx512bw), which the dispatcher runs only on CPUs that
