@@ -553,6 +553,12 @@ fn cellular_lanes<S: Real, const METRIC: u8>(
 }
 }
 
+/// `perm[i]` as an index.
+#[inline(always)]
+fn t_perm(perm: &[u8; 512], i: usize) -> usize {
+    perm[i & 511] as usize
+}
+
 simd_targets! {
 /// Simplex noise over a batch, `out[i]` = the point function bit for bit: each lane's cell and
 /// tetrahedron found as the point function finds them (integer arithmetic, per lane), then the
@@ -561,43 +567,54 @@ simd_targets! {
 #[allow(clippy::needless_range_loop)] // lanes indexed across parallel arrays, by design
 pub(super) fn simplex<S: Real>(perm: &[u8; 512], x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
     use super::simplex::{self as sx, ORDERS};
-    type Vec3 = [f64; 3];
     const N: usize = 64;
-    // The constants of every (tetrahedron, vertex) and the gradient of every hash, as S.
-    let table: [[[i64; 3]; 8]; 6] = std::array::from_fn(|k| sx::vertices(ORDERS[k]));
-    let constants: [[([S; 3], S); 8]; 6] =
-        std::array::from_fn(|k| std::array::from_fn(|j| sx::vertex_constants::<S>(table[k][j])));
-    let gradients: [[S; 3]; 256] = std::array::from_fn(sx::gradient::<S>);
+    // Per (vertex k, tetrahedron o): the vertex offset as a hash increment (`v + 256`, so the
+    // sums stay unsigned), as S, and its unskew; the gradient of every hash, as three planes.
+    let table: [[[i64; 3]; 8]; 6] = std::array::from_fn(|o| sx::vertices(ORDERS[o]));
+    let step: [[[u32; 6]; 3]; 8] =
+        std::array::from_fn(|k| std::array::from_fn(|a| std::array::from_fn(|o| (table[o][k][a] + 256) as u32)));
+    let offset: [[[S; 6]; 3]; 8] = std::array::from_fn(|k| {
+        std::array::from_fn(|a| std::array::from_fn(|o| sx::vertex_constants::<S>(table[o][k]).0[a]))
+    });
+    let unskew: [[S; 6]; 8] =
+        std::array::from_fn(|k| std::array::from_fn(|o| sx::vertex_constants::<S>(table[o][k]).1));
+    let gradients: [[S; 256]; 3] =
+        std::array::from_fn(|a| std::array::from_fn(|h| sx::gradient::<S>(h)[a]));
     let chunks = out.chunks_mut(N).zip(x.chunks(N).zip(y.chunks(N)).zip(z.chunks(N)));
     for (out, ((x, y), z)) in chunks {
         let m = out.len();
-        let mut cell = [[0i64; N]; 3];
-        let mut x0 = [[S::ZERO; 3]; N];
+        let mut cell = [[0u32; N]; 3];
+        let mut x0 = [[S::ZERO; N]; 3];
         let mut order = [0usize; N];
         let fast = [x, y, z].iter().all(|p| p.iter().all(|v| v.abs() < sx::FAST));
         for i in 0..m {
             let at = if fast {
-                let (c, f): (Vec3, Vec3) = (
-                    [sx::cell768_fast(x[i]).0, sx::cell768_fast(y[i]).0, sx::cell768_fast(z[i]).0],
-                    [sx::cell768_fast(x[i]).1, sx::cell768_fast(y[i]).1, sx::cell768_fast(z[i]).1],
-                );
-                sx::locate_parts(c, f)
+                let (cx, fx) = sx::cell768_fast(x[i]);
+                let (cy, fy) = sx::cell768_fast(y[i]);
+                let (cz, fz) = sx::cell768_fast(z[i]);
+                sx::locate_parts([cx, cy, cz], [fx, fy, fz])
             } else {
                 sx::locate([x[i], y[i], z[i]])
             };
-            for (plane, c) in cell.iter_mut().zip(at.cell) {
-                plane[i] = c as i64;
+            for a in 0..3 {
+                // The cell is an exact non-negative integer below 2^11.
+                cell[a][i] = (at.cell[a] as u32) & 255;
+                x0[a][i] = S::from_f64(at.offset[a]);
             }
-            x0[i] = at.offset.map(S::from_f64);
             order[i] = at.order;
         }
         let mut sum = [S::ZERO; N];
         for k in 0..8 {
             for i in 0..m {
-                let v = table[order[i]][k];
-                let (offset, g) = constants[order[i]][k];
-                let h = sx::hash(perm, cell[0][i] + v[0], cell[1][i] + v[1], cell[2][i] + v[2]);
-                sum[i] = sum[i] + sx::term_with(x0[i], offset, g, gradients[h]);
+                let o = order[i];
+                let at = |a: usize| ((cell[a][i] + step[k][a][o]) & 255) as usize;
+                let pz = t_perm(perm, at(2));
+                let py = t_perm(perm, (at(1) + pz) & 511);
+                let h = t_perm(perm, (at(0) + py) & 511);
+                let v = [offset[k][0][o], offset[k][1][o], offset[k][2][o]];
+                let grad = [gradients[0][h], gradients[1][h], gradients[2][h]];
+                let p = [x0[0][i], x0[1][i], x0[2][i]];
+                sum[i] = sum[i] + sx::term_with(p, v, unskew[k][o], grad);
             }
         }
         for i in 0..m {

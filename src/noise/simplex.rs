@@ -73,12 +73,16 @@ pub(super) fn cell768(x: f64) -> (f64, f64) {
 }
 
 /// [`cell768`] for |x| < 2^51, branch-free (the batch kernel runs it over lanes): with
-/// `c = floor(x)`, `floor(c / 768)` is exact (c / 768 is at least 1/768 from the next integer
-/// below, more than its rounding error), so `c - 768 floor(c / 768)` is `c mod 768` exactly.
+/// `c = floor(x)`, `c · (1/768)` is within 2^-52 |c / 768| < 1/2 of `c / 768`, so its floor is
+/// `floor(c / 768)` or one off, and `c - 768 k` (exact: integers below 2^52) is `c mod 768`
+/// after at most one correction by 768 either way.
 #[inline(always)]
 pub(super) fn cell768_fast(x: f64) -> (f64, f64) {
     let c = x.floor();
-    (c - 768.0 * (c / 768.0).floor(), x - c)
+    let m = c - 768.0 * (c * (1.0 / 768.0)).floor();
+    let m = if m < 0.0 { m + 768.0 } else { m };
+    let m = if m >= 768.0 { m - 768.0 } else { m };
+    (m, x - c)
 }
 
 /// [`cell768`] for |x| >= 2^51 and non-finite x.
@@ -130,22 +134,25 @@ pub(super) fn locate_parts(c: [f64; 3], f: [f64; 3]) -> Located {
 /// the full index of the skewed cell (tiling needs it).
 #[inline(always)]
 fn locate_from<const REDUCE: bool>(c: [f64; 3], f: [f64; 3]) -> Located {
+    const THIRD: f64 = 1.0 / 3.0;
     let sum = c[0] + c[1] + c[2];
+    // Multiplications by rounded reciprocals, their floors exact: `(n + 1/2) / d` is at least
+    // 1/(2d) from an integer, far more than the product's rounding error for the integers n
+    // here (below 2^12; below 2^50 without `REDUCE`).
     let sum = if REDUCE {
-        sum - 768.0 * (sum / 768.0).floor()
+        sum - 768.0 * ((sum + 0.5) * (1.0 / 768.0)).floor()
     } else {
         sum
     };
-    // sum / 3 is exact when 3 divides sum and at least 1/3 from an integer otherwise.
-    let q = (sum / 3.0).floor();
+    let q = ((sum + 0.5) * THIRD).floor();
     let r = sum - 3.0 * q;
-    let skew = (r + f[0] + f[1] + f[2]) / 3.0;
+    let skew = (r + f[0] + f[1] + f[2]) * THIRD;
     let l = [
         (f[0] + skew).floor(),
         (f[1] + skew).floor(),
         (f[2] + skew).floor(),
     ];
-    let unskew = (r + l[0] + l[1] + l[2]) / 6.0;
+    let unskew = (r + l[0] + l[1] + l[2]) * (1.0 / 6.0);
     let offset = [
         f[0] - l[0] + unskew,
         f[1] - l[1] + unskew,
