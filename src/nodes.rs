@@ -594,7 +594,7 @@ pub const CATALOGUE: &[NodeDef] = &[
         name: "WhiteNoise",
         args: &[INPUT, SEED_ARG, PERIOD_ARG],
         output: OutputType::Scalar,
-        doc: "A random value in [0, 1] per integer cell of the point (a hash, no interpolation).",
+        doc: "A random value in [0, 1) per integer cell of the point (a hash, no interpolation).",
     },
     NodeDef {
         kind: Kind::VecNoise, lowering: Lowering::VecNoise, slope: Slope::Composite, derivative: Derivative::Composite,

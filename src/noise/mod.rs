@@ -454,8 +454,10 @@ impl NoiseTable {
             _ => [[0.0; 3]; 256],
         };
         let values = match basis {
-            Basis::Value(_) | Basis::Cellular(_) | Basis::White => {
-                value::values(seed ^ rng::VALUE_SALT)
+            Basis::Value(_) => value::values(seed ^ rng::VALUE_SALT),
+            // Per-cell values in [0, 1): one that rounded up to 1 in f32 is held below it.
+            Basis::Cellular(_) | Basis::White => {
+                value::values(seed ^ rng::VALUE_SALT).map(|v| v.min(1.0f32.next_down()))
             }
             _ => [0.0; 256],
         };

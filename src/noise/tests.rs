@@ -1860,3 +1860,17 @@ fn simplex_batch_equals_point_for_every_length() {
         }
     }
 }
+
+/// White noise and cell values stay in [0, 1) for every table, even where a value rounded up
+/// to 1 when stored as f32 (held at the largest f32 below 1); the Value basis keeps its table.
+#[test]
+fn cell_values_stay_below_one() {
+    for seed in 0..3000 {
+        let white = NoiseTable::new(Basis::White, seed);
+        let value = NoiseTable::new(Basis::Value(Interpolation::Linear), seed);
+        for (w, v) in white.values.iter().zip(&value.values) {
+            assert!(*w < 1.0 && *w >= 0.0, "seed {seed}: {w}");
+            assert_eq!(*w, v.min(1.0f32.next_down()));
+        }
+    }
+}
