@@ -238,24 +238,7 @@ fn peer_group(c: &mut Criterion, name: &str, source: &str, finish: fn(f32, f32) 
         .sample_size(15)
         .measurement_time(Duration::from_secs(4))
         .warm_up_time(Duration::from_secs(1));
-    group.bench_function("texgraph_batch_f32", |b| {
-        let mut ws = Workspace::<f32>::new();
-        let mut out = vec![0f32; n];
-        b.iter(|| {
-            tape.eval_batch(&mut ws, &x, &y, &z, &mut out);
-            black_box(&out);
-        })
-    });
-    group.bench_function("texgraph_point_f32", |b| {
-        let mut ws = Workspace::<f32>::new();
-        let mut out = vec![0f32; n];
-        b.iter(|| {
-            for i in 0..n {
-                tape.eval_point(&mut ws, [x[i], y[i], z[i]], &mut out[i..i + 1]);
-            }
-            black_box(&out);
-        })
-    });
+    texgraph_pair(&mut group, &tape);
     group.bench_function("handwritten_f32", |b| {
         let mut out = vec![0f32; n];
         b.iter(|| {

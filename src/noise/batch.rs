@@ -425,7 +425,7 @@ fn octave_terms<S: Real, K: LatticeKernel, const WIDE: bool, const L: usize>(
 /// The tables and parameters a cellular batch reads.
 pub(super) struct CellularTables<'a> {
     pub perm: &'a [u8; 512],
-    pub features: &'a [[f32; 3]; 256],
+    pub features: &'a [[f32; 256]; 3],
     pub values: &'a [f32; 256],
     pub params: super::Cellular,
 }
@@ -476,9 +476,6 @@ fn cellular_lanes<S: Real, const METRIC: u8>(
     let uses_f2 = !matches!(t.params.value, CellularValue::F1 | CellularValue::CellValue);
     let jitter = t.params.jitter();
     let infinity = S::from_f64(f64::INFINITY);
-    // The feature points as three planes of S (gathers of one value each), the same numbers.
-    let features: [[S; 256]; 3] =
-        std::array::from_fn(|a| std::array::from_fn(|k| S::from_f64(t.features[k][a] as f64)));
     let chunks = out.chunks_mut(N).zip(x.chunks(N).zip(y.chunks(N)).zip(z.chunks(N)));
     for (out, ((x, y), z)) in chunks {
         let m = out.len();
@@ -515,8 +512,9 @@ fn cellular_lanes<S: Real, const METRIC: u8>(
                     let offset = [dx, dy, dz].map(|v| S::from_f64(v as f64));
                     for i in 0..m {
                         let k = (h[i] & 255) as usize;
-                        let q = [features[0][k], features[1][k], features[2][k]];
-                        let d: [S; 3] = std::array::from_fn(|a| offset[a] + q[a] - frac[a][i]);
+                        let d: [S; 3] = std::array::from_fn(|a| {
+                            offset[a] + S::from_f64(t.features[a][k] as f64) - frac[a][i]
+                        });
                         let dist = cellular::distance(metric, d);
                         let closer = dist < f1[i];
                         let second = dist < f2[i];
@@ -569,7 +567,8 @@ pub(super) fn simplex<S: Real>(perm: &[u8; 512], x: &[f64], y: &[f64], z: &[f64]
     use super::simplex::{self as sx, ORDERS};
     const N: usize = 64;
     // Per (vertex k, tetrahedron o): the vertex offset as a hash increment (`v + 256`, so the
-    // sums stay unsigned), as S, and its unskew; the gradient of every hash, as three planes.
+    // sums stay unsigned), as S, and its unskew; the 12 gradients as S. (Built per call: a few
+    // hundred conversions against 8 vertex terms on each of up to 256 lanes.)
     let table: [[[i64; 3]; 8]; 6] = std::array::from_fn(|o| sx::vertices(ORDERS[o]));
     let step: [[[u32; 6]; 3]; 8] =
         std::array::from_fn(|k| std::array::from_fn(|a| std::array::from_fn(|o| (table[o][k][a] + 256) as u32)));
@@ -578,8 +577,7 @@ pub(super) fn simplex<S: Real>(perm: &[u8; 512], x: &[f64], y: &[f64], z: &[f64]
     });
     let unskew: [[S; 6]; 8] =
         std::array::from_fn(|k| std::array::from_fn(|o| sx::vertex_constants::<S>(table[o][k]).1));
-    let gradients: [[S; 256]; 3] =
-        std::array::from_fn(|a| std::array::from_fn(|h| sx::gradient::<S>(h)[a]));
+    let gradients: [[S; 3]; 12] = std::array::from_fn(sx::gradient::<S>);
     let chunks = out.chunks_mut(N).zip(x.chunks(N).zip(y.chunks(N)).zip(z.chunks(N)));
     for (out, ((x, y), z)) in chunks {
         let m = out.len();
@@ -612,7 +610,7 @@ pub(super) fn simplex<S: Real>(perm: &[u8; 512], x: &[f64], y: &[f64], z: &[f64]
                 let py = t_perm(perm, (at(1) + pz) & 511);
                 let h = t_perm(perm, (at(0) + py) & 511);
                 let v = [offset[k][0][o], offset[k][1][o], offset[k][2][o]];
-                let grad = [gradients[0][h], gradients[1][h], gradients[2][h]];
+                let grad = gradients[h % 12];
                 let p = [x0[0][i], x0[1][i], x0[2][i]];
                 sum[i] = sum[i] + sx::term_with(p, v, unskew[k][o], grad);
             }

@@ -115,9 +115,14 @@ impl Cellular {
 
 /// The jittered feature points of the 256 hash values, `0.5 + jitter (u - 0.5)` per axis with u
 /// from SplitMix64 seeded with `seed`, rounded once to f32.
-pub(super) fn features(seed: u64, jitter: f64) -> [[f32; 3]; 256] {
+/// Stored as three planes (x, y, z) for the lane kernel's one-value gathers; drawn x, y, z
+/// per hash value.
+pub(super) fn features(seed: u64, jitter: f64) -> [[f32; 256]; 3] {
     let mut rng = SplitMix64::new(seed);
-    std::array::from_fn(|_| std::array::from_fn(|_| (0.5 + jitter * (rng.next_f64() - 0.5)) as f32))
+    let points: [[f32; 3]; 256] = std::array::from_fn(|_| {
+        std::array::from_fn(|_| (0.5 + jitter * (rng.next_f64() - 0.5)) as f32)
+    });
+    std::array::from_fn(|a| std::array::from_fn(|h| points[h][a]))
 }
 
 /// The hash of a cell (indices mod 256), as the lattice bases hash a corner.
@@ -140,7 +145,7 @@ pub(super) struct Nearest<S> {
 #[inline(always)]
 pub(super) fn sample<S: Real>(
     perm: &[u8; 512],
-    features: &[[f32; 3]; 256],
+    features: &[[f32; 256]; 3],
     values: &[f32; 256],
     params: Cellular,
     period: Option<Period>,
@@ -171,7 +176,7 @@ pub(super) fn sample<S: Real>(
     let visit = |best: &mut Nearest<S>, o: [i64; 3]| {
         let at = |(c, m): (i64, i64), o: i64| ((c + o).rem_euclid(m) & 255) as usize;
         let h = hash(perm, at(cx, o[0]), at(cy, o[1]), at(cz, o[2]));
-        let point = features[h];
+        let point = [features[0][h], features[1][h], features[2][h]];
         let d: [S; 3] =
             std::array::from_fn(|a| S::from_f64(o[a] as f64) + S::from_f64(point[a] as f64) - f[a]);
         let dist = distance(metric, d);

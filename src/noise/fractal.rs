@@ -155,6 +155,15 @@ pub enum Style {
     Ridged { offset: f64, sharpness: f64 },
 }
 
+/// The style of a plain (`TURB == false`) or turbulent sum.
+pub(super) const fn turbulence_style(turb: bool) -> Style {
+    if turb {
+        Style::Turbulence
+    } else {
+        Style::Fbm
+    }
+}
+
 /// Per-lane state of a shaped (Billow, Ridged) sum: the same arithmetic on the point and the
 /// batch paths, so both give the same bits.
 #[derive(Clone, Copy)]
@@ -246,39 +255,46 @@ pub fn fractal_styled_batch<S: Real>(
         }
         _ => {}
     }
+    octaves_outside(
+        &octaves.frequencies,
+        &octaves.amplitudes,
+        style,
+        [x, y, z],
+        out,
+        |k, [sx, sy, sz], n| match &octaves.periods {
+            Some(periods) => table.sample_batch_at_period(periods[k], sx, sy, sz, n),
+            None => table.sample_batch(sx, sy, sz, n),
+        },
+    );
+}
+
+/// The octave loop of the batch fractal sums that have no fused kernel: per chunk of 64 lanes
+/// and octave k, the points scaled by `freqs[k]` in f64, one `sample(k, scaled, n)` (a basis'
+/// batch kernel, plain or tiled), then [`Shaper::add`] per lane with `amps[k]`: each lane sees
+/// the point function's operations in its order, so the sums are its bits.
+pub(super) fn octaves_outside<S: Real>(
+    freqs: &[f64],
+    amps: &[f64],
+    style: Style,
+    [x, y, z]: [&[f64]; 3],
+    out: &mut [S],
+    mut sample: impl FnMut(usize, [&[f64]; 3], &mut [S]),
+) {
     const CHUNK: usize = 64;
     let mut start = 0;
     while start < out.len() {
         let m = CHUNK.min(out.len() - start);
-        let (cx, cy, cz) = (
-            &x[start..start + m],
-            &y[start..start + m],
-            &z[start..start + m],
-        );
         let mut shapers = [Shaper::<S>::START; CHUNK];
-        let (mut sx, mut sy, mut sz) = ([0.0f64; CHUNK], [0.0f64; CHUNK], [0.0f64; CHUNK]);
+        let mut scaled = [[0.0f64; CHUNK]; 3];
         let mut n = [S::ZERO; CHUNK];
-        for (k, (&f, &a)) in octaves
-            .frequencies
-            .iter()
-            .zip(&octaves.amplitudes)
-            .enumerate()
-        {
-            for i in 0..m {
-                sx[i] = cx[i] * f;
-                sy[i] = cy[i] * f;
-                sz[i] = cz[i] * f;
+        for (k, (&f, &a)) in freqs.iter().zip(amps).enumerate() {
+            for (plane, src) in scaled.iter_mut().zip([x, y, z]) {
+                for i in 0..m {
+                    plane[i] = src[start + i] * f;
+                }
             }
-            match &octaves.periods {
-                Some(periods) => table.sample_batch_at_period(
-                    periods[k],
-                    &sx[..m],
-                    &sy[..m],
-                    &sz[..m],
-                    &mut n[..m],
-                ),
-                None => table.sample_batch(&sx[..m], &sy[..m], &sz[..m], &mut n[..m]),
-            }
+            let [sx, sy, sz] = &scaled;
+            sample(k, [&sx[..m], &sy[..m], &sz[..m]], &mut n[..m]);
             for (shaper, &v) in shapers[..m].iter_mut().zip(&n[..m]) {
                 shaper.add(style, v, a);
             }

@@ -75,32 +75,14 @@ pub(crate) trait NoiseKernel {
         z: &[f64],
         out: &mut [S],
     ) {
-        const CHUNK: usize = 64;
-        let mut start = 0;
-        while start < out.len() {
-            let m = CHUNK.min(out.len() - start);
-            let mut scaled = [[0.0f64; CHUNK]; 3];
-            let mut n = [S::ZERO; CHUNK];
-            let mut sum = [S::ZERO; CHUNK];
-            for ((&f, &a), &period) in freqs.iter().zip(amps).zip(periods) {
-                for (plane, src) in scaled.iter_mut().zip([x, y, z]) {
-                    for i in 0..m {
-                        plane[i] = src[start + i] * f;
-                    }
-                }
-                let (sx, sy, sz) = (&scaled[0][..m], &scaled[1][..m], &scaled[2][..m]);
-                self.sample_batch_periodic(period, sx, sy, sz, &mut n[..m]);
-                let a = S::from_f64(a);
-                for i in 0..m {
-                    let v = if TURB { n[i].abs() } else { n[i] };
-                    sum[i] = sum[i] + a * v;
-                }
-            }
-            for i in 0..m {
-                out[start + i] = canonical_nan(sum[i]);
-            }
-            start += m;
-        }
+        fractal::octaves_outside(
+            freqs,
+            amps,
+            fractal::turbulence_style(TURB),
+            [x, y, z],
+            out,
+            |k, [sx, sy, sz], n| self.sample_batch_periodic(periods[k], sx, sy, sz, n),
+        );
     }
 
     /// `out[i] = Σ_o amp_o · sample(p_i · freq_o)` (|·| when `TURB`), summed in octave order
@@ -116,40 +98,14 @@ pub(crate) trait NoiseKernel {
         out: &mut [S],
     ) {
         // Octaves outside, lanes inside: each octave is one `sample_batch` (the basis' own
-        // batch kernel) over a chunk, then the same additions per lane as the reference.
-        const CHUNK: usize = 64;
+        // batch kernel); a handful of lanes runs the reference loop.
         if out.len() < batch::SMALL {
             return reference_fractal::<S, TURB>(|p| self.sample(p), freqs, amps, x, y, z, out);
         }
-        let mut start = 0;
-        while start < out.len() {
-            let m = CHUNK.min(out.len() - start);
-            let mut scaled = [[0.0f64; CHUNK]; 3];
-            let mut n = [S::ZERO; CHUNK];
-            let mut sum = [S::ZERO; CHUNK];
-            for (&f, &a) in freqs.iter().zip(amps) {
-                for (plane, src) in scaled.iter_mut().zip([x, y, z]) {
-                    for i in 0..m {
-                        plane[i] = src[start + i] * f;
-                    }
-                }
-                self.sample_batch(
-                    &scaled[0][..m],
-                    &scaled[1][..m],
-                    &scaled[2][..m],
-                    &mut n[..m],
-                );
-                let a = S::from_f64(a);
-                for i in 0..m {
-                    let v = if TURB { n[i].abs() } else { n[i] };
-                    sum[i] = sum[i] + a * v;
-                }
-            }
-            for i in 0..m {
-                out[start + i] = canonical_nan(sum[i]);
-            }
-            start += m;
-        }
+        let style = fractal::turbulence_style(TURB);
+        fractal::octaves_outside(freqs, amps, style, [x, y, z], out, |_, [sx, sy, sz], n| {
+            self.sample_batch(sx, sy, sz, n)
+        });
     }
 }
 
@@ -419,8 +375,9 @@ pub struct NoiseTable {
     /// Value basis: lattice values in [0, 1] (f32 precision); Cellular: the per-cell values of
     /// `CellValue`; White: the per-cell values.
     values: [f32; 256],
-    /// Cellular basis: the jittered feature point of each hash value, in [0, 1]³ (f32).
-    features: [[f32; 3]; 256],
+    /// Cellular basis: the jittered feature point of each hash value, in [0, 1]³ (f32), as
+    /// three planes x, y, z.
+    features: [[f32; 256]; 3],
 }
 
 impl std::fmt::Debug for NoiseTable {
@@ -463,7 +420,7 @@ impl NoiseTable {
         };
         let features = match basis {
             Basis::Cellular(c) => cellular::features(seed ^ rng::CELL_SALT, c.jitter()),
-            _ => [[0.0; 3]; 256],
+            _ => [[0.0; 256]; 3],
         };
         let pairs = std::array::from_fn(|i| perm[i] as i32 | (perm[(i + 1) % 512] as i32) << 8);
         NoiseTable {
@@ -508,8 +465,10 @@ impl NoiseTable {
         let Basis::Cellular(_) = self.basis else {
             return None;
         };
-        let offset = self.features[self.cell_hash(cell)];
-        Some(std::array::from_fn(|a| cell[a] as f64 + offset[a] as f64))
+        let h = self.cell_hash(cell);
+        Some(std::array::from_fn(|a| {
+            cell[a] as f64 + self.features[a][h] as f64
+        }))
     }
 
     /// Cellular and White bases: the random value in [0, 1] of integer cell `cell` (what
@@ -791,7 +750,7 @@ impl NoiseKernel for SimplexKernel<'_> {
 /// [`Basis::Cellular`]'s kernel.
 struct CellularKernel<'a> {
     perm: &'a [u8; 512],
-    features: &'a [[f32; 3]; 256],
+    features: &'a [[f32; 256]; 3],
     values: &'a [f32; 256],
     params: Cellular,
 }

@@ -987,17 +987,25 @@ fn bits_of<S: Real>(v: &[S]) -> Vec<u64> {
     v.iter().map(|v| v.to_f64().to_bits()).collect()
 }
 
-fn check_batches<S: Real>(t: &NoiseTable, schedule: &Octaves, pts: &[[f64; 3]], what: &str) {
+/// `sample_batch` gives `sample`'s bits on every lane.
+fn assert_sample_batch_is_point<S: Real>(t: &NoiseTable, pts: &[[f64; 3]], what: &str) {
     let [x, y, z] = planes(pts);
-    let n = pts.len();
-    let mut out = vec![S::ZERO; n];
+    let mut out = vec![S::ZERO; pts.len()];
     t.sample_batch(&x, &y, &z, &mut out);
     let want: Vec<S> = pts.iter().map(|&p| t.sample(p)).collect();
     assert_eq!(
         bits_of(&out),
         bits_of(&want),
-        "{what}: sample_batch, {n} lanes"
+        "{what}: sample_batch, {} lanes",
+        pts.len()
     );
+}
+
+fn check_batches<S: Real>(t: &NoiseTable, schedule: &Octaves, pts: &[[f64; 3]], what: &str) {
+    assert_sample_batch_is_point::<S>(t, pts, what);
+    let [x, y, z] = planes(pts);
+    let n = pts.len();
+    let mut out = vec![S::ZERO; n];
     for turbulence in [false, true] {
         fractal_batch(t, schedule, turbulence, &x, &y, &z, &mut out);
         let want: Vec<S> = pts
@@ -1769,14 +1777,10 @@ fn tiled_batch_equals_point_bit_for_bit() {
     let schedule = Octaves::new(3.5, 2.0, 0.5, 1).with_period(Some([3, 2, 5]));
     for (basis, period) in tiling_cases() {
         let t = NoiseTable::periodic(basis, 7, Some(period));
-        let mut o32 = vec![0.0f32; pts.len()];
+        let what = format!("{basis:?} {period:?}");
+        assert_sample_batch_is_point::<f32>(&t, &pts, &what);
+        assert_sample_batch_is_point::<f64>(&t, &pts, &what);
         let mut o64 = vec![0.0f64; pts.len()];
-        t.sample_batch(&x, &y, &z, &mut o32);
-        t.sample_batch(&x, &y, &z, &mut o64);
-        let w32: Vec<f32> = pts.iter().map(|&p| t.sample(p)).collect();
-        let w64: Vec<f64> = pts.iter().map(|&p| t.sample(p)).collect();
-        assert_eq!(bits_of(&o32), bits_of(&w32), "{basis:?} {period:?}");
-        assert_eq!(bits_of(&o64), bits_of(&w64), "{basis:?} {period:?}");
         if basis.is_fractal() {
             let plain = NoiseTable::new(basis, 7);
             for style in [
@@ -1819,15 +1823,9 @@ fn cellular_batch_equals_point_for_every_length() {
             for len in [1, 7, 8, 9, 63, 64, 65, 130, 200] {
                 for pool in &pools {
                     let pts = &pool[..len];
-                    let [x, y, z] = planes(pts);
-                    let mut o32 = vec![0.0f32; len];
-                    let mut o64 = vec![0.0f64; len];
-                    t.sample_batch(&x, &y, &z, &mut o32);
-                    t.sample_batch(&x, &y, &z, &mut o64);
-                    let w32: Vec<f32> = pts.iter().map(|&p| t.sample(p)).collect();
-                    let w64: Vec<f64> = pts.iter().map(|&p| t.sample(p)).collect();
-                    assert_eq!(bits_of(&o32), bits_of(&w32), "{metric:?} {value:?} {len}");
-                    assert_eq!(bits_of(&o64), bits_of(&w64), "{metric:?} {value:?} {len}");
+                    let what = format!("{metric:?} {value:?} {len}");
+                    assert_sample_batch_is_point::<f32>(&t, pts, &what);
+                    assert_sample_batch_is_point::<f64>(&t, pts, &what);
                 }
             }
         }
@@ -1848,15 +1846,8 @@ fn simplex_batch_equals_point_for_every_length() {
     for len in 1..=140 {
         for pool in &pools {
             let pts = &pool[len % 50..len % 50 + len];
-            let [x, y, z] = planes(pts);
-            let mut o32 = vec![0.0f32; len];
-            let mut o64 = vec![0.0f64; len];
-            t.sample_batch(&x, &y, &z, &mut o32);
-            t.sample_batch(&x, &y, &z, &mut o64);
-            let w32: Vec<f32> = pts.iter().map(|&p| t.sample(p)).collect();
-            let w64: Vec<f64> = pts.iter().map(|&p| t.sample(p)).collect();
-            assert_eq!(bits_of(&o32), bits_of(&w32), "{len}");
-            assert_eq!(bits_of(&o64), bits_of(&w64), "{len}");
+            assert_sample_batch_is_point::<f32>(&t, pts, &format!("{len}"));
+            assert_sample_batch_is_point::<f64>(&t, pts, &format!("{len}"));
         }
     }
 }
