@@ -295,8 +295,14 @@ pub(super) fn octaves_outside<S: Real>(
             }
             let [sx, sy, sz] = &scaled;
             sample(k, [&sx[..m], &sy[..m], &sz[..m]], &mut n[..m]);
-            for (shaper, &v) in shapers[..m].iter_mut().zip(&n[..m]) {
-                shaper.add(style, v, a);
+            // One loop per style, each with its style a constant (so each is straight-line
+            // lane code that vectorises).
+            let lanes = shapers[..m].iter_mut().zip(&n[..m]);
+            match style {
+                Style::Fbm => lanes.for_each(|(s, &v)| s.add(Style::Fbm, v, a)),
+                Style::Turbulence => lanes.for_each(|(s, &v)| s.add(Style::Turbulence, v, a)),
+                Style::Billow => lanes.for_each(|(s, &v)| s.add(Style::Billow, v, a)),
+                ridged @ Style::Ridged { .. } => lanes.for_each(|(s, &v)| s.add(ridged, v, a)),
             }
         }
         for (o, shaper) in out[start..start + m].iter_mut().zip(&shapers[..m]) {
