@@ -284,7 +284,10 @@ macro_rules! with_kernel {
                 $body
             }
             Basis::Simplex => {
-                let $k = SimplexKernel { perm: &t.perm };
+                let $k = SimplexKernel {
+                    perm: &t.perm,
+                    signs: &t.signs,
+                };
                 $body
             }
             Basis::Cellular(params) => {
@@ -378,6 +381,10 @@ pub struct NoiseTable {
     /// Cellular basis: the jittered feature point of each hash value, in [0, 1]³ (f32), as
     /// three planes x, y, z.
     features: [[f32; 256]; 3],
+    /// Simplex basis: the gradient of each hash step's last index `j`,
+    /// `GRADIENTS[perm[j] % 12]`, as three planes of -1 / 0 / 1 bytes (two's complement), so
+    /// that the batch kernel's last lookup gives the gradient directly.
+    signs: [[u8; 256]; 3],
 }
 
 impl std::fmt::Debug for NoiseTable {
@@ -422,6 +429,14 @@ impl NoiseTable {
             Basis::Cellular(c) => cellular::features(seed ^ rng::CELL_SALT, c.jitter()),
             _ => [[0.0; 256]; 3],
         };
+        let signs = match basis {
+            Basis::Simplex => std::array::from_fn(|a| {
+                std::array::from_fn(|j| {
+                    simplex::GRADIENTS[usize::from(perm[j]) % 12][a] as i8 as u8
+                })
+            }),
+            _ => [[0; 256]; 3],
+        };
         let pairs = std::array::from_fn(|i| perm[i] as i32 | (perm[(i + 1) % 512] as i32) << 8);
         NoiseTable {
             basis,
@@ -432,6 +447,7 @@ impl NoiseTable {
             grads,
             values,
             features,
+            signs,
         }
     }
 
@@ -725,6 +741,7 @@ impl<const SMOOTH: bool> LatticeKernel for ValueKernel<'_, SMOOTH> {
 /// [`Basis::Simplex`]'s kernel.
 struct SimplexKernel<'a> {
     perm: &'a [u8; 512],
+    signs: &'a [[u8; 256]; 3],
 }
 
 impl NoiseKernel for SimplexKernel<'_> {
@@ -738,7 +755,7 @@ impl NoiseKernel for SimplexKernel<'_> {
         if out.len() < batch::SMALL {
             return reference_batch(|p| self.sample(p), x, y, z, out);
         }
-        batch::simplex(self.perm, x, y, z, out);
+        batch::simplex(self.perm, self.signs, x, y, z, out);
     }
 
     /// Vertices hashed as their translates into the period box (`simplex::sample_periodic`).

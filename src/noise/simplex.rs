@@ -8,9 +8,9 @@
 //! the tetrahedron containing the point, but at radius √0.6 the kernel also reaches the vertex
 //! beyond each of its four faces (the reflection of a vertex in the opposite face; 26% of points
 //! have such a contribution), so the four-vertex sum jumps across every face. We sum those four
-//! vertices too: eight vertices in all, the kernel's whole support (`simplex_reach_is_complete`
-//! checks that no other vertex is ever within reach), so the noise is continuous and C³, at about
-//! twice the arithmetic. It is zero on every vertex (a vertex's own term is `g · 0`, and every
+//! vertices too: eight vertices in all, the kernel's whole support (the test
+//! `simplex_matches_a_brute_force_sum_over_every_vertex` checks against a sum over every
+//! vertex), so the noise is continuous and C³, at about twice the arithmetic. It is zero on every vertex (a vertex's own term is `g · 0`, and every
 //! other vertex is at least √0.75 away).
 //!
 //! Range: ±1, proved in `simplex_range_and_lipschitz_bounds_are_proved` (the bound with every
@@ -107,11 +107,14 @@ pub(super) fn hash(perm: &[u8; 512], i: i64, j: i64, k: i64) -> usize {
 
 /// Where a point lies: the skewed cell's base vertex (an exact small integer per axis, as
 /// f64, equal to the true index mod 256), the offset from it (unskewed), and which of the six
-/// tetrahedra (a number into [`ORDERS`]).
+/// tetrahedra (a number into [`ORDERS`]), also as the comparisons that picked it.
 pub(super) struct Located {
     pub cell: [f64; 3],
     pub offset: [f64; 3],
     pub order: usize,
+    /// `4 (a >= b) + 2 (b >= c) + (a >= c)` for the offset `(a, b, c)`; `order` is
+    /// `ORDER_OF_COMPARISONS[comparisons]` (the batch kernel derives the axes from these bits).
+    pub comparisons: usize,
 }
 
 /// Finds the skewed cell and tetrahedron of `p` (see the module docs for the exact split).
@@ -174,13 +177,14 @@ fn locate_from<const REDUCE: bool>(c: [f64; 3], f: [f64; 3]) -> Located {
         cell,
         offset,
         order: ORDER_OF_COMPARISONS[index],
+        comparisons: index,
     }
 }
 
 /// The tetrahedron (its number in [`ORDERS`]) for each outcome of the comparisons
 /// `4 (a >= b) + 2 (b >= c) + (a >= c)` of the offset's components; the two impossible
 /// outcomes (1 and 6) map to a neighbour.
-const ORDER_OF_COMPARISONS: [usize; 8] = [3, 3, 4, 5, 2, 1, 0, 0];
+pub(super) const ORDER_OF_COMPARISONS: [usize; 8] = [3, 3, 4, 5, 2, 1, 0, 0];
 
 /// The eight vertices in reach of a point in the tetrahedron with axis order `order`, as
 /// offsets from the cell's base vertex: the tetrahedron's own four `v0 = 0, v1 = e_a,
@@ -209,6 +213,66 @@ pub(super) fn vertices(order: [usize; 3]) -> [[i64; 3]; 8] {
         sub(add(v1, v3), v2),
         sub(add(v0, v2), v3),
     ]
+}
+
+/// The batch kernel's form of `ORDERS[ORDER_OF_COMPARISONS[comparisons]]`, branch-free: which
+/// axis comes first (largest offset) and which last, as 0/1 per axis. Exact for the six
+/// outcomes that occur (the other two would need `a >= b >= c > a`; NaN offsets compare false
+/// everywhere, outcome 0); `axis_masks_match_the_orders` checks them.
+#[inline(always)]
+pub(super) fn axis_masks(comparisons: u8) -> ([u8; 3], [u8; 3]) {
+    let ab = (comparisons >> 2) & 1;
+    let bc = (comparisons >> 1) & 1;
+    let ac = comparisons & 1;
+    let first_x = ab & ac;
+    let first_y = (1 - ab) & bc;
+    let last_x = (1 - ab) & (1 - ac);
+    let last_y = ab & (1 - bc);
+    (
+        [first_x, first_y, 1 - first_x - first_y],
+        [last_x, last_y, 1 - last_x - last_y],
+    )
+}
+
+/// Vertex `K`'s offset along one axis (as [`vertices`] lists them) from that axis's masks:
+/// `first` (1 on the tetrahedron's first axis) and `last`; the middle axis is `1 - first - last`.
+/// Every value is a small integer; `0 - last` keeps vertex 7's zero positive, as the table's is.
+#[inline(always)]
+pub(super) fn vertex_offset<S: Real, const K: usize>(first: S, last: S) -> S {
+    let one = S::ONE;
+    match K {
+        0 => S::ZERO,
+        1 => first,
+        2 => one - last,
+        3 => one,
+        4 => first + one,
+        5 => one - first - last,
+        6 => first + last,
+        _ => S::ZERO - last,
+    }
+}
+
+/// [`vertex_offset`] as a byte added (mod 256) to a cell index byte.
+#[inline(always)]
+pub(super) fn vertex_byte<const K: usize>(first: u8, last: u8) -> u8 {
+    match K {
+        0 => 0,
+        1 => first,
+        2 => 1 - last,
+        3 => 1,
+        4 => first + 1,
+        5 => 1 - first - last,
+        6 => first + last,
+        _ => 0u8.wrapping_sub(last),
+    }
+}
+
+/// Vertex `K`'s unskew `G (v0 + v1 + v2)`, the same for every tetrahedron (the coordinate sums
+/// of the eight vertices are 0, 1, 2, 3, 4, 1, 2, -1).
+#[inline(always)]
+pub(super) fn vertex_unskew<S: Real, const K: usize>() -> S {
+    const SUMS: [i64; 8] = [0, 1, 2, 3, 4, 1, 2, -1];
+    S::from_f64(SUMS[K] as f64 / 6.0)
 }
 
 /// The six tetrahedra of a skewed cell, by the order of the offset's components (largest

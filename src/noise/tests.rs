@@ -1400,6 +1400,56 @@ fn simplex_matches_a_brute_force_sum_over_every_vertex() {
     }
 }
 
+/// The batch kernel's branch-free tetrahedron (axis masks, vertex offsets and unskews from the
+/// comparison bits) is the point function's table for each of the six possible outcomes, and
+/// the two impossible outcomes never occur (random offsets, ties and NaN included).
+#[test]
+fn axis_masks_match_the_orders() {
+    fn check<const K: usize>(first: [u8; 3], last: [u8; 3], want: [i64; 3]) {
+        for a in 0..3 {
+            let s = simplex::vertex_offset::<f64, K>(f64::from(first[a]), f64::from(last[a]));
+            assert_eq!(
+                s.to_bits(),
+                (want[a] as f64).to_bits(),
+                "vertex {K}, axis {a}"
+            );
+            let b = simplex::vertex_byte::<K>(first[a], last[a]);
+            assert_eq!(b, want[a].rem_euclid(256) as u8, "vertex {K}, axis {a}");
+        }
+        let sum = want[0] + want[1] + want[2];
+        assert_eq!(simplex::vertex_unskew::<f64, K>(), sum as f64 / 6.0);
+    }
+    for comparisons in [0u8, 2, 3, 4, 5, 7] {
+        let order = simplex::ORDERS[simplex::ORDER_OF_COMPARISONS[comparisons as usize]];
+        let (first, last) = simplex::axis_masks(comparisons);
+        let mut want_first = [0u8; 3];
+        want_first[order[0]] = 1;
+        let mut want_last = [0u8; 3];
+        want_last[order[2]] = 1;
+        assert_eq!(
+            (first, last),
+            (want_first, want_last),
+            "outcome {comparisons}"
+        );
+        let v = simplex::vertices(order);
+        check::<0>(first, last, v[0]);
+        check::<1>(first, last, v[1]);
+        check::<2>(first, last, v[2]);
+        check::<3>(first, last, v[3]);
+        check::<4>(first, last, v[4]);
+        check::<5>(first, last, v[5]);
+        check::<6>(first, last, v[6]);
+        check::<7>(first, last, v[7]);
+    }
+    let mut pts = points(44, 20_000, 50.0);
+    pts.extend((0..27).map(|i| [i % 3, i / 3 % 3, i / 9].map(|c| f64::from(c) / 3.0)));
+    pts.push([f64::NAN, 0.5, 0.25]);
+    for p in pts {
+        let c = simplex::locate(p).comparisons;
+        assert!(c != 1 && c != 6, "{p:?}: impossible outcome {c}");
+    }
+}
+
 /// Zero on the grid's vertices: the integer points whose coordinates sum to a multiple of 3
 /// are vertices, exactly representable at every magnitude.
 #[test]
@@ -1848,8 +1898,20 @@ fn simplex_batch_equals_point_for_every_length() {
             let pts = &pool[len % 50..len % 50 + len];
             assert_sample_batch_is_point::<f32>(&t, pts, &format!("{len}"));
             assert_sample_batch_is_point::<f64>(&t, pts, &format!("{len}"));
+            assert_simplex_table_reads_are_point::<f32>(&t, pts);
+            assert_simplex_table_reads_are_point::<f64>(&t, pts);
         }
     }
+}
+
+/// The simplex chunk loop with its table-read gradients (the form CPUs without AVX-512 VBMI
+/// run; `sample_batch` here may take the byte shuffles) against the point function.
+fn assert_simplex_table_reads_are_point<S: Real>(t: &NoiseTable, pts: &[[f64; 3]]) {
+    let [x, y, z] = planes(pts);
+    let mut out = vec![S::ZERO; pts.len()];
+    batch::simplex_chunks(&t.perm, &t.signs, [&x, &y, &z], &mut out, false);
+    let want: Vec<S> = pts.iter().map(|&p| t.sample(p)).collect();
+    assert_eq!(bits_of(&out), bits_of(&want), "{} lanes", pts.len());
 }
 
 /// White noise and cell values stay in [0, 1) for every table, even where a value rounded up

@@ -93,6 +93,37 @@ pub(super) fn corner_hashes<const PERLIN: bool>(
     }
 }
 
+/// Simplex noise's gradient bytes: for the first `n` lanes of `vertex` (index bytes x, y, z),
+/// `out[a] = signs[a][x + perm[y + perm[z]]]` (sums mod 256, as `simplex::hash` wraps them),
+/// the permutation's three steps and the gradient lookup of the batch kernel's `NoiseTable`
+/// tables, 64 lanes per instruction; lanes from `n` up to the next multiple of 64 get bytes of
+/// whatever `vertex` holds there (ignored by the caller).
+#[inline]
+#[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
+pub(super) fn simplex_gradients(
+    perm: &[u8; 512],
+    signs: &[[u8; 256]; 3],
+    vertex: &[[u8; CHUNK]; 3],
+    n: usize,
+    out: &mut [[u8; CHUNK]; 3],
+) {
+    let registers = |t: &[u8]| {
+        let (t, _) = t.as_chunks::<V>();
+        [load(&t[0]), load(&t[1]), load(&t[2]), load(&t[3])]
+    };
+    let table = registers(&perm[..256]);
+    let signs = signs.each_ref().map(|s| registers(s));
+    for k in 0..n.div_ceil(V) {
+        let [x, y, z] = vertex.each_ref().map(|c| load(&c.as_chunks::<V>().0[k]));
+        let pz = lookup(&table, z);
+        let py = lookup(&table, _mm512_add_epi8(y, pz));
+        let j = _mm512_add_epi8(x, py);
+        for (o, s) in out.iter_mut().zip(&signs) {
+            store(&mut o.as_chunks_mut::<V>().0[k], lookup(s, j));
+        }
+    }
+}
+
 /// Lane-wise `table[i]` for the 256-entry table held in four registers: two two-register byte
 /// permutes look up entries 0..=127 and 128..=255 by index bits 0-6, and index bit 7 (the byte's
 /// sign bit) picks between them. [`lookup_portable`] writes the same out instruction by
