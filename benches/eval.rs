@@ -444,11 +444,18 @@ fn family_benches(c: &mut Criterion) {
         r#"Graph(outputs: { "f": Fbm(input: Position, basis: Perlin, octaves: 8.0, period: 8) })"#,
         &[],
     );
+    // Period 3 on the [0, 8) slab: every point reduced into its period (the general path; the
+    // one above bakes exactly one tile, where the reduction is the identity).
+    let reduced = compile_text(
+        r#"Graph(outputs: { "f": Fbm(input: Position, basis: Perlin, octaves: 8.0, period: 3) })"#,
+        &[],
+    );
     let (x, y, z) = slab();
     let n = x.len();
     for (name, tape) in [
         ("fbm8_batch_f32", &plain),
         ("fbm8_period_batch_f32", &tiled),
+        ("fbm8_period3_batch_f32", &reduced),
     ] {
         group.bench_function(name, |b| {
             let mut ws = Workspace::<f32>::new();

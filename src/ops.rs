@@ -174,12 +174,20 @@ impl BinaryOp {
 impl TernaryOp {
     pub const ALL: [TernaryOp; 3] = [TernaryOp::Clamp, TernaryOp::Mix, TernaryOp::Smoothstep];
 
+    /// NaN results are made the canonical NaN: which operand's NaN an operation returns
+    /// depends on the operand order the compiler picks, which differed between the per-point
+    /// and the vectorised code in release builds (`Mix(NaN, inf, NaN)`).
     #[inline(always)]
     pub fn apply<S: Real>(self, a: S, b: S, c: S) -> S {
-        match self {
+        let r = match self {
             TernaryOp::Clamp => clamp(a, b, c),
             TernaryOp::Mix => a + c * (b - a),
             TernaryOp::Smoothstep => smoothstep(a, b, c),
+        };
+        if r.is_nan() {
+            S::NAN
+        } else {
+            r
         }
     }
 

@@ -141,6 +141,29 @@ impl<S: Real, const N: usize> Lattice<S, N> {
         }
     }
 
+    /// Step 1 for one axis, scaled by `f`, on the fast path (every `|x · f| < 2^51`).
+    #[inline(always)]
+    pub(super) fn fill_axis(&mut self, a: usize, f: f64, src: &[f64]) {
+        let (cell, frac) = (&mut self.cell[a], &mut self.frac[a]);
+        for ((&x, c), t) in src.iter().zip(cell.iter_mut()).zip(frac.iter_mut()) {
+            (*c, *t) = lattice_lane_fast::<S>(x * f);
+        }
+    }
+
+    /// Step 1 for one axis, unscaled; `fast` as for [`Lattice::fill`].
+    #[inline(always)]
+    pub(super) fn fill_axis_exact(&mut self, a: usize, fast: bool, src: &[f64]) {
+        let lane = if fast {
+            lattice_lane_fast::<S>
+        } else {
+            lattice_lane_exact::<S>
+        };
+        let (cell, frac) = (&mut self.cell[a], &mut self.frac[a]);
+        for ((&x, c), t) in src.iter().zip(cell.iter_mut()).zip(frac.iter_mut()) {
+            (*c, *t) = lane(x);
+        }
+    }
+
     /// Steps 2 and 3 in one loop, the hashes gathered from the paired table: `out[i] = k(lane i)`
     /// (`ACC == false`) or `out[i] = out[i] + amp · k(lane i)` (|k| when `TURB`), for the first
     /// `out.len()` lanes.
@@ -212,6 +235,81 @@ impl<S: Real> Lattice<S, CHUNK> {
     #[inline(always)]
     unsafe fn shuffle_hashes<K: LatticeKernel>(&mut self, _: &K, _: usize) {
         unreachable!("AVX-512 VBMI on a non-x86-64 target")
+    }
+
+    /// [`Lattice::shuffle_hashes`] with each axis's upper corner index given (`hi`), for
+    /// tiling (`vbmi::corner_hashes_wrapped`).
+    ///
+    /// # Safety
+    /// The CPU must support avx512f, avx512bw and avx512vbmi.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn shuffle_hashes_wrapped<K: LatticeKernel>(
+        &mut self,
+        k: &K,
+        hi: &[[u8; CHUNK]; 3],
+        n: usize,
+    ) {
+        use super::vbmi::corner_hashes_wrapped;
+        let (perm, cell, out) = (k.perm(), &self.cell, &mut self.hashes);
+        // SAFETY: the caller guarantees the target features.
+        unsafe {
+            if K::PERLIN_HASH {
+                corner_hashes_wrapped::<true>(perm, cell, hi, n, out);
+            } else {
+                corner_hashes_wrapped::<false>(perm, cell, hi, n, out);
+            }
+        }
+    }
+
+    /// Never called: no CPU of this architecture has AVX-512 VBMI.
+    #[cfg(not(target_arch = "x86_64"))]
+    #[inline(always)]
+    unsafe fn shuffle_hashes_wrapped<K: LatticeKernel>(
+        &mut self,
+        _: &K,
+        _: &[[u8; CHUNK]; 3],
+        _: usize,
+    ) {
+        unreachable!("AVX-512 VBMI on a non-x86-64 target")
+    }
+
+    /// The corner hashes of the first `n` lanes without byte shuffles, for tiling: gathered as
+    /// for plain noise, then, when `any`, redone with the upper corner wrapped to cell 0
+    /// (`lattice::corner_hashes_wrapped`) for the lanes in a period's last cell (`wraps`, per
+    /// axis).
+    #[inline(always)]
+    fn wrapped_hashes<K: LatticeKernel>(
+        &mut self,
+        k: &K,
+        wraps: &[[u8; CHUNK]; 3],
+        any: bool,
+        n: usize,
+    ) {
+        let n = n.min(CHUNK);
+        for i in 0..n {
+            let c = |a: usize| i32::from(self.cell[a][i]);
+            let h = k.hashes([c(0), c(1), c(2)]);
+            for (plane, h) in self.hashes.iter_mut().zip(h) {
+                plane[i] = h;
+            }
+        }
+        if !any {
+            return;
+        }
+        for i in 0..n {
+            let wrap: [bool; 3] = std::array::from_fn(|a| wraps[a][i] != 0);
+            if wrap == [false; 3] {
+                continue;
+            }
+            let lo: [usize; 3] = std::array::from_fn(|a| self.cell[a][i] as usize);
+            let hi: [usize; 3] =
+                std::array::from_fn(|a| if wrap[a] { 0 } else { (lo[a] + 1) & 255 });
+            let h = super::lattice::corner_hashes_wrapped(k.perm(), K::PERLIN_HASH, lo, hi);
+            for (plane, h) in self.hashes.iter_mut().zip(h) {
+                plane[i] = h;
+            }
+        }
     }
 }
 
@@ -290,6 +388,22 @@ pub(super) fn fits(p: [&[f64]; 3], f_max: f64) -> bool {
     ok
 }
 
+#[cfg(test)]
+thread_local! {
+    /// Tests set this to run the table-read forms of the kernels (those of CPUs without AVX-512
+    /// VBMI) on CPUs with it too, on this thread.
+    pub(super) static TABLE_READS: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Whether a test asked for the table-read forms ([`TABLE_READS`]); always false outside tests.
+#[inline(always)]
+fn table_reads_forced() -> bool {
+    #[cfg(test)]
+    return TABLE_READS.with(std::cell::Cell::get);
+    #[cfg(not(test))]
+    false
+}
+
 /// The dispatch targets, best first; the first one the CPU supports runs. AVX-512 with VBMI
 /// (16 f32 lanes, hashing by byte shuffles), AVX-512 (hashing by gathers), AVX2 (8 lanes; LLVM
 /// loads the table entries one by one, as it deems AVX2 gathers slow on generic x86-64), SSE4.1
@@ -312,7 +426,7 @@ fn sample_lanes<S: Real, K: LatticeKernel>(k: &K, x: &[f64], y: &[f64], z: &[f64
     if !target_cfg_f!(target_feature = "sse4.1") {
         return super::reference_batch(|p| k.eval(p), x, y, z, out);
     }
-    let shuffle = target_cfg_f!(target_feature = "avx512vbmi");
+    let shuffle = target_cfg_f!(target_feature = "avx512vbmi") && !table_reads_forced();
     // Hash bits tested in bytes where AVX-512BW compares bytes into masks (see `LatticeKernel::interior`).
     const WIDE: bool = !target_cfg_f!(target_feature = "avx512bw");
     let mut lattice = Lattice::<S>::new();
@@ -346,7 +460,7 @@ fn fractal_lanes<S: Real, K: LatticeKernel, const TURB: bool>(
     if !target_cfg_f!(target_feature = "sse4.1") {
         return super::reference_fractal::<S, TURB>(|p| k.eval(p), freqs, amps, x, y, z, out);
     }
-    let shuffle = target_cfg_f!(target_feature = "avx512vbmi");
+    let shuffle = target_cfg_f!(target_feature = "avx512vbmi") && !table_reads_forced();
     const WIDE: bool = !target_cfg_f!(target_feature = "avx512bw"); // see `sample_lanes`
     let f_max = max_abs(freqs);
     let mut lattice = Lattice::<S>::new();
@@ -765,14 +879,15 @@ pub(super) fn simplex<S: Real>(
     if !target_cfg_f!(target_feature = "sse4.1") {
         return super::reference_batch(|p| sx::sample(perm, p), x, y, z, out);
     }
-    simplex_chunks(perm, signs, [x, y, z], out, target_cfg_f!(target_feature = "avx512vbmi"));
+    let shuffle = target_cfg_f!(target_feature = "avx512vbmi") && !table_reads_forced();
+    simplex_chunks(perm, signs, [x, y, z], out, shuffle);
 }
 }
 
-/// [`simplex`]'s chunk loop; `shuffle` picks the byte-shuffle gradients (only in the AVX-512
-/// VBMI clone; the tests also run the table-read form directly, whatever the CPU).
+/// [`simplex`]'s chunk loop; `shuffle` picks the byte-shuffle gradients (true only in the
+/// AVX-512 VBMI clone).
 #[inline(always)]
-pub(super) fn simplex_chunks<S: Real>(
+fn simplex_chunks<S: Real>(
     perm: &[u8; 512],
     signs: &[[u8; 256]; 3],
     [x, y, z]: [&[f64]; 3],
@@ -800,6 +915,26 @@ pub(super) fn simplex_chunks<S: Real>(
         lanes.gradients::<6>(perm, signs, n, shuffle);
         lanes.gradients::<7>(perm, signs, n, shuffle);
         lanes.sum(out);
+    }
+}
+
+/// Which lanes of an axis whose scaled coordinates `x · f` all lie inside [0, P) sit in the
+/// period's last cell (`wraps[i] = 1`), `cell` being their lattice cell bytes (the reduction is
+/// the identity there, so the cell is the reduction's): by the bytes where P < 256, none where
+/// P is a multiple of 256 (the hashes read cell indices mod 256, so the upper corner's index
+/// P is cell 0's already), else by comparing the coordinates.
+#[inline(always)]
+fn inside_wraps(wraps: &mut [u8; CHUNK], cell: &[u8; CHUNK], src: &[f64], f: f64, p: u64) {
+    if p < 256 {
+        let top = (p - 1) as u8;
+        for (w, &c) in wraps.iter_mut().zip(&cell[..src.len()]) {
+            *w = u8::from(c == top);
+        }
+    } else if !p.is_multiple_of(256) {
+        let top = p as f64 - 1.0;
+        for (w, &x) in wraps.iter_mut().zip(src) {
+            *w = u8::from(x * f >= top);
+        }
     }
 }
 
@@ -879,64 +1014,68 @@ fn periodic_octaves<S: Real, K: LatticeKernel, const ACC: bool, const TURB: bool
         for ((&f, &amp), &period) in freqs.iter().zip(amps).zip(periods) {
             // Every scaled coordinate, and so every reduced one, below 2^51 (the periods too).
             let fast = fits([x, y, z], f) && period.iter().all(|&p| (p as f64) < TWO51);
+            // Per axis, which lanes sit in the period's last cell (1 in `wraps`).
+            let mut wraps = [[0u8; CHUNK]; 3];
             for (a, src) in [x, y, z].into_iter().enumerate() {
-                let p = period[a] as f64;
-                let inverse = 1.0 / p;
-                // Two loops, not one with a branch: the fast one vectorises, and goes on to the
-                // lattice step in the same pass (a reduced coordinate is in [0, P), below 2^51
-                // on this path, where `lattice_lane_fast` is exact).
-                if fast {
-                    for i in 0..m {
-                        let (r, c) = period::reduce_fast(src[i] * f, p, inverse);
-                        last[a][i] = c;
-                        (lattice.cell[a][i], lattice.frac[a][i]) = lattice_lane_fast::<S>(r);
-                    }
+                let p = period[a];
+                // Every scaled coordinate of the axis already inside [0, P) (baking one tile,
+                // what tiling is for): the reduction is the identity there (`period::reduce`
+                // gives `c + (x - c)`, exactly x), so only the lattice step runs.
+                let inside = src.iter().fold(true, |ok, &v| ok & (v * f >= 0.0) & (v * f < p as f64));
+                if fast && inside {
+                    lattice.fill_axis(a, f, src);
+                    inside_wraps(&mut wraps[a], &lattice.cell[a], src, f, p);
                 } else {
-                    for i in 0..m {
-                        let (r, c) = period::reduce(src[i] * f, period[a]);
-                        q[a][i] = r;
-                        last[a][i] = if c == u64::MAX { -1.0 } else { c as f64 };
+                    let reduced = &mut q[a];
+                    let last = &mut last[a];
+                    if fast {
+                        // The fast reduction vectorises, and goes on to the lattice step in the
+                        // same pass (a reduced coordinate is in [0, P), below 2^51 here, where
+                        // `lattice_lane_fast` is exact).
+                        let (pf, inverse) = (p as f64, 1.0 / p as f64);
+                        for i in 0..m {
+                            let (r, c) = period::reduce_fast(src[i] * f, pf, inverse);
+                            last[i] = c;
+                            (lattice.cell[a][i], lattice.frac[a][i]) = lattice_lane_fast::<S>(r);
+                        }
+                    } else {
+                        for i in 0..m {
+                            let (r, c) = period::reduce(src[i] * f, p);
+                            reduced[i] = r;
+                            last[i] = if c == u64::MAX { -1.0 } else { c as f64 };
+                        }
+                        let r = &reduced[..m];
+                        lattice.fill_axis_exact(a, fits([r, r, r], 1.0), r);
+                    }
+                    // The reduction's cell index, not the lattice step's: a reduced coordinate
+                    // can round up into the next cell (the point function decides the same way).
+                    let top = p as f64 - 1.0;
+                    for (w, &l) in wraps[a].iter_mut().zip(&last[..m]) {
+                        *w = u8::from(l == top);
                     }
                 }
             }
-            if !fast {
-                let reduced = [&q[0][..m], &q[1][..m], &q[2][..m]];
-                lattice.fill::<false>(fits(reduced, 1.0), 1.0, reduced);
-            }
-            if target_cfg_f!(target_feature = "avx512vbmi") {
-                // SAFETY: this branch exists only in the clone compiled for avx512vbmi (which
+            let any = wraps.iter().flat_map(|w| &w[..m]).fold(0u8, |acc, &w| acc | w);
+            let shuffle = target_cfg_f!(target_feature = "avx512vbmi") && !table_reads_forced();
+            if shuffle && any == 0 {
+                // SAFETY: `shuffle` is true only in the clone compiled for avx512vbmi (which
                 // implies avx512f and avx512bw), which the dispatcher runs only on CPUs that
                 // have it.
                 unsafe { lattice.shuffle_hashes(k, m) };
+            } else if shuffle {
+                // Each axis's upper corner: cell 0 in a period's last cell, else the next one;
+                // then every lane's hashes by byte shuffles.
+                let mut hi = [[0u8; CHUNK]; 3];
+                for a in 0..3 {
+                    let (cell, wraps) = (&lattice.cell[a][..m], &wraps[a][..m]);
+                    for ((h, &c), &w) in hi[a].iter_mut().zip(cell).zip(wraps) {
+                        *h = if w != 0 { 0 } else { c.wrapping_add(1) };
+                    }
+                }
+                // SAFETY: as above.
+                unsafe { lattice.shuffle_hashes_wrapped(k, &hi, m) };
             } else {
-                for i in 0..m {
-                    let c = |a: usize| i32::from(lattice.cell[a][i]);
-                    let h = k.hashes([c(0), c(1), c(2)]);
-                    for (plane, h) in lattice.hashes.iter_mut().zip(h) {
-                        plane[i] = h;
-                    }
-                }
-            }
-            // Which lanes sit in a period's last cell: a vectorised pass, and nothing more
-            // when none does (the common case for long periods).
-            let top = period.map(|p| p as f64 - 1.0);
-            let mut wraps = [0u8; CHUNK];
-            for i in 0..m {
-                wraps[i] = u8::from(last[0][i] == top[0])
-                    | u8::from(last[1][i] == top[1]) << 1
-                    | u8::from(last[2][i] == top[2]) << 2;
-            }
-            let any = wraps[..m].iter().fold(0u8, |acc, &w| acc | w);
-            for i in (0..m).filter(|_| any != 0) {
-                let wrap: [bool; 3] = std::array::from_fn(|a| wraps[i] >> a & 1 == 1);
-                if wraps[i] != 0 {
-                    let lo: [usize; 3] = std::array::from_fn(|a| lattice.cell[a][i] as usize);
-                    let hi: [usize; 3] = std::array::from_fn(|a| if wrap[a] { 0 } else { (lo[a] + 1) & 255 });
-                    let h = super::lattice::corner_hashes_wrapped(k.perm(), K::PERLIN_HASH, lo, hi);
-                    for (plane, h) in lattice.hashes.iter_mut().zip(h) {
-                        plane[i] = h;
-                    }
-                }
+                lattice.wrapped_hashes(k, &wraps, any != 0, m);
             }
             lattice.noise_hashed::<K, ACC, TURB, WIDE>(k, S::from_f64(amp), out);
         }

@@ -1045,9 +1045,15 @@ fn batch_kernels_equal_point_functions_for_every_length() {
 }
 
 /// Long batches (several chunks, one of them wild) with the marble's 8-octave schedule and the
-/// reference permutation.
+/// reference permutation; with the byte-shuffle hashing where the CPU has it, and with the
+/// table reads every CPU can run.
 #[test]
 fn batch_kernels_equal_point_functions_on_long_batches() {
+    check_long_batches();
+    with_table_reads(check_long_batches);
+}
+
+fn check_long_batches() {
     let mut pts = batch_pool(34, 700, 8);
     pts.extend(batch_pool(35, 300, 12));
     pts.extend(batch_pool(36, 301, 10));
@@ -1816,6 +1822,11 @@ fn tiled_noise_is_continuous_across_the_seam() {
 /// function's bits, also for fractal sums, whose octave i tiles at period × frequency.
 #[test]
 fn tiled_batch_equals_point_bit_for_bit() {
+    check_tiled_batches();
+    with_table_reads(check_tiled_batches);
+}
+
+fn check_tiled_batches() {
     let mut pts = batch_pool(63, 600, 10);
     // Many lanes in a period's last cell.
     pts.extend(
@@ -1849,6 +1860,45 @@ fn tiled_batch_equals_point_bit_for_bit() {
             }
         }
     }
+}
+
+/// Batches whose points all lie inside the first period box (baking one tile: the kernels skip
+/// the reduction there and find the last-cell lanes from the cell bytes, or need none at
+/// periods that are multiples of 256), many of them in the last cell and just below its far
+/// edge: the point function's bits, noise and fractal sums (octave i inside its own period),
+/// with and without the byte-shuffle hashing.
+#[test]
+fn tiled_batches_inside_one_period_equal_point() {
+    let check = || {
+        let mut rng = SplitMix64::new(65);
+        for basis in BASES.into_iter().chain([Basis::White]) {
+            for period in [[3, 1, 5], [255, 256, 512], [300, 7, 1024], [8, 384, 8]] {
+                let t = NoiseTable::periodic(basis, 8, Some(period));
+                let pts: Vec<[f64; 3]> = (0..700)
+                    .map(|i| {
+                        std::array::from_fn(|a| {
+                            let p = period[a] as f64;
+                            match i % 4 {
+                                0 => rng.next_f64() * p,
+                                1 => p - 1.0 + rng.next_f64(),
+                                2 => p - p * f64::EPSILON,
+                                _ => (rng.next_f64() * p).floor(),
+                            }
+                        })
+                    })
+                    .collect();
+                let what = format!("{basis:?} {period:?}");
+                assert_sample_batch_is_point::<f32>(&t, &pts, &what);
+                assert_sample_batch_is_point::<f64>(&t, &pts, &what);
+                if basis.is_fractal() {
+                    let schedule = Octaves::new(4.0, 2.0, 0.5, 1).with_period(Some(period));
+                    check_batches::<f32>(&t, &schedule, &pts, &what);
+                }
+            }
+        }
+    };
+    check();
+    with_table_reads(check);
 }
 
 /// The cellular SIMD kernel against the point function for batch lengths around its chunk and
@@ -1904,14 +1954,17 @@ fn simplex_batch_equals_point_for_every_length() {
     }
 }
 
-/// The simplex chunk loop with its table-read gradients (the form CPUs without AVX-512 VBMI
+/// The simplex lane kernel with its table-read gradients (the form CPUs without AVX-512 VBMI
 /// run; `sample_batch` here may take the byte shuffles) against the point function.
 fn assert_simplex_table_reads_are_point<S: Real>(t: &NoiseTable, pts: &[[f64; 3]]) {
-    let [x, y, z] = planes(pts);
-    let mut out = vec![S::ZERO; pts.len()];
-    batch::simplex_chunks(&t.perm, &t.signs, [&x, &y, &z], &mut out, false);
-    let want: Vec<S> = pts.iter().map(|&p| t.sample(p)).collect();
-    assert_eq!(bits_of(&out), bits_of(&want), "{} lanes", pts.len());
+    with_table_reads(|| assert_sample_batch_is_point::<S>(t, pts, "table reads"));
+}
+
+/// Runs `f` with the batch kernels' table-read forms forced on this thread.
+fn with_table_reads(f: impl FnOnce()) {
+    batch::TABLE_READS.with(|c| c.set(true));
+    f();
+    batch::TABLE_READS.with(|c| c.set(false));
 }
 
 /// White noise and cell values stay in [0, 1) for every table, even where a value rounded up

@@ -37,59 +37,114 @@ pub(super) fn corner_hashes<const PERLIN: bool>(
     n: usize,
     out: &mut [[u8; CHUNK]; 8],
 ) {
-    let (table, _) = perm.as_chunks::<V>();
-    let table = [
-        load(&table[0]),
-        load(&table[1]),
-        load(&table[2]),
-        load(&table[3]),
-    ];
-    let lookup = |i: __m512i| lookup(&table, i);
-    let add = |a, b| _mm512_add_epi8(a, b);
+    let table = registers(perm);
     let one = _mm512_set1_epi8(1);
     for k in 0..n.div_ceil(V) {
-        let [x, y, z] = cell.each_ref().map(|c| load(&c.as_chunks::<V>().0[k]));
-        let h = if PERLIN {
-            // perlin::sample: A = p[x] + y, AA = p[A] + z, AB = p[A + 1] + z, B = p[x + 1] + y, ...
-            let a = add(lookup(x), y);
-            let b = add(lookup(add(x, one)), y);
-            let aa = add(lookup(a), z);
-            let ab = add(lookup(add(a, one)), z);
-            let ba = add(lookup(b), z);
-            let bb = add(lookup(add(b, one)), z);
-            [
-                aa,
-                ba,
-                ab,
-                bb,
-                add(aa, one),
-                add(ba, one),
-                add(ab, one),
-                add(bb, one),
-            ]
-            .map(lookup)
-        } else {
-            // lattice::corner_hashes: PERM(x + PERM(y + PERM(z))) with the +1 neighbours.
-            let z0 = lookup(z);
-            let z1 = lookup(add(z, one));
-            let y1 = add(y, one);
-            let p = [add(y, z0), add(y1, z0), add(y, z1), add(y1, z1)].map(lookup);
-            let x1 = add(x, one);
-            [
-                add(x, p[0]),
-                add(x1, p[0]),
-                add(x, p[1]),
-                add(x1, p[1]),
-                add(x, p[2]),
-                add(x1, p[2]),
-                add(x, p[3]),
-                add(x1, p[3]),
-            ]
-            .map(lookup)
-        };
-        for (o, h) in out.iter_mut().zip(h) {
-            store(&mut o.as_chunks_mut::<V>().0[k], h);
-        }
+        let lo = load3(cell, k);
+        let hi = [
+            _mm512_add_epi8(lo[0], one),
+            _mm512_add_epi8(lo[1], one),
+            _mm512_add_epi8(lo[2], one),
+        ];
+        store_hashes(out, k, hashes::<PERLIN>(&table, lo, hi));
+    }
+}
+
+/// [`corner_hashes`] with the upper corner's index given per axis (`hi`, each already mod 256)
+/// instead of following the lower one: `lattice::corner_hashes_wrapped` over lanes, for tiling,
+/// where a period's last cell wraps its upper corner to index 0.
+#[inline]
+#[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
+pub(super) fn corner_hashes_wrapped<const PERLIN: bool>(
+    perm: &[u8; 512],
+    lo: &[[u8; CHUNK]; 3],
+    hi: &[[u8; CHUNK]; 3],
+    n: usize,
+    out: &mut [[u8; CHUNK]; 8],
+) {
+    let table = registers(perm);
+    for k in 0..n.div_ceil(V) {
+        let (lo, hi) = (load3(lo, k), load3(hi, k));
+        store_hashes(out, k, hashes::<PERLIN>(&table, lo, hi));
+    }
+}
+
+/// The permutation's first 256 entries in four registers.
+#[inline]
+#[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
+fn registers(perm: &[u8]) -> [__m512i; 4] {
+    let (t, _) = perm[..256].as_chunks::<V>();
+    [load(&t[0]), load(&t[1]), load(&t[2]), load(&t[3])]
+}
+
+/// The eight corner hashes of 64 lanes from each axis's lower and upper corner index bytes:
+/// Perlin's `p[p[p[x] + y] + z]` or Ebert's `p[x + p[y + p[z]]]`, 14 lookups either way.
+#[inline]
+#[target_feature(enable = "avx512f,avx512bw,avx512vbmi")]
+fn hashes<const PERLIN: bool>(
+    table: &[__m512i; 4],
+    lo: [__m512i; 3],
+    hi: [__m512i; 3],
+) -> [__m512i; 8] {
+    // Written out without closures: a closure does not inherit the target features, so
+    // `lookup` would not be inlined into it (measured: a call per lookup, 7% of an fbm).
+    let t = table;
+    let [x0, y0, z0] = lo;
+    let [x1, y1, z1] = hi;
+    if PERLIN {
+        // perlin::sample: A = p[x] + y, AA = p[A] + z, ...; corner (i, j, k) = p[p[p[x_i] + y_j] + z_k].
+        let (px0, px1) = (lookup(t, x0), lookup(t, x1));
+        let a0 = lookup(t, _mm512_add_epi8(px0, y0));
+        let b0 = lookup(t, _mm512_add_epi8(px1, y0));
+        let a1 = lookup(t, _mm512_add_epi8(px0, y1));
+        let b1 = lookup(t, _mm512_add_epi8(px1, y1));
+        [
+            lookup(t, _mm512_add_epi8(a0, z0)),
+            lookup(t, _mm512_add_epi8(b0, z0)),
+            lookup(t, _mm512_add_epi8(a1, z0)),
+            lookup(t, _mm512_add_epi8(b1, z0)),
+            lookup(t, _mm512_add_epi8(a0, z1)),
+            lookup(t, _mm512_add_epi8(b0, z1)),
+            lookup(t, _mm512_add_epi8(a1, z1)),
+            lookup(t, _mm512_add_epi8(b1, z1)),
+        ]
+    } else {
+        // lattice::corner_hashes: PERM(x + PERM(y + PERM(z))); corner (i, j, k).
+        let (pz0, pz1) = (lookup(t, z0), lookup(t, z1));
+        let p00 = lookup(t, _mm512_add_epi8(y0, pz0));
+        let p10 = lookup(t, _mm512_add_epi8(y1, pz0));
+        let p01 = lookup(t, _mm512_add_epi8(y0, pz1));
+        let p11 = lookup(t, _mm512_add_epi8(y1, pz1));
+        [
+            lookup(t, _mm512_add_epi8(x0, p00)),
+            lookup(t, _mm512_add_epi8(x1, p00)),
+            lookup(t, _mm512_add_epi8(x0, p10)),
+            lookup(t, _mm512_add_epi8(x1, p10)),
+            lookup(t, _mm512_add_epi8(x0, p01)),
+            lookup(t, _mm512_add_epi8(x1, p01)),
+            lookup(t, _mm512_add_epi8(x0, p11)),
+            lookup(t, _mm512_add_epi8(x1, p11)),
+        ]
+    }
+}
+
+/// Lane group `k` (64 lanes) of three byte planes.
+#[inline]
+#[target_feature(enable = "avx512f")]
+fn load3(planes: &[[u8; CHUNK]; 3], k: usize) -> [__m512i; 3] {
+    [
+        load(&planes[0].as_chunks::<V>().0[k]),
+        load(&planes[1].as_chunks::<V>().0[k]),
+        load(&planes[2].as_chunks::<V>().0[k]),
+    ]
+}
+
+/// Stores the eight hash vectors of lane group `k`.
+#[inline]
+#[target_feature(enable = "avx512f")]
+fn store_hashes(out: &mut [[u8; CHUNK]; 8], k: usize, h: [__m512i; 8]) {
+    for (o, h) in out.iter_mut().zip(h) {
+        store(&mut o.as_chunks_mut::<V>().0[k], h);
     }
 }
 
@@ -107,14 +162,14 @@ pub(super) fn simplex_gradients(
     n: usize,
     out: &mut [[u8; CHUNK]; 3],
 ) {
-    let registers = |t: &[u8]| {
-        let (t, _) = t.as_chunks::<V>();
-        [load(&t[0]), load(&t[1]), load(&t[2]), load(&t[3])]
-    };
-    let table = registers(&perm[..256]);
-    let signs = signs.each_ref().map(|s| registers(s));
+    let table = registers(perm);
+    let signs = [
+        registers(&signs[0]),
+        registers(&signs[1]),
+        registers(&signs[2]),
+    ];
     for k in 0..n.div_ceil(V) {
-        let [x, y, z] = vertex.each_ref().map(|c| load(&c.as_chunks::<V>().0[k]));
+        let [x, y, z] = load3(vertex, k);
         let pz = lookup(&table, z);
         let py = lookup(&table, _mm512_add_epi8(y, pz));
         let j = _mm512_add_epi8(x, py);
