@@ -602,7 +602,8 @@ fn cellular_lanes<S: Real, const METRIC: u8>(
     let features: [[S; 256]; 3] = t.features.map(|plane| plane.map(|v| S::from_f64(v as f64)));
     let chunks = out.chunks_mut(N).zip(x.chunks(N).zip(y.chunks(N)).zip(z.chunks(N)));
     for (out, ((x, y), z)) in chunks {
-        let m = out.len();
+        // `min(N)`: with m <= N known, no lane index needs a bounds check (see `Lattice::noise`).
+        let m = out.len().min(N);
         let mut cell = [[0u8; N]; 3];
         let mut frac = [[S::ZERO; N]; 3];
         let mut frac64 = [[0.0f64; N]; 3];
