@@ -1011,7 +1011,7 @@ fn periodic_octaves<S: Real, K: LatticeKernel, const ACC: bool, const TURB: bool
     let mut last = [[0.0f64; CHUNK]; 3];
     let chunks = out.chunks_mut(CHUNK).zip(x.chunks(CHUNK).zip(y.chunks(CHUNK)).zip(z.chunks(CHUNK)));
     for (out, ((x, y), z)) in chunks {
-        let m = out.len();
+        let m = out.len().min(CHUNK); // bounded: no lane index needs a check (see `Lattice::noise`)
         for ((&f, &amp), &period) in freqs.iter().zip(amps).zip(periods) {
             // Every scaled coordinate, and so every reduced one, below 2^51 (the periods too).
             let fast = fits([x, y, z], f) && period.iter().all(|&p| (p as f64) < TWO51);
