@@ -432,6 +432,14 @@ fn unary_lanes<T: Real>(op: UnaryOp, out: &mut [T], a: &[T]) {
         UnaryOp::Floor => lanes!(UnaryOp::Floor),
         UnaryOp::Fract => lanes!(UnaryOp::Fract),
         UnaryOp::Exp => lanes!(UnaryOp::Exp),
+        UnaryOp::Log => lanes!(UnaryOp::Log),
+        UnaryOp::Log2 => lanes!(UnaryOp::Log2),
+        UnaryOp::Tan => lanes!(UnaryOp::Tan),
+        UnaryOp::Asin => lanes!(UnaryOp::Asin),
+        UnaryOp::Acos => lanes!(UnaryOp::Acos),
+        UnaryOp::Sign => lanes!(UnaryOp::Sign),
+        UnaryOp::Round => lanes!(UnaryOp::Round),
+        UnaryOp::Trunc => lanes!(UnaryOp::Trunc),
     }
 }
 
@@ -454,6 +462,7 @@ fn binary_lanes<T: Real>(op: BinaryOp, out: &mut [T], a: &[T], b: &[T]) {
         BinaryOp::Pow => lanes!(BinaryOp::Pow),
         BinaryOp::Atan2 => lanes!(BinaryOp::Atan2),
         BinaryOp::Mod => lanes!(BinaryOp::Mod),
+        BinaryOp::Step => lanes!(BinaryOp::Step),
     }
 }
 

@@ -40,6 +40,15 @@ pub enum Kind {
     Floor,
     Fract,
     Exp,
+    Log,
+    Log2,
+    Tan,
+    Asin,
+    Acos,
+    Sign,
+    Round,
+    Trunc,
+    Step,
     Length,
     Dot,
     Clamp,
@@ -640,6 +649,21 @@ pub const CATALOGUE: &[NodeDef] = &[
     NodeDef { kind: Kind::Floor, lowering: Lowering::Unary(UnaryOp::Floor), slope: Slope::Unbounded("floor jumps"), derivative: Derivative::Unary, name: "Floor", args: ANY_X, output: OutputType::Broadcast, doc: "The largest integer <= x." },
     NodeDef { kind: Kind::Fract, lowering: Lowering::Unary(UnaryOp::Fract), slope: Slope::Unbounded("fract jumps"), derivative: Derivative::Unary, name: "Fract", args: ANY_X, output: OutputType::Broadcast, doc: "x - floor(x), in [0, 1); NaN for infinite x." },
     NodeDef { kind: Kind::Exp, lowering: Lowering::Unary(UnaryOp::Exp), slope: Slope::Unbounded("the slope of e^x grows without bound"), derivative: Derivative::Unary, name: "Exp", args: ANY_X, output: OutputType::Broadcast, doc: "e^x; overflows to inf above about 88.72 (f32) or 709.78 (f64)." },
+    NodeDef { kind: Kind::Log, lowering: Lowering::Unary(UnaryOp::Log), slope: Slope::Unbounded("the slope of ln x is unbounded at 0"), derivative: Derivative::Unary, name: "Log", args: ANY_X, output: OutputType::Broadcast, doc: "Natural logarithm; -inf at 0, NaN below 0 (IEEE)." },
+    NodeDef { kind: Kind::Log2, lowering: Lowering::Unary(UnaryOp::Log2), slope: Slope::Unbounded("the slope of log2 x is unbounded at 0"), derivative: Derivative::Unary, name: "Log2", args: ANY_X, output: OutputType::Broadcast, doc: "Base-2 logarithm; -inf at 0, NaN below 0 (IEEE); exact at powers of two." },
+    NodeDef { kind: Kind::Tan, lowering: Lowering::Unary(UnaryOp::Tan), slope: Slope::Unbounded("tan has poles"), derivative: Derivative::Unary, name: "Tan", args: ANY_X, output: OutputType::Broadcast, doc: "tan(x), x in radians; very large near the poles at pi/2 + k pi." },
+    NodeDef { kind: Kind::Asin, lowering: Lowering::Unary(UnaryOp::Asin), slope: Slope::Unbounded("the slope of asin is unbounded at -1 and 1"), derivative: Derivative::Unary, name: "Asin", args: ANY_X, output: OutputType::Broadcast, doc: "arcsin in [-pi/2, pi/2]; NaN outside [-1, 1] (IEEE)." },
+    NodeDef { kind: Kind::Acos, lowering: Lowering::Unary(UnaryOp::Acos), slope: Slope::Unbounded("the slope of acos is unbounded at -1 and 1"), derivative: Derivative::Unary, name: "Acos", args: ANY_X, output: OutputType::Broadcast, doc: "arccos in [0, pi]; NaN outside [-1, 1] (IEEE)." },
+    NodeDef { kind: Kind::Sign, lowering: Lowering::Unary(UnaryOp::Sign), slope: Slope::Unbounded("sign jumps at 0"), derivative: Derivative::Unary, name: "Sign", args: ANY_X, output: OutputType::Broadcast, doc: "-1 below 0, 1 above; x itself at +0, -0 and NaN (GLSL sign)." },
+    NodeDef { kind: Kind::Round, lowering: Lowering::Unary(UnaryOp::Round), slope: Slope::Unbounded("round jumps"), derivative: Derivative::Unary, name: "Round", args: ANY_X, output: OutputType::Broadcast, doc: "The nearest integer, halves away from zero (Round(2.5) = 3, Round(-2.5) = -3)." },
+    NodeDef { kind: Kind::Trunc, lowering: Lowering::Unary(UnaryOp::Trunc), slope: Slope::Unbounded("trunc jumps"), derivative: Derivative::Unary, name: "Trunc", args: ANY_X, output: OutputType::Broadcast, doc: "x rounded toward zero." },
+    NodeDef {
+        kind: Kind::Step, lowering: Lowering::Binary(BinaryOp::Step), slope: Slope::Unbounded("step jumps at its edge"), derivative: Derivative::Binary,
+        name: "Step",
+        args: &[input("edge", InputType::Any, "the edge"), input("x", InputType::Any, "the value tested")],
+        output: OutputType::Broadcast,
+        doc: "GLSL step: 0 where x < edge, 1 where x >= edge; NaN if either is NaN.",
+    },
     NodeDef { kind: Kind::Length, lowering: Lowering::Length, slope: Slope::NoSteeper, derivative: Derivative::Vector, name: "Length", args: &[input("v", InputType::Vec3, "the vector")], output: OutputType::Scalar, doc: "Euclidean length of a vec3." },
     NodeDef {
         kind: Kind::Dot, lowering: Lowering::Dot, slope: Slope::ConstantProjection, derivative: Derivative::Vector,
@@ -888,7 +912,7 @@ mod tests {
             assert_eq!(def(a.kind).name, a.name);
             assert_eq!(lookup(a.name).map(|d| d.kind), Some(a.kind));
         }
-        assert_eq!(CATALOGUE.len(), 40);
+        assert_eq!(CATALOGUE.len(), 49);
     }
 
     /// Each entry lowers to its own operation: a math kind to the `ops` operation of the same

@@ -31,6 +31,14 @@ pub enum UnaryOp {
     Floor,
     Fract,
     Exp,
+    Log,
+    Log2,
+    Tan,
+    Asin,
+    Acos,
+    Sign,
+    Round,
+    Trunc,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -44,6 +52,7 @@ pub enum BinaryOp {
     Pow,
     Atan2,
     Mod,
+    Step,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -54,7 +63,7 @@ pub enum TernaryOp {
 }
 
 impl UnaryOp {
-    pub const ALL: [UnaryOp; 8] = [
+    pub const ALL: [UnaryOp; 16] = [
         UnaryOp::Abs,
         UnaryOp::Neg,
         UnaryOp::Sin,
@@ -63,6 +72,14 @@ impl UnaryOp {
         UnaryOp::Floor,
         UnaryOp::Fract,
         UnaryOp::Exp,
+        UnaryOp::Log,
+        UnaryOp::Log2,
+        UnaryOp::Tan,
+        UnaryOp::Asin,
+        UnaryOp::Acos,
+        UnaryOp::Sign,
+        UnaryOp::Round,
+        UnaryOp::Trunc,
     ];
 
     #[inline(always)]
@@ -76,6 +93,14 @@ impl UnaryOp {
             UnaryOp::Floor => x.floor(),
             UnaryOp::Fract => fract(x),
             UnaryOp::Exp => x.exp(),
+            UnaryOp::Log => x.ln(),
+            UnaryOp::Log2 => x.log2(),
+            UnaryOp::Tan => x.tan(),
+            UnaryOp::Asin => x.asin(),
+            UnaryOp::Acos => x.acos(),
+            UnaryOp::Sign => sign_of(x),
+            UnaryOp::Round => x.round(),
+            UnaryOp::Trunc => x.trunc(),
         }
     }
 
@@ -90,6 +115,12 @@ impl UnaryOp {
             UnaryOp::Floor => 0.0,
             UnaryOp::Fract => 1.0,
             UnaryOp::Exp => x.exp(),
+            UnaryOp::Log => 1.0 / x,
+            UnaryOp::Log2 => 1.0 / (x * std::f64::consts::LN_2),
+            UnaryOp::Tan => 1.0 + x.tan() * x.tan(),
+            UnaryOp::Asin => 1.0 / (1.0 - x * x).sqrt(),
+            UnaryOp::Acos => -1.0 / (1.0 - x * x).sqrt(),
+            UnaryOp::Sign | UnaryOp::Round | UnaryOp::Trunc => 0.0,
         }
     }
 
@@ -103,12 +134,20 @@ impl UnaryOp {
             UnaryOp::Floor => "floor",
             UnaryOp::Fract => "fract",
             UnaryOp::Exp => "exp",
+            UnaryOp::Log => "log",
+            UnaryOp::Log2 => "log2",
+            UnaryOp::Tan => "tan",
+            UnaryOp::Asin => "asin",
+            UnaryOp::Acos => "acos",
+            UnaryOp::Sign => "sign",
+            UnaryOp::Round => "round",
+            UnaryOp::Trunc => "trunc",
         }
     }
 }
 
 impl BinaryOp {
-    pub const ALL: [BinaryOp; 9] = [
+    pub const ALL: [BinaryOp; 10] = [
         BinaryOp::Add,
         BinaryOp::Sub,
         BinaryOp::Mul,
@@ -118,6 +157,7 @@ impl BinaryOp {
         BinaryOp::Pow,
         BinaryOp::Atan2,
         BinaryOp::Mod,
+        BinaryOp::Step,
     ];
 
     #[inline(always)]
@@ -132,6 +172,7 @@ impl BinaryOp {
             BinaryOp::Pow => a.powf(b),
             BinaryOp::Atan2 => a.atan2(b),
             BinaryOp::Mod => floored_mod(a, b),
+            BinaryOp::Step => step(a, b),
         }
     }
 
@@ -153,6 +194,8 @@ impl BinaryOp {
                 (b / r2, -a / r2)
             }
             BinaryOp::Mod => (1.0, -(a / b).floor()),
+            // Flat on both sides of the edge (the jump itself has no derivative).
+            BinaryOp::Step => (0.0, 0.0),
         }
     }
 
@@ -167,6 +210,7 @@ impl BinaryOp {
             BinaryOp::Pow => "pow",
             BinaryOp::Atan2 => "atan2",
             BinaryOp::Mod => "mod",
+            BinaryOp::Step => "step",
         }
     }
 }
@@ -463,6 +507,32 @@ pub fn normalise_axis(axis: [f64; 3]) -> Option<[f64; 3]> {
     Some(scaled.map(|c| c / length))
 }
 
+/// GLSL's `sign`: -1 below 0, 1 above, and x itself at ±0 and NaN (so NaN propagates and the
+/// zero keeps its sign).
+#[inline(always)]
+pub fn sign_of<S: Real>(x: S) -> S {
+    if x > S::ZERO {
+        S::ONE
+    } else if x < S::ZERO {
+        -S::ONE
+    } else {
+        x
+    }
+}
+
+/// GLSL's `step(edge, x)`: 0 where x < edge, 1 where x >= edge; NaN if either is NaN (GLSL
+/// leaves that open; NaN propagates here as everywhere else).
+#[inline(always)]
+pub fn step<S: Real>(edge: S, x: S) -> S {
+    if edge.is_nan() || x.is_nan() {
+        S::NAN
+    } else if x < edge {
+        S::ZERO
+    } else {
+        S::ONE
+    }
+}
+
 fn sign(x: f64) -> f64 {
     if x > 0.0 {
         1.0
@@ -500,10 +570,12 @@ mod tests {
         for _ in 0..400 {
             let (a, b, c) = (draw(), draw(), draw());
             for op in UnaryOp::ALL {
-                let x = if op == UnaryOp::Sqrt {
-                    a.abs() + 0.1
-                } else {
-                    a
+                // Inside each operation's domain (away from its poles and ends).
+                let x = match op {
+                    UnaryOp::Sqrt | UnaryOp::Log | UnaryOp::Log2 => a.abs() + 0.1,
+                    UnaryOp::Asin | UnaryOp::Acos => a / 3.3,
+                    UnaryOp::Tan => a / 2.2,
+                    _ => a,
                 };
                 if let Some(n) = numeric(|x| op.apply(x), x) {
                     assert!(

@@ -44,6 +44,14 @@ pub trait Real:
     fn sin(self) -> Self;
     fn cos(self) -> Self;
     fn exp(self) -> Self;
+    fn ln(self) -> Self;
+    fn log2(self) -> Self;
+    fn tan(self) -> Self;
+    fn asin(self) -> Self;
+    fn acos(self) -> Self;
+    /// Rounds half away from zero.
+    fn round(self) -> Self;
+    fn trunc(self) -> Self;
     fn powf(self, e: Self) -> Self;
     /// `atan2(self, x)`: `self` is y.
     fn atan2(self, x: Self) -> Self;
@@ -118,6 +126,34 @@ macro_rules! impl_real {
             #[inline(always)]
             fn exp(self) -> Self {
                 <$t>::exp(self)
+            }
+            #[inline(always)]
+            fn ln(self) -> Self {
+                <$t>::ln(self)
+            }
+            #[inline(always)]
+            fn log2(self) -> Self {
+                <$t>::log2(self)
+            }
+            #[inline(always)]
+            fn tan(self) -> Self {
+                <$t>::tan(self)
+            }
+            #[inline(always)]
+            fn asin(self) -> Self {
+                <$t>::asin(self)
+            }
+            #[inline(always)]
+            fn acos(self) -> Self {
+                <$t>::acos(self)
+            }
+            #[inline(always)]
+            fn round(self) -> Self {
+                <$t>::round(self)
+            }
+            #[inline(always)]
+            fn trunc(self) -> Self {
+                <$t>::trunc(self)
             }
             #[inline(always)]
             fn powf(self, e: Self) -> Self {

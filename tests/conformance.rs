@@ -51,6 +51,37 @@ macro_rules! unary_reference {
             "Sqrt" => x.sqrt(),
             "Floor" => x.floor(),
             "Exp" => x.exp(),
+            "Log" => x.ln(),
+            "Log2" => x.log2(),
+            "Tan" => x.tan(),
+            "Asin" => x.asin(),
+            "Acos" => x.acos(),
+            // GLSL sign, the zero and NaN passed through.
+            "Sign" => {
+                if x > 0.0 {
+                    1.0
+                } else if x < 0.0 {
+                    -1.0
+                } else {
+                    x
+                }
+            }
+            // Halves away from zero, from the truncation and the exact remainder.
+            "Round" => {
+                let t = if x >= 0.0 { x.floor() } else { x.ceil() };
+                if (x - t).abs() >= 0.5 {
+                    t + if x > 0.0 { 1.0 } else { -1.0 }
+                } else {
+                    t
+                }
+            }
+            "Trunc" => {
+                if x >= 0.0 {
+                    x.floor()
+                } else {
+                    x.ceil()
+                }
+            }
             "Fract" => {
                 let r = x - x.floor();
                 if r >= 1.0 {
@@ -112,6 +143,16 @@ macro_rules! binary_reference {
                     }
                 } else {
                     r
+                }
+            }
+            // GLSL step(edge = a, x = b), NaN propagated.
+            "Step" => {
+                if a.is_nan() || b.is_nan() {
+                    a + b
+                } else if b < a {
+                    0.0
+                } else {
+                    1.0
                 }
             }
             other => panic!("no binary reference for {other}: add one here"),
