@@ -107,7 +107,7 @@ impl UnaryOp {
     /// `d/dx apply(x)` (the `Gradient` chain rule's factor; 0 at a jump, one side at a kink).
     pub fn derivative(self, x: f64) -> f64 {
         match self {
-            UnaryOp::Abs => sign(x),
+            UnaryOp::Abs => sign_of(x),
             UnaryOp::Neg => -1.0,
             UnaryOp::Sin => x.cos(),
             UnaryOp::Cos => -x.sin(),
@@ -321,13 +321,7 @@ pub fn clamp<S: Real>(x: S, lo: S, hi: S) -> S {
 #[inline(always)]
 pub fn smoothstep<S: Real>(edge0: S, edge1: S, x: S) -> S {
     if edge0 == edge1 {
-        if x.is_nan() {
-            S::NAN
-        } else if x < edge0 {
-            S::ZERO
-        } else {
-            S::ONE
-        }
+        step(edge0, x)
     } else {
         let t = clamp((x - edge0) / (edge1 - edge0), S::ZERO, S::ONE);
         t * t * (S::from_f64(3.0) - S::from_f64(2.0) * t)
@@ -530,16 +524,6 @@ pub fn step<S: Real>(edge: S, x: S) -> S {
         S::ZERO
     } else {
         S::ONE
-    }
-}
-
-fn sign(x: f64) -> f64 {
-    if x > 0.0 {
-        1.0
-    } else if x < 0.0 {
-        -1.0
-    } else {
-        0.0
     }
 }
 

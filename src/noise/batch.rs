@@ -48,6 +48,7 @@
 use multiversion::multiversion;
 use multiversion::target::target_cfg_f;
 
+use super::lattice::TWO52;
 use super::{canonical_nan, LatticeKernel, NoiseKernel};
 use crate::real::Real;
 
@@ -133,34 +134,40 @@ impl<S: Real, const N: usize> Lattice<S, N> {
 
     #[inline(always)]
     fn fill_with<const SCALE: bool>(&mut self, f: f64, p: [&[f64]; 3], lane: fn(f64) -> (u8, S)) {
-        for ((src, cell), frac) in p.into_iter().zip(&mut self.cell).zip(&mut self.frac) {
-            for ((&x, c), t) in src.iter().zip(cell.iter_mut()).zip(frac.iter_mut()) {
-                let x = if SCALE { x * f } else { x };
-                (*c, *t) = lane(x);
-            }
+        for (a, src) in p.into_iter().enumerate() {
+            self.fill_axis_with::<SCALE>(a, f, src, lane);
+        }
+    }
+
+    /// Step 1 for axis `a` alone: `lane(x · f)` (`lane(x)` without `SCALE`) for each lane.
+    #[inline(always)]
+    fn fill_axis_with<const SCALE: bool>(
+        &mut self,
+        a: usize,
+        f: f64,
+        src: &[f64],
+        lane: fn(f64) -> (u8, S),
+    ) {
+        let (cell, frac) = (&mut self.cell[a], &mut self.frac[a]);
+        for ((&x, c), t) in src.iter().zip(cell.iter_mut()).zip(frac.iter_mut()) {
+            let x = if SCALE { x * f } else { x };
+            (*c, *t) = lane(x);
         }
     }
 
     /// Step 1 for one axis, scaled by `f`, on the fast path (every `|x · f| < 2^51`).
     #[inline(always)]
     pub(super) fn fill_axis(&mut self, a: usize, f: f64, src: &[f64]) {
-        let (cell, frac) = (&mut self.cell[a], &mut self.frac[a]);
-        for ((&x, c), t) in src.iter().zip(cell.iter_mut()).zip(frac.iter_mut()) {
-            (*c, *t) = lattice_lane_fast::<S>(x * f);
-        }
+        self.fill_axis_with::<true>(a, f, src, lattice_lane_fast::<S>);
     }
 
     /// Step 1 for one axis, unscaled; `fast` as for [`Lattice::fill`].
     #[inline(always)]
     pub(super) fn fill_axis_exact(&mut self, a: usize, fast: bool, src: &[f64]) {
-        let lane = if fast {
-            lattice_lane_fast::<S>
+        if fast {
+            self.fill_axis_with::<false>(a, 1.0, src, lattice_lane_fast::<S>);
         } else {
-            lattice_lane_exact::<S>
-        };
-        let (cell, frac) = (&mut self.cell[a], &mut self.frac[a]);
-        for ((&x, c), t) in src.iter().zip(cell.iter_mut()).zip(frac.iter_mut()) {
-            (*c, *t) = lane(x);
+            self.fill_axis_with::<false>(a, 1.0, src, lattice_lane_exact::<S>);
         }
     }
 
@@ -343,7 +350,6 @@ pub(super) const TWO51: f64 = 2_251_799_813_685_248.0;
 /// `canonical_nan` makes it the same NaN as the point path's.
 #[inline(always)]
 pub(super) fn lattice_lane_exact<S: Real>(x: f64) -> (u8, S) {
-    const TWO52: f64 = 4_503_599_627_370_496.0;
     let c = x.floor();
     let m = c - 256.0 * (c / 256.0).floor();
     ((m + TWO52).to_bits() as u8, S::from_f64(x - c))
@@ -676,7 +682,8 @@ fn cellular_lanes<S: Real, const METRIC: u8>(
 }
 
 /// A chunk's lanes for [`simplex`]: where each lane lies (cell bytes, offset, which axis of its
-/// tetrahedron comes first and last, as bytes and as S), one vertex's index bytes and gradient
+/// tetrahedron comes first and last, as bytes for the hash indices and as S for the terms, which
+/// would otherwise convert them once per vertex), one vertex's index bytes and gradient
 /// bytes at a time, and the running sum.
 struct SimplexLanes<S, const N: usize = CHUNK> {
     c: [[f64; N]; 3],
@@ -858,9 +865,6 @@ impl<S: Real> SimplexLanes<S> {
     }
 }
 
-/// 2^52, see [`SimplexLanes::locate`].
-const TWO52: f64 = 4_503_599_627_370_496.0;
-
 simd_targets! {
 /// Simplex noise over a batch, `out[i]` = the point function bit for bit, in loops over the
 /// lanes of each chunk: locate (f64, per lane, the point function's integer arithmetic and
@@ -1007,6 +1011,7 @@ fn periodic_octaves<S: Real, K: LatticeKernel, const ACC: bool, const TURB: bool
     use super::period;
     const WIDE: bool = !target_cfg_f!(target_feature = "avx512bw"); // see `sample_lanes`
     let mut lattice = Lattice::<S>::new();
+    let shuffle = target_cfg_f!(target_feature = "avx512vbmi") && !table_reads_forced();
     let mut q = [[0.0f64; CHUNK]; 3];
     let mut last = [[0.0f64; CHUNK]; 3];
     let chunks = out.chunks_mut(CHUNK).zip(x.chunks(CHUNK).zip(y.chunks(CHUNK)).zip(z.chunks(CHUNK)));
@@ -1057,7 +1062,6 @@ fn periodic_octaves<S: Real, K: LatticeKernel, const ACC: bool, const TURB: bool
                 }
             }
             let any = wraps.iter().flat_map(|w| &w[..m]).fold(0u8, |acc, &w| acc | w);
-            let shuffle = target_cfg_f!(target_feature = "avx512vbmi") && !table_reads_forced();
             if shuffle && any == 0 {
                 // SAFETY: `shuffle` is true only in the clone compiled for avx512vbmi (which
                 // implies avx512f and avx512bw), which the dispatcher runs only on CPUs that
