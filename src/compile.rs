@@ -306,6 +306,12 @@ impl Emitter {
                 b: arg(1),
             },
             Op::Length => Instr::Length { dst, src: arg(0) },
+            Op::Cross => Instr::Cross {
+                dst,
+                a: arg(0),
+                b: arg(1),
+            },
+            Op::Normalize => Instr::Normalize { dst, src: arg(0) },
             Op::Rotate { axis } => match graph.nodes[node.args[1] as usize].op {
                 Op::ConstScalar(degrees) => {
                     self.matrices.push(ops::rotation_matrix(*axis, degrees));

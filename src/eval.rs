@@ -268,6 +268,8 @@ impl Tape {
                 }
                 Instr::Dot { .. }
                 | Instr::Length { .. }
+                | Instr::Cross { .. }
+                | Instr::Normalize { .. }
                 | Instr::RotateConst { .. }
                 | Instr::RotateVarying { .. } => self.geometry(instr, ws, n),
                 Instr::Noise { .. } | Instr::Fractal { .. } => self.noise(instr, ws, n),
@@ -296,6 +298,29 @@ impl Tape {
                 for (i, o) in out.iter_mut().enumerate() {
                     *o = S::from_f64(ops::length([a[i], a[LANES + i], a[2 * LANES + i]]));
                 }
+            }
+            Instr::Cross { dst, a, b } => {
+                let mut out = take(&mut ws.vec3s[dst as usize]);
+                let (a, b) = (&ws.vec3s[a as usize], &ws.vec3s[b as usize]);
+                for i in 0..n {
+                    let lane = |v: &[f64]| [v[i], v[LANES + i], v[2 * LANES + i]];
+                    let c = ops::cross(lane(a), lane(b));
+                    out[i] = c[0];
+                    out[LANES + i] = c[1];
+                    out[2 * LANES + i] = c[2];
+                }
+                ws.vec3s[dst as usize] = out;
+            }
+            Instr::Normalize { dst, src } => {
+                let mut out = take(&mut ws.vec3s[dst as usize]);
+                let a = &ws.vec3s[src as usize];
+                for i in 0..n {
+                    let c = ops::normalize([a[i], a[LANES + i], a[2 * LANES + i]]);
+                    out[i] = c[0];
+                    out[LANES + i] = c[1];
+                    out[2 * LANES + i] = c[2];
+                }
+                ws.vec3s[dst as usize] = out;
             }
             Instr::RotateConst { dst, src, matrix } => {
                 let m = &self.matrices[matrix as usize];
@@ -479,5 +504,6 @@ fn ternary_lanes<T: Real>(op: TernaryOp, out: &mut [T], a: &[T], b: &[T], c: &[T
         TernaryOp::Clamp => lanes!(TernaryOp::Clamp),
         TernaryOp::Mix => lanes!(TernaryOp::Mix),
         TernaryOp::Smoothstep => lanes!(TernaryOp::Smoothstep),
+        TernaryOp::Select => lanes!(TernaryOp::Select),
     }
 }

@@ -87,6 +87,10 @@ pub enum Op {
     Ternary(TernaryOp),
     Dot,
     Length,
+    /// vec3 × vec3 → vec3.
+    Cross,
+    /// vec3 → unit vec3 (zero stays zero).
+    Normalize,
     /// args: point, degrees. The axis is unit length.
     Rotate {
         axis: [f64; 3],
@@ -184,6 +188,8 @@ impl Op {
                     out.extend([k.to_bits(), v[0].to_bits()]);
                 }
             }
+            Op::Cross => out.push(17),
+            Op::Normalize => out.push(18),
         }
     }
 }
@@ -372,6 +378,20 @@ impl GraphBuilder {
                 return *b;
             }
         }
+        // Select with a constant condition is the branch it picks; with equal branches, that
+        // branch (whatever the condition, NaN included).
+        if let (Op::Ternary(TernaryOp::Select), [c, a, b]) = (&op, args.as_slice()) {
+            let pick = match self.const_vec3(*c) {
+                _ if a == b => Some(*a),
+                Some(v) if v.iter().all(|&x| x > 0.0) => Some(*a),
+                Some(v) if v.iter().all(|&x| x <= 0.0 || x.is_nan()) => Some(*b),
+                _ => None,
+            };
+            if let Some(id) = pick {
+                self.stats.folded += 1;
+                return id;
+            }
+        }
         if let Some(folded) = self.fold(&op, &args) {
             self.stats.folded += 1;
             return self.intern(folded, Args::new(), origin);
@@ -413,6 +433,8 @@ impl GraphBuilder {
             | Op::Splat
             | Op::Combine
             | Op::Rotate { .. }
+            | Op::Cross
+            | Op::Normalize
             | Op::Ramp(_) => Type::Vec3,
             Op::ConstScalar(_)
             | Op::Component(_)
@@ -498,6 +520,8 @@ impl GraphBuilder {
             Op::Ternary(t) if all_vec3 => map3(&|c| t.apply(v[0][c], v[1][c], v[2][c])),
             Op::Dot if all_vec3 => Op::ConstScalar(crate::ops::dot(v[0], v[1])),
             Op::Length if all_vec3 => Op::ConstScalar(crate::ops::length(v[0])),
+            Op::Cross if all_vec3 => Op::ConstVec3(crate::ops::cross(v[0], v[1])),
+            Op::Normalize if all_vec3 => Op::ConstVec3(crate::ops::normalize(v[0])),
             Op::Noise(key) if all_vec3 => {
                 let table = self.table(*key);
                 Op::ConstScalar(table.sample::<f64>(v[0]))

@@ -59,6 +59,8 @@ fn rule(op: &Op) -> Slope {
         Op::Ternary(t) => Lowering::Ternary(*t),
         Op::Dot => Lowering::Dot,
         Op::Length => Lowering::Length,
+        Op::Cross => Lowering::Cross,
+        Op::Normalize => Lowering::Normalize,
         Op::Rotate { .. } => Lowering::Rotate,
         Op::Noise(_) => Lowering::Noise,
         Op::Fractal(_, p) => Lowering::Fractal(match p.style {

@@ -49,14 +49,23 @@ pub enum Kind {
     Round,
     Trunc,
     Step,
+    Select,
+    MapRange,
     Length,
     Dot,
+    Cross,
+    Normalize,
+    Distance,
     Clamp,
     Mix,
     Smoothstep,
     Hermite,
     ColorRamp,
     Curve,
+    Luminance,
+    HsvToRgb,
+    RgbToHsv,
+    Blend,
 }
 
 /// The operation a node kind lowers to in the checked graph.
@@ -85,11 +94,25 @@ pub enum Lowering {
     Unary(UnaryOp),
     Binary(BinaryOp),
     Ternary(TernaryOp),
+    /// `to_min + t (to_max - to_min)`, `t = (input - from_min) / (from_max - from_min)`,
+    /// optionally clamped to [0, 1].
+    MapRange,
     Length,
     Dot,
+    Cross,
+    Normalize,
+    /// `Length(a - b)`.
+    Distance,
     Hermite,
     Ramp,
     Curve,
+    /// `Dot(colour, Rec. 709 weights)`.
+    Luminance,
+    /// Colour conversions, lowered into component-wise math.
+    HsvToRgb,
+    RgbToHsv,
+    /// `Mix(base, mode(base, layer), t)`.
+    Blend,
 }
 
 /// The fractal sums: how each octave's noise enters the sum (see `noise::Style`).
@@ -173,6 +196,8 @@ pub enum ArgKind {
     Points,
     /// A tiling period: a constant whole number or vec3 of whole numbers, each 1 to 2^20.
     Period,
+    /// `true` or `false`.
+    Flag,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -182,6 +207,7 @@ pub enum DefaultValue {
     Name(&'static str),
     /// Optional without a value (no tiling).
     Nothing,
+    Flag(bool),
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -242,8 +268,8 @@ pub enum Slope {
     SteepestSegment,
     /// No useful bound (the reason): level of detail is off for noise downstream.
     Unbounded(&'static str),
-    /// Lowered into other kinds' operations (VecNoise, VecFbm, Warp), each bounded by its own
-    /// rule.
+    /// Lowered into other kinds' operations (VecNoise, VecFbm, Warp, MapRange, Distance, the
+    /// colour kinds), each bounded by its own rule.
     Composite,
 }
 
@@ -263,7 +289,8 @@ pub enum Derivative {
     Binary,
     /// The three partials of `TernaryOp::partials`.
     Ternary,
-    /// Dot: `a' . b + a . b'`; Length: `(v . v') / |v|`.
+    /// Dot: `a' . b + a . b'`; Length: `(v . v') / |v|`; Cross: `a' x b + a x b'`; Normalize:
+    /// `(v' - n (n . v')) / |v|`.
     Vector,
     /// Rotate: `R p' + (dR/dtheta p) theta'`.
     Rotation,
@@ -369,6 +396,19 @@ const NOISE_INTERPOLATION: &[&str] = &["Linear", "Smooth"];
 const RAMP_INTERPOLATION: &[&str] = &["Linear", "Smooth", "Constant"];
 
 pub(crate) const METRICS: &[&str] = &["Euclidean", "Manhattan", "Chebyshev"];
+/// Blend's modes, in the order docs/format.md gives their formulas.
+pub const BLEND_MODES: &[&str] = &[
+    "Mix",
+    "Multiply",
+    "Screen",
+    "Overlay",
+    "Add",
+    "Subtract",
+    "Difference",
+    "Darken",
+    "Lighten",
+];
+
 pub(crate) const CELLULAR_VALUES: &[&str] = &["F1", "F2", "F2MinusF1", "CellValue", "Edge"];
 
 const JITTER: Range = Range {
@@ -664,6 +704,27 @@ pub const CATALOGUE: &[NodeDef] = &[
         output: OutputType::Broadcast,
         doc: "GLSL step: 0 where x < edge, 1 where x >= edge; NaN if either is NaN.",
     },
+    NodeDef {
+        kind: Kind::Select, lowering: Lowering::Ternary(TernaryOp::Select), slope: Slope::Unbounded("select jumps where its condition changes sign"), derivative: Derivative::Ternary,
+        name: "Select",
+        args: &[input("condition", InputType::Scalar, "chooses a where > 0, else b (NaN chooses b)"), input("a", InputType::Any, "value where condition > 0"), input("b", InputType::Any, "value elsewhere")],
+        output: OutputType::Broadcast,
+        doc: "a where condition > 0, else b (a scalar condition chooses whole vec3 branches).",
+    },
+    NodeDef {
+        kind: Kind::MapRange, lowering: Lowering::MapRange, slope: Slope::Composite, derivative: Derivative::Composite,
+        name: "MapRange",
+        args: &[
+            input("input", InputType::Any, "the value"),
+            input_or("from_min", InputType::Any, 0.0, "input value mapped to to_min"),
+            input_or("from_max", InputType::Any, 1.0, "input value mapped to to_max"),
+            input_or("to_min", InputType::Any, 0.0, "output at from_min"),
+            input_or("to_max", InputType::Any, 1.0, "output at from_max"),
+            ArgDef { name: "clamp", kind: ArgKind::Flag, default: Some(DefaultValue::Flag(false)), doc: "keep the result between to_min and to_max" },
+        ],
+        output: OutputType::Broadcast,
+        doc: "Linear remap: to_min + t (to_max - to_min), t = (input - from_min) / (from_max - from_min), t clamped to [0, 1] when clamp is true.",
+    },
     NodeDef { kind: Kind::Length, lowering: Lowering::Length, slope: Slope::NoSteeper, derivative: Derivative::Vector, name: "Length", args: &[input("v", InputType::Vec3, "the vector")], output: OutputType::Scalar, doc: "Euclidean length of a vec3." },
     NodeDef {
         kind: Kind::Dot, lowering: Lowering::Dot, slope: Slope::ConstantProjection, derivative: Derivative::Vector,
@@ -671,6 +732,27 @@ pub const CATALOGUE: &[NodeDef] = &[
         args: &[input("a", InputType::Vec3, "left vector"), input("b", InputType::Vec3, "right vector")],
         output: OutputType::Scalar,
         doc: "Dot product of two vec3.",
+    },
+    NodeDef {
+        kind: Kind::Cross, lowering: Lowering::Cross, slope: Slope::ConstantProjection, derivative: Derivative::Vector,
+        name: "Cross",
+        args: &[input("a", InputType::Vec3, "left vector"), input("b", InputType::Vec3, "right vector")],
+        output: OutputType::Vec3,
+        doc: "Cross product a x b (right-handed).",
+    },
+    NodeDef {
+        kind: Kind::Normalize, lowering: Lowering::Normalize, slope: Slope::Unbounded("a direction turns fastest near the origin"), derivative: Derivative::Vector,
+        name: "Normalize",
+        args: &[input("v", InputType::Vec3, "the vector")],
+        output: OutputType::Vec3,
+        doc: "v / |v| (no overflow or underflow for any finite v); (0, 0, 0) for the zero vector; NaN if a component is infinite or NaN.",
+    },
+    NodeDef {
+        kind: Kind::Distance, lowering: Lowering::Distance, slope: Slope::Composite, derivative: Derivative::Composite,
+        name: "Distance",
+        args: &[input("a", InputType::Vec3, "one point"), input("b", InputType::Vec3, "the other point")],
+        output: OutputType::Scalar,
+        doc: "Euclidean distance |a - b|.",
     },
     NodeDef {
         kind: Kind::Clamp, lowering: Lowering::Ternary(TernaryOp::Clamp), slope: Slope::ConstantBounds, derivative: Derivative::Ternary,
@@ -737,6 +819,39 @@ pub const CATALOGUE: &[NodeDef] = &[
         ],
         output: OutputType::Scalar,
         doc: "Scalar spline: maps a scalar through sorted (x, y) points.",
+    },
+    NodeDef {
+        kind: Kind::Luminance, lowering: Lowering::Luminance, slope: Slope::Composite, derivative: Derivative::Composite,
+        name: "Luminance",
+        args: &[input("colour", InputType::Vec3, "linear RGB")],
+        output: OutputType::Scalar,
+        doc: "Relative luminance with the Rec. 709 weights: 0.2126 r + 0.7152 g + 0.0722 b.",
+    },
+    NodeDef {
+        kind: Kind::HsvToRgb, lowering: Lowering::HsvToRgb, slope: Slope::Composite, derivative: Derivative::Composite,
+        name: "HsvToRgb",
+        args: &[input("hsv", InputType::Vec3, "(hue in turns, wrapping; saturation; value)")],
+        output: OutputType::Vec3,
+        doc: "HSV to RGB: hue in turns (0 red, 1/3 green, 2/3 blue; any real hue wraps), saturation and value not clamped.",
+    },
+    NodeDef {
+        kind: Kind::RgbToHsv, lowering: Lowering::RgbToHsv, slope: Slope::Composite, derivative: Derivative::Composite,
+        name: "RgbToHsv",
+        args: &[input("rgb", InputType::Vec3, "the colour")],
+        output: OutputType::Vec3,
+        doc: "RGB to HSV: hue in turns [0, 1) (0 for greys), saturation (max - min) / max (0 where max <= 0), value max(r, g, b).",
+    },
+    NodeDef {
+        kind: Kind::Blend, lowering: Lowering::Blend, slope: Slope::Composite, derivative: Derivative::Composite,
+        name: "Blend",
+        args: &[
+            input("base", InputType::Any, "the colour below"),
+            input("layer", InputType::Any, "the colour blended over it"),
+            input_or("t", InputType::Any, 1.0, "opacity of the layer, not clamped"),
+            ArgDef { name: "mode", kind: ArgKind::Choice(BLEND_MODES), default: Some(DefaultValue::Name("Mix")), doc: "how base and layer combine (formulas in docs/format.md)" },
+        ],
+        output: OutputType::Broadcast,
+        doc: "Blend modes of image editors: Mix(base, mode(base, layer), t), per component, not clamped.",
     },
 ];
 
@@ -816,6 +931,7 @@ fn describe_arg(arg: &ArgDef) -> String {
         ArgKind::Stops => "[(t, (r, g, b)), ...]".into(),
         ArgKind::Points => "[(x, y), ...]".into(),
         ArgKind::Period => "constant whole number or (px, py, pz), each 1 to 2^20".into(),
+        ArgKind::Flag => "true|false".into(),
     }
 }
 
@@ -826,6 +942,7 @@ fn describe_default(default: Option<DefaultValue>) -> String {
         Some(DefaultValue::Vec3([x, y, z])) => format!("default ({x}, {y}, {z})"),
         Some(DefaultValue::Name(n)) => format!("default {n}"),
         Some(DefaultValue::Nothing) => "default none".into(),
+        Some(DefaultValue::Flag(b)) => format!("default {b}"),
     }
 }
 
@@ -912,7 +1029,7 @@ mod tests {
             assert_eq!(def(a.kind).name, a.name);
             assert_eq!(lookup(a.name).map(|d| d.kind), Some(a.kind));
         }
-        assert_eq!(CATALOGUE.len(), 49);
+        assert_eq!(CATALOGUE.len(), 58);
     }
 
     /// Each entry lowers to its own operation: a math kind to the `ops` operation of the same

@@ -15,6 +15,33 @@ pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
+/// The cross product `a × b` (right-handed), in f64.
+#[inline(always)]
+pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// `v / |v|`, with the vector first divided by its largest component so that no finite `v`
+/// overflows or underflows on the way (`(1e200, 0, 0)` and `(1e-320, 0, 0)` both give
+/// `(1, 0, 0)`); the zero vector stays `(0, 0, 0)`; an infinite or NaN component gives NaN.
+#[inline(always)]
+pub fn normalize(v: [f64; 3]) -> [f64; 3] {
+    let largest = v[0].abs().max(v[1].abs()).max(v[2].abs());
+    if largest == 0.0 {
+        return [0.0; 3];
+    }
+    if !largest.is_finite() || v.iter().any(|c| c.is_nan()) {
+        return [f64::NAN; 3];
+    }
+    let scaled = v.map(|c| c / largest);
+    let length = length(scaled);
+    scaled.map(|c| c / length)
+}
+
 /// The Euclidean length of a vec3 value, in f64. Folding and the interpreter both call this.
 #[inline(always)]
 pub fn length(a: [f64; 3]) -> f64 {
@@ -60,6 +87,7 @@ pub enum TernaryOp {
     Clamp,
     Mix,
     Smoothstep,
+    Select,
 }
 
 impl UnaryOp {
@@ -216,7 +244,12 @@ impl BinaryOp {
 }
 
 impl TernaryOp {
-    pub const ALL: [TernaryOp; 3] = [TernaryOp::Clamp, TernaryOp::Mix, TernaryOp::Smoothstep];
+    pub const ALL: [TernaryOp; 4] = [
+        TernaryOp::Clamp,
+        TernaryOp::Mix,
+        TernaryOp::Smoothstep,
+        TernaryOp::Select,
+    ];
 
     /// NaN results are made the canonical NaN: which operand's NaN an operation returns
     /// depends on the operand order the compiler picks, which differed between the per-point
@@ -227,6 +260,7 @@ impl TernaryOp {
             TernaryOp::Clamp => clamp(a, b, c),
             TernaryOp::Mix => a + c * (b - a),
             TernaryOp::Smoothstep => smoothstep(a, b, c),
+            TernaryOp::Select => select(a, b, c),
         };
         if r.is_nan() {
             S::NAN
@@ -253,6 +287,9 @@ impl TernaryOp {
                 let w2 = width * width;
                 [ds * (c - b) / w2, -ds * (c - a) / w2, ds / width]
             }
+            // The condition's switch is a jump: flat in the condition on both sides.
+            TernaryOp::Select if a > 0.0 => [0.0, 1.0, 0.0],
+            TernaryOp::Select => [0.0, 0.0, 1.0],
         }
     }
 
@@ -261,6 +298,7 @@ impl TernaryOp {
             TernaryOp::Clamp => "clamp",
             TernaryOp::Mix => "mix",
             TernaryOp::Smoothstep => "smoothstep",
+            TernaryOp::Select => "select",
         }
     }
 }
@@ -527,6 +565,16 @@ pub fn step<S: Real>(edge: S, x: S) -> S {
     }
 }
 
+/// `a` where `condition > 0`, else `b` (a NaN condition is not > 0: `b`).
+#[inline(always)]
+pub fn select<S: Real>(condition: S, a: S, b: S) -> S {
+    if condition > S::ZERO {
+        a
+    } else {
+        b
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -594,6 +642,7 @@ mod tests {
                     TernaryOp::Clamp => [c, lo, hi],
                     TernaryOp::Mix => [a, b, c],
                     TernaryOp::Smoothstep => [lo, hi, c],
+                    TernaryOp::Select => [a, b, c],
                 };
                 let partials = op.partials(args[0], args[1], args[2]);
                 for (i, analytic) in partials.into_iter().enumerate() {

@@ -91,6 +91,17 @@ pub enum Instr {
         dst: Slot,
         src: Slot,
     },
+    /// dst(vec3) = a × b.
+    Cross {
+        dst: Slot,
+        a: Slot,
+        b: Slot,
+    },
+    /// dst(vec3) = src / |src| (`ops::normalize`).
+    Normalize {
+        dst: Slot,
+        src: Slot,
+    },
     /// dst(vec3) = `matrices[matrix]` · src: a rotation whose angle is constant.
     RotateConst {
         dst: Slot,
@@ -325,6 +336,8 @@ impl fmt::Display for Tape {
                 }
                 Instr::Dot { dst, a, b } => format!("s{dst} = dot v{a}, v{b}"),
                 Instr::Length { dst, src } => format!("s{dst} = length v{src}"),
+                Instr::Cross { dst, a, b } => format!("v{dst} = cross v{a}, v{b}"),
+                Instr::Normalize { dst, src } => format!("v{dst} = normalize v{src}"),
                 Instr::RotateConst { dst, src, matrix } => {
                     let m = &self.matrices[*matrix as usize];
                     format!(

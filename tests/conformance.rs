@@ -202,6 +202,14 @@ macro_rules! ternary_reference {
                     t * t * (3.0 - 2.0 * t)
                 }
             }
+            // a > 0 chooses b; a NaN condition is not > 0.
+            "Select" => {
+                if a > 0.0 {
+                    b
+                } else {
+                    c
+                }
+            }
             other => panic!("no ternary reference for {other}: add one here"),
         }
     }};
@@ -261,6 +269,17 @@ const VECTOR: [&str; 7] = [
     "Dot",
 ];
 
+const COLOUR_AND_GEOMETRY: [&str; 8] = [
+    "MapRange",
+    "Cross",
+    "Normalize",
+    "Distance",
+    "Luminance",
+    "HsvToRgb",
+    "RgbToHsv",
+    "Blend",
+];
+
 mod common;
 
 /// A test's graph uses every kind it claims to check.
@@ -284,6 +303,7 @@ fn every_node_kind_has_a_conformance_reference() {
         &NOISE,
         &NOISE_FAMILIES,
         &VECTOR,
+        &COLOUR_AND_GEOMETRY,
     ]
     .concat();
     let missing: Vec<&str> = texgraph::nodes::CATALOGUE
@@ -516,7 +536,7 @@ fn ternary_nodes_match_the_scalar_reference() {
     }
     for name in ternary_kinds() {
         let t = tape(&format!(
-            r#"Graph(nodes: {{ "p": Position }}, outputs: {{ "s": {name}("p.x", "p.y", "p.z"), "v": {name}("p", "p.y", "p.z") }})"#
+            r#"Graph(nodes: {{ "p": Position }}, outputs: {{ "s": {name}("p.x", "p.y", "p.z"), "v": {name}("p.y", "p", "p.z") }})"#
         ));
         let (r32, r64) = run(&t, &points);
         let n = points.len();
@@ -852,4 +872,223 @@ fn noise_family_nodes_match_their_definitions() {
             );
         }
     }
+}
+
+/// HSV → RGB as the textbook hexcone (Smith 1978; Python's `colorsys.hsv_to_rgb`): six
+/// sectors by `floor(h · 6)`, written with branches, independent of the branch-free lowering.
+fn hsv_to_rgb_reference(h: f64, s: f64, v: f64) -> [f64; 3] {
+    let h = h - h.floor();
+    let i = (h * 6.0).floor();
+    let f = h * 6.0 - i;
+    let (p, q, t) = (v * (1.0 - s), v * (1.0 - s * f), v * (1.0 - s * (1.0 - f)));
+    match i as i32 % 6 {
+        0 => [v, t, p],
+        1 => [q, v, p],
+        2 => [p, v, t],
+        3 => [p, q, v],
+        4 => [t, p, v],
+        _ => [v, p, q],
+    }
+}
+
+/// RGB → HSV as `colorsys.rgb_to_hsv` (hue in turns).
+fn rgb_to_hsv_reference([r, g, b]: [f64; 3]) -> [f64; 3] {
+    let max = r.max(g).max(b);
+    let min = r.min(g).min(b);
+    if max == min {
+        return [0.0, 0.0, max];
+    }
+    let c = max - min;
+    let (rc, gc, bc) = ((max - r) / c, (max - g) / c, (max - b) / c);
+    let h = if r == max {
+        bc - gc
+    } else if g == max {
+        2.0 + rc - bc
+    } else {
+        4.0 + gc - rc
+    };
+    [(h / 6.0).rem_euclid(1.0), c / max, max]
+}
+
+/// The W3C Compositing and Blending Level 1 formulas (section 9.1.5), as written there, plus
+/// the arithmetic modes; `cb` backdrop (base), `cs` source (layer).
+fn blend_reference(mode: &str, cb: f64, cs: f64) -> f64 {
+    let multiply = |cb: f64, cs: f64| cb * cs;
+    let screen = |cb: f64, cs: f64| cb + cs - cb * cs;
+    let hard_light = |cb: f64, cs: f64| {
+        if cs <= 0.5 {
+            multiply(cb, 2.0 * cs)
+        } else {
+            screen(cb, 2.0 * cs - 1.0)
+        }
+    };
+    match mode {
+        "Mix" => cs,
+        "Multiply" => multiply(cb, cs),
+        "Screen" => screen(cb, cs),
+        "Overlay" => hard_light(cs, cb),
+        "Add" => cb + cs,
+        "Subtract" => cb - cs,
+        "Difference" => (cb - cs).abs(),
+        "Darken" => cb.min(cs),
+        "Lighten" => cb.max(cs),
+        other => panic!("no reference for blend mode {other}"),
+    }
+}
+
+/// The geometry and colour kinds against independent formulas on a grid of colours and
+/// vectors (channels in [0, 1] for the colour conversions, any sign for the geometry), f64 and
+/// f32, point = batch bit for bit.
+#[test]
+fn colour_and_geometry_nodes_match_their_references() {
+    let modes = texgraph::nodes::BLEND_MODES;
+    let blends: Vec<String> = modes
+        .iter()
+        .map(|m| format!(r#""blend_{m}": Blend(base: "p", layer: "q", t: 0.75, mode: {m}),"#))
+        .collect();
+    let source = format!(
+        r#"Graph(nodes: {{ "p": Position, "q": Combine("p.z", "p.x", "p.y") }}, outputs: {{
+            "map": MapRange("p.x", -1.0, 3.0, 10.0, 20.0),
+            "map_clamped": MapRange(input: "p.x", from_min: 0.25, from_max: 0.75, to_min: 1.0, to_max: -1.0, clamp: true),
+            "cross": Cross("p", "q"),
+            "normalize": Normalize("p"),
+            "distance": Distance("p", "q"),
+            "luminance": Luminance("p"),
+            "hsv": HsvToRgb("p"),
+            "rgb_hsv": RgbToHsv("p"),
+            "round_trip": HsvToRgb(RgbToHsv("p")),
+            {}
+        }})"#,
+        blends.join("\n")
+    );
+    assert_covers(&source, &COLOUR_AND_GEOMETRY);
+    let t = tape(&source);
+    let steps = [0.0, 0.1, 0.25, 0.5, 0.6, 0.75, 0.9, 1.0];
+    let mut points: Vec<[f64; 3]> = Vec::new();
+    for &a in &steps {
+        for &b in &steps {
+            for &c in &steps {
+                points.push([a, b, c]);
+            }
+        }
+    }
+    points.extend([
+        [-2.0, 3.0, 0.5],
+        [1e-310, 0.0, 0.0],
+        [1e200, -1e200, 0.0],
+        [0.0; 3],
+    ]);
+    let (r32, r64) = run(&t, &points);
+    let n = points.len();
+    let channel = |name: &str| {
+        let out = t.output(name).unwrap_or_else(|| panic!("no output {name}"));
+        out.first_channel
+    };
+    let close = |got: f64, want: f64, tol: f64| {
+        (got.is_nan() && want.is_nan())
+            || got == want
+            || (got - want).abs() <= tol * want.abs().max(1.0)
+    };
+    for (i, &[x, y, z]) in points.iter().enumerate() {
+        let q = [z, x, y];
+        let get = |r: &[f64], name: &str, c: usize| r[(channel(name) + c) * n + i];
+        let expect = |name: &str, c: usize, want: f64, tol: f64| {
+            let got = get(&r64, name, c);
+            assert!(
+                close(got, want, tol),
+                "{name}[{c}] at {:?}: {got} vs {want}",
+                [x, y, z]
+            );
+        };
+        expect("map", 0, 10.0 + (x + 1.0) / 4.0 * 10.0, 1e-15);
+        let t = ((x - 0.25) / 0.5).clamp(0.0, 1.0);
+        expect("map_clamped", 0, 1.0 - 2.0 * t, 1e-15);
+        let cross = [
+            y * q[2] - z * q[1],
+            z * q[0] - x * q[2],
+            x * q[1] - y * q[0],
+        ];
+        let len = (x * x + y * y + z * z).sqrt();
+        for (c, want) in cross.into_iter().enumerate() {
+            expect("cross", c, want, 0.0);
+        }
+        let p = [x, y, z];
+        let d = ((x - q[0]).powi(2) + (y - q[1]).powi(2) + (z - q[2]).powi(2)).sqrt();
+        if x.abs() < 1e100 {
+            expect("distance", 0, d, 1e-15);
+        }
+        if p == [0.0; 3] {
+            for c in 0..3 {
+                expect("normalize", c, 0.0, 0.0);
+            }
+        } else if len.is_finite() && len > 1e-300 {
+            for (c, v) in p.into_iter().enumerate() {
+                expect("normalize", c, v / len, 1e-15);
+            }
+        } else {
+            // Beyond f64's range of |v|²: still a unit vector along the largest axis.
+            let got: Vec<f64> = (0..3).map(|c| get(&r64, "normalize", c)).collect();
+            let norm = got.iter().map(|g| g * g).sum::<f64>().sqrt();
+            assert!((norm - 1.0).abs() < 1e-15, "normalize {p:?}: {got:?}");
+        }
+        expect("luminance", 0, 0.2126 * x + 0.7152 * y + 0.0722 * z, 1e-15);
+        let in_unit = p.iter().all(|c| (0.0..=1.0).contains(c));
+        if in_unit {
+            let rgb = hsv_to_rgb_reference(x, y, z);
+            let hsv = rgb_to_hsv_reference(p);
+            for c in 0..3 {
+                expect("hsv", c, rgb[c], 1e-12);
+                expect("round_trip", c, p[c], 1e-12);
+            }
+            // Hue is a circle: 0.999… and 0 are neighbours.
+            let h = get(&r64, "rgb_hsv", 0);
+            let dh = (h - hsv[0]).abs();
+            assert!(dh.min(1.0 - dh) < 1e-12, "hue of {p:?}: {h} vs {}", hsv[0]);
+            expect("rgb_hsv", 1, hsv[1], 1e-12);
+            expect("rgb_hsv", 2, hsv[2], 0.0);
+            for m in modes {
+                for c in 0..3 {
+                    let want = p[c] + 0.75 * (blend_reference(m, p[c], q[c]) - p[c]);
+                    expect(&format!("blend_{m}"), c, want, 1e-15);
+                }
+            }
+            // f32: the scalar parts (RgbToHsv's components) are computed in f32.
+            let got = r32[channel("round_trip") * n + i] as f64;
+            assert!((got - x).abs() < 1e-5, "f32 round trip at {p:?}: {got}");
+        }
+    }
+}
+
+/// Select chooses whole branches and never leaks the other one; a constant condition is
+/// removed by the compiler.
+#[test]
+fn select_chooses_branches_and_folds() {
+    let t = tape(
+        r#"Graph(nodes: { "p": Position }, outputs: {
+            "v": Select("p.x", "p", Div(1.0, 0.0)),
+            "guarded": Select("p.x", Div(1.0, "p.x"), 0.0),
+        })"#,
+    );
+    let points = [
+        [2.0, -1.0, 4.0],
+        [0.0, 1.0, 1.0],
+        [-0.0, 1.0, 1.0],
+        [f64::NAN, 1.0, 1.0],
+        [-3.0, 1.0, 1.0],
+    ];
+    let (_, r) = run(&t, &points);
+    let n = points.len();
+    assert_eq!([r[0], r[n], r[2 * n]], [2.0, -1.0, 4.0]);
+    for i in 1..n {
+        assert_eq!(r[i], f64::INFINITY, "point {i}");
+        assert_eq!(r[3 * n + i], 0.0, "guarded at {:?}", points[i]);
+    }
+    assert_eq!(r[3 * n], 0.5);
+    let folded = tape(
+        r#"Graph(nodes: { "p": Position }, outputs: { "a": Select(1.0, "p.x", "p.y"), "b": Select(-1.0, "p.x", "p.y"), "c": Select("p.z", "p.y", "p.y") })"#,
+    );
+    assert!(
+        folded.instructions().len() <= 3,
+        "a constant condition and equal branches leave only the components:\n{folded}"
+    );
 }

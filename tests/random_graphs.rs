@@ -40,7 +40,7 @@ fn scalar(depth: u32) -> BoxedStrategy<String> {
             .prop_map(|(op, a, b)| format!("{op}({a}, {b})")),
         3 => (prop::sample::select(math_kinds(|l| matches!(l, Lowering::Unary(_)))), inner.clone())
             .prop_map(|(op, a)| format!("{op}({a})")),
-        1 => (prop_oneof![Just("Clamp"), Just("Mix"), Just("Smoothstep")], inner.clone(), inner.clone(), inner.clone())
+        1 => (prop_oneof![Just("Clamp"), Just("Mix"), Just("Smoothstep"), Just("Select")], inner.clone(), inner.clone(), inner.clone())
             .prop_map(|(op, a, b, c)| if op == "Clamp" { format!("Clamp(input: {a}, min: {b}, max: {c})") } else { format!("{op}({a}, {b}, {c})") }),
         1 => (inner.clone(), -1e6f64..1e6, -1e6f64..1e6).prop_map(|(x, m0, m1)| format!("Hermite(input: {x}, p0: 0.0, p1: 1.0, m0: {m0:?}, m1: {m1:?})")),
         1 => (inner.clone(), prop::collection::vec((-2.0f64..2.0, -5.0f64..5.0), 1..5)).prop_map(|(x, mut points)| {
@@ -63,7 +63,9 @@ fn scalar(depth: u32) -> BoxedStrategy<String> {
             .prop_map(|(v, seed, jitter, metric, value)| format!("Cellular(input: {v}, seed: {seed}, jitter: {jitter:?}, metric: {metric}, value: {value})")),
         1 => (vec.clone(), 0u32..100).prop_map(|(v, seed)| format!("WhiteNoise(input: {v}, seed: {seed})")),
         1 => vec.clone().prop_map(|v| format!("Length({v})")),
-        1 => (vec.clone(), vec).prop_map(|(a, b)| format!("Dot({a}, {b})")),
+        1 => (vec.clone(), vec.clone()).prop_map(|(a, b)| format!("Dot({a}, {b})")),
+        1 => (vec.clone(), vec.clone(), any::<bool>()).prop_map(|(a, b, luminance)| if luminance { format!("Luminance({a})") } else { format!("Distance({a}, {b})") }),
+        1 => (inner.clone(), inner.clone(), inner.clone(), any::<bool>()).prop_map(|(x, lo, hi, clamp)| format!("MapRange(input: {x}, from_min: {lo}, from_max: {hi}, to_min: -1.0, to_max: 2.0, clamp: {clamp})")),
         1 => Just("\"q.y\"".to_string()),
     ]
     .boxed()
@@ -105,6 +107,8 @@ fn vec3(depth: u32) -> BoxedStrategy<String> {
         1 => (inner.clone(), 0.0f64..4.0, small_basis()).prop_map(|(v, octaves, basis)| format!("VecFbm(input: {v}, basis: {basis}, octaves: {octaves:?})")),
         1 => (inner.clone(), s.clone(), 0.0f64..3.0, small_basis()).prop_map(|(v, amount, octaves, basis)| format!("Warp(input: {v}, amount: {amount}, basis: {basis}, octaves: {octaves:?})")),
         1 => inner.clone().prop_map(|a| format!("Fract({a})")),
+        1 => (inner.clone(), inner.clone(), prop::sample::select(vec!["Cross", "Normalize", "HsvToRgb", "RgbToHsv"])).prop_map(|(a, b, op)| if op == "Cross" { format!("Cross({a}, {b})") } else { format!("{op}({a})") }),
+        1 => (inner.clone(), inner.clone(), s.clone(), prop::sample::select(texgraph::nodes::BLEND_MODES.to_vec())).prop_map(|(a, b, t, mode)| format!("Blend(base: {a}, layer: {b}, t: {t}, mode: {mode})")),
         1 => (s, prop::collection::vec(-1.0f64..2.0, 1..4)).prop_map(|(x, mut ts)| {
             ts.sort_by(f64::total_cmp);
             let stops: Vec<String> = ts.iter().enumerate().map(|(i, t)| format!("({t:?}, ({}, 0.5, {}))", i as f64 * 0.3, 1.0 - i as f64 * 0.2)).collect();

@@ -407,10 +407,16 @@ impl Generator {
             }),
             6 => self.nested(|g| {
                 let (a, b, c) = (g.scalar(u)?, g.scalar(u)?, g.scalar(u)?);
-                Ok(match u.int_in_range(0u8..=3)? {
+                Ok(match u.int_in_range(0u8..=5)? {
                     0 => format!("Clamp(input: {a}, min: {b}, max: {c})"),
                     1 => format!("Clamp({a})"),
                     2 => format!("Mix({a}, {b}, {c})"),
+                    3 => format!("Select({a}, {b}, {c})"),
+                    4 => {
+                        let (d, e) = (g.scalar(u)?, g.scalar(u)?);
+                        let clamp = u.arbitrary::<bool>()?;
+                        format!("MapRange(input: {a}, from_min: {b}, from_max: {c}, to_min: {d}, to_max: {e}, clamp: {clamp})")
+                    }
                     _ => format!("Smoothstep({a}, {b}, {c})"),
                 })
             }),
@@ -459,7 +465,14 @@ impl Generator {
                 })
             }),
             12 => self.nested(|g| Ok(format!("Length({})", g.vec3(u)?))),
-            13 => self.nested(|g| Ok(format!("Dot({}, {})", g.vec3(u)?, g.vec3(u)?))),
+            13 => self.nested(|g| {
+                let (a, b) = (g.vec3(u)?, g.vec3(u)?);
+                Ok(match u.int_in_range(0u8..=2)? {
+                    0 => format!("Dot({a}, {b})"),
+                    1 => format!("Distance({a}, {b})"),
+                    _ => format!("Luminance({a})"),
+                })
+            }),
             14 => self.nested(|g| {
                 // A component of a vec3 expression, through a reference or a nested node.
                 Ok(format!("Dot({}, (0.0, 1.0, 0.0))", g.vec3(u)?))
@@ -568,9 +581,18 @@ impl Generator {
             }),
             9 => self.nested(|g| {
                 let (a, b, c) = (g.vec3(u)?, g.vec3(u)?, g.scalar(u)?);
-                Ok(match u.int_in_range(0u8..=2)? {
+                Ok(match u.int_in_range(0u8..=8)? {
                     0 => format!("Clamp(input: {a}, min: {c}, max: {b})"),
                     1 => format!("Mix({a}, {b}, {c})"),
+                    2 => format!("Select({c}, {a}, {b})"),
+                    3 => format!("Cross({a}, {b})"),
+                    4 => format!("Normalize({a})"),
+                    5 => format!("HsvToRgb({a})"),
+                    6 => format!("RgbToHsv({a})"),
+                    7 => {
+                        let mode = u.choose(texgraph::nodes::BLEND_MODES)?;
+                        format!("Blend(base: {a}, layer: {b}, t: {c}, mode: {mode})")
+                    }
                     _ => format!("Smoothstep({c}, {b}, {a})"),
                 })
             }),

@@ -165,6 +165,7 @@ impl Checker {
             (DefaultValue::Vec3(v), _) => Arg::Axis(v),
             (DefaultValue::Name(n), _) => Arg::Choice(n, false),
             (DefaultValue::Nothing, _) => Arg::Period(None),
+            (DefaultValue::Flag(b), _) => Arg::Flag(b),
         }
     }
 
@@ -271,6 +272,26 @@ impl Checker {
                 }
                 Some(Arg::Stops(stops))
             }
+            ArgKind::Flag => match value.kind {
+                ValueKind::Bool(b) => Some(Arg::Flag(b)),
+                _ => {
+                    self.error(
+                        Diagnostic::new(
+                            Class::BadParameter,
+                            format!(
+                                "`{}` of {} must be true or false, found {}",
+                                arg.name,
+                                def.name,
+                                value.kind.describe()
+                            ),
+                        )
+                        .in_node(&*origin.node)
+                        .at(value.span)
+                        .label("not true or false"),
+                    );
+                    None
+                }
+            },
             ArgKind::Points => {
                 let knots = self.knots(value, def, "points", "(x, y)", origin)?;
                 let mut points = Vec::with_capacity(knots.len());

@@ -57,6 +57,20 @@ impl Checker {
             Lowering::Unary(op) => (unary(op), operands),
             Lowering::Length => (Op::Length, smallvec![input("v")]),
             Lowering::Dot => (Op::Dot, smallvec![input("a"), input("b")]),
+            Lowering::Cross => (Op::Cross, smallvec![input("a"), input("b")]),
+            Lowering::Normalize => (Op::Normalize, smallvec![input("v")]),
+            Lowering::MapRange
+            | Lowering::Distance
+            | Lowering::Luminance
+            | Lowering::HsvToRgb
+            | Lowering::RgbToHsv
+            | Lowering::Blend => self.composite(
+                def.lowering,
+                &operands,
+                named.flag("clamp"),
+                named.choice("mode"),
+                here,
+            )?,
             Lowering::Ternary(op) => (Op::Ternary(op), self.broadcast_all(&operands, here)),
             Lowering::Hermite => (
                 Op::Hermite(Hermite {
@@ -389,6 +403,11 @@ impl Named<'_> {
             Some(Arg::Input(id)) => *id,
             _ => unreachable_arg(),
         }
+    }
+
+    /// A flag argument (a name the entry lacks: false).
+    fn flag(&self, name: &str) -> bool {
+        matches!(self.get(name), Some(Arg::Flag(true)))
     }
 
     /// A choice argument's name (a name the entry lacks: as for [`Named::input`]).

@@ -7,6 +7,7 @@
 //! stack; inline nesting is bounded by the parser's depth limit.
 
 mod arguments;
+mod composite;
 mod expressions;
 mod lowering;
 mod references;
@@ -94,6 +95,7 @@ enum Arg {
     Period(Option<[u64; 3]>),
     Stops(Vec<(f64, [f64; 3])>),
     Points(Vec<(f64, f64)>),
+    Flag(bool),
 }
 
 struct Checker {
