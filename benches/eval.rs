@@ -7,6 +7,8 @@
 //! `eval/cellular`, `eval/cellular_fbm4`, `eval/simplex`, `eval/warp`, `eval/period`: the noise
 //! families against their peers (fastnoise-lite, noise-rs, simdnoise) on the same slab as
 //! `eval/fbm8`.
+//! `eval/gradient`: `Gradient` of the 8-octave Perlin fbm against the fbm alone and against
+//! central differences written as a graph, on the same slab.
 //! `compile/N`: parse + check + compile of a generated graph of N nodes (inline nodes included).
 //!
 //! Run: `cargo bench --bench eval` (add `-- eval/` or `-- compile/` to pick a group).
@@ -469,6 +471,66 @@ fn family_benches(c: &mut Criterion) {
     group.finish();
 }
 
+/// `eval/gradient/*`: the gradient of the 8-octave Perlin fbm by `Gradient` (analytic, one
+/// instruction) against the fbm alone and against central differences written in the graph
+/// language (six more fbm evaluations at p ± h along each axis: what an author without
+/// `Gradient` writes; forward differences would still need three).
+fn gradient_benches(c: &mut Criterion) {
+    let mut group = new_group(c, "eval/gradient");
+    let fbm = |p: &str| format!("Fbm(input: {p}, basis: Perlin, octaves: 8.0)");
+    let value = compile_text(FBM8, &[]);
+    let analytic = compile_text(
+        &format!(
+            r#"Graph(outputs: {{ "g": Gradient(of: {}) }})"#,
+            fbm("Position")
+        ),
+        &[],
+    );
+    let h = 1e-3;
+    let axis = |k: usize, sign: f64| {
+        let mut v = [0.0; 3];
+        v[k] = sign * h;
+        fbm(&format!(
+            "Translate(input: Position, by: ({:?}, {:?}, {:?}))",
+            v[0], v[1], v[2]
+        ))
+    };
+    let central: Vec<String> = (0..3)
+        .map(|k| {
+            format!(
+                "Mul(Sub({}, {}), {:?})",
+                axis(k, 1.0),
+                axis(k, -1.0),
+                0.5 / h
+            )
+        })
+        .collect();
+    let differences = compile_text(
+        &format!(
+            r#"Graph(outputs: {{ "g": Combine({}, {}, {}) }})"#,
+            central[0], central[1], central[2]
+        ),
+        &[],
+    );
+    let (x, y, z) = slab();
+    let n = x.len();
+    for (name, tape) in [
+        ("fbm8_value_batch_f32", &value),
+        ("fbm8_gradient_batch_f32", &analytic),
+        ("fbm8_central_differences_batch_f32", &differences),
+    ] {
+        group.bench_function(name, |b| {
+            let mut ws = Workspace::<f32>::new();
+            let mut out = vec![0f32; n * tape.channels()];
+            b.iter(|| {
+                tape.eval_batch(&mut ws, &x, &y, &z, &mut out);
+                black_box(&out);
+            })
+        });
+    }
+    group.finish();
+}
+
 fn eval_benches(c: &mut Criterion) {
     peer_group(c, "fbm8", FBM8, |_, f| f);
     peer_group(c, "marble", MARBLE, |x, f| (6.0 * x + 4.0 * f).sin().abs());
@@ -591,5 +653,11 @@ fn compile_benches(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, eval_benches, family_benches, compile_benches);
+criterion_group!(
+    benches,
+    eval_benches,
+    family_benches,
+    gradient_benches,
+    compile_benches
+);
 criterion_main!(benches);

@@ -336,7 +336,12 @@ impl Emitter {
                 src: arg(0),
                 table: self.table(*key),
             },
-            Op::Fractal(key, params) => {
+            Op::NoiseGradient(key) => Instr::NoiseGradient {
+                dst,
+                src: arg(0),
+                table: self.table(*key),
+            },
+            Op::Fractal(key, params) | Op::FractalGradient(key, params) => {
                 let table = self.table(*key);
                 let lod = match options.spacing {
                     Some(spacing) => {
@@ -360,6 +365,16 @@ impl Emitter {
                 };
                 self.octaves.push(kept.schedule());
                 self.octave_counts.push((params.octaves, lod.octaves));
+                if let Op::FractalGradient(..) = node.op {
+                    // The octaves left out add a constant on average: no slope.
+                    return Instr::FractalGradient {
+                        dst,
+                        src: arg(0),
+                        table,
+                        octaves: (self.octaves.len() - 1) as u32,
+                        style: params.style,
+                    };
+                }
                 Instr::Fractal {
                     dst,
                     src: arg(0),

@@ -44,7 +44,7 @@ pub struct Spanned<T> {
 }
 
 /// A graph file's name (as the user typed it) and text.
-#[derive(Debug)]
+#[derive(Debug, PartialEq)]
 pub struct SourceFile {
     pub name: String,
     pub text: String,
@@ -95,6 +95,8 @@ pub enum DiagnosticClass {
     UnknownOutput,
     UnknownParam,
     BadName,
+    NotDifferentiable,
+    MissingFile,
 }
 
 impl DiagnosticClass {
@@ -115,6 +117,8 @@ impl DiagnosticClass {
             DiagnosticClass::UnknownOutput => "unknown-output",
             DiagnosticClass::UnknownParam => "unknown-param",
             DiagnosticClass::BadName => "bad-name",
+            DiagnosticClass::NotDifferentiable => "not-differentiable",
+            DiagnosticClass::MissingFile => "missing-file",
         }
     }
 }
@@ -130,6 +134,12 @@ pub struct Diagnostic {
     /// Short text under the caret.
     pub label: Option<String>,
     pub help: Option<String>,
+    /// The file the span is in when it is not the reported file: a problem inside an imported
+    /// graph, located in that graph's own file.
+    pub file: Option<Arc<SourceFile>>,
+    /// Where that file was imported, innermost first: `floor.ron:12:9` (rendered as
+    /// `imported from floor.ron:12:9`).
+    pub chain: Vec<String>,
 }
 
 /// Text for a message, with characters that would not show as themselves escaped (`\u{1e}`,
@@ -160,7 +170,19 @@ impl Diagnostic {
             span: None,
             label: None,
             help: None,
+            file: None,
+            chain: Vec::new(),
         }
+    }
+
+    /// The same problem seen from a file that imports `inner` at `at` (`file:line:col`): its
+    /// location stays in the innermost file, and the import chain grows by one link.
+    pub fn imported(mut self, inner: &Arc<SourceFile>, at: String) -> Diagnostic {
+        if self.file.is_none() {
+            self.file = Some(inner.clone());
+        }
+        self.chain.push(at);
+        self
     }
 
     pub fn at(mut self, span: Span) -> Diagnostic {
@@ -218,12 +240,13 @@ impl Diagnostics {
             .with_links(false);
         let mut out = String::new();
         for diagnostic in &self.list {
+            let file = diagnostic.file.as_deref().unwrap_or(&self.file);
             let location = match diagnostic.span {
                 Some(span) => {
-                    let (line, column) = self.file.line_col(span.start);
-                    format!("{}:{line}:{column}", self.file.name)
+                    let (line, column) = file.line_col(span.start);
+                    format!("{}:{line}:{column}", file.name)
                 }
-                None => self.file.name.clone(),
+                None => file.name.clone(),
             };
             out.push_str(&format!(
                 "error[{}]: {location}: {}\n",
@@ -232,8 +255,8 @@ impl Diagnostics {
             ));
             let report = MietteReport {
                 diagnostic,
-                file: &self.file,
-                source: WindowedSource(&self.file.text),
+                file,
+                source: WindowedSource(&file.text),
             };
             let mut body = String::new();
             // Rendering into a String cannot fail; if miette ever did, the headline above
@@ -247,6 +270,9 @@ impl Diagnostics {
             if !snippet.trim().is_empty() {
                 out.push_str(snippet);
                 out.push('\n');
+            }
+            for link in &diagnostic.chain {
+                out.push_str(&format!("  imported from {link}\n"));
             }
         }
         out

@@ -272,7 +272,10 @@ impl Tape {
                 | Instr::Normalize { .. }
                 | Instr::RotateConst { .. }
                 | Instr::RotateVarying { .. } => self.geometry(instr, ws, n),
-                Instr::Noise { .. } | Instr::Fractal { .. } => self.noise(instr, ws, n),
+                Instr::Noise { .. }
+                | Instr::Fractal { .. }
+                | Instr::NoiseGradient { .. }
+                | Instr::FractalGradient { .. } => self.noise(instr, ws, n),
                 Instr::Hermite { .. } | Instr::Ramp { .. } | Instr::Curve { .. } => {
                     self.splines(instr, ws, n)
                 }
@@ -396,6 +399,41 @@ impl Tape {
                         *v = *v + bias;
                     }
                 }
+            }
+            Instr::NoiseGradient { dst, src, table } => {
+                let mut out = take(&mut ws.vec3s[dst as usize]);
+                let a = &ws.vec3s[src as usize];
+                let (gx, rest) = out.split_at_mut(LANES);
+                let (gy, gz) = rest.split_at_mut(LANES);
+                self.tables[table as usize].1.sample_grad_batch::<S>(
+                    &a[..n],
+                    &a[LANES..LANES + n],
+                    &a[2 * LANES..2 * LANES + n],
+                    [&mut gx[..n], &mut gy[..n], &mut gz[..n]],
+                );
+                ws.vec3s[dst as usize] = out;
+            }
+            Instr::FractalGradient {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+            } => {
+                let mut out = take(&mut ws.vec3s[dst as usize]);
+                let a = &ws.vec3s[src as usize];
+                let (gx, rest) = out.split_at_mut(LANES);
+                let (gy, gz) = rest.split_at_mut(LANES);
+                noise::fractal_styled_grad_batch::<S>(
+                    &self.tables[table as usize].1,
+                    &self.octaves[octaves as usize],
+                    style,
+                    &a[..n],
+                    &a[LANES..LANES + n],
+                    &a[2 * LANES..2 * LANES + n],
+                    [&mut gx[..n], &mut gy[..n], &mut gz[..n]],
+                );
+                ws.vec3s[dst as usize] = out;
             }
             _ => unreachable!("run_chunk dispatches only noise instructions here"),
         }

@@ -97,6 +97,10 @@ pub enum Op {
     },
     Noise(TableKey),
     Fractal(TableKey, FractalParams),
+    /// The analytic gradient (a vec3) of `Noise(key)` at the point argument (`Gradient`).
+    NoiseGradient(TableKey),
+    /// The analytic gradient of `Fractal(key, params)` at the point argument.
+    FractalGradient(TableKey, FractalParams),
     Hermite(Hermite),
     Ramp(Arc<Ramp>),
     Curve(Arc<Curve>),
@@ -150,14 +154,24 @@ impl Op {
             Op::Rotate { axis } => {
                 out.extend([11, axis[0].to_bits(), axis[1].to_bits(), axis[2].to_bits()])
             }
+            Op::NoiseGradient(t) => {
+                out.push(19);
+                out.extend(basis_code(t.basis));
+                out.push(t.seed);
+                out.extend(t.period.unwrap_or([0; 3]));
+            }
             Op::Noise(t) => {
                 out.push(12);
                 out.extend(basis_code(t.basis));
                 out.push(t.seed);
                 out.extend(t.period.unwrap_or([0; 3]));
             }
-            Op::Fractal(t, p) => {
-                out.push(13);
+            Op::Fractal(t, p) | Op::FractalGradient(t, p) => {
+                out.push(if matches!(self, Op::Fractal(..)) {
+                    13
+                } else {
+                    20
+                });
                 out.extend(basis_code(t.basis));
                 out.extend([
                     t.seed,
@@ -177,13 +191,13 @@ impl Op {
                 h.m1.to_bits(),
             ]),
             Op::Ramp(r) => {
-                out.extend([15, r.interpolation() as u64]);
+                out.extend([15, r.interpolation() as u64, r.is_slope() as u64]);
                 for (k, v) in r.knots().iter().zip(r.values()) {
                     out.extend([k.to_bits(), v[0].to_bits(), v[1].to_bits(), v[2].to_bits()]);
                 }
             }
             Op::Curve(c) => {
-                out.extend([16, c.interpolation() as u64]);
+                out.extend([16, c.interpolation() as u64, c.is_slope() as u64]);
                 for (k, v) in c.knots().iter().zip(c.values()) {
                     out.extend([k.to_bits(), v[0].to_bits()]);
                 }
@@ -248,6 +262,8 @@ pub struct CheckedGraph {
     /// Params after `--set` overrides, in file order.
     pub(crate) params: Vec<(String, f64)>,
     pub(crate) stats: GraphStats,
+    /// Every file imported, directly or through other imports, as the paths were resolved.
+    pub(crate) imports: Vec<std::path::PathBuf>,
 }
 
 /// A checked graph is built only by [`crate::check()`]; its fields are private to the crate and
@@ -266,6 +282,12 @@ impl CheckedGraph {
     /// The params after `--set` overrides, in file order.
     pub fn params(&self) -> &[(String, f64)] {
         &self.params
+    }
+
+    /// The files this graph imports, directly or through other imports (to watch them, to
+    /// report them), in the order first met.
+    pub fn imports(&self) -> &[std::path::PathBuf] {
+        &self.imports
     }
 
     /// Nodes declared, written, deduplicated and folded.
@@ -304,6 +326,33 @@ impl CheckedGraph {
             .collect();
         graph
     }
+
+    /// The same graph with one more output, `name`: the gradient (a vec3, `Gradient`) of the
+    /// scalar output `of`. For callers that need a surface's slope beside its value (the
+    /// renderer's bump mapping): the derivative nodes join the graph's own, deduplicated.
+    pub fn with_gradient_output(&self, of: &str, name: &str) -> Result<CheckedGraph, String> {
+        let output = self
+            .output(of)
+            .ok_or_else(|| format!("the graph has no output `{of}`"))?;
+        if self.nodes[output.node as usize].ty != Type::Scalar {
+            return Err(format!(
+                "output `{of}` is a vec3: a height must be a scalar"
+            ));
+        }
+        let mut builder = GraphBuilder::from_nodes(&self.nodes);
+        let origin = self.nodes[output.node as usize].origin.clone();
+        let gradient = crate::derive::gradient(&mut builder, output.node, &origin).map_err(|_| {
+            format!("output `{of}` uses a noise gradient: its gradient would need a second derivative of noise")
+        })?;
+        let mut graph = self.clone();
+        graph.nodes = builder.nodes;
+        graph.outputs.push(Output {
+            name: name.to_string(),
+            node: gradient,
+            span: output.span,
+        });
+        Ok(graph)
+    }
 }
 
 /// Creates nodes with deduplication and constant folding (the checker's; not public API).
@@ -329,6 +378,20 @@ impl GraphBuilder {
         let mut builder = GraphBuilder::new();
         builder.nodes.reserve(nodes);
         builder.interned.reserve(nodes);
+        builder
+    }
+
+    /// A builder holding a checked graph's nodes (same ids), to add more to it.
+    pub fn from_nodes(nodes: &[Node]) -> GraphBuilder {
+        let mut builder = GraphBuilder::with_capacity(nodes.len() * 2);
+        for (id, node) in nodes.iter().enumerate() {
+            let mut key = OpKey::new();
+            node.op.key(&mut key);
+            builder
+                .interned
+                .insert((key, node.args.clone()), id as NodeId);
+            builder.nodes.push(node.clone());
+        }
         builder
     }
 
@@ -435,6 +498,8 @@ impl GraphBuilder {
             | Op::Rotate { .. }
             | Op::Cross
             | Op::Normalize
+            | Op::NoiseGradient(_)
+            | Op::FractalGradient(..)
             | Op::Ramp(_) => Type::Vec3,
             Op::ConstScalar(_)
             | Op::Component(_)
@@ -525,6 +590,19 @@ impl GraphBuilder {
             Op::Noise(key) if all_vec3 => {
                 let table = self.table(*key);
                 Op::ConstScalar(table.sample::<f64>(v[0]))
+            }
+            Op::NoiseGradient(key) if all_vec3 => {
+                let table = self.table(*key);
+                Op::ConstVec3(table.sample_grad::<f64>(v[0]))
+            }
+            Op::FractalGradient(key, params) if all_vec3 => {
+                let table = self.table(*key);
+                Op::ConstVec3(noise::fractal_styled_grad::<f64>(
+                    &table,
+                    &params.schedule(),
+                    params.style,
+                    v[0],
+                ))
             }
             Op::Fractal(key, params) if all_vec3 => {
                 let table = self.table(*key);

@@ -37,6 +37,7 @@ pub mod check;
 #[doc(hidden)]
 pub mod cli;
 pub mod compile;
+pub(crate) mod derive;
 pub mod diagnostic;
 pub mod eval;
 pub mod graph;

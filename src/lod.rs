@@ -75,6 +75,9 @@ fn rule(op: &Op) -> Slope {
         Op::ConstScalar(_) | Op::ConstVec3(_) | Op::Splat | Op::Component(_) => {
             return Slope::Identity
         }
+        Op::NoiseGradient(_) | Op::FractalGradient(..) => {
+            return Slope::Unbounded("a gradient changes with the noise's second derivative")
+        }
     };
     nodes::CATALOGUE
         .iter()

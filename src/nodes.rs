@@ -56,6 +56,7 @@ pub enum Kind {
     Cross,
     Normalize,
     Distance,
+    Gradient,
     Clamp,
     Mix,
     Smoothstep,
@@ -66,6 +67,7 @@ pub enum Kind {
     HsvToRgb,
     RgbToHsv,
     Blend,
+    Import,
 }
 
 /// The operation a node kind lowers to in the checked graph.
@@ -103,6 +105,8 @@ pub enum Lowering {
     Normalize,
     /// `Length(a - b)`.
     Distance,
+    /// Forward-mode differentiation of its argument's subgraph (`derive.rs`).
+    Gradient,
     Hermite,
     Ramp,
     Curve,
@@ -113,6 +117,8 @@ pub enum Lowering {
     RgbToHsv,
     /// `Mix(base, mode(base, layer), t)`.
     Blend,
+    /// Another graph file's output, its nodes rebuilt here with `Position` replaced by `input`.
+    Import,
 }
 
 /// The fractal sums: how each octave's noise enters the sum (see `noise::Style`).
@@ -198,6 +204,10 @@ pub enum ArgKind {
     Period,
     /// `true` or `false`.
     Flag,
+    /// A string (a file path, an output name).
+    Text,
+    /// `{ "name": constant, ... }`: param values for an imported graph.
+    Overrides,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -208,6 +218,10 @@ pub enum DefaultValue {
     /// Optional without a value (no tiling).
     Nothing,
     Flag(bool),
+    /// The sample point (an `input` that defaults to `Position`).
+    Position,
+    /// No overrides (`{}`).
+    Empty,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -225,6 +239,8 @@ pub enum OutputType {
     Vec3,
     /// Vec3 if any `Any` input is a vec3, else scalar (component-wise math).
     Broadcast,
+    /// The type of the imported output.
+    Imported,
 }
 
 /// How a node's slope bound — its Lipschitz constant per unit of world distance, which level of
@@ -755,6 +771,13 @@ pub const CATALOGUE: &[NodeDef] = &[
         doc: "Euclidean distance |a - b|.",
     },
     NodeDef {
+        kind: Kind::Gradient, lowering: Lowering::Gradient, slope: Slope::Composite, derivative: Derivative::Composite,
+        name: "Gradient",
+        args: &[input("of", InputType::Scalar, "the scalar node differentiated")],
+        output: OutputType::Vec3,
+        doc: "The exact gradient (d/dx, d/dy, d/dz) of a scalar node with respect to the sample point (forward-mode differentiation; analytic noise derivatives).",
+    },
+    NodeDef {
         kind: Kind::Clamp, lowering: Lowering::Ternary(TernaryOp::Clamp), slope: Slope::ConstantBounds, derivative: Derivative::Ternary,
         name: "Clamp",
         args: &[input("input", InputType::Any, "the value"), input_or("min", InputType::Any, 0.0, "lower bound"), input_or("max", InputType::Any, 1.0, "upper bound")],
@@ -853,6 +876,18 @@ pub const CATALOGUE: &[NodeDef] = &[
         output: OutputType::Broadcast,
         doc: "Blend modes of image editors: Mix(base, mode(base, layer), t), per component, not clamped.",
     },
+    NodeDef {
+        kind: Kind::Import, lowering: Lowering::Import, slope: Slope::Composite, derivative: Derivative::Composite,
+        name: "Import",
+        args: &[
+            ArgDef { name: "file", kind: ArgKind::Text, default: None, doc: "the graph file, relative to this file" },
+            ArgDef { name: "output", kind: ArgKind::Text, default: None, doc: "which of its outputs" },
+            ArgDef { name: "input", kind: ArgKind::Input(InputType::Vec3), default: Some(DefaultValue::Position), doc: "what Position means inside the imported graph" },
+            ArgDef { name: "set", kind: ArgKind::Overrides, default: Some(DefaultValue::Empty), doc: "its params' values, as --set gives them: constants, params or constant expressions of this graph" },
+        ],
+        output: OutputType::Imported,
+        doc: "An output of another graph file, evaluated at input (checked as its own file; one file imported twice with the same arguments is built once).",
+    },
 ];
 
 /// Looks a kind up by its name as written in graph files.
@@ -932,6 +967,8 @@ fn describe_arg(arg: &ArgDef) -> String {
         ArgKind::Points => "[(x, y), ...]".into(),
         ArgKind::Period => "constant whole number or (px, py, pz), each 1 to 2^20".into(),
         ArgKind::Flag => "true|false".into(),
+        ArgKind::Text => "string".into(),
+        ArgKind::Overrides => "{ \"param\": constant, ... }".into(),
     }
 }
 
@@ -943,6 +980,8 @@ fn describe_default(default: Option<DefaultValue>) -> String {
         Some(DefaultValue::Name(n)) => format!("default {n}"),
         Some(DefaultValue::Nothing) => "default none".into(),
         Some(DefaultValue::Flag(b)) => format!("default {b}"),
+        Some(DefaultValue::Position) => "default Position".into(),
+        Some(DefaultValue::Empty) => "default {}".into(),
     }
 }
 
@@ -951,6 +990,7 @@ fn describe_output(output: OutputType) -> &'static str {
         OutputType::Scalar => "scalar",
         OutputType::Vec3 => "vec3",
         OutputType::Broadcast => "scalar, or vec3 if any operand is a vec3 (component-wise)",
+        OutputType::Imported => "the imported output's type",
     }
 }
 
@@ -1029,7 +1069,7 @@ mod tests {
             assert_eq!(def(a.kind).name, a.name);
             assert_eq!(lookup(a.name).map(|d| d.kind), Some(a.kind));
         }
-        assert_eq!(CATALOGUE.len(), 58);
+        assert_eq!(CATALOGUE.len(), 60);
     }
 
     /// Each entry lowers to its own operation: a math kind to the `ops` operation of the same

@@ -413,6 +413,9 @@ pub struct Spline<const N: usize> {
     /// 1 / (knots[i+1] - knots[i]); 0 for a zero-width segment (never used for lookup).
     inverse_widths: Vec<f64>,
     interpolation: SplineInterpolation,
+    /// This spline stands for the derivative of the one it was made from (`slope`): `eval`
+    /// gives d/dt.
+    slope: bool,
 }
 
 impl<const N: usize> Spline<N> {
@@ -437,7 +440,22 @@ impl<const N: usize> Spline<N> {
             values,
             inverse_widths,
             interpolation,
+            slope: false,
         }
+    }
+
+    /// The spline whose `eval` is this one's derivative d/dt (for `Gradient`): 0 outside the
+    /// knots, where the input is clamped, and on Constant segments; at a knot, the slope of the
+    /// segment the value takes (the one starting there).
+    pub fn slope(&self) -> Spline<N> {
+        Spline {
+            slope: true,
+            ..self.clone()
+        }
+    }
+
+    pub fn is_slope(&self) -> bool {
+        self.slope
     }
 
     pub fn knots(&self) -> &[f64] {
@@ -462,6 +480,9 @@ impl<const N: usize> Spline<N> {
         if t.is_nan() {
             return [f64::NAN; N];
         }
+        if self.slope && !(t >= *first && t < *last) {
+            return [0.0; N];
+        }
         let t = t.max(*first).min(*last);
         // Number of knots <= t; at least 1 after clamping.
         let after = self.knots.partition_point(|&k| k <= t);
@@ -472,6 +493,19 @@ impl<const N: usize> Spline<N> {
         let a = self.values[i];
         let b = self.values[after];
         let mut u = (t - self.knots[i]) * self.inverse_widths[i];
+        if self.slope {
+            // d/dt of a + e(u) (b - a), u' = 1 / width: e' = 1 (Linear), 6u(1 - u) (Smooth).
+            let ease = match self.interpolation {
+                SplineInterpolation::Constant => return [0.0; N],
+                SplineInterpolation::Linear => 1.0,
+                SplineInterpolation::Smooth => 6.0 * u * (1.0 - u),
+            };
+            let mut out = [0.0; N];
+            for c in 0..N {
+                out[c] = ease * (b[c] - a[c]) * self.inverse_widths[i];
+            }
+            return out;
+        }
         match self.interpolation {
             SplineInterpolation::Constant => return a,
             SplineInterpolation::Linear => {}

@@ -33,6 +33,14 @@ pub fn check_summary(graph: &CheckedGraph, tape: &Tape) -> String {
         .map(|o| format!("{} {}", o.name, o.ty))
         .collect();
     let _ = writeln!(s, "  outputs: {}", outputs.join(", "));
+    if !graph.imports.is_empty() {
+        let files: Vec<String> = graph
+            .imports
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect();
+        let _ = writeln!(s, "  imports: {}", files.join(", "));
+    }
     for (origin, written, kept) in tape.fractal_octaves() {
         if written == kept {
             let _ = writeln!(s, "  fractal \"{origin}\": {kept} octaves kept");

@@ -130,6 +130,20 @@ pub enum Instr {
         style: Style,
         bias: f64,
     },
+    /// dst(vec3) = the analytic gradient of the noise at src (`Gradient`).
+    NoiseGradient {
+        dst: Slot,
+        src: Slot,
+        table: u32,
+    },
+    /// dst(vec3) = the analytic gradient of a fractal sum (octaves after level of detail).
+    FractalGradient {
+        dst: Slot,
+        src: Slot,
+        table: u32,
+        octaves: u32,
+        style: Style,
+    },
     Hermite {
         dst: Slot,
         src: Slot,
@@ -237,7 +251,7 @@ impl Tape {
             .iter()
             .zip(&self.origins)
             .filter_map(|(instr, origin)| match instr {
-                Instr::Fractal { octaves, .. } => {
+                Instr::Fractal { octaves, .. } | Instr::FractalGradient { octaves, .. } => {
                     let (written, kept) = self.octave_counts[*octaves as usize];
                     Some((origin.to_string(), written, kept))
                 }
@@ -362,6 +376,25 @@ impl fmt::Display for Tape {
                     "s{dst} = noise v{src} {}",
                     basis_name(&self.tables[*table as usize].0)
                 ),
+                Instr::NoiseGradient { dst, src, table } => format!(
+                    "v{dst} = gradient noise v{src} {}",
+                    basis_name(&self.tables[*table as usize].0)
+                ),
+                Instr::FractalGradient {
+                    dst,
+                    src,
+                    table,
+                    octaves,
+                    style,
+                } => {
+                    let schedule = &self.octaves[*octaves as usize];
+                    format!(
+                        "v{dst} = gradient {} v{src} {} octaves={}",
+                        style_name(style),
+                        basis_name(&self.tables[*table as usize].0),
+                        schedule.len(),
+                    ) + &periods_text(schedule)
+                }
                 Instr::Fractal {
                     dst,
                     src,

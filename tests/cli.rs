@@ -968,9 +968,12 @@ fn check_every_error_case_through_the_binary() {
         "no colour when stderr is not a terminal"
     );
     for case in &cases {
-        let located = err
-            .lines()
-            .any(|l| l.starts_with("error[") && l.contains(&format!("]: {case}:")));
+        // A problem inside an imported file is located there, the case in its import chain.
+        let located = err.lines().any(|l| {
+            (l.starts_with("error[") && l.contains(&format!("]: {case}:")))
+                || l.trim_start()
+                    .starts_with(&format!("imported from {case}:"))
+        });
         assert!(
             located,
             "no `error[...]: {case}:LINE:COL` headline in:\n{}",

@@ -269,6 +269,7 @@ const VECTOR: [&str; 7] = [
     "Dot",
 ];
 
+const COMPOSITION: [&str; 2] = ["Gradient", "Import"];
 const COLOUR_AND_GEOMETRY: [&str; 8] = [
     "MapRange",
     "Cross",
@@ -304,6 +305,7 @@ fn every_node_kind_has_a_conformance_reference() {
         &NOISE_FAMILIES,
         &VECTOR,
         &COLOUR_AND_GEOMETRY,
+        &COMPOSITION,
     ]
     .concat();
     let missing: Vec<&str> = texgraph::nodes::CATALOGUE
@@ -1091,4 +1093,57 @@ fn select_chooses_branches_and_folds() {
         folded.instructions().len() <= 3,
         "a constant condition and equal branches leave only the components:\n{folded}"
     );
+}
+
+/// Gradient against hand-derived partials (`x² y + sin z`: `(2xy, x², cos z)`) and Import
+/// against the formula of the imported graph at the input with its param set (a file written
+/// to a temporary folder). tests/gradient.rs and tests/imports.rs test both in depth.
+#[test]
+fn gradient_and_import_match_their_definitions() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    std::fs::write(
+        dir.path().join("poly.ron"),
+        r#"Graph(params: { "a": 1.0 }, nodes: { "p": Position }, outputs: { "f": Add(Mul("a", Mul(Mul("p.x", "p.x"), "p.y")), Sin("p.z")) })"#,
+    )
+    .expect("write");
+    let main = dir.path().join("main.ron");
+    let source = r#"Graph(nodes: { "p": Position }, outputs: {
+            "g": Gradient(of: Add(Mul(Mul("p.x", "p.x"), "p.y"), Sin("p.z"))),
+            "i": Import(file: "poly.ron", output: "f", input: Scale(input: "p", by: 2.0), set: { "a": 3.0 }),
+        })"#;
+    assert_covers(source, &COMPOSITION);
+    let graph = check(
+        SourceFile::new(main.display().to_string(), source),
+        &CheckOptions::default(),
+    )
+    .unwrap_or_else(|e| panic!("{}", e.render_plain()));
+    let t = compile(&graph, &CompileOptions::default())
+        .unwrap_or_else(|e| panic!("{}", e.render_plain()));
+    let points: Vec<[f64; 3]> = (0..30)
+        .map(|i| {
+            let v = i as f64 * 0.37 - 5.0;
+            [v, 1.5 - v * 0.25, v * v * 0.1]
+        })
+        .collect();
+    let (_, r) = run(&t, &points);
+    let n = points.len();
+    for (i, &[x, y, z]) in points.iter().enumerate() {
+        let want = [2.0 * x * y, x * x, z.cos()];
+        for (c, w) in want.into_iter().enumerate() {
+            let got = r[c * n + i];
+            assert!(
+                (got - w).abs() <= 1e-12 * w.abs().max(1.0),
+                "∂{c} at {:?}: {got} vs {w}",
+                [x, y, z]
+            );
+        }
+        let (u, v, w) = (2.0 * x, 2.0 * y, 2.0 * z);
+        let want = 3.0 * (u * u * v) + w.sin();
+        let got = r[3 * n + i];
+        assert!(
+            (got - want).abs() <= 1e-12 * want.abs().max(1.0),
+            "import at {:?}: {got} vs {want}",
+            [x, y, z]
+        );
+    }
 }

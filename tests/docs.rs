@@ -349,12 +349,15 @@ fn all_classes() -> Vec<DiagnosticClass> {
         UnknownOutput,
         UnknownParam,
         BadName,
+        NotDifferentiable,
+        MissingFile,
     ];
     for class in &all {
         match class {
             Syntax | UnknownKind | UnknownReference | WrongComponent | Type | Cycle
             | BadParameter | MissingArgument | UnknownArgument | DuplicateName | Limit
-            | NotConstant | UnknownOutput | UnknownParam | BadName => {}
+            | NotConstant | UnknownOutput | UnknownParam | BadName | NotDifferentiable
+            | MissingFile => {}
         }
     }
     all

@@ -1,4 +1,4 @@
-//! Golden tests for every graph in `graphs/`.
+//! Golden tests for every graph in `graphs/` and `graphs/library/`.
 //!
 //! Each graph is evaluated on a fixed sample set — a 32×32 slice of the unit cube at z = 0.5
 //! (voxel centres) plus scattered points (negative, large, on lattice points and cell
@@ -30,14 +30,31 @@ const PICTURE: usize = 64;
 mod common;
 use common::blessing as bless;
 
+/// The folders of graphs with goldens: the seed and noise-family graphs and the material
+/// library (`tests/golden/library/` holds the library's).
+const GRAPH_FOLDERS: [&str; 2] = ["graphs", "graphs/library"];
+
 fn graph_files() -> Vec<PathBuf> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir("graphs")
-        .expect("graphs/ exists")
+    let mut files: Vec<PathBuf> = GRAPH_FOLDERS
+        .iter()
+        .filter_map(|folder| std::fs::read_dir(folder).ok())
+        .flatten()
         .map(|e| e.expect("readable entry").path())
         .filter(|p| p.extension().is_some_and(|e| e == "ron"))
         .collect();
     files.sort();
     files
+}
+
+/// A graph's golden name: its path under `graphs/` without the extension (`cells`,
+/// `library/granite`).
+fn stem_of(path: &Path) -> String {
+    let relative = path.strip_prefix("graphs").unwrap_or(path);
+    relative
+        .with_extension("")
+        .to_str()
+        .expect("utf-8 file name")
+        .replace('\\', "/")
 }
 
 fn load(path: &Path) -> Tape {
@@ -223,12 +240,9 @@ fn every_seed_graph_matches_its_golden_values_and_picture() {
     );
     let points = sample_points();
     let mut failures = Vec::new();
-    std::fs::create_dir_all("tests/golden").expect("tests/golden is writable");
+    std::fs::create_dir_all("tests/golden/library").expect("tests/golden is writable");
     for path in &files {
-        let stem = path
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .expect("utf-8 file name");
+        let stem = stem_of(path);
         let tape = load(path);
         let text = golden_text(path, &tape, &points);
         let values_path = PathBuf::from(format!("tests/golden/{stem}.txt"));
@@ -287,10 +301,7 @@ fn every_seed_graph_matches_its_golden_values_and_picture() {
 fn every_seed_graph_compiles_to_its_golden_tape() {
     let mut failures = Vec::new();
     for path in &graph_files() {
-        let stem = path
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .expect("utf-8 file name");
+        let stem = stem_of(path);
         let text = load(path).to_string();
         let tape_path = PathBuf::from(format!("tests/golden/{stem}.tape"));
         if bless() {
@@ -328,22 +339,30 @@ fn every_seed_graph_compiles_to_its_golden_tape() {
 
 #[test]
 fn no_golden_file_is_orphaned() {
-    let stems: Vec<String> = graph_files()
-        .iter()
-        .filter_map(|p| p.file_stem()?.to_str().map(String::from))
-        .collect();
-    for entry in std::fs::read_dir("tests/golden").expect("tests/golden exists") {
-        let path = entry.expect("entry").path();
-        let stem = path
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .unwrap_or_default()
-            .to_string();
-        assert!(
-            stems.contains(&stem),
-            "{} has no graph in graphs/; delete it",
-            path.display()
-        );
+    let stems: Vec<String> = graph_files().iter().map(|p| stem_of(p)).collect();
+    for folder in ["tests/golden", "tests/golden/library"] {
+        let Ok(entries) = std::fs::read_dir(folder) else {
+            continue;
+        };
+        for entry in entries {
+            let path = entry.expect("entry").path();
+            if path.is_dir() {
+                continue;
+            }
+            let relative = path
+                .strip_prefix("tests/golden")
+                .expect("under tests/golden");
+            let stem = relative
+                .with_extension("")
+                .to_str()
+                .unwrap_or_default()
+                .replace('\\', "/");
+            assert!(
+                stems.contains(&stem),
+                "{} has no graph in graphs/; delete it",
+                path.display()
+            );
+        }
     }
 }
 

@@ -166,6 +166,10 @@ impl Checker {
             (DefaultValue::Name(n), _) => Arg::Choice(n, false),
             (DefaultValue::Nothing, _) => Arg::Period(None),
             (DefaultValue::Flag(b), _) => Arg::Flag(b),
+            (DefaultValue::Position, _) => {
+                Arg::Input(self.builder.add(Op::Position, Args::new(), here))
+            }
+            (DefaultValue::Empty, _) => Arg::Overrides(Vec::new()),
         }
     }
 
@@ -272,6 +276,27 @@ impl Checker {
                 }
                 Some(Arg::Stops(stops))
             }
+            ArgKind::Text => match &value.kind {
+                ValueKind::Str(s) => Some(Arg::Text(s.to_string(), value.span)),
+                other => {
+                    self.error(
+                        Diagnostic::new(
+                            Class::Type,
+                            format!(
+                                "`{}` of {} is a string, found {}",
+                                arg.name,
+                                def.name,
+                                other.describe()
+                            ),
+                        )
+                        .in_node(&*origin.node)
+                        .at(value.span)
+                        .label("expected a string"),
+                    );
+                    None
+                }
+            },
+            ArgKind::Overrides => self.overrides(value, origin).map(Arg::Overrides),
             ArgKind::Flag => match value.kind {
                 ValueKind::Bool(b) => Some(Arg::Flag(b)),
                 _ => {

@@ -58,6 +58,29 @@ impl Checker {
     }
 }
 
+impl Checker {
+    /// `Gradient(of)`: the derivative subgraph of `derive.rs`; a noise gradient inside `of`
+    /// (a second derivative of noise) is reported at the Gradient node.
+    pub(super) fn gradient(&mut self, of: NodeId, here: &Origin) -> Option<NodeId> {
+        match crate::derive::gradient(&mut self.builder, of, here) {
+            Ok(id) => Some(id),
+            Err(_) => {
+                self.error(
+                    Diagnostic::new(
+                        Class::NotDifferentiable,
+                        "this Gradient would need the second derivative of a noise, which texgraph does not compute",
+                    )
+                    .in_node(&*here.node)
+                    .at(here.span)
+                    .label("the gradient of a noise gradient")
+                    .help("differentiate the noise once: take the Gradient of the scalar the noise feeds"),
+                );
+                None
+            }
+        }
+    }
+}
+
 /// Node creation at one origin.
 struct Build<'c> {
     checker: &'c mut Checker,

@@ -58,6 +58,21 @@ impl Checker {
             Lowering::Length => (Op::Length, smallvec![input("v")]),
             Lowering::Dot => (Op::Dot, smallvec![input("a"), input("b")]),
             Lowering::Cross => (Op::Cross, smallvec![input("a"), input("b")]),
+            Lowering::Gradient => return self.gradient(input("of"), here),
+            Lowering::Import => {
+                let (Some(Arg::Text(f, fs)), Some(Arg::Text(o, os)), Some(Arg::Overrides(set))) =
+                    (named.get("file"), named.get("output"), named.get("set"))
+                else {
+                    return None;
+                };
+                let args = super::imports::ImportArgs {
+                    file: &(f.clone(), *fs),
+                    output: &(o.clone(), *os),
+                    input: input("input"),
+                    set,
+                };
+                return self.import(args, here);
+            }
             Lowering::Normalize => (Op::Normalize, smallvec![input("v")]),
             Lowering::MapRange
             | Lowering::Distance

@@ -9,6 +9,7 @@
 mod arguments;
 mod composite;
 mod expressions;
+mod imports;
 mod lowering;
 mod references;
 mod sections;
@@ -39,13 +40,25 @@ pub struct CheckOptions {
 
 /// Parses and checks a graph file. On failure every problem found is returned.
 pub fn check(file: Arc<SourceFile>, options: &CheckOptions) -> Result<CheckedGraph, Diagnostics> {
+    let context = imports::ImportContext::for_root(&file);
+    check_with(file, options, context).0
+}
+
+/// [`check`] with the import context of the files being checked around this one (moved in and
+/// handed back, so nested checks need no shared mutable state).
+fn check_with(
+    file: Arc<SourceFile>,
+    options: &CheckOptions,
+    imports: imports::ImportContext,
+) -> (Result<CheckedGraph, Diagnostics>, imports::ImportContext) {
     let root = match syntax::parse(&file.text) {
         Ok(root) => root,
         Err(diagnostic) => {
-            return Err(Diagnostics {
+            let error = Diagnostics {
                 file,
                 list: vec![diagnostic],
-            })
+            };
+            return (Err(error), imports);
         }
     };
     let mut checker = Checker {
@@ -58,6 +71,7 @@ pub fn check(file: Arc<SourceFile>, options: &CheckOptions) -> Result<CheckedGra
         node_index: HashMap::default(),
         lowered: Vec::new(),
         written: 0,
+        imports,
     };
     let result = checker.graph(&root, options);
     if checker.diagnostics.is_empty() {
@@ -65,24 +79,27 @@ pub fn check(file: Arc<SourceFile>, options: &CheckOptions) -> Result<CheckedGra
             let mut stats = checker.builder.stats;
             stats.declared = declared;
             stats.written = checker.written;
-            return Ok(CheckedGraph {
+            let graph = CheckedGraph {
                 file,
                 nodes: checker.builder.nodes,
                 outputs,
                 named,
                 params: checker.params,
                 stats,
-            });
+                imports: checker.imports.files.clone(),
+            };
+            return (Ok(graph), checker.imports);
         }
     }
     // In file order, the way an author reads them (stable: same-place problems keep their order).
     checker
         .diagnostics
         .sort_by_key(|d| d.span.map_or(usize::MAX, |s| s.start));
-    Err(Diagnostics {
+    let error = Diagnostics {
         file,
         list: checker.diagnostics,
-    })
+    };
+    (Err(error), checker.imports)
 }
 
 /// One argument after reading it through its [`ArgDef`].
@@ -96,6 +113,10 @@ enum Arg {
     Stops(Vec<(f64, [f64; 3])>),
     Points(Vec<(f64, f64)>),
     Flag(bool),
+    /// A string argument and where it was written.
+    Text(String, Span),
+    /// An Import's `set`: each param name (and where), its constant value.
+    Overrides(Vec<(String, Span, f64)>),
 }
 
 struct Checker {
@@ -110,6 +131,8 @@ struct Checker {
     /// What each named node became; `None` until lowered or when it failed.
     lowered: Vec<Option<NodeId>>,
     written: usize,
+    /// The files being checked around this one, and the imports met so far.
+    imports: imports::ImportContext,
 }
 
 type CheckedParts = (Vec<Output>, Vec<(Text, NodeId)>, usize);
@@ -117,6 +140,14 @@ type CheckedParts = (Vec<Output>, Vec<(Text, NodeId)>, usize);
 impl Checker {
     fn error(&mut self, diagnostic: Diagnostic) {
         self.diagnostics.push(diagnostic);
+    }
+}
+
+/// The values of a map (an Import's `set`), or the value itself when it is not a map.
+fn map_values(value: &Value) -> Vec<&Value> {
+    match &value.kind {
+        ValueKind::Map(entries) => entries.iter().map(|(_, v)| v).collect(),
+        _ => vec![value],
     }
 }
 
@@ -170,6 +201,29 @@ fn collect_references<'v>(value: &'v Value, stack: &mut Vec<&'v Value>, f: &mut 
     while let Some(v) = stack.pop() {
         match &v.kind {
             ValueKind::Str(s) => f(s),
+            // An Import's file and output name strings of another file, and its `set` keys that
+            // file's params: none is a reference here (positionally: file, output, input, set).
+            ValueKind::Tuple {
+                name: Some(n),
+                items,
+            } if n.value == "Import" => {
+                stack.extend(items.iter().skip(2).take(1));
+                if let Some(set) = items.get(3) {
+                    stack.extend(map_values(set));
+                }
+            }
+            ValueKind::Struct {
+                name: Some(n),
+                fields,
+            } if n.value == "Import" => {
+                for (field, v) in fields {
+                    match field.value.as_str() {
+                        "file" | "output" => {}
+                        "set" => stack.extend(map_values(v)),
+                        _ => stack.push(v),
+                    }
+                }
+            }
             ValueKind::Tuple { items, .. } | ValueKind::List(items) => stack.extend(items.iter()),
             ValueKind::Struct { fields, .. } => stack.extend(fields.iter().map(|(_, v)| v)),
             ValueKind::Map(entries) => {

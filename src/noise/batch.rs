@@ -218,6 +218,82 @@ impl<S: Real, const N: usize> Lattice<S, N> {
     }
 }
 
+impl<S: Real, const N: usize> Lattice<S, N> {
+    /// Step 3 of a gradient: per lane `interior_grad` (the value too when `VALUE`, into `n`;
+    /// else `n` is left alone), the hashes from `self.hashes` when `HASHED` (see
+    /// [`Lattice::noise_hashed`]), else gathered in the loop (see [`Lattice::noise`]); for the
+    /// first `n.len()` lanes.
+    #[inline(always)]
+    pub(super) fn noise_grad<
+        K: LatticeKernel,
+        const HASHED: bool,
+        const VALUE: bool,
+        const WIDE: bool,
+    >(
+        &self,
+        k: &K,
+        n: &mut [S],
+        g: [&mut [S]; 3],
+    ) {
+        let m = n.len().min(N); // see `noise`
+        let [gx, gy, gz] = g;
+        let (n, gx, gy, gz) = (&mut n[..m], &mut gx[..m], &mut gy[..m], &mut gz[..m]);
+        for i in 0..m {
+            let h = self.lane_hashes::<K, HASHED>(k, i);
+            let (v, d) = k.interior_grad::<S, WIDE, VALUE>(h, self.lane_frac(i));
+            if VALUE {
+                n[i] = v;
+            }
+            let d = super::derivative::canonical_grad(d);
+            (gx[i], gy[i], gz[i]) = (d[0], d[1], d[2]);
+        }
+    }
+
+    /// Step 3 of an fbm's gradient, accumulated in place: `sum[c][i] = sum[c][i] + c · g_c`
+    /// with `g` lane i's gradient (`interior_grad`, no value), for the first `m` lanes; the
+    /// hashes as for [`Lattice::noise_grad`].
+    #[inline(always)]
+    pub(super) fn fbm_grad<K: LatticeKernel, const HASHED: bool, const WIDE: bool>(
+        &self,
+        k: &K,
+        c: S,
+        sum: &mut [[S; N]; 3],
+        m: usize,
+    ) {
+        let m = m.min(N); // see `noise`
+        for i in 0..m {
+            // NaN stays NaN through the sum, made canonical once at the end.
+            let h = self.lane_hashes::<K, HASHED>(k, i);
+            let (_, d) = k.interior_grad::<S, WIDE, false>(h, self.lane_frac(i));
+            for (plane, d) in sum.iter_mut().zip(d) {
+                plane[i] = plane[i] + c * d;
+            }
+        }
+    }
+
+    /// Lane i's eight corner hashes: from `self.hashes` when `HASHED`, else gathered from its
+    /// cell bytes.
+    #[inline(always)]
+    fn lane_hashes<K: LatticeKernel, const HASHED: bool>(&self, k: &K, i: usize) -> [u8; 8] {
+        if HASHED {
+            // Written out, as in `noise_hashed`: built with `array::from_fn` the eight bytes
+            // were packed into a 64-bit integer, and LLVM then kept a scalar epilogue of a
+            // whole vector of lanes (16 of the chunk's 256, a third of the run time).
+            let h = |c: usize| self.hashes[c][i];
+            [h(0), h(1), h(2), h(3), h(4), h(5), h(6), h(7)]
+        } else {
+            let c = |a: usize| i32::from(self.cell[a][i]);
+            k.hashes([c(0), c(1), c(2)])
+        }
+    }
+
+    /// Lane i's fractions.
+    #[inline(always)]
+    fn lane_frac(&self, i: usize) -> [S; 3] {
+        [self.frac[0][i], self.frac[1][i], self.frac[2][i]]
+    }
+}
+
 impl<S: Real> Lattice<S, CHUNK> {
     /// Step 2 on CPUs with AVX-512 VBMI: the corner hashes of the first `n` lanes by byte
     /// shuffles (`vbmi.rs`), into `self.hashes`.
@@ -487,6 +563,129 @@ fn fractal_lanes<S: Real, K: LatticeKernel, const TURB: bool>(
         for o in out.iter_mut() {
             *o = canonical_nan(*o);
         }
+    }
+}
+}
+
+/// `(n[i], g[c][i]) = k.sample_grad(p_i)` (the values only when `VALUE`) bit for bit, for
+/// batches of [`SMALL`] lanes or more: the lattice step and corner hashes as [`sample`], then
+/// [`Lattice::noise_grad`].
+#[inline]
+pub(super) fn grad<S: Real, K: LatticeKernel, const VALUE: bool>(
+    k: &K,
+    p: [&[f64]; 3],
+    n: &mut [S],
+    g: [&mut [S]; 3],
+) {
+    let [gx, gy, gz] = g;
+    grad_lanes::<S, K, VALUE>(k, p[0], p[1], p[2], n, gx, gy, gz);
+}
+
+simd_targets! {
+/// [`grad`]'s chunk loop.
+#[allow(clippy::too_many_arguments)]
+fn grad_lanes<S: Real, K: LatticeKernel, const VALUE: bool>(
+    k: &K,
+    x: &[f64],
+    y: &[f64],
+    z: &[f64],
+    n: &mut [S],
+    gx: &mut [S],
+    gy: &mut [S],
+    gz: &mut [S],
+) {
+    if !target_cfg_f!(target_feature = "sse4.1") {
+        return super::derivative::reference_grad_batch(k, None, [x, y, z], n, [gx, gy, gz]);
+    }
+    let shuffle = target_cfg_f!(target_feature = "avx512vbmi") && !table_reads_forced();
+    const WIDE: bool = !target_cfg_f!(target_feature = "avx512bw"); // see `sample_lanes`
+    let mut lattice = Lattice::<S>::new();
+    let mut start = 0;
+    while start < n.len() {
+        let r = start..(start + CHUNK).min(n.len());
+        let m = r.len();
+        let p = [&x[r.clone()], &y[r.clone()], &z[r.clone()]];
+        lattice.fill::<false>(fits(p, 1.0), 1.0, p);
+        let g = [&mut gx[r.clone()], &mut gy[r.clone()], &mut gz[r.clone()]];
+        if shuffle {
+            // SAFETY: as in `sample_lanes`.
+            unsafe { lattice.shuffle_hashes(k, m) };
+            lattice.noise_grad::<K, true, VALUE, WIDE>(k, &mut n[r], g);
+        } else {
+            lattice.noise_grad::<K, false, VALUE, WIDE>(k, &mut n[r], g);
+        }
+        start += m;
+    }
+}
+}
+
+/// The gradient of an untiled fbm over a batch of [`SMALL`] lanes or more, `out[c][i]` the
+/// point function's (`derivative::fractal_styled_grad`) bits widened to f64: per chunk, the
+/// octaves outside the lanes as in [`fractal`], each octave's gradient times
+/// `S(amp · freq)` accumulated in place from zero (`GradShaper::add`'s Fbm arithmetic).
+#[inline]
+pub(super) fn fbm_grad<S: Real, K: LatticeKernel>(
+    k: &K,
+    freqs: &[f64],
+    amps: &[f64],
+    p: [&[f64]; 3],
+    out: [&mut [f64]; 3],
+) {
+    let [ox, oy, oz] = out;
+    fbm_grad_lanes::<S, K>(k, freqs, amps, p[0], p[1], p[2], ox, oy, oz);
+}
+
+simd_targets! {
+/// [`fbm_grad`]'s chunk loop.
+#[allow(clippy::too_many_arguments)]
+fn fbm_grad_lanes<S: Real, K: LatticeKernel>(
+    k: &K,
+    freqs: &[f64],
+    amps: &[f64],
+    x: &[f64],
+    y: &[f64],
+    z: &[f64],
+    ox: &mut [f64],
+    oy: &mut [f64],
+    oz: &mut [f64],
+) {
+    use super::fractal::Style;
+    if !target_cfg_f!(target_feature = "sse4.1") {
+        let out = [ox, oy, oz];
+        let periods = super::derivative::OctavePeriods::None;
+        return super::derivative::octaves_grad::<S, K>(k, freqs, amps, periods, Style::Fbm, [x, y, z], out);
+    }
+    let shuffle = target_cfg_f!(target_feature = "avx512vbmi") && !table_reads_forced();
+    const WIDE: bool = !target_cfg_f!(target_feature = "avx512bw"); // see `sample_lanes`
+    let f_max = max_abs(freqs);
+    let mut lattice = Lattice::<S>::new();
+    let mut sum = [[S::ZERO; CHUNK]; 3];
+    let mut start = 0;
+    while start < x.len() {
+        let r = start..(start + CHUNK).min(x.len());
+        let m = r.len();
+        let p = [&x[r.clone()], &y[r.clone()], &z[r.clone()]];
+        let fast = fits(p, f_max);
+        for plane in sum.iter_mut() {
+            plane.fill(S::ZERO);
+        }
+        for (&f, &a) in freqs.iter().zip(amps) {
+            lattice.fill::<true>(fast, f, p);
+            let c = S::from_f64(a * f);
+            if shuffle {
+                // SAFETY: as in `sample_lanes`.
+                unsafe { lattice.shuffle_hashes(k, m) };
+                lattice.fbm_grad::<K, true, WIDE>(k, c, &mut sum, m);
+            } else {
+                lattice.fbm_grad::<K, false, WIDE>(k, c, &mut sum, m);
+            }
+        }
+        for (o, plane) in [&mut *ox, &mut *oy, &mut *oz].into_iter().zip(&sum) {
+            for (o, &v) in o[r.clone()].iter_mut().zip(&plane[..m]) {
+                *o = canonical_nan(v).to_f64();
+            }
+        }
+        start += m;
     }
 }
 }

@@ -151,6 +151,44 @@ pub(super) fn sample<S: Real>(
     period: Option<Period>,
     p: [f64; 3],
 ) -> S {
+    match search::<S, false>(perm, features, params, period, p) {
+        Some((best, _)) => finish(params.metric, params.value, best, values),
+        None => S::NAN,
+    }
+}
+
+/// [`sample`]'s value (its bits) and its gradient with respect to the point: the gradient of
+/// the distance to the feature point(s) the value picks (see `derivative.rs` and
+/// [`finish_grad`]). NaN on every component for non-finite input.
+#[inline(always)]
+pub(super) fn sample_grad<S: Real>(
+    perm: &[u8; 512],
+    features: &[[f32; 256]; 3],
+    values: &[f32; 256],
+    params: Cellular,
+    period: Option<Period>,
+    p: [f64; 3],
+) -> (S, [S; 3]) {
+    match search::<S, true>(perm, features, params, period, p) {
+        Some((best, offsets)) => {
+            let g = finish_grad(params.metric, params.value, &best, offsets);
+            (finish(params.metric, params.value, best, values), g)
+        }
+        None => (S::NAN, [S::NAN; 3]),
+    }
+}
+
+/// The exact search of [`sample`]: the two nearest distances and the nearest point's cell hash,
+/// and when `TRACK` also the offsets `feature - p` of the nearest and second nearest points
+/// (the same comparisons pick them); `None` for non-finite input.
+#[inline(always)]
+fn search<S: Real, const TRACK: bool>(
+    perm: &[u8; 512],
+    features: &[[f32; 256]; 3],
+    params: Cellular,
+    period: Option<Period>,
+    p: [f64; 3],
+) -> Option<(Nearest<S>, [[S; 3]; 2])> {
     let (ix, fx) = lattice(p[0]);
     let (iy, fy) = lattice(p[1]);
     let (iz, fz) = lattice(p[2]);
@@ -164,7 +202,7 @@ pub(super) fn sample<S: Real>(
     };
     let (cx, cy, cz) = (cell(0, ix), cell(1, iy), cell(2, iz));
     if fx.is_nan() || fy.is_nan() || fz.is_nan() {
-        return S::NAN;
+        return None;
     }
     let f = [S::from_f64(fx), S::from_f64(fy), S::from_f64(fz)];
     let metric = params.metric;
@@ -173,7 +211,9 @@ pub(super) fn sample<S: Real>(
         f2: S::from_f64(f64::INFINITY),
         cell: 0,
     };
-    let visit = |best: &mut Nearest<S>, o: [i64; 3]| {
+    // The offsets `feature - p` of the nearest and second nearest points (when `TRACK`).
+    let mut offsets = [[S::ZERO; 3]; 2];
+    let mut visit = |best: &mut Nearest<S>, o: [i64; 3]| {
         let at = |(c, m): (i64, i64), o: i64| ((c + o).rem_euclid(m) & 255) as usize;
         let h = hash(perm, at(cx, o[0]), at(cy, o[1]), at(cz, o[2]));
         let point = [features[0][h], features[1][h], features[2][h]];
@@ -184,8 +224,14 @@ pub(super) fn sample<S: Real>(
             best.f2 = best.f1;
             best.f1 = dist;
             best.cell = h;
+            if TRACK {
+                offsets = [d, offsets[0]];
+            }
         } else if dist < best.f2 {
             best.f2 = dist;
+            if TRACK {
+                offsets[1] = d;
+            }
         }
     };
     for dz in -1..=1 {
@@ -220,7 +266,7 @@ pub(super) fn sample<S: Real>(
         }
         ring += 1;
     }
-    finish(metric, params.value, best, values)
+    Some((best, offsets))
 }
 
 /// The distance in `metric`, Euclidean left squared (compared squared, rooted at the end).
@@ -269,5 +315,59 @@ pub(super) fn finish<S: Real>(
         CellularValue::F2MinusF1 => root(best.f2) - root(best.f1),
         CellularValue::CellValue => S::from_f64(values[best.cell & 255] as f64),
         CellularValue::Edge => (root(best.f2) - root(best.f1)) * S::from_f64(0.5),
+    }
+}
+
+/// The gradient of [`finish`]'s value with respect to the point, from the offsets
+/// `d = feature - p` of the nearest and second nearest points (see `derivative.rs`).
+#[inline(always)]
+pub(super) fn finish_grad<S: Real>(
+    metric: Metric,
+    value: CellularValue,
+    best: &Nearest<S>,
+    [d1, d2]: [[S; 3]; 2],
+) -> [S; 3] {
+    let g1 = || distance_grad(metric, best.f1, d1);
+    let g2 = || distance_grad(metric, best.f2, d2);
+    let difference = || {
+        let (g1, g2) = (g1(), g2());
+        std::array::from_fn(|a| g2[a] - g1[a])
+    };
+    match value {
+        CellularValue::F1 => g1(),
+        CellularValue::F2 => g2(),
+        CellularValue::F2MinusF1 => difference(),
+        // Piecewise constant: 0 inside a cell, no derivative across its border.
+        CellularValue::CellValue => [S::ZERO; 3],
+        CellularValue::Edge => difference().map(|g| g * S::from_f64(0.5)),
+    }
+}
+
+/// The gradient with respect to the point p of the distance `dist` (in [`distance`]'s form:
+/// squared for Euclidean) from p to a feature point at offset `d = feature - p`, so the
+/// derivative of `|p - feature|` in the metric: Euclidean `-d / |d|` (0 at the point itself),
+/// Manhattan `-sign(d)` per component (sign(0) = 0), Chebyshev `-sign(d_k) e_k` on the axis k
+/// of the largest |component|, the first of equals (as [`distance`]'s `max` keeps the first).
+#[inline(always)]
+fn distance_grad<S: Real>(metric: Metric, dist: S, d: [S; 3]) -> [S; 3] {
+    use super::derivative::sign;
+    match metric {
+        Metric::Euclidean => {
+            let r = dist.sqrt();
+            if r > S::ZERO {
+                d.map(|c| -c / r)
+            } else {
+                [S::ZERO; 3]
+            }
+        }
+        Metric::Manhattan => d.map(|c| -sign(c)),
+        Metric::Chebyshev => {
+            let m = d.map(S::abs);
+            let k = if m[1] > m[0] { 1 } else { 0 };
+            let k = if m[2] > m[k] { 2 } else { k };
+            let mut g = [S::ZERO; 3];
+            g[k] = -sign(d[k]);
+            g
+        }
     }
 }

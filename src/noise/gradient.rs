@@ -2,7 +2,7 @@
 //! a seeded table of unit vectors on the sphere, hashed per lattice point through a seeded
 //! permutation, and smoothed trilinear interpolation of the eight corner dot products.
 
-use super::lattice::{corner_hashes, lattice, lerp, smoothstep};
+use super::lattice::{corner_hashes, lattice, lerp, smoothstep, smoothstep_slope};
 use super::rng::SplitMix64;
 use crate::real::Real;
 
@@ -80,4 +80,46 @@ pub(super) fn interior<S: Real>(grads: &[[f32; 3]; 256], h: [u8; 8], frac: [S; 3
     let vy1 = lerp(wx, dot(g(6), fx0, fy1, fz1), dot(g(7), fx1, fy1, fz1));
     let vz1 = lerp(wy, vy0, vy1);
     lerp(wz, vz0, vz1)
+}
+
+/// [`interior`]'s value (its bits, when `VALUE`; else 0) and its gradient with respect to the
+/// fractions (NaN not made canonical): the product rule on the trilinear blend (see
+/// `derivative::blend_slopes`), each corner's dot product having the corner's unit vector as
+/// its gradient (blended per component), the weights smoothstep's.
+#[inline(always)]
+pub(super) fn interior_grad<S: Real, const VALUE: bool>(
+    grads: &[[f32; 3]; 256],
+    h: [u8; 8],
+    frac: [S; 3],
+) -> (S, [S; 3]) {
+    let value = if VALUE {
+        interior(grads, h, frac)
+    } else {
+        S::ZERO
+    };
+    let [fx0, fy0, fz0] = frac;
+    let (fx1, fy1, fz1) = (fx0 - S::ONE, fy0 - S::ONE, fz0 - S::ONE);
+    let g = |i: usize| &grads[h[i] as usize];
+    let offsets = [
+        [fx0, fy0, fz0],
+        [fx1, fy0, fz0],
+        [fx0, fy1, fz0],
+        [fx1, fy1, fz0],
+        [fx0, fy0, fz1],
+        [fx1, fy0, fz1],
+        [fx0, fy1, fz1],
+        [fx1, fy1, fz1],
+    ];
+    let corners: [S; 8] = std::array::from_fn(|c| {
+        let [a, b, d] = offsets[c];
+        dot(g(c), a, b, d)
+    });
+    let s = frac.map(smoothstep);
+    let ds = frac.map(smoothstep_slope);
+    let slopes = super::derivative::blend_slopes(corners, s, ds);
+    let grad = std::array::from_fn(|a| {
+        let component = std::array::from_fn(|c| S::from_f64(g(c)[a] as f64));
+        super::derivative::trilerp(s, component) + slopes[a]
+    });
+    (value, grad)
 }

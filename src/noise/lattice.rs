@@ -62,6 +62,12 @@ pub(super) fn smoothstep<S: Real>(t: S) -> S {
     t * t * (three - two * t)
 }
 
+/// The slope of [`smoothstep`], `6 t (1 - t)`.
+#[inline(always)]
+pub(super) fn smoothstep_slope<S: Real>(t: S) -> S {
+    S::from_f64(6.0) * t * (S::ONE - t)
+}
+
 /// Ebert's lattice hashes of the 8 corners of the cell (ix, iy, iz), all already mod 256:
 /// `INDEX(ix, iy, iz) = PERM(ix + PERM(iy + PERM(iz)))` with `PERM(i) = perm[i & 255]`.
 /// `perm` is the 256-entry permutation doubled to 512, so a sum of two values <= 255 indexes it

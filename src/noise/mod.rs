@@ -12,6 +12,12 @@
 //! `vbmi.rs`) and an interior loop in S, compiled per instruction set and picked at run time.
 //! They return the point functions' bits (Rust never contracts or reassociates float arithmetic;
 //! NaN results are made canonical on both paths); the tests hold them to it.
+//!
+//! Gradients (`derivative.rs`, for the `Gradient` node): the exact analytic gradient with
+//! respect to the point of every basis and fractal sum ([`NoiseTable::sample_grad`],
+//! [`fractal_styled_grad`] and their batch forms), under the same precision contract and the
+//! same bit-for-bit rule; the lattice bases through `LatticeKernel::interior_grad` and the lane
+//! kernels of `batch.rs` (an 8-octave Perlin fbm's gradient costs about twice its value).
 
 mod cellular;
 mod lattice;
@@ -106,6 +112,52 @@ pub(crate) trait NoiseKernel {
         fractal::octaves_outside(freqs, amps, style, [x, y, z], out, |_, [sx, sy, sz], n| {
             self.sample_batch(sx, sy, sz, n)
         });
+    }
+
+    /// The value (`sample`'s bits) and the exact gradient at `p` (see `derivative.rs`).
+    fn sample_grad<S: Real>(&self, p: [f64; 3]) -> (S, [S; 3]);
+
+    /// The value (`sample_periodic`'s bits) and the gradient of the noise tiled with `period`.
+    /// The default reduces the point into its period (a translation per cell, so the gradient
+    /// of the reduced point), which is all a basis without neighbours (white noise) needs.
+    fn sample_grad_periodic<S: Real>(&self, p: [f64; 3], period: Period) -> (S, [S; 3]) {
+        self.sample_grad(period::reduce3(p, period).0)
+    }
+
+    /// Per lane, `(n[i], g[c][i])` = [`NoiseKernel::sample_grad`] of `p_i` (tiled when
+    /// `period`) bit for bit; the values only when `VALUE` (else `n` is left unspecified).
+    fn sample_grad_batch<S: Real, const VALUE: bool>(
+        &self,
+        period: Option<Period>,
+        p: [&[f64]; 3],
+        n: &mut [S],
+        g: [&mut [S]; 3],
+    ) where
+        Self: Sized,
+    {
+        derivative::reference_grad_batch(self, period, p, n, g);
+    }
+
+    /// The gradient of an untiled fbm over a batch, `out[c][i]` =
+    /// `fractal_styled_grad(.., Fbm, p_i)[c]` widened to f64, bit for bit.
+    fn fbm_grad_batch<S: Real>(
+        &self,
+        freqs: &[f64],
+        amps: &[f64],
+        p: [&[f64]; 3],
+        out: [&mut [f64]; 3],
+    ) where
+        Self: Sized,
+    {
+        derivative::octaves_grad::<S, Self>(
+            self,
+            freqs,
+            amps,
+            derivative::OctavePeriods::None,
+            Style::Fbm,
+            p,
+            out,
+        );
     }
 }
 
@@ -212,6 +264,70 @@ impl<K: LatticeKernel> NoiseKernel for K {
     ) {
         batch::fractal::<S, K, TURB>(self, freqs, amps, x, y, z, out);
     }
+
+    /// The lattice step and hashes as `sample`, then [`LatticeKernel::interior_grad`].
+    #[inline]
+    fn sample_grad<S: Real>(&self, p: [f64; 3]) -> (S, [S; 3]) {
+        let cells = p.map(lattice::lattice);
+        let h = self.hashes(cells.map(|c| c.0 as i32));
+        let (v, g) = self.interior_grad::<S, false, true>(h, cells.map(|c| S::from_f64(c.1)));
+        (v, derivative::canonical_grad(g))
+    }
+
+    /// As [`NoiseKernel::sample_periodic`]: the reduced point, the upper corner wrapped in a
+    /// period's last cell.
+    #[inline]
+    fn sample_grad_periodic<S: Real>(&self, p: [f64; 3], period: Period) -> (S, [S; 3]) {
+        let (q, wrap) = period::reduce3(p, period);
+        let cells = q.map(lattice::lattice);
+        let lo = cells.map(|c| c.0);
+        let h = if wrap == [false; 3] {
+            self.hashes(lo.map(|c| c as i32))
+        } else {
+            let hi: [usize; 3] =
+                std::array::from_fn(|a| if wrap[a] { 0 } else { (lo[a] + 1) & 255 });
+            lattice::corner_hashes_wrapped(self.perm(), K::PERLIN_HASH, lo, hi)
+        };
+        let (v, g) = self.interior_grad::<S, false, true>(h, cells.map(|c| S::from_f64(c.1)));
+        (v, derivative::canonical_grad(g))
+    }
+
+    /// The SIMD lane kernel (`batch::grad`) for untiled batches of [`batch::SMALL`] lanes or
+    /// more; the per-point loop otherwise.
+    fn sample_grad_batch<S: Real, const VALUE: bool>(
+        &self,
+        period: Option<Period>,
+        p: [&[f64]; 3],
+        n: &mut [S],
+        g: [&mut [S]; 3],
+    ) {
+        match period {
+            None if n.len() >= batch::SMALL => batch::grad::<S, K, VALUE>(self, p, n, g),
+            _ => derivative::reference_grad_batch(self, period, p, n, g),
+        }
+    }
+
+    /// The fused SIMD lane kernel (`batch::fbm_grad`).
+    fn fbm_grad_batch<S: Real>(
+        &self,
+        freqs: &[f64],
+        amps: &[f64],
+        p: [&[f64]; 3],
+        out: [&mut [f64]; 3],
+    ) {
+        if out[0].len() < batch::SMALL {
+            return derivative::octaves_grad::<S, Self>(
+                self,
+                freqs,
+                amps,
+                derivative::OctavePeriods::None,
+                Style::Fbm,
+                p,
+                out,
+            );
+        }
+        batch::fbm_grad::<S, K>(self, freqs, amps, p, out);
+    }
 }
 
 /// The lattice noise function of one basis, as one monomorphic kernel per basis, so the batch
@@ -245,6 +361,16 @@ trait LatticeKernel {
     /// tests hash bits on 32-bit integers rather than bytes (the same results): better code for
     /// targets without AVX-512BW, whose byte compares must be widened before a float blend.
     fn interior<S: Real, const WIDE: bool>(&self, h: [u8; 8], frac: [S; 3]) -> S;
+    /// `interior`'s value (its bits, when `VALUE`; else 0) and its exact gradient with respect
+    /// to the fractions, which is the gradient with respect to the point (see `derivative.rs`),
+    /// from the same hashes and fractions; NaN on every component for a NaN fraction, not made
+    /// canonical (the callers do: per lane, or once on a fractal sum). Straight lane code as
+    /// `interior` is.
+    fn interior_grad<S: Real, const WIDE: bool, const VALUE: bool>(
+        &self,
+        h: [u8; 8],
+        frac: [S; 3],
+    ) -> (S, [S; 3]);
 }
 
 /// Runs `$body` with `$k` bound to the [`NoiseKernel`] of `$table`'s basis.
@@ -315,6 +441,9 @@ macro_rules! with_kernel {
 // `// SAFETY:` comment (clippy's `undocumented_unsafe_blocks` is on).
 #[allow(unsafe_code)]
 mod batch;
+mod derivative;
+#[cfg(test)]
+mod derivative_tests;
 mod fractal;
 mod gradient;
 mod perlin;
@@ -326,6 +455,7 @@ mod value;
 #[allow(unsafe_code)]
 mod vbmi;
 
+pub use derivative::{fractal_styled_grad, fractal_styled_grad_batch};
 pub use fractal::{fractal, fractal_batch, fractal_styled, fractal_styled_batch, Octaves, Style};
 
 use crate::real::Real;
@@ -682,6 +812,15 @@ impl LatticeKernel for PerlinKernel<'_> {
     fn interior<S: Real, const WIDE: bool>(&self, h: [u8; 8], frac: [S; 3]) -> S {
         canonical_nan(perlin::interior::<S, WIDE>(h, frac))
     }
+    #[inline(always)]
+    fn interior_grad<S: Real, const WIDE: bool, const VALUE: bool>(
+        &self,
+        h: [u8; 8],
+        frac: [S; 3],
+    ) -> (S, [S; 3]) {
+        let (v, g) = perlin::interior_grad::<S, WIDE, VALUE>(h, frac);
+        (canonical_nan(v), g)
+    }
 }
 
 /// [`Basis::Gradient`]'s kernel.
@@ -708,6 +847,15 @@ impl LatticeKernel for GradientKernel<'_> {
     #[inline(always)]
     fn interior<S: Real, const WIDE: bool>(&self, h: [u8; 8], frac: [S; 3]) -> S {
         canonical_nan(gradient::interior(self.grads, h, frac))
+    }
+    #[inline(always)]
+    fn interior_grad<S: Real, const WIDE: bool, const VALUE: bool>(
+        &self,
+        h: [u8; 8],
+        frac: [S; 3],
+    ) -> (S, [S; 3]) {
+        let (v, g) = gradient::interior_grad::<S, VALUE>(self.grads, h, frac);
+        (canonical_nan(v), g)
     }
 }
 
@@ -736,6 +884,15 @@ impl<const SMOOTH: bool> LatticeKernel for ValueKernel<'_, SMOOTH> {
     fn interior<S: Real, const WIDE: bool>(&self, h: [u8; 8], frac: [S; 3]) -> S {
         canonical_nan(value::interior::<S, SMOOTH>(self.values, h, frac))
     }
+    #[inline(always)]
+    fn interior_grad<S: Real, const WIDE: bool, const VALUE: bool>(
+        &self,
+        h: [u8; 8],
+        frac: [S; 3],
+    ) -> (S, [S; 3]) {
+        let (v, g) = value::interior_grad::<S, SMOOTH, VALUE>(self.values, h, frac);
+        (canonical_nan(v), g)
+    }
 }
 
 /// [`Basis::Simplex`]'s kernel.
@@ -761,6 +918,16 @@ impl NoiseKernel for SimplexKernel<'_> {
     /// Vertices hashed as their translates into the period box (`simplex::sample_periodic`).
     fn sample_periodic<S: Real>(&self, p: [f64; 3], period: Period) -> S {
         canonical_nan(simplex::sample_periodic(self.perm, p, period))
+    }
+
+    fn sample_grad<S: Real>(&self, p: [f64; 3]) -> (S, [S; 3]) {
+        let (v, g) = simplex::sample_grad(self.perm, p);
+        (canonical_nan(v), g.map(canonical_nan))
+    }
+
+    fn sample_grad_periodic<S: Real>(&self, p: [f64; 3], period: Period) -> (S, [S; 3]) {
+        let (v, g) = simplex::sample_grad_periodic(self.perm, p, period);
+        (canonical_nan(v), g.map(canonical_nan))
     }
 }
 
@@ -810,6 +977,25 @@ impl NoiseKernel for CellularKernel<'_> {
             period::reduce3(p, period).0,
         ))
     }
+
+    fn sample_grad<S: Real>(&self, p: [f64; 3]) -> (S, [S; 3]) {
+        let (v, g) =
+            cellular::sample_grad(self.perm, self.features, self.values, self.params, None, p);
+        (canonical_nan(v), g.map(canonical_nan))
+    }
+
+    fn sample_grad_periodic<S: Real>(&self, p: [f64; 3], period: Period) -> (S, [S; 3]) {
+        let q = period::reduce3(p, period).0;
+        let (v, g) = cellular::sample_grad(
+            self.perm,
+            self.features,
+            self.values,
+            self.params,
+            Some(period),
+            q,
+        );
+        (canonical_nan(v), g.map(canonical_nan))
+    }
 }
 
 /// [`Basis::White`]'s kernel.
@@ -822,5 +1008,9 @@ impl NoiseKernel for WhiteKernel<'_> {
     #[inline(always)]
     fn sample<S: Real>(&self, p: [f64; 3]) -> S {
         canonical_nan(value::white(self.perm, self.values, p))
+    }
+
+    fn sample_grad<S: Real>(&self, p: [f64; 3]) -> (S, [S; 3]) {
+        derivative::white_grad(self.sample(p), p)
     }
 }

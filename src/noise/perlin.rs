@@ -197,3 +197,90 @@ pub(super) fn interior<S: Real, const WIDE: bool>(h: [u8; 8], frac: [S; 3]) -> S
         ),
     )
 }
+
+/// The slope of [`fade`], `30 t² (t - 1)²`, from t and `t - 1`.
+#[inline(always)]
+fn fade_slope<S: Real>(t: S, t1: S) -> S {
+    let a = t * t1;
+    S::from_f64(30.0) * (a * a)
+}
+
+/// [`interior`]'s value (its bits, when `VALUE`; else 0) and its gradient with respect to the
+/// fractions (NaN not made canonical): the product rule on the trilinear blend (see
+/// `derivative::blend_slopes`). Each corner's `grad` is `±u ± v` with u and v two of the
+/// offset's components, so its gradient has ±1 on those two axes: the corner gradients' blend
+/// is `Σ_c ±W_c` per axis, the trilinear weights signed and routed by the same hash bit tests as
+/// [`grad_select`] (selects, no table reads, straight lane code).
+#[inline(always)]
+pub(super) fn interior_grad<S: Real, const WIDE: bool, const VALUE: bool>(
+    h: [u8; 8],
+    frac: [S; 3],
+) -> (S, [S; 3]) {
+    let value = if VALUE {
+        interior::<S, WIDE>(h, frac)
+    } else {
+        S::ZERO
+    };
+    let grad_select = |hash: u8, x: S, y: S, z: S| {
+        if WIDE {
+            grad_select(i32::from(hash), x, y, z)
+        } else {
+            grad_select(hash, x, y, z)
+        }
+    };
+    let [x, y, z] = frac;
+    let one = S::ONE;
+    let (x1, y1, z1) = (x - one, y - one, z - one);
+    let offsets = [
+        [x, y, z],
+        [x1, y, z],
+        [x, y1, z],
+        [x1, y1, z],
+        [x, y, z1],
+        [x1, y, z1],
+        [x, y1, z1],
+        [x1, y1, z1],
+    ];
+    let corners: [S; 8] = std::array::from_fn(|c| {
+        let [a, b, d] = offsets[c];
+        grad_select(h[c], a, b, d)
+    });
+    let s = [fade(x), fade(y), fade(z)];
+    let ds = [fade_slope(x, x1), fade_slope(y, y1), fade_slope(z, z1)];
+    let slopes = super::derivative::blend_slopes(corners, s, ds);
+    let weights = super::derivative::corner_weights(s);
+    let mut g = [S::ZERO; 3];
+    for (&hash, &weight) in h.iter().zip(&weights) {
+        let corner = if WIDE {
+            grad_vector(i32::from(hash), weight)
+        } else {
+            grad_vector(hash, weight)
+        };
+        g = std::array::from_fn(|a| g[a] + corner[a]);
+    }
+    (value, std::array::from_fn(|a| g[a] + slopes[a]))
+}
+
+/// `weight` times the gradient of [`grad_select`]'s `±u ± v`: `±weight` on u's axis (x when
+/// bit 3 is clear, else y) and on v's (y when bits 2 and 3 are clear, x when bits 3, 2, 0 are
+/// 1, 1, 0, else z), the signs from bits 0 and 1; u's and v's axes always differ.
+#[inline(always)]
+fn grad_vector<S: Real, H>(hash: H, weight: S) -> [S; 3]
+where
+    H: Copy + From<u8> + PartialEq + std::ops::BitAnd<Output = H>,
+{
+    let bits = |mask: u8| hash & H::from(mask);
+    let is = |mask: u8, value: u8| bits(mask) == H::from(value);
+    let wu = if is(1, 1) { -weight } else { weight };
+    let wv = if is(2, 2) { -weight } else { weight };
+    let (u_x, v_y, v_x) = (is(8, 0), is(12, 0), is(13, 12));
+    let v_z = !v_y & !v_x;
+    // Flat selects against zero (masked moves over lanes); nested `if`s or `||` became
+    // branches, and the lane loop then stayed scalar.
+    let pick = |on: bool, w: S| if on { w } else { S::ZERO };
+    [
+        pick(u_x, wu) + pick(v_x, wv),
+        pick(!u_x, wu) + pick(v_y, wv),
+        pick(v_z, wv),
+    ]
+}

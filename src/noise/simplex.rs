@@ -321,19 +321,77 @@ pub(super) fn term_with<S: Real>(x0: [S; 3], v: [S; 3], g: S, grad: [S; 3]) -> S
     t2 * t2 * dot
 }
 
+/// The vertices a point reaches: its offset from its skewed cell's base vertex (in S) and the
+/// eight vertices in reach, each as its offset from the base vertex and its hash, in the
+/// order the sums add them.
+pub(super) type Reach<S> = ([S; 3], [([i64; 3], usize); 8]);
+
+/// The vertices `p` reaches (see [`Reach`]).
+#[inline(always)]
+fn reach<S: Real>(perm: &[u8; 512], p: [f64; 3]) -> Reach<S> {
+    let at = locate(p);
+    let x0 = at.offset.map(S::from_f64);
+    let cell = at.cell.map(|c| c as i64);
+    let vertices = vertices(ORDERS[at.order]).map(|v| {
+        let h = hash(perm, cell[0] + v[0], cell[1] + v[1], cell[2] + v[2]);
+        (v, h)
+    });
+    (x0, vertices)
+}
+
+/// The noise from the vertices in reach: the terms summed in order, scaled.
+#[inline(always)]
+fn sum<S: Real>((x0, vertices): Reach<S>) -> S {
+    let mut sum = S::ZERO;
+    for (v, h) in vertices {
+        sum = sum + term(x0, v, h);
+    }
+    S::from_f64(SCALE) * sum
+}
+
 /// One sample. Positions in f64, the kernel arithmetic in `S` (the offsets are small numbers,
 /// computed in f64 and rounded once).
 #[inline(always)]
 pub(super) fn sample<S: Real>(perm: &[u8; 512], p: [f64; 3]) -> S {
-    let at = locate(p);
-    let x0 = at.offset.map(S::from_f64);
-    let cell = at.cell.map(|c| c as i64);
-    let mut sum = S::ZERO;
-    for v in vertices(ORDERS[at.order]) {
-        let h = hash(perm, cell[0] + v[0], cell[1] + v[1], cell[2] + v[2]);
-        sum = sum + term(x0, v, h);
+    sum(reach(perm, p))
+}
+
+/// [`sample`]'s value (its bits) and its gradient with respect to the point: the offset from
+/// each vertex moves with the point (the cell is piecewise constant), so per vertex
+/// `∇((0.6 - r²)⁴ g·d) = (0.6 - r²)⁴ g - 8 (0.6 - r²)³ (g·d) d` where `r² < 0.6` (0 beyond),
+/// summed in the value's order and scaled alike. NaN on every component for non-finite input.
+#[inline(always)]
+pub(super) fn sample_grad<S: Real>(perm: &[u8; 512], p: [f64; 3]) -> (S, [S; 3]) {
+    sum_grad(reach(perm, p))
+}
+
+/// [`sum`] and its gradient (see [`sample_grad`]).
+#[inline(always)]
+fn sum_grad<S: Real>(reach: Reach<S>) -> (S, [S; 3]) {
+    let (x0, vertices) = reach;
+    let mut g = [S::ZERO; 3];
+    for (v, h) in vertices {
+        let (offset, unskew) = vertex_constants::<S>(v);
+        let dt = term_grad_with(x0, offset, unskew, gradient::<S>(h));
+        g = std::array::from_fn(|a| g[a] + dt[a]);
     }
-    S::from_f64(SCALE) * sum
+    let scale = S::from_f64(SCALE);
+    let bad = x0.iter().any(|c| c.is_nan());
+    let g = g.map(|c| if bad { S::NAN } else { scale * c });
+    (sum((x0, vertices)), g)
+}
+
+/// The gradient of [`term_with`] with respect to the point (which moves `d` one for one).
+#[inline(always)]
+pub(super) fn term_grad_with<S: Real>(x0: [S; 3], v: [S; 3], g: S, grad: [S; 3]) -> [S; 3] {
+    let d = [x0[0] - v[0] + g, x0[1] - v[1] + g, x0[2] - v[2] + g];
+    let t = S::from_f64(RADIUS2) - (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    let t = if t > S::ZERO { t } else { S::ZERO };
+    let dot = grad[0] * d[0] + grad[1] * d[1] + grad[2] * d[2];
+    let t2 = t * t;
+    let t4 = t2 * t2;
+    let k = S::from_f64(-8.0) * (t2 * t) * dot;
+    std::array::from_fn(|a| t4 * grad[a] + k * d[a])
 }
 
 /// One sample tiled with `period` (each a multiple of 3, which the checker ensures: the skewed
@@ -345,25 +403,39 @@ pub(super) fn sample<S: Real>(perm: &[u8; 512], p: [f64; 3]) -> S {
 /// translates by whole periods get one hash, so the noise repeats; it is the same kernel sum,
 /// so it stays continuous.
 pub(super) fn sample_periodic<S: Real>(perm: &[u8; 512], p: [f64; 3], period: [u64; 3]) -> S {
+    sum(reach_periodic(perm, p, period))
+}
+
+/// [`sample_periodic`]'s value (its bits) and gradient, as [`sample_grad`]: the reduction into
+/// the period is a translation per cell, so this is the gradient at the reduced point.
+pub(super) fn sample_grad_periodic<S: Real>(
+    perm: &[u8; 512],
+    p: [f64; 3],
+    period: [u64; 3],
+) -> (S, [S; 3]) {
+    sum_grad(reach_periodic(perm, p, period))
+}
+
+/// The vertices `p` reaches in the noise tiled with `period` (see [`sample_periodic`]).
+#[inline(always)]
+fn reach_periodic<S: Real>(perm: &[u8; 512], p: [f64; 3], period: [u64; 3]) -> Reach<S> {
     let q = super::period::reduce3(p, period).0;
     if q.iter().any(|v| !v.is_finite()) || period.iter().any(|&p| p == 0 || p % 3 != 0) {
-        return sample(perm, q);
+        return reach(perm, q);
     }
     // Full cell indices: the reduced coordinates are below 2^21.
     let c = q.map(f64::floor);
     let at = locate_from::<false>(c, [q[0] - c[0], q[1] - c[1], q[2] - c[2]]);
     let x0 = at.offset.map(S::from_f64);
     let cell = at.cell.map(|v| v as i64);
-    let mut sum = S::ZERO;
-    for v in vertices(ORDERS[at.order]) {
+    let vertices = vertices(ORDERS[at.order]).map(|v| {
         let vertex = [cell[0] + v[0], cell[1] + v[1], cell[2] + v[2]];
         let s = vertex[0] + vertex[1] + vertex[2];
         let u: [i64; 3] =
             std::array::from_fn(|a| (6 * vertex[a] - s).rem_euclid(6 * period[a] as i64));
         let s = (u[0] + u[1] + u[2]) / 3;
         let wrapped: [i64; 3] = std::array::from_fn(|a| (u[a] + s) / 6);
-        let h = hash(perm, wrapped[0], wrapped[1], wrapped[2]);
-        sum = sum + term(x0, v, h);
-    }
-    S::from_f64(SCALE) * sum
+        (v, hash(perm, wrapped[0], wrapped[1], wrapped[2]))
+    });
+    (x0, vertices)
 }

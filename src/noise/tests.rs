@@ -10,7 +10,7 @@ const BASES: [Basis; 4] = [
     Basis::Value(Interpolation::Smooth),
 ];
 
-fn cellular(jitter: f64, metric: Metric, value: CellularValue) -> Basis {
+pub(super) fn cellular(jitter: f64, metric: Metric, value: CellularValue) -> Basis {
     Basis::Cellular(Cellular::new(jitter, metric, value))
 }
 
@@ -935,7 +935,7 @@ fn fractal_batch_equals_fractal_bit_for_bit() {
 /// 0..8: every chunk takes the fast lattice path); magnitudes near 2^50 and 2^51, the fast
 /// path's limit (8..10: fast or exact, by chunk and octave frequency); huge and non-finite
 /// coordinates (10..12: their chunk takes the exact path).
-fn batch_pool(seed: u64, n: usize, kinds: u64) -> Vec<[f64; 3]> {
+pub(super) fn batch_pool(seed: u64, n: usize, kinds: u64) -> Vec<[f64; 3]> {
     let mut rng = SplitMix64::new(seed);
     let coordinate = |rng: &mut SplitMix64| -> f64 {
         let r = rng.next_signed();
@@ -978,7 +978,7 @@ fn batch_pool(seed: u64, n: usize, kinds: u64) -> Vec<[f64; 3]> {
         .collect()
 }
 
-fn planes(pts: &[[f64; 3]]) -> [Vec<f64>; 3] {
+pub(super) fn planes(pts: &[[f64; 3]]) -> [Vec<f64>; 3] {
     [0, 1, 2].map(|a| pts.iter().map(|p| p[a]).collect())
 }
 
@@ -1207,7 +1207,7 @@ fn paired_hashes_match_the_permutation_reads() {
 }
 
 #[cfg(target_arch = "x86_64")]
-fn has_vbmi() -> bool {
+pub(super) fn has_vbmi() -> bool {
     is_x86_feature_detected!("avx512f")
         && is_x86_feature_detected!("avx512bw")
         && is_x86_feature_detected!("avx512vbmi")
@@ -1961,7 +1961,7 @@ fn assert_simplex_table_reads_are_point<S: Real>(t: &NoiseTable, pts: &[[f64; 3]
 }
 
 /// Runs `f` with the batch kernels' table-read forms forced on this thread.
-fn with_table_reads(f: impl FnOnce()) {
+pub(super) fn with_table_reads(f: impl FnOnce()) {
     batch::TABLE_READS.with(|c| c.set(true));
     f();
     batch::TABLE_READS.with(|c| c.set(false));

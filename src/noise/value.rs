@@ -1,7 +1,7 @@
 //! Value noise: a seeded table of values in [0, 1] at the lattice points (hashed exactly like the
 //! Gradient basis), interpolated trilinearly, with linear or smoothstep weights.
 
-use super::lattice::{corner_hashes, lattice, lerp, smoothstep};
+use super::lattice::{corner_hashes, lattice, lerp, smoothstep, smoothstep_slope};
 use super::rng::SplitMix64;
 use crate::real::Real;
 
@@ -82,4 +82,29 @@ pub(super) fn white<S: Real>(perm: &[u8; 512], values: &[f32; 256], p: [f64; 3])
     }
     let h = corner_hashes(perm, ix, iy, iz)[0];
     S::from_f64(values[h & 255] as f64)
+}
+
+/// [`interior`]'s value (its bits, when `VALUE`; else 0) and its gradient with respect to the
+/// fractions (NaN not made canonical): the corner values are constants, so only the weights'
+/// slopes remain (`derivative::blend_slopes`): 1 for Linear (inside the cell; on a
+/// face, this cell's side), `6t(1 - t)` for Smooth.
+#[inline(always)]
+pub(super) fn interior_grad<S: Real, const SMOOTH: bool, const VALUE: bool>(
+    values: &[f32; 256],
+    h: [u8; 8],
+    frac: [S; 3],
+) -> (S, [S; 3]) {
+    let value = if VALUE {
+        interior::<S, SMOOTH>(values, h, frac)
+    } else {
+        S::ZERO
+    };
+    let weight = |t: S| if SMOOTH { smoothstep(t) } else { t };
+    let slope = |t: S| if SMOOTH { smoothstep_slope(t) } else { S::ONE };
+    let corners: [S; 8] = std::array::from_fn(|i| S::from_f64(values[h[i] as usize] as f64));
+    let g = super::derivative::blend_slopes(corners, frac.map(weight), frac.map(slope));
+    // Linear weights' slopes are the constant 1, so a NaN fraction would not reach its own
+    // axis' component: make it NaN (as every other basis' components are then).
+    let bad = frac[0].is_nan() | frac[1].is_nan() | frac[2].is_nan();
+    (value, g.map(|c| if !SMOOTH && bad { S::NAN } else { c }))
 }
