@@ -67,15 +67,24 @@ impl ValueKind {
 
 /// Parses a whole file: exactly one value, then only whitespace and comments.
 pub fn parse(text: &str) -> Result<Value, Diagnostic> {
+    parse_boxed(text).map_err(|e| *e)
+}
+
+/// The parser's error, boxed: the parser recurses once per nesting level (up to
+/// `limits::MAX_NESTING`), and a small error type keeps each level's frame small (test threads
+/// have 2 MiB stacks, and debug builds keep every temporary).
+type Failure = Box<Diagnostic>;
+
+fn parse_boxed(text: &str) -> Result<Value, Failure> {
     if text.len() > limits::MAX_FILE_BYTES {
-        return Err(Diagnostic::new(
+        return Err(Box::new(Diagnostic::new(
             DiagnosticClass::Limit,
             format!(
                 "the file is {} bytes; graph files are limited to {} bytes",
                 text.len(),
                 limits::MAX_FILE_BYTES
             ),
-        ));
+        )));
     }
     let mut parser = Parser {
         text,
@@ -87,18 +96,23 @@ pub fn parse(text: &str) -> Result<Value, Diagnostic> {
     parser.skip_trivia()?;
     parser.skip_attributes()?;
     if parser.pos >= parser.bytes.len() {
-        return Err(Diagnostic::new(
-            DiagnosticClass::Syntax,
-            "the file holds no graph (only whitespace and comments)",
-        )
-        .at(Span::new(0, 0))
-        .label("a graph was expected")
-        .help("a graph file is `Graph(nodes: { ... }, outputs: { ... })`"));
+        return Err(Box::new(
+            Diagnostic::new(
+                DiagnosticClass::Syntax,
+                "the file holds no graph (only whitespace and comments)",
+            )
+            .at(Span::new(0, 0))
+            .label("a graph was expected")
+            .help("a graph file is `Graph(nodes: { ... }, outputs: { ... })`"),
+        ));
     }
     let value = parser.value()?;
     parser.skip_trivia()?;
     if parser.pos < parser.bytes.len() {
-        return Err(parser.error_here("unexpected text after the graph", "expected end of file"));
+        return Err(Box::new(parser.error_here(
+            "unexpected text after the graph",
+            "expected end of file",
+        )));
     }
     Ok(value)
 }
@@ -160,7 +174,7 @@ impl<'a> Parser<'a> {
     }
 
     /// Skips whitespace, `// line` and `/* block */` comments (block comments nest, as in RON).
-    fn skip_trivia(&mut self) -> Result<(), Diagnostic> {
+    fn skip_trivia(&mut self) -> Result<(), Failure> {
         loop {
             match self.peek() {
                 Some(b' ' | b'\t' | b'\n' | b'\r') => self.pos += 1,
@@ -188,11 +202,11 @@ impl<'a> Parser<'a> {
                             }
                             (Some(_), _) => self.pos += 1,
                             (None, _) => {
-                                return Err(self.error_at(
+                                return Err(Box::new(self.error_at(
                                     Span::new(start, start + 2),
                                     "unterminated block comment",
                                     "this comment is never closed",
-                                ))
+                                )))
                             }
                         }
                     }
@@ -203,7 +217,7 @@ impl<'a> Parser<'a> {
     }
 
     /// `#![enable(...)]` extension headers are accepted and ignored: graph files need none.
-    fn skip_attributes(&mut self) -> Result<(), Diagnostic> {
+    fn skip_attributes(&mut self) -> Result<(), Failure> {
         while self.peek() == Some(b'#') {
             let start = self.pos;
             while let Some(c) = self.peek() {
@@ -213,11 +227,11 @@ impl<'a> Parser<'a> {
                 }
             }
             if self.bytes.get(self.pos - 1) != Some(&b']') {
-                return Err(self.error_at(
+                return Err(Box::new(self.error_at(
                     Span::new(start, self.pos),
                     "unterminated attribute",
                     "expected `]`",
-                ));
+                )));
             }
             self.skip_trivia()?;
         }
@@ -255,31 +269,34 @@ impl<'a> Parser<'a> {
         }
     }
 
-    fn expect(&mut self, byte: u8, what: &str) -> Result<(), Diagnostic> {
+    fn expect(&mut self, byte: u8, what: &str) -> Result<(), Failure> {
         self.skip_trivia()?;
         if self.peek() == Some(byte) {
             self.pos += 1;
             Ok(())
         } else if self.pos >= self.bytes.len() {
-            Err(self.error_at(
+            Err(Box::new(self.error_at(
                 Span::new(self.pos, self.pos),
                 format!("unexpected end of file, expected {what}"),
                 format!("expected {what}"),
-            ))
+            )))
         } else {
-            Err(self.error_here(format!("expected {what}"), format!("expected {what}")))
+            Err(Box::new(self.error_here(
+                format!("expected {what}"),
+                format!("expected {what}"),
+            )))
         }
     }
 
-    fn value(&mut self) -> Result<Value, Diagnostic> {
+    fn value(&mut self) -> Result<Value, Failure> {
         self.skip_trivia()?;
         let start = self.pos;
         let Some(c) = self.peek() else {
-            return Err(self.error_at(
+            return Err(Box::new(self.error_at(
                 Span::new(start, start),
                 "unexpected end of file, expected a value",
                 "expected a value",
-            ));
+            )));
         };
         match c {
             b'"' => {
@@ -347,33 +364,35 @@ impl<'a> Parser<'a> {
                     })
                 }
             }
-            b')' | b']' | b'}' => Err(self.error_here(
+            b')' | b']' | b'}' => Err(Box::new(self.error_here(
                 format!("unexpected `{}`, expected a value", c as char),
                 "expected a value here",
-            )),
-            _ => Err(self.error_here(
+            ))),
+            _ => Err(Box::new(self.error_here(
                 format!(
                     "unexpected character {}",
                     shown(&self.text[self.pos..self.next_char_end()])
                 ),
                 "expected a value",
-            )),
+            ))),
         }
     }
 
-    fn enter(&mut self, start: usize) -> Result<(), Diagnostic> {
+    fn enter(&mut self, start: usize) -> Result<(), Failure> {
         self.depth += 1;
         if self.depth > limits::MAX_NESTING {
-            return Err(Diagnostic::new(
-                DiagnosticClass::Limit,
-                format!(
-                    "values are nested more than {} levels deep",
-                    limits::MAX_NESTING
-                ),
-            )
-            .at(Span::new(start, start + 1))
-            .label("too deep")
-            .help("give inner nodes an id in `nodes` and refer to them by name"));
+            return Err(Box::new(
+                Diagnostic::new(
+                    DiagnosticClass::Limit,
+                    format!(
+                        "values are nested more than {} levels deep",
+                        limits::MAX_NESTING
+                    ),
+                )
+                .at(Span::new(start, start + 1))
+                .label("too deep")
+                .help("give inner nodes an id in `nodes` and refer to them by name"),
+            ));
         }
         Ok(())
     }
@@ -394,7 +413,7 @@ impl<'a> Parser<'a> {
         }
     }
 
-    fn number(&mut self) -> Result<Value, Diagnostic> {
+    fn number(&mut self) -> Result<Value, Failure> {
         let start = self.pos;
         if matches!(self.peek(), Some(b'-' | b'+')) {
             self.pos += 1;
@@ -408,11 +427,11 @@ impl<'a> Parser<'a> {
                 "inf" => f64::INFINITY,
                 "NaN" => f64::NAN,
                 _ => {
-                    return Err(self.error_at(
+                    return Err(Box::new(self.error_at(
                         Span::new(start, self.pos),
                         format!("`{}` is not a number", &self.text[start..self.pos]),
                         "expected a number",
-                    ))
+                    )))
                 }
             };
             return Ok(Value {
@@ -451,15 +470,15 @@ impl<'a> Parser<'a> {
                 kind: ValueKind::Number(v),
                 span,
             }),
-            _ => Err(self.error_at(
+            _ => Err(Box::new(self.error_at(
                 span,
                 format!("`{}` is not a number", &self.text[start..self.pos]),
                 "expected a number",
-            )),
+            ))),
         }
     }
 
-    fn string(&mut self) -> Result<Text, Diagnostic> {
+    fn string(&mut self) -> Result<Text, Failure> {
         let start = self.pos;
         self.pos += 1; // opening quote
                        // Fast path: no escapes (every name and reference in practice), one copy of the slice.
@@ -474,11 +493,11 @@ impl<'a> Parser<'a> {
         let mut out = Text::default();
         loop {
             let Some(c) = self.text[self.pos..].chars().next() else {
-                return Err(self.error_at(
+                return Err(Box::new(self.error_at(
                     Span::new(start, start + 1),
                     "unterminated string",
                     "this string is never closed",
-                ));
+                )));
             };
             self.pos += c.len_utf8();
             match c {
@@ -486,11 +505,11 @@ impl<'a> Parser<'a> {
                 '\\' => {
                     let escape_start = self.pos - 1;
                     let Some(e) = self.text[self.pos..].chars().next() else {
-                        return Err(self.error_at(
+                        return Err(Box::new(self.error_at(
                             Span::new(start, start + 1),
                             "unterminated string",
                             "this string is never closed",
-                        ));
+                        )));
                     };
                     self.pos += e.len_utf8();
                     match e {
@@ -502,11 +521,11 @@ impl<'a> Parser<'a> {
                         'r' => out.push('\r'),
                         '0' => out.push('\0'),
                         _ => {
-                            return Err(self.error_at(
+                            return Err(Box::new(self.error_at(
                                 Span::new(escape_start, self.pos),
                                 format!("unknown escape `\\{e}` in string"),
                                 "unknown escape",
-                            ))
+                            )))
                         }
                     }
                 }
@@ -515,7 +534,7 @@ impl<'a> Parser<'a> {
         }
     }
 
-    fn raw_string(&mut self) -> Result<Text, Diagnostic> {
+    fn raw_string(&mut self) -> Result<Text, Failure> {
         let start = self.pos;
         self.pos += 1; // r
         let mut hashes = 0;
@@ -524,7 +543,9 @@ impl<'a> Parser<'a> {
             self.pos += 1;
         }
         if self.peek() != Some(b'"') {
-            return Err(self.error_here("expected `\"` in raw string", "expected `\"`"));
+            return Err(Box::new(
+                self.error_here("expected `\"` in raw string", "expected `\"`"),
+            ));
         }
         self.pos += 1;
         let terminator = format!("\"{}", "#".repeat(hashes));
@@ -534,11 +555,11 @@ impl<'a> Parser<'a> {
                 self.pos += end + terminator.len();
                 Ok(s)
             }
-            None => Err(self.error_at(
+            None => Err(Box::new(self.error_at(
                 Span::new(start, start + 1),
                 "unterminated raw string",
                 "never closed",
-            )),
+            ))),
         }
     }
 
@@ -547,7 +568,7 @@ impl<'a> Parser<'a> {
         &mut self,
         name: Option<Spanned<Text>>,
         start: usize,
-    ) -> Result<Value, Diagnostic> {
+    ) -> Result<Value, Failure> {
         self.enter(start)?;
         self.expect(b'(', "`(`")?;
         let open = self.pos - 1;
@@ -575,14 +596,16 @@ impl<'a> Parser<'a> {
                     break;
                 }
                 if matches!(self.peek(), None | Some(b']' | b'}')) {
-                    return Err(self.unclosed(open, b')'));
+                    return Err(Box::new(self.unclosed(open, b')')));
                 }
                 let field_start = self.pos;
                 if !self
                     .peek()
                     .is_some_and(|c| c.is_ascii_alphabetic() || c == b'_')
                 {
-                    return Err(self.error_here("expected a field name", "expected `name: value`"));
+                    return Err(Box::new(
+                        self.error_here("expected a field name", "expected `name: value`"),
+                    ));
                 }
                 let field = self.identifier();
                 let field = Spanned {
@@ -596,12 +619,12 @@ impl<'a> Parser<'a> {
                 match self.peek() {
                     Some(b',') => self.pos += 1,
                     Some(b')') => {}
-                    None | Some(b']' | b'}') => return Err(self.unclosed(open, b')')),
+                    None | Some(b']' | b'}') => return Err(Box::new(self.unclosed(open, b')'))),
                     _ => {
-                        return Err(self.error_here(
+                        return Err(Box::new(self.error_here(
                             "expected `,` or `)` after the field",
                             "expected `,` or `)`",
-                        ))
+                        )))
                     }
                 }
             }
@@ -619,7 +642,7 @@ impl<'a> Parser<'a> {
 
     /// Comma-separated values up to `close` (trailing comma allowed); consumes `close`. `open`
     /// is where the bracket being closed was opened.
-    fn sequence(&mut self, open: usize, close: u8) -> Result<Vec<Value>, Diagnostic> {
+    fn sequence(&mut self, open: usize, close: u8) -> Result<Vec<Value>, Failure> {
         let mut items = Vec::new();
         loop {
             self.skip_trivia()?;
@@ -628,25 +651,40 @@ impl<'a> Parser<'a> {
                 return Ok(items);
             }
             if matches!(self.peek(), None | Some(b')' | b']' | b'}')) {
-                return Err(self.unclosed(open, close));
+                return Err(Box::new(self.unclosed(open, close)));
             }
             items.push(self.value()?);
             self.skip_trivia()?;
             match self.peek() {
                 Some(b',') => self.pos += 1,
                 Some(c) if c == close => {}
-                None | Some(b')' | b']' | b'}') => return Err(self.unclosed(open, close)),
+                None | Some(b')' | b']' | b'}') => {
+                    return Err(Box::new(self.unclosed(open, close)))
+                }
+                // `Kind(a, b, name: c)`: a named argument after positional ones.
+                Some(b':') if close == b')' => return Err(Box::new(self.mixed_arguments())),
                 _ => {
-                    return Err(self.error_here(
+                    return Err(Box::new(self.error_here(
                         format!("expected `,` or `{}`", close as char),
                         format!("expected `,` or `{}`", close as char),
-                    ))
+                    )))
                 }
             }
         }
     }
 
-    fn list(&mut self) -> Result<Value, Diagnostic> {
+    /// Out of line: `sequence` recurses once per nesting level, so its frame stays small.
+    #[cold]
+    #[inline(never)]
+    fn mixed_arguments(&self) -> Diagnostic {
+        self.error_here(
+            "positional and named arguments cannot be mixed",
+            "a named argument after positional ones",
+        )
+        .help("name every argument, `Kind(input: a, clamp: true)`, or none")
+    }
+
+    fn list(&mut self) -> Result<Value, Failure> {
         let start = self.pos;
         self.enter(start)?;
         self.pos += 1;
@@ -658,7 +696,7 @@ impl<'a> Parser<'a> {
         })
     }
 
-    fn map(&mut self) -> Result<Value, Diagnostic> {
+    fn map(&mut self) -> Result<Value, Failure> {
         let start = self.pos;
         self.enter(start)?;
         self.pos += 1;
@@ -670,7 +708,7 @@ impl<'a> Parser<'a> {
                 break;
             }
             if matches!(self.peek(), None | Some(b')' | b']')) {
-                return Err(self.unclosed(start, b'}'));
+                return Err(Box::new(self.unclosed(start, b'}')));
             }
             let key = self.value()?;
             self.expect(b':', "`:` after the map key")?;
@@ -680,8 +718,12 @@ impl<'a> Parser<'a> {
             match self.peek() {
                 Some(b',') => self.pos += 1,
                 Some(b'}') => {}
-                None | Some(b')' | b']') => return Err(self.unclosed(start, b'}')),
-                _ => return Err(self.error_here("expected `,` or `}`", "expected `,` or `}`")),
+                None | Some(b')' | b']') => return Err(Box::new(self.unclosed(start, b'}'))),
+                _ => {
+                    return Err(Box::new(
+                        self.error_here("expected `,` or `}`", "expected `,` or `}`"),
+                    ))
+                }
             }
         }
         self.depth -= 1;

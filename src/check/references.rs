@@ -15,7 +15,10 @@ impl Checker {
             starts.push(first);
             collect_references(value, &mut walk, &mut |name| {
                 let base = name.split('.').next().unwrap_or(name);
-                if let Some(&j) = self.node_index.get(base) {
+                // A name that is both a param and a node is already an error: no edge for it,
+                // so `"crack": Mul("crack", 2)` (meaning the param) is not also a cycle.
+                let ambiguous = self.params.iter().any(|(p, _)| p == base);
+                if let Some(&j) = self.node_index.get(base).filter(|_| !ambiguous) {
                     if !refs[first..].contains(&j) {
                         refs.push(j);
                     }
