@@ -31,6 +31,7 @@ fn marble_defaults(object: PreviewObject, space: Space) -> PreviewDefaults {
         space,
         overrides: vec![("octaves".into(), 4.0)],
         output: None,
+        bump: None,
     }
 }
 
@@ -882,14 +883,19 @@ fn timing_table_print() {
 
 const SCENES_DOC: &str = "docs/scenes.md";
 
-/// The files a scene example names: the strings after `graph:` and `path:`.
+/// The files a scene example names: the strings after `graph:` and `path:`, and the file of a
+/// bump's `height: "FILE.OUTPUT"` (before the last dot).
 fn referenced_files(text: &str) -> Vec<String> {
     let mut files = Vec::new();
-    for key in ["graph:", "path:"] {
+    for key in ["graph:", "path:", "height:"] {
         let mut rest = text;
         while let Some(at) = rest.find(key) {
             rest = rest[at + key.len()..].trim_start();
             if let Some((name, _)) = rest.strip_prefix('"').and_then(|r| r.split_once('"')) {
+                let name = match key {
+                    "height:" => name.rsplit_once('.').map_or(name, |(file, _)| file),
+                    _ => name,
+                };
                 files.push(name.to_string());
             }
         }
@@ -1059,6 +1065,10 @@ const SCENE_FORMAT_NAMES: &[&str] = &[
     "diffuse",
     "specular",
     "shininess",
+    "bump",
+    "Bump",
+    "height",
+    "strength",
     "Colour",
     "Color",
     "Rgb",
@@ -1131,6 +1141,8 @@ fn docs_scenes_md_names_every_field_and_variant() {
         "Scene(camera: Camera(zzz: 0))",
         r#"Scene(materials: { "m": Material(zzz: 0) })"#,
         r#"Scene(materials: { "m": Material(diffuse: Texture(space: Zzz)) })"#,
+        r#"Scene(materials: { "m": Material(bump: (zzz: 0)) })"#,
+        r#"Scene(materials: { "m": Material(bump: (height: Texture(zzz: 0))) })"#,
         "Scene(objects: [Object(zzz: 0)])",
     ] {
         assert!(!probe(text).is_empty(), "{text}: no names in the error");
@@ -1176,4 +1188,576 @@ fn docs_scenes_md_names_every_field_and_variant() {
         "{SCENES_DOC} does not name these fields or variants in backticks: {}",
         missing.join(", ")
     );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bump mapping: n' = normalize(n − s·(g − (g·n) n)), g the world-space gradient of the height
+// ---------------------------------------------------------------------------------------------
+
+type V3 = [f64; 3];
+
+fn dot(a: V3, b: V3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn normalise(a: V3) -> V3 {
+    let l = dot(a, a).sqrt();
+    a.map(|c| c / l)
+}
+
+/// A graph whose scalar output `h` is `expression` (of `p`, the point) and whose vec3 output
+/// `c` is not a height.
+fn height_graph(expression: &str) -> String {
+    format!(
+        "Graph(\n    nodes: {{ \"p\": Position, \"h\": {expression} }},\n    outputs: {{ \"h\": \"h\", \"c\": Combine(\"h\", 0.5, 0.5) }},\n)\n"
+    )
+}
+
+/// `a.x·p.x + a.y·p.y + a.z·p.z` as a graph expression.
+fn linear(a: V3) -> String {
+    format!(
+        "Add(Add(Mul({:?}, \"p.x\"), Mul({:?}, \"p.y\")), Mul({:?}, \"p.z\"))",
+        a[0], a[1], a[2]
+    )
+}
+
+const BUMP_EYE: V3 = [0.4, 3.0, 2.5];
+/// The light travels along this direction (no shadows, no ambient light: every pixel is
+/// diffuse n·l plus the highlight).
+const BUMP_LIGHT: V3 = [0.5, -1.0, 0.3];
+const BUMP_SIZE: (u32, u32) = (48, 36);
+
+/// Renders a plane (`Plane()` with `object_transform`) of a material whose diffuse colour is
+/// constant and whose bump is `bump` (scene text, or empty for none), in a folder holding the
+/// `graphs` (name, text).
+fn bump_plane(graphs: &[(&str, String)], bump: &str, object_transform: &str) -> RenderedImage {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in graphs {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
+    let scene = format!(
+        r#"Scene(
+    camera: Camera(position: ({}, {}, {}), look_at: (0, 0, 0), fov: 40),
+    lights: [Directional(direction: ({}, {}, {}), shadows: false)],
+    ambient_light: (0, 0, 0),
+    materials: {{
+        "m": Material(diffuse: Colour(0.6, 0.5, 0.4), specular: Value(0.3), shininess: Value(8){bump}),
+    }},
+    objects: [Object(shape: Plane(), material: "m", transform: [{object_transform}])],
+)"#,
+        BUMP_EYE[0], BUMP_EYE[1], BUMP_EYE[2], BUMP_LIGHT[0], BUMP_LIGHT[1], BUMP_LIGHT[2]
+    );
+    let path = dir.path().join("scene.ron");
+    std::fs::write(&path, scene).unwrap();
+    let scene = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    let options = RenderOptions {
+        size: Some(BUMP_SIZE),
+        samples: Some(1),
+        threads: None,
+        progress: false,
+    };
+    render(&scene, &options).unwrap().0
+}
+
+/// Blinn–Phong of the plane y = 0 with shading normal `n` at pixel (x, y), computed here from
+/// the camera's definition (docs/scenes.md): the pixel centre's ray, the light, the halfway
+/// vector.
+fn blinn_phong_on_the_plane(n: V3, x: u32, y: u32) -> V3 {
+    let (w, h) = (BUMP_SIZE.0 as f64, BUMP_SIZE.1 as f64);
+    let forward = normalise(BUMP_EYE.map(|c| -c));
+    let cross = |a: V3, b: V3| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let right = normalise(cross(forward, [0.0, 1.0, 0.0]));
+    let up = cross(right, forward);
+    let tan_half = 20f64.to_radians().tan();
+    let ndc_x = (x as f64 + 0.5) / w * 2.0 - 1.0;
+    let ndc_y = 1.0 - (y as f64 + 0.5) / h * 2.0;
+    let direction = normalise(std::array::from_fn(|i| {
+        forward[i] + right[i] * ndc_x * tan_half * w / h + up[i] * ndc_y * tan_half
+    }));
+    let l = normalise(BUMP_LIGHT.map(|c| -c));
+    let halfway = normalise(std::array::from_fn(|i| l[i] - direction[i]));
+    let n_dot_l = dot(n, l);
+    assert!(n_dot_l > 0.0, "the test's light must light the surface");
+    let highlight = dot(n, halfway).max(0.0).powf(8.0);
+    let diffuse = [0.6, 0.5, 0.4];
+    diffuse.map(|d| d * n_dot_l + 0.3 * highlight)
+}
+
+/// The largest difference between `image` and the analytic plane shaded with normal `n`.
+fn error_against_blinn_phong(image: &RenderedImage, n: V3) -> f64 {
+    let mut worst = 0.0f64;
+    for y in 0..image.height {
+        for x in 0..image.width {
+            let want = blinn_phong_on_the_plane(n, x, y);
+            let got = image.pixel(x, y);
+            for c in 0..3 {
+                worst = worst.max((got[c] as f64 - want[c]).abs());
+            }
+        }
+    }
+    worst
+}
+
+#[test]
+fn a_linear_height_tilts_a_plane_to_blinns_normal() {
+    // h = a·x on the plane y = 0 (normal +y): ∇h = (a, 0, 0) is tangent to the plane, and the
+    // shading normal is normalize((0, 1, 0) − s·(a, 0, 0)) on every pixel.
+    let a = 0.8;
+    let graphs = [("ramp.ron", height_graph(&format!("Mul({a:?}, \"p.x\")")))];
+    let flat = bump_plane(&graphs, "", "");
+    let up = [0.0, 1.0, 0.0];
+    assert!(error_against_blinn_phong(&flat, up) < 2e-5);
+    for s in [0.6, -0.6, 1.5] {
+        for form in [
+            format!(", bump: (height: \"ramp.ron.h\", strength: {s:?})"),
+            format!(", bump: Bump(height: Texture(graph: \"ramp.ron\", output: \"h\"), strength: {s:?})"),
+            // `multiply` is a factor on the height: the same tilt.
+            format!(", bump: (height: Texture(graph: \"ramp.ron\", multiply: 2), strength: {:?})", s / 2.0),
+        ] {
+            let image = bump_plane(&graphs, &form, "");
+            let tilted = normalise([-s * a, 1.0, 0.0]);
+            let error = error_against_blinn_phong(&image, tilted);
+            assert!(error < 2e-5, "{form}: off by {error}");
+            // The tilt is visible: the flat plane's shading is far from it.
+            let flat_error = error_against_blinn_phong(&image, up);
+            assert!(flat_error > 0.05, "{form}: the bump changed little ({flat_error})");
+        }
+    }
+}
+
+#[test]
+fn only_the_tangential_part_of_the_gradient_tilts_the_normal() {
+    // A height that also grows along the plane's normal (+y) bumps exactly as one that does not.
+    let graphs = [
+        ("x.ron", height_graph(&linear([0.8, 0.0, -0.3]))),
+        ("xy.ron", height_graph(&linear([0.8, 5.0, -0.3]))),
+    ];
+    let a = bump_plane(&graphs, ", bump: (height: \"x.ron.h\", strength: 1)", "");
+    let b = bump_plane(&graphs, ", bump: (height: \"xy.ron.h\", strength: 1)", "");
+    let diff = max_difference(&a, &b);
+    assert!(diff < 1e-6, "max difference {diff}");
+    let c = bump_plane(&graphs, "", "");
+    assert!(max_difference(&a, &c) > 0.05);
+}
+
+/// The linear part of `[Scale(scale), Rotate(axis: (0, 1, 0), degrees)]`: R·S, as rows.
+fn rotate_y_after_scale(scale: V3, degrees: f64) -> [V3; 3] {
+    let (s, c) = degrees.to_radians().sin_cos();
+    let r = [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]];
+    std::array::from_fn(|i| std::array::from_fn(|j| r[i][j] * scale[j]))
+}
+
+fn times(m: [V3; 3], v: V3) -> V3 {
+    std::array::from_fn(|i| dot(m[i], v))
+}
+
+fn transposed(m: [V3; 3]) -> [V3; 3] {
+    std::array::from_fn(|i| std::array::from_fn(|j| m[j][i]))
+}
+
+#[test]
+fn gradients_follow_the_chain_rule_through_texture_transforms() {
+    // The texture point is p_t = L·p + t (L = R·S: a non-uniform scale, then a turn). A height
+    // c·p_t is (Lᵀc)·p + constant at the plane's point p: the bump must match the height with
+    // Lᵀ folded into the graph. Lᵀ ≠ L here, so a missing transpose shows.
+    let c = [0.5, 0.3, -0.4];
+    let l = rotate_y_after_scale([3.0, 1.0, 0.5], 30.0);
+    let folded = times(transposed(l), c);
+    let not_transposed = times(l, c);
+    let graphs = [
+        ("h.ron", height_graph(&linear(c))),
+        ("folded.ron", height_graph(&linear(folded))),
+        ("wrong.ron", height_graph(&linear(not_transposed))),
+    ];
+    let transformed = bump_plane(
+        &graphs,
+        ", bump: (height: Texture(graph: \"h.ron\", output: \"h\", transform: [Scale((3, 1, 0.5)), \
+         Rotate(axis: (0, 1, 0), degrees: 30), Translate(0.2, 7, 0.1)]), strength: 0.7)",
+        "",
+    );
+    let want = bump_plane(
+        &graphs,
+        ", bump: (height: \"folded.ron.h\", strength: 0.7)",
+        "",
+    );
+    let wrong = bump_plane(
+        &graphs,
+        ", bump: (height: \"wrong.ron.h\", strength: 0.7)",
+        "",
+    );
+    let diff = max_difference(&transformed, &want);
+    assert!(diff < 1e-5, "max difference {diff}");
+    assert!(max_difference(&want, &wrong) > 0.02, "the test cannot tell");
+    // Against the analytic tilt too: the folded gradient's part along the plane.
+    let tilted = normalise([-0.7 * folded[0], 1.0, -0.7 * folded[2]]);
+    assert!(error_against_blinn_phong(&transformed, tilted) < 2e-5);
+}
+
+#[test]
+fn gradients_follow_the_chain_rule_through_object_transforms() {
+    // An object-space height on an object scaled non-uniformly and turned: the object point is
+    // p_o = L⁻¹·p_w (L = R·S), so ∇_w (c·p_o) = L⁻ᵀc = R·S⁻¹·c. The plane y = 0 stays the plane
+    // y = 0 under these steps; the same plane with a world-space height (R·S⁻¹·c)·p must look
+    // the same.
+    let c = [0.5, 0.3, -0.4];
+    let inverse_scale = rotate_y_after_scale([0.5, 1.0, 2.0], 40.0); // R·S⁻¹
+    let folded = times(inverse_scale, c);
+    let wrong = times(rotate_y_after_scale([2.0, 1.0, 0.5], 40.0), c); // R·S·c
+    let graphs = [
+        ("h.ron", height_graph(&linear(c))),
+        ("folded.ron", height_graph(&linear(folded))),
+        ("wrong.ron", height_graph(&linear(wrong))),
+    ];
+    let object_space = bump_plane(
+        &graphs,
+        ", bump: (height: Texture(graph: \"h.ron\", space: Object), strength: 0.7)",
+        "Scale((2, 1, 0.5)), Rotate(axis: (0, 1, 0), degrees: 40)",
+    );
+    let world = |graph: &str| {
+        bump_plane(
+            &graphs,
+            &format!(", bump: (height: Texture(graph: \"{graph}\", space: World), strength: 0.7)"),
+            "",
+        )
+    };
+    let diff = max_difference(&object_space, &world("folded.ron"));
+    assert!(diff < 1e-5, "max difference {diff}");
+    assert!(max_difference(&object_space, &world("wrong.ron")) > 0.02);
+}
+
+/// A sphere of stone (graphs/stone.ron) with `bump` (scene text) in its material.
+fn stone_sphere(bump: &str) -> (RenderedImage, render::Counters) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy("graphs/stone.ron", dir.path().join("stone.ron")).unwrap();
+    let path = dir.path().join("scene.ron");
+    std::fs::write(
+        &path,
+        format!(
+            r#"Scene(
+    camera: Camera(position: (0, 0.5, 3.4), look_at: (0, 0, 0), fov: 40),
+    lights: [Point(position: (-4, 5, 6)), Directional(direction: (1, -0.3, -1), intensity: 0.3, shadows: false)],
+    materials: {{
+        "stone": Material(
+            diffuse: Texture(graph: "stone.ron", set: {{ "octaves": 3 }}, transform: [Scale(0.5), Translate(0.5, 0.5, 0.5)]),
+            specular: Value(0.3),
+            shininess: Value(20),
+            {bump}
+        ),
+    }},
+    objects: [Object(shape: Sphere(), material: "stone")],
+)"#
+        ),
+    )
+    .unwrap();
+    let scene = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    let (image, stats) = render(&scene, &small(1)).unwrap();
+    (image, stats.counters)
+}
+
+#[test]
+fn a_bump_of_strength_zero_changes_no_bit() {
+    let texture = |strength: &str| {
+        format!(
+            "bump: (height: Texture(graph: \"stone.ron\", output: \"stone\", set: {{ \"octaves\": 3 }}, \
+             transform: [Scale(0.5), Translate(0.5, 0.5, 0.5)]), strength: {strength}),"
+        )
+    };
+    let (plain, plain_counters) = stone_sphere("");
+    let (zero, zero_counters) = stone_sphere(&texture("0"));
+    assert!(plain.pixels == zero.pixels, "a zero bump changed the image");
+    assert_eq!(plain_counters, zero_counters);
+    let (short_zero, _) = stone_sphere("bump: (height: \"stone.ron.stone\", strength: 0),");
+    assert!(plain.pixels == short_zero.pixels);
+    let (bumped, counters) = stone_sphere(&texture("0.1"));
+    assert!(max_difference(&plain, &bumped) > 0.05);
+    // The height's gradient shares the colour's tape and evaluation (same graph, set, space and
+    // transform): one evaluation per hit, as without the bump.
+    assert_eq!(counters.texture_points, plain_counters.texture_points);
+    assert_eq!(counters.non_finite, 0);
+}
+
+#[test]
+fn a_bump_shares_the_compiled_tape_of_its_graph() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(MARBLE, dir.path().join("marble.ron")).unwrap();
+    let path = dir.path().join("scene.ron");
+    std::fs::write(
+        &path,
+        with(
+            r#"        "m": Material(diffuse: Texture(graph: "marble.ron", output: "colour"), bump: (height: Texture(graph: "marble.ron", output: "vein"))),
+        "n": Material(bump: (height: "marble.ron.vein", strength: -2)),"#,
+            r#"        Object(shape: Sphere(), material: "m"),
+        Object(shape: Sphere(), material: "n", transform: [Translate(2, 0, 0)]),"#,
+        ),
+    )
+    .unwrap();
+    let scene = load_scene(&path).unwrap();
+    // One graph, one tape: the colour and the height's gradient (not the height itself).
+    assert_eq!(scene.textures().len(), 1);
+    assert_eq!(scene.textures()[0].outputs, ["colour", "∇vein"]);
+    assert_eq!(scene.textures()[0].tape.outputs().len(), 2);
+    let (_, stats) = render(&scene, &small(1)).unwrap();
+    assert!(stats.counters.texture_points > 0);
+}
+
+/// The rendered error of a scene with the materials `materials` (on spheres named "a" to "h"),
+/// next to the marble graph and a graph whose scalar output `slope` uses a noise gradient.
+fn bump_error(materials: &str) -> String {
+    let objects: String = materials
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix('"')?.split_once('"'))
+        .map(|(name, _)| format!("        Object(shape: Sphere(), material: \"{name}\"),\n"))
+        .collect();
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(MARBLE, dir.path().join("marble.ron")).unwrap();
+    std::fs::write(
+        dir.path().join("slope.ron"),
+        r#"Graph(
+    nodes: { "h": Fbm(input: Position, basis: Perlin, octaves: 4), "slope": Length(Gradient(of: "h")) },
+    outputs: { "slope": "slope" },
+)"#,
+    )
+    .unwrap();
+    let path = dir.path().join("scene.ron");
+    std::fs::write(&path, with(materials, objects.trim_end())).unwrap();
+    let error = load_scene(&path).expect_err("the scene is invalid");
+    assert_eq!(error.exit_code(), 1);
+    error
+        .render(false)
+        .replace(&dir.path().display().to_string(), "DIR")
+}
+
+#[test]
+fn bump_problems_are_located_in_the_scene() {
+    let message = bump_error(
+        r#"        "a": Material(bump: (height: "marble.ron.veins")),
+        "b": Material(bump: (height: Texture(graph: "marble.ron", output: "colour"))),
+        "c": Material(bump: (height: "nowhere.ron.h")),
+        "d": Material(bump: (height: "marble.ron.vein", strength: inf)),
+        "e": Material(bump: (height: "slope.ron.slope")),
+        "f": Material(bump: (height: "marble")),
+        "g": Material(bump: (height: Textur(graph: "marble.ron"))),
+        "h": Material(bump: (height: Texture(graph: "marble.ron", set: { "octave": 2 }, transform: [Scale(0)])))"#,
+    );
+    for expected in [
+        "error[unknown-output]: DIR/scene.ron:5:38: material \"a\": `bump`: the graph DIR/marble.ron has no output \"veins\"",
+        "did you mean \"vein\"? Its outputs are: colour, vein",
+        "error[type]: DIR/scene.ron:6:75: material \"b\": `bump`: a height is a number, and output \"colour\" is a vec3",
+        "error[unknown-reference]: DIR/scene.ron:7:38: material \"c\": cannot read the graph file DIR/nowhere.ron",
+        "`height: \"FILE.OUTPUT\"` is split at the last dot",
+        "error[bad-parameter]: DIR/scene.ron:8:67: material \"d\": `bump`: `strength` is inf; it must be finite",
+        "error[not-differentiable]: DIR/scene.ron:9:38: material \"e\": `bump`: the graph DIR/slope.ron: output `slope` uses a noise gradient",
+        "error[bad-parameter]: DIR/scene.ron:10:38: material \"f\": `bump`: `height` is \"marble\"; it must name a graph file and its output",
+        "error[unknown-kind]: DIR/scene.ron:11:38: material \"g\": `bump`: `height` is `Textur(...)`",
+        "error[bad-parameter]: DIR/scene.ron:12:101: material \"h\": `bump`: Scale: every factor must be finite and not zero",
+        "error[unknown-param]: DIR/scene.ron:12:74: material \"h\": `bump`: the graph DIR/marble.ron has no param \"octave\"",
+    ] {
+        assert!(message.contains(expected), "missing {expected:?} in:\n{message}");
+    }
+    // A height that is not a string or a struct, and a bump without a height: the reader's.
+    let message = bump_error(r#"        "a": Material(bump: (height: 3)),"#);
+    assert!(
+        message.contains("error[type]: DIR/scene.ron:5:39:") && message.contains("FILE.OUTPUT"),
+        "{message}"
+    );
+    let message = bump_error(r#"        "a": Material(bump: (strength: 2)),"#);
+    assert!(
+        message.contains("error[missing-argument]") && message.contains("height"),
+        "{message}"
+    );
+}
+
+#[test]
+fn a_bare_graph_is_bumped_by_its_scalar_output() {
+    let plain = Scene::from_graph_default(
+        Path::new("graphs/stone.ron"),
+        &PreviewDefaults {
+            overrides: vec![("octaves".into(), 3.0)],
+            ..PreviewDefaults::default()
+        },
+    )
+    .unwrap();
+    let bumped = |output: &str, strength: f64| {
+        Scene::from_graph_default(
+            Path::new("graphs/stone.ron"),
+            &PreviewDefaults {
+                overrides: vec![("octaves".into(), 3.0)],
+                bump: Some(render::PreviewBump {
+                    output: output.into(),
+                    strength,
+                }),
+                ..PreviewDefaults::default()
+            },
+        )
+    };
+    let scene = bumped("stone", 0.2).unwrap();
+    assert_eq!(
+        scene.textures().len(),
+        1,
+        "the colour and the bump share a tape"
+    );
+    assert_eq!(scene.textures()[0].outputs, ["colour", "∇stone"]);
+    let a = render(&plain, &small(1)).unwrap().0;
+    let b = render(&scene, &small(1)).unwrap().0;
+    assert!(max_difference(&a, &b) > 0.05);
+    let zero = render(&bumped("stone", 0.0).unwrap(), &small(1)).unwrap().0;
+    assert!(a.pixels == zero.pixels);
+    let message = bumped("colour", 1.0).unwrap_err().to_string();
+    assert!(message.contains("output \"colour\" is a vec3"), "{message}");
+    let message = bumped("nope", 1.0).unwrap_err().to_string();
+    assert!(message.contains("has no output \"nope\""), "{message}");
+}
+
+/// Runs the texgraph binary in the crate root: (exit code, stderr).
+fn texgraph(args: &[&str]) -> (i32, String) {
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_texgraph"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("NO_COLOR", "1")
+        .output()
+        .expect("run texgraph");
+    (
+        output.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&output.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn render_bump_on_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = |name: &str| dir.path().join(name).display().to_string();
+    let stone = "graphs/stone.ron";
+    let base = [
+        "render",
+        stone,
+        "--size",
+        "40,30",
+        "--samples",
+        "1",
+        "--set",
+        "octaves=2",
+        "-q",
+    ];
+    let run = |extra: &[&str], out: &str| {
+        let mut args: Vec<&str> = base.to_vec();
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["-o", out]);
+        texgraph(&args)
+    };
+    let pixels = |path: &str| image::open(path).unwrap().to_rgb8().into_raw();
+    assert_eq!(run(&[], &png("plain.png")).0, 0);
+    let (code, err) = run(&["--bump", "stone"], &png("bumped.png"));
+    assert_eq!(code, 0, "{err}");
+    assert_ne!(pixels(&png("plain.png")), pixels(&png("bumped.png")));
+    // Negative strengths are numbers, not flags; strength 0 is the plain image.
+    let (code, err) = run(
+        &["--bump", "stone", "--bump-strength", "-0.5"],
+        &png("neg.png"),
+    );
+    assert_eq!(code, 0, "{err}");
+    assert_ne!(pixels(&png("neg.png")), pixels(&png("bumped.png")));
+    let (code, err) = run(
+        &["--bump", "stone", "--bump-strength", "0"],
+        &png("zero.png"),
+    );
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(pixels(&png("plain.png")), pixels(&png("zero.png")));
+    // Usage errors: exit 2.
+    for (extra, message) in [
+        (vec!["--bump-strength", "2"], "--bump <OUTPUT>"),
+        (vec!["--bump", "stone", "--bump-strength", "inf"], "finite"),
+        (vec!["--bump", "stone", "--bump-strength", "x"], "finite"),
+    ] {
+        let (code, err) = run(&extra, &png("x.png"));
+        assert_eq!(code, 2, "{extra:?}: {err}");
+        assert!(err.contains(message), "{extra:?}: {err}");
+    }
+    // A height that is not a scalar output of the graph: exit 1, as for --output.
+    let (code, err) = run(&["--bump", "colour"], &png("x.png"));
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("output \"colour\" is a vec3"), "{err}");
+    let (code, err) = run(&["--bump", "nope"], &png("x.png"));
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("has no output \"nope\""), "{err}");
+    assert!(err.contains("its outputs are: colour, stone"), "{err}");
+    assert!(!dir.path().join("x.png").exists());
+    // Scene files set their own bumps, for render and watch alike; the timing table has none.
+    for command in ["render", "watch"] {
+        for extra in [
+            vec!["--bump", "vein"],
+            vec!["--bump", "vein", "--bump-strength", "2"],
+        ] {
+            let mut args = vec![command, "graphs/scenes/seed003_sphere.ron", "-o"];
+            let out = png("scene.png");
+            args.push(&out);
+            args.extend_from_slice(&extra);
+            let (code, err) = texgraph(&args);
+            assert_eq!(code, 2, "{args:?}: {err}");
+            assert!(err.contains("--bump"), "{err}");
+            assert!(err.contains("to graph files only"), "{err}");
+        }
+    }
+    let (code, err) = texgraph(&["render", "--timing-table", "--bump", "vein"]);
+    assert_eq!(code, 2, "{err}");
+}
+
+/// `watch` follows imports: the files a graph imports (directly or not) are watched, a broken
+/// imported file keeps the last good image with the problem located in that file, and fixing it
+/// renders the new look.
+#[test]
+fn watch_follows_the_files_a_graph_imports() {
+    let dir = tempfile::tempdir().unwrap();
+    let leaf = dir.path().join("leaf.ron");
+    let mid = dir.path().join("mid.ron");
+    let top = dir.path().join("top.ron");
+    let out = dir.path().join("out.png");
+    std::fs::write(
+        &leaf,
+        r#"Graph(outputs: { "colour": Combine(0.9, 0.2, 0.1) })"#,
+    )
+    .unwrap();
+    std::fs::write(
+        &mid,
+        r#"Graph(outputs: { "colour": Import(file: "leaf.ron", output: "colour") })"#,
+    )
+    .unwrap();
+    std::fs::write(
+        &top,
+        r#"Graph(outputs: { "colour": Import(file: "mid.ron", output: "colour") })"#,
+    )
+    .unwrap();
+    let mut previewer = Previewer::new(&top, PreviewDefaults::default(), small(1), &out);
+    previewer.reload().expect("renders");
+    let red = previewer.image().unwrap().clone();
+    for f in [&top, &mid, &leaf] {
+        assert!(
+            previewer
+                .watched_files()
+                .iter()
+                .any(|w| w.ends_with(f.file_name().unwrap())),
+            "{} is not watched: {:?}",
+            f.display(),
+            previewer.watched_files()
+        );
+    }
+    // Broken two imports down: located in leaf.ron, with the chain; the red image stays.
+    std::fs::write(&leaf, r#"Graph(outputs: { "colour": Combine(0.1, 0.2) })"#).unwrap();
+    let message = previewer.reload().unwrap_err().to_string();
+    assert!(message.contains("leaf.ron:1:"), "{message}");
+    assert!(message.contains("imported from"), "{message}");
+    assert_eq!(previewer.image(), Some(&red));
+    // Fixed to blue: the new look renders.
+    std::fs::write(
+        &leaf,
+        r#"Graph(outputs: { "colour": Combine(0.1, 0.2, 0.9) })"#,
+    )
+    .unwrap();
+    previewer.reload().expect("renders again");
+    assert_ne!(previewer.image(), Some(&red));
 }

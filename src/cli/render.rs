@@ -34,6 +34,14 @@ pub struct RenderArgs {
     /// Graph files only: the output shown as the diffuse colour (default: `colour`).
     #[arg(long = "output", value_name = "NAME")]
     output: Option<String>,
+    /// Graph files only: bump the object's surface with this scalar output of the graph as the
+    /// height (evaluated where the colour is: same --set, --space and mapping).
+    #[arg(long = "bump", value_name = "OUTPUT")]
+    bump: Option<String>,
+    /// Graph files only, with --bump: a factor on the height's gradient, any finite number
+    /// (negative inverts the bumps) [default: 1].
+    #[arg(long = "bump-strength", value_name = "S", requires = "bump", value_parser = parse_strength)]
+    bump_strength: Option<f64>,
     /// Graph files only: override a param (repeatable).
     #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
     sets: Vec<(String, f64)>,
@@ -59,6 +67,14 @@ pub fn parse_image_size(text: &str) -> Result<(u32, u32), String> {
     }
 }
 
+/// A bump strength: any finite number.
+pub fn parse_strength(text: &str) -> Result<f64, String> {
+    match text.replace(MINUS, "-").trim().parse::<f64>() {
+        Ok(s) if s.is_finite() => Ok(s),
+        _ => Err(format!("the strength is a finite number, found `{text}`")),
+    }
+}
+
 /// The input of render and watch must be a file; watch says so at once instead of waiting for a
 /// file that is missing (render reports the read error itself).
 pub fn check_render_input(file: &Path, watch: bool) -> Result<(), String> {
@@ -73,7 +89,7 @@ pub fn check_render_input(file: &Path, watch: bool) -> Result<(), String> {
 }
 
 pub fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
-    use crate::render::{self, PreviewDefaults, Previewer, RenderOptions};
+    use crate::render::{self, PreviewBump, PreviewDefaults, Previewer, RenderOptions};
     let failure = |e: &render::RenderError| {
         eprint!("{}", e.render(colour()));
         Failure::from_exit_code(e.exit_code())
@@ -88,6 +104,10 @@ pub fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
         progress: !args.quiet,
     };
     if args.timing_table {
+        if args.bump.is_some() {
+            eprintln!("error: --bump does not apply to --timing-table, which renders seed 003's marble sphere as it is");
+            return Err(Failure::Usage);
+        }
         let graph = args
             .file
             .clone()
@@ -125,6 +145,8 @@ pub fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
         ("--space", args.space.is_some()),
         ("--set", !args.sets.is_empty()),
         ("--output", args.output.is_some()),
+        ("--bump", args.bump.is_some()),
+        ("--bump-strength", args.bump_strength.is_some()),
     ]
     .into_iter()
     .filter_map(|(flag, given)| given.then_some(flag))
@@ -137,6 +159,10 @@ pub fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
         space: args.space.unwrap_or_default(),
         overrides: args.sets.clone(),
         output: args.output.clone(),
+        bump: args.bump.clone().map(|output| PreviewBump {
+            output,
+            strength: args.bump_strength.unwrap_or(1.0),
+        }),
     };
     let mut previewer = Previewer::new(&file, defaults, options, &out);
     if !watch {

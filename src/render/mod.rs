@@ -55,6 +55,10 @@
 //! - Lights: `Point(position, colour, intensity, shadows)` (no fall-off) and
 //!   `Directional(direction, colour, intensity, shadows)`, `direction` being where the light
 //!   shines; colour (1, 1, 1), intensity 1 and shadows true by default.
+//! - Bump: `bump: (height: "FILE.OUTPUT", strength: 1)` or `bump: (height: Texture(...),
+//!   strength: 1)`: the shading normal n becomes normalize(n − strength · g⊥), g⊥ the part
+//!   tangent to the surface of the height's world-space gradient (Blinn 1978); the gradient is
+//!   compiled into the graph's tape next to its other bound outputs.
 //! - Channels: `Colour(r, g, b)`, `Value(v)` (a grey for colour channels), or
 //!   `Texture(graph, output, set, space, transform, multiply)`: `graph` relative to the scene
 //!   file; `output` by default `colour` (colour channels) or the first scalar output
@@ -75,8 +79,9 @@ pub mod shade;
 pub mod teapot;
 
 pub use scene::{
-    load_scene, ChannelDesc, CompiledTexture, LightDesc, MaterialDesc, ObjectDesc, PreviewDefaults,
-    PreviewObject, Scene, SceneDesc, ShapeDesc, Space, TransformDesc,
+    load_scene, BumpDesc, ChannelDesc, CompiledTexture, HeightDesc, LightDesc, MaterialDesc,
+    ObjectDesc, PreviewBump, PreviewDefaults, PreviewObject, Scene, SceneDesc, ShapeDesc, Space,
+    TransformDesc,
 };
 pub use shade::Counters;
 
@@ -250,7 +255,7 @@ pub fn refuse_graph_only_options(path: &Path, given: &[&str]) -> Result<(), Rend
     };
     if input_kind(&source.text) == InputKind::Scene {
         return Err(RenderError::Options(format!(
-            "{}: {} {} to graph files only; this is a scene file, which sets its objects, spaces, outputs and params itself",
+            "{}: {} {} to graph files only; this is a scene file, which sets its objects, spaces, outputs, params and bumps itself",
             path.display(),
             given.join(", "),
             if given.len() == 1 { "applies" } else { "apply" }
@@ -683,6 +688,7 @@ pub fn seed003_sphere(graph: &str, overrides: &[(&str, f64)]) -> SceneDesc {
             diffuse: texture,
             specular: ChannelDesc::Value(0.3),
             shininess: ChannelDesc::Value(30.0),
+            bump: None,
         },
     );
     SceneDesc {

@@ -3,12 +3,13 @@
 //!
 //! A tile is rendered in three passes: trace every sample's primary ray and keep the hits;
 //! evaluate each evaluation group's tape once over all the tile's hit points that need it
-//! (`Tape::eval_batch`, f32 lanes); shade every hit from its channel values. Sample positions
-//! come from a hash of the pixel and sample index, and each pixel averages its samples in
-//! order, so an image does not depend on the tile order or the thread count.
+//! (`Tape::eval_batch`, f32 lanes); shade every hit from its channel values, its normal tilted
+//! by its material's bump (the gradient of a height, evaluated in the same batches). Sample
+//! positions come from a hash of the pixel and sample index, and each pixel averages its samples
+//! in order, so an image does not depend on the tile order or the thread count.
 
 use super::geometry::{self, LocalHit, Ray};
-use super::scene::{Channel, LightKind, Object, Scene, Shape, Space};
+use super::scene::{Channel, EvalGroup, LightKind, Material, Object, Scene, Shape, Space};
 use crate::eval::Workspace;
 use glam::Vec3;
 
@@ -75,6 +76,7 @@ impl Scratch {
 }
 
 /// A primary-ray hit, in world space.
+#[derive(Clone, Copy)]
 struct Hit {
     /// Index of the sample in the tile (pixel-major).
     sample: u32,
@@ -178,12 +180,6 @@ pub(crate) fn render_tile(
     let hits = primary_hits(scene, tile, width, height, samples, &mut counters);
     counters.hits = hits.len() as u64;
     let textures = evaluate_textures(scene, scratch, &hits, &mut counters, texture_time);
-    let TextureValues {
-        counts,
-        slot_base,
-        slots,
-        values,
-    } = textures;
 
     // Pass 3: shade.
     let mut sample_colours = vec![scene.background; n_samples];
@@ -199,20 +195,7 @@ pub(crate) fn render_tile(
                     vec3,
                     multiply,
                 } => {
-                    let g = material.groups[slot];
-                    let n = counts[g];
-                    let i = slots[slot_base[h] as usize + slot] as usize;
-                    let v = &values[g];
-                    let c = if vec3 {
-                        Vec3::new(
-                            v[channel * n + i],
-                            v[(channel + 1) * n + i],
-                            v[(channel + 2) * n + i],
-                        )
-                    } else {
-                        Vec3::splat(v[channel * n + i])
-                    };
-                    let c = c * multiply;
+                    let c = textures.get(material, h, slot, channel, vec3) * multiply;
                     if c.is_finite() {
                         c
                     } else {
@@ -226,9 +209,19 @@ pub(crate) fn render_tile(
         let diffuse = fetch(&material.diffuse);
         let specular = fetch(&material.specular);
         let shininess = fetch(&material.shininess).x.clamp(0.0, 1e4);
+        let mut shaded = *hit;
+        if let Some(bump) = &material.bump {
+            let gradient = textures.get(material, h, bump.slot, bump.channel, true);
+            let group = &scene.groups[material.groups[bump.slot]];
+            let gradient = world_gradient(gradient, group, object) * bump.strength;
+            match bumped_normal(hit.normal, gradient) {
+                Some(normal) => shaded.normal = normal,
+                None => counters.non_finite += 1,
+            }
+        }
         sample_colours[hit.sample as usize] = shade(
             scene,
-            hit,
+            &shaded,
             ambient,
             diffuse,
             specular,
@@ -325,6 +318,26 @@ struct TextureValues {
     values: Vec<Vec<f32>>,
 }
 
+impl TextureValues {
+    /// The value at hit `h` of the output at `channel` in the tape of `material`'s evaluation
+    /// group `slot`: three channels for a vec3, else a grey.
+    fn get(&self, material: &Material, h: usize, slot: usize, channel: usize, vec3: bool) -> Vec3 {
+        let g = material.groups[slot];
+        let n = self.counts[g];
+        let i = self.slots[self.slot_base[h] as usize + slot] as usize;
+        let v = &self.values[g];
+        if vec3 {
+            Vec3::new(
+                v[channel * n + i],
+                v[(channel + 1) * n + i],
+                v[(channel + 2) * n + i],
+            )
+        } else {
+            Vec3::splat(v[channel * n + i])
+        }
+    }
+}
+
 /// Pass 2: texture points per evaluation group, one batch each.
 fn evaluate_textures(
     scene: &Scene,
@@ -382,6 +395,30 @@ fn evaluate_textures(
         slots,
         values,
     }
+}
+
+/// The gradient of a texture with respect to the world point, from its gradient `g` with
+/// respect to the texture point (its evaluation's `Position`). The texture point is an affine
+/// map of the world point, p_t = T(S(p_w)) (S: the object's world → object map in object space,
+/// else the identity; T: the texture's transform); by the chain rule ∇_w = Sᵀ Tᵀ g with Sᵀ, Tᵀ
+/// the transposes of their linear parts. Sᵀ is the object's normal matrix (the inverse
+/// transpose of its object → world map).
+pub(crate) fn world_gradient(g: Vec3, group: &EvalGroup, object: &Object) -> Vec3 {
+    let g = group.gradient_to_space * g;
+    match group.space {
+        Space::Object => object.normal_to_world * g,
+        Space::World => g,
+    }
+}
+
+/// Blinn's (1978) bump perturbation of the unit normal `n` by `g`, the world-space gradient of
+/// the height times the strength: n' = normalize(n − (g − (g·n) n)), the normal of the surface
+/// moved by the height along n (to first order). `None` when n' is not finite (a NaN
+/// gradient, or one so large that nothing of n is left).
+pub(crate) fn bumped_normal(n: Vec3, g: Vec3) -> Option<Vec3> {
+    let tangential = g - g.dot(n) * n;
+    let bumped = (n - tangential).normalize();
+    bumped.is_finite().then_some(bumped)
 }
 
 /// Blinn–Phong: ambient light × ambient + Σ over lights reaching the point of radiance ×

@@ -23,32 +23,47 @@ pub(super) enum Key<'a> {
     EntryName(&'a str),
 }
 
+/// The value `key` leads to from `here`, if the file has it (map keys and newtype variants are
+/// `locate`'s concern).
+fn step<'t>(here: &'t syntax::Value, key: &Key) -> Option<&'t syntax::Value> {
+    use syntax::ValueKind as V;
+    match (&here.kind, key) {
+        (V::Struct { fields, .. }, Key::Field(name)) => fields
+            .iter()
+            .find(|(n, _)| n.value == *name)
+            .map(|(_, v)| v),
+        (V::List(items), Key::Index(i)) | (V::Tuple { items, .. }, Key::Index(i)) => items.get(*i),
+        (V::Map(entries), Key::Entry(name)) => entries
+            .iter()
+            .find(|(k, _)| matches!(&k.kind, V::Str(s) if s == name))
+            .map(|(_, v)| v),
+        _ => None,
+    }
+}
+
+/// The value at exactly `path`, if the file has it.
+fn value_at<'t>(tree: &'t syntax::Value, path: &[Key]) -> Option<&'t syntax::Value> {
+    path.iter().try_fold(tree, |here, key| step(here, key))
+}
+
 /// The span of the deepest value along `path` that the file has.
 fn locate(tree: &syntax::Value, path: &[Key]) -> Span {
     use syntax::ValueKind as V;
     let mut here = tree;
     for key in path {
-        let next = match (&here.kind, key) {
-            (V::Struct { fields, .. }, Key::Field(name)) => fields
-                .iter()
-                .find(|(n, _)| n.value == *name)
-                .map(|(_, v)| v),
-            (V::List(items), Key::Index(i)) | (V::Tuple { items, .. }, Key::Index(i)) => {
-                items.get(*i)
-            }
-            (V::Map(entries), Key::Entry(name)) => entries
-                .iter()
-                .find(|(k, _)| matches!(&k.kind, V::Str(s) if s == name))
-                .map(|(_, v)| v),
+        let next = step(here, key).or_else(|| match (&here.kind, key) {
             (V::Map(entries), Key::EntryName(name)) => entries
                 .iter()
                 .find(|(k, _)| matches!(&k.kind, V::Str(s) if s == name))
                 .map(|(k, _)| k),
+            _ => None,
+        });
+        let next = match (next, &here.kind) {
             // A newtype variant such as `Scale(2)`: look inside.
-            (V::Tuple { items, .. }, _) if items.len() == 1 => {
+            (None, V::Tuple { items, .. }) if items.len() == 1 && !matches!(key, Key::Index(_)) => {
                 return locate(&items[0], std::slice::from_ref(key)).to(here.span)
             }
-            _ => None,
+            (next, _) => next,
         };
         match next {
             Some(v) => here = v,
@@ -96,6 +111,11 @@ impl<'a> Problems<'a> {
             d = d.help(help);
         }
         self.scene.push(d);
+    }
+
+    /// The value at exactly `path` in the scene file's tree, if the file is located and has it.
+    pub(super) fn value_at(&self, path: &[Key]) -> Option<&'a syntax::Value> {
+        value_at(self.located?.tree?, path)
     }
 
     /// Every problem collected, as one error (the scene's in file order, then the other

@@ -36,7 +36,7 @@ mod diagnostics;
 mod preview;
 mod resolve;
 
-pub use preview::{PreviewDefaults, PreviewObject};
+pub use preview::{PreviewBump, PreviewDefaults, PreviewObject};
 
 use super::geometry::Mesh;
 use super::RenderError;
@@ -155,6 +155,90 @@ pub struct MaterialDesc {
     /// Blinn–Phong exponent (a scalar channel).
     #[serde(default = "default_shininess")]
     pub shininess: ChannelDesc,
+    /// Bump mapping: the shading normal tilted by the gradient of a scalar graph output.
+    #[serde(default)]
+    pub bump: Option<BumpDesc>,
+}
+
+/// `bump: (height: ..., strength: 1.0)`: the shading normal n becomes
+/// normalize(n − strength · (g − (g·n) n)), g the world-space gradient of the height (Blinn
+/// 1978, for a solid height field).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(rename = "Bump", deny_unknown_fields)]
+pub struct BumpDesc {
+    /// The height: a scalar graph output.
+    pub height: HeightDesc,
+    /// A factor on the height's gradient; negative inverts the bumps.
+    #[serde(default = "one")]
+    pub strength: f64,
+}
+
+/// A bump's height: `"FILE.OUTPUT"` (split at the last dot) or the `Texture(...)` form of the
+/// channels, with its `set`, `space`, `transform` and `multiply`.
+#[derive(Clone, Debug)]
+pub enum HeightDesc {
+    /// `"stone.ron.height"`: output `height` of the graph file `stone.ron`, in object space
+    /// with no transform.
+    Output(String),
+    /// The fields of a `Texture(...)` channel.
+    Texture {
+        graph: String,
+        /// By default the graph's first scalar output.
+        output: Option<String>,
+        set: BTreeMap<String, f64>,
+        space: Space,
+        transform: Vec<TransformDesc>,
+        multiply: f64,
+    },
+}
+
+/// The fields of `Texture(...)` in a height, read through a map (the form is told apart from a
+/// string by what the reader finds; the name `Texture` is checked against the spanned tree).
+#[derive(Deserialize)]
+#[serde(rename = "Texture", deny_unknown_fields)]
+struct HeightTexture {
+    graph: String,
+    #[serde(default)]
+    output: Option<String>,
+    #[serde(default)]
+    set: BTreeMap<String, f64>,
+    #[serde(default)]
+    space: Space,
+    #[serde(default)]
+    transform: Vec<TransformDesc>,
+    #[serde(default = "one")]
+    multiply: f64,
+}
+
+impl<'de> Deserialize<'de> for HeightDesc {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<HeightDesc, D::Error> {
+        struct Height;
+        impl<'de> serde::de::Visitor<'de> for Height {
+            type Value = HeightDesc;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a string \"FILE.OUTPUT\" or Texture(graph: ..., output: ...)")
+            }
+            fn visit_str<E: serde::de::Error>(self, s: &str) -> Result<HeightDesc, E> {
+                Ok(HeightDesc::Output(s.to_string()))
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                map: A,
+            ) -> Result<HeightDesc, A::Error> {
+                let t =
+                    HeightTexture::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
+                Ok(HeightDesc::Texture {
+                    graph: t.graph,
+                    output: t.output,
+                    set: t.set,
+                    space: t.space,
+                    transform: t.transform,
+                    multiply: t.multiply,
+                })
+            }
+        }
+        d.deserialize_any(Height)
+    }
 }
 
 fn default_diffuse() -> ChannelDesc {
@@ -174,6 +258,7 @@ impl Default for MaterialDesc {
             diffuse: default_diffuse(),
             specular: default_specular(),
             shininess: default_shininess(),
+            bump: None,
         }
     }
 }
@@ -361,12 +446,24 @@ pub(crate) enum Channel {
     },
 }
 
+/// A material's bump, resolved: where its height's gradient is in its evaluation.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Bump {
+    /// Index into the material's `groups`.
+    pub slot: usize,
+    /// First channel of the gradient output (a vec3) in the tape's evaluation.
+    pub channel: usize,
+    /// `strength` × the height's `multiply`; never 0 (a zero bump is left out).
+    pub strength: f32,
+}
+
 #[derive(Clone, Debug)]
 pub(crate) struct Material {
     pub ambient: Channel,
     pub diffuse: Channel,
     pub specular: Channel,
     pub shininess: Channel,
+    pub bump: Option<Bump>,
     /// The evaluation groups this material reads, in slot order.
     pub groups: Vec<usize>,
 }
@@ -378,6 +475,9 @@ pub(crate) struct EvalGroup {
     pub texture: usize,
     pub space: Space,
     pub transform: Affine3A,
+    /// The transpose of `transform`'s linear part: a gradient with respect to the texture
+    /// point to one with respect to the point in `space` (chain rule).
+    pub gradient_to_space: Mat3,
 }
 
 /// A graph file checked with one set of overrides and compiled for the outputs a scene binds.
@@ -386,7 +486,8 @@ pub struct CompiledTexture {
     /// The graph file (relative to the working directory when the scene's path was).
     pub graph: PathBuf,
     pub overrides: Vec<(String, f64)>,
-    /// The compiled outputs, in tape order.
+    /// The compiled outputs, in tape order; `∇NAME` is the gradient of output `NAME`, compiled
+    /// for a bump.
     pub outputs: Vec<String>,
     pub tape: Tape,
 }
@@ -630,7 +731,9 @@ mod tests {
         let text = r#"Scene(
             camera: Camera(position: (0, 1, 4), look_at: (0, 0, 0)),
             lights: [Point(position: (1, 2, 3)), Directional(direction: (0, -1, 0), color: (1, 0.5, 0.5), shadows: false)],
-            materials: { "m": Material(diffuse: Colour(1, 0, 0), shininess: Value(10)),
+            materials: { "m": Material(diffuse: Colour(1, 0, 0), shininess: Value(10),
+                                       bump: (height: "dir.v2/stone.ron.height")),
+                         "b": Material(bump: Bump(height: Texture(graph: "g.ron", space: World), strength: -0.5)),
                          "t": Material(diffuse: Texture(graph: "g.ron", set: { "octaves": 4 }, space: World,
                                                         transform: [Scale(2), Scale((1, 2, 3)), Rotate(axis: (0, 1, 0), degrees: 30)])) },
             objects: [
@@ -652,6 +755,17 @@ mod tests {
             ShapeDesc::Plane { size: Some(_) }
         ));
         assert_eq!(scene.size, Some((64, 48)));
+        let bump = scene.materials["m"].bump.as_ref().unwrap();
+        assert!(matches!(&bump.height, HeightDesc::Output(s) if s == "dir.v2/stone.ron.height"));
+        assert_eq!(bump.strength, 1.0);
+        let bump = scene.materials["b"].bump.as_ref().unwrap();
+        assert_eq!(bump.strength, -0.5);
+        assert!(matches!(
+            &bump.height,
+            HeightDesc::Texture { graph, output: None, space: Space::World, multiply, .. }
+                if graph == "g.ron" && *multiply == 1.0
+        ));
+        assert!(scene.materials["t"].bump.is_none());
         match &scene.materials["t"].diffuse {
             ChannelDesc::Texture {
                 transform, space, ..

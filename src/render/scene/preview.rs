@@ -2,8 +2,9 @@
 //! plane, a key light with shadows and a fill light.
 
 use super::{
-    default_ambient_light, default_background, default_up, CameraDesc, ChannelDesc, LightDesc,
-    MaterialDesc, ObjectDesc, ScaleBy, SceneDesc, ShapeDesc, Space, TransformDesc,
+    default_ambient_light, default_background, default_up, BumpDesc, CameraDesc, ChannelDesc,
+    HeightDesc, LightDesc, MaterialDesc, ObjectDesc, ScaleBy, SceneDesc, ShapeDesc, Space,
+    TransformDesc,
 };
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -47,6 +48,16 @@ pub struct PreviewDefaults {
     /// The output bound to the diffuse channel; by default `colour`, else the first colour
     /// output, else the first output (as grey).
     pub output: Option<String>,
+    /// `--bump OUTPUT --bump-strength S`: the object's material bumped by a scalar output.
+    pub bump: Option<PreviewBump>,
+}
+
+/// The bump of a graph's preview: a scalar output of the graph as the height, evaluated where
+/// the diffuse texture is (same `set`, `space` and `transform`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PreviewBump {
+    pub output: String,
+    pub strength: f64,
 }
 
 impl PreviewDefaults {
@@ -55,16 +66,28 @@ impl PreviewDefaults {
     /// plane under it, a key light with shadows and a fill light.
     pub fn scene_desc(&self, graph: &Path) -> SceneDesc {
         let graph = graph.to_string_lossy().into_owned();
+        // [-1, 1]^3 → [0, 1]^3, the default bake region.
+        let transform = vec![
+            TransformDesc::Scale(ScaleBy::Uniform(0.5)),
+            TransformDesc::Translate(0.5, 0.5, 0.5),
+        ];
+        let bump = self.bump.as_ref().map(|b| BumpDesc {
+            height: HeightDesc::Texture {
+                graph: graph.clone(),
+                output: Some(b.output.clone()),
+                set: self.overrides.iter().cloned().collect(),
+                space: self.space,
+                transform: transform.clone(),
+                multiply: 1.0,
+            },
+            strength: b.strength,
+        });
         let texture = ChannelDesc::Texture {
             graph,
             output: self.output.clone(),
             set: self.overrides.iter().cloned().collect(),
             space: self.space,
-            // [-1, 1]^3 → [0, 1]^3, the default bake region.
-            transform: vec![
-                TransformDesc::Scale(ScaleBy::Uniform(0.5)),
-                TransformDesc::Translate(0.5, 0.5, 0.5),
-            ],
+            transform,
             multiply: 1.0,
         };
         let mut materials = BTreeMap::new();
@@ -75,6 +98,7 @@ impl PreviewDefaults {
                 diffuse: texture,
                 specular: ChannelDesc::Value(0.35),
                 shininess: ChannelDesc::Value(48.0),
+                bump,
             },
         );
         materials.insert(
@@ -84,6 +108,7 @@ impl PreviewDefaults {
                 diffuse: ChannelDesc::Colour(0.55, 0.55, 0.55),
                 specular: ChannelDesc::Value(0.0),
                 shininess: ChannelDesc::Value(1.0),
+                bump: None,
             },
         );
         let (main, ground_y) = self.main_object();

@@ -9,9 +9,12 @@ use crate::diagnostic::{Diagnostic, DiagnosticClass as C, Diagnostics};
 use crate::graph::{CheckedGraph, Output, Type};
 use crate::load::{load_graph, LoadError};
 use crate::render::scene::diagnostics::{Key, Problems};
-use crate::render::scene::{Channel, ChannelDesc, CompiledTexture, EvalGroup, Material, Space};
+use crate::render::scene::{
+    Bump, BumpDesc, Channel, ChannelDesc, CompiledTexture, EvalGroup, HeightDesc, Material, Space,
+};
 use crate::render::RenderError;
-use glam::{Affine3A, Vec3};
+use glam::{Affine3A, Mat3, Vec3};
+use std::collections::BTreeMap;
 use std::path::Path;
 
 impl<'a> Resolver<'a> {
@@ -81,10 +84,132 @@ impl<'a> Resolver<'a> {
                         transform,
                         multiply: *multiply,
                         scalar,
+                        strength: 1.0,
+                        short: false,
                     }),
                 }
             }
+            if let Some(bump) = &m.bump {
+                self.bump(name, bump);
+            }
         }
+    }
+
+    /// Checks material `name`'s bump (its strength, the form of its height) and keeps its
+    /// height as a binding.
+    fn bump(&mut self, name: &'a str, bump: &'a BumpDesc) {
+        static NO_SET: BTreeMap<String, f64> = BTreeMap::new();
+        let at = |tail: &'static str| {
+            [
+                Key::Field("materials"),
+                Key::Entry(name),
+                Key::Field("bump"),
+                Key::Field(tail),
+            ]
+        };
+        let multiply = match &bump.height {
+            HeightDesc::Texture { multiply, .. } if finite(&[*multiply]) => *multiply,
+            _ => 1.0,
+        };
+        if !finite(&[bump.strength]) || !finite(&[bump.strength * multiply]) {
+            self.problems.add(
+                C::BadParameter,
+                &at("strength"),
+                format!(
+                    "material \"{name}\": `bump`: `strength` is {}; it must be finite{}",
+                    bump.strength,
+                    if multiply == 1.0 {
+                        ""
+                    } else {
+                        ", also times the height's `multiply`"
+                    }
+                ),
+                None,
+            );
+        }
+        let binding = |graph, output, set, space, transform, multiply, short| Binding {
+            material: name,
+            channel: "bump",
+            graph,
+            output,
+            set,
+            space,
+            transform,
+            multiply,
+            scalar: true,
+            strength: bump.strength,
+            short,
+        };
+        match &bump.height {
+            HeightDesc::Output(text) => match text.rsplit_once('.') {
+                Some((graph, output)) if !graph.is_empty() && !output.is_empty() => self
+                    .texture_channel(binding(
+                        graph,
+                        Some(output),
+                        &NO_SET,
+                        Space::Object,
+                        &[],
+                        1.0,
+                        true,
+                    )),
+                _ => self.problems.add(
+                    C::BadParameter,
+                    &at("height"),
+                    format!(
+                        "material \"{name}\": `bump`: `height` is \"{text}\"; it must name a graph file and its output, \"FILE.OUTPUT\""
+                    ),
+                    Some("such as \"stone.ron.height\" (split at the last dot), or write Texture(graph: \"stone.ron\", output: \"height\")".into()),
+                ),
+            },
+            HeightDesc::Texture {
+                graph,
+                output,
+                set,
+                space,
+                transform,
+                multiply,
+            } => {
+                self.height_form(name);
+                self.texture_channel(binding(
+                    graph,
+                    output.as_deref(),
+                    set,
+                    *space,
+                    transform,
+                    *multiply,
+                    false,
+                ))
+            }
+        }
+    }
+
+    /// Checks that a bump's height in the `Texture(...)` form is written with that name (the
+    /// reader takes any struct there).
+    fn height_form(&mut self, name: &'a str) {
+        let at = [
+            Key::Field("materials"),
+            Key::Entry(name),
+            Key::Field("bump"),
+            Key::Field("height"),
+        ];
+        let Some(value) = self.problems.value_at(&at) else {
+            return;
+        };
+        let written = match &value.kind {
+            crate::syntax::ValueKind::Struct { name: Some(n), .. } if n.value == "Texture" => {
+                return
+            }
+            crate::syntax::ValueKind::Struct { name: Some(n), .. } => format!("`{}(...)`", n.value),
+            other => other.describe(),
+        };
+        self.problems.add(
+            C::UnknownKind,
+            &at,
+            format!(
+                "material \"{name}\": `bump`: `height` is {written}; it must be a string \"FILE.OUTPUT\" or `Texture(graph: ..., ...)`"
+            ),
+            None,
+        );
     }
 
     /// Checks and keeps a `Colour(r, g, b)` channel (a problem in a scalar channel).
@@ -149,13 +274,7 @@ impl<'a> Resolver<'a> {
         {
             self.problems.add(
                 C::BadParameter,
-                &[
-                    Key::Field("materials"),
-                    Key::Entry(name),
-                    Key::Field(channel),
-                    Key::Field("set"),
-                    Key::Entry(bad),
-                ],
+                &b.at(&[Key::Field("set"), Key::Entry(bad)]),
                 format!("material \"{name}\": `{channel}`: param \"{bad}\" {message}"),
                 None,
             );
@@ -163,11 +282,7 @@ impl<'a> Resolver<'a> {
         if !finite(&[b.multiply]) {
             self.problems.add(
                 C::BadParameter,
-                &[
-                    Key::Field("materials"),
-                    Key::Entry(name),
-                    Key::Field(channel),
-                ],
+                &b.at(&[Key::Field("multiply")]),
                 format!("material \"{name}\": `{channel}`: `multiply` must be finite"),
                 None,
             );
@@ -175,13 +290,7 @@ impl<'a> Resolver<'a> {
         if let Err((step, message)) = transform_of(b.transform) {
             self.problems.add(
                 C::BadParameter,
-                &[
-                    Key::Field("materials"),
-                    Key::Entry(name),
-                    Key::Field(channel),
-                    Key::Field("transform"),
-                    Key::Index(step),
-                ],
+                &b.at(&[Key::Field("transform"), Key::Index(step)]),
                 format!("material \"{name}\": `{channel}`: {message}"),
                 None,
             );
@@ -215,15 +324,27 @@ impl<'a> Resolver<'a> {
             .iter()
             .find(|b| b.key(self.base) == self.keys[k])
             .expect("every key has a binding");
-        let at = [
-            Key::Field("materials"),
-            Key::Entry(first.material),
-            Key::Field(first.channel),
-            Key::Field("graph"),
-        ];
+        let at = first.at(&[Key::Field("graph")]);
         let overrides: Vec<(String, f64)> =
             first.set.iter().map(|(k, v)| (k.clone(), *v)).collect();
-        match load_graph(&path, &CheckOptions { overrides }) {
+        let result = load_graph(&path, &CheckOptions { overrides });
+        // The files the graph imports are watched too (`watch` re-renders when one changes),
+        // also those a failed check got to (a broken imported file is where the fix will go).
+        let imported: Vec<std::path::PathBuf> = match &result {
+            Ok(g) => g.imports().to_vec(),
+            Err(LoadError::Invalid(d)) => d
+                .list
+                .iter()
+                .filter_map(|d| d.file.as_ref().map(|f| std::path::PathBuf::from(&f.name)))
+                .collect(),
+            Err(_) => Vec::new(),
+        };
+        for f in imported {
+            if !self.files.contains(&f) {
+                self.files.push(f);
+            }
+        }
+        match result {
             Ok(g) => Some(g),
             Err(LoadError::Io { source, .. }) => {
                 self.problems.add(
@@ -234,7 +355,11 @@ impl<'a> Resolver<'a> {
                         first.material,
                         path.display()
                     ),
-                    Some("graph paths are relative to the scene file".into()),
+                    Some(if first.short {
+                        "`height: \"FILE.OUTPUT\"` is split at the last dot; graph paths are relative to the scene file".into()
+                    } else {
+                        "graph paths are relative to the scene file".into()
+                    }),
                 );
                 None
             }
@@ -267,13 +392,7 @@ impl<'a> Resolver<'a> {
                 .unwrap_or("");
             self.problems.add(
                 C::UnknownParam,
-                &[
-                    Key::Field("materials"),
-                    Key::Entry(first.material),
-                    Key::Field(first.channel),
-                    Key::Field("set"),
-                    Key::EntryName(param),
-                ],
+                &first.at(&[Key::Field("set"), Key::EntryName(param)]),
                 format!(
                     "material \"{}\": `{}`: the graph {} has no param \"{param}\"",
                     first.material,
@@ -291,12 +410,59 @@ impl<'a> Resolver<'a> {
         }
     }
 
-    /// Chooses each binding's output and collects the outputs each graph is compiled for.
+    /// Chooses each binding's output and collects the outputs each graph is compiled for; a
+    /// bump's graph gets its height's gradient as one more output.
     pub(super) fn outputs(&mut self) {
         self.outputs = vec![Vec::new(); self.keys.len()];
         for i in 0..self.bindings.len() {
             let chosen = self.output(self.bindings[i]);
             self.chosen.push(chosen);
+        }
+        for i in 0..self.bindings.len() {
+            if self.bindings[i].is_bump() {
+                self.gradient(i);
+            }
+        }
+    }
+
+    /// Adds the gradient of bump binding `i`'s height to its graph (once per height), and binds
+    /// the binding to it; a height that cannot be differentiated is a problem.
+    fn gradient(&mut self, i: usize) {
+        let b = self.bindings[i];
+        let Some((k, height, _)) = self.chosen[i].clone() else {
+            return;
+        };
+        let graph = self.graphs[k].as_ref().expect("an output was chosen");
+        let name = gradient_output(&height);
+        if graph.output(&name).is_none() {
+            match graph.with_gradient_output(&height, &name) {
+                Ok(with) => self.graphs[k] = Some(with),
+                Err(message) => {
+                    self.problems.add(
+                        C::NotDifferentiable,
+                        &output_at(b),
+                        format!(
+                            "material \"{}\": `bump`: the graph {}: {message}",
+                            b.material,
+                            self.keys[k].0.display()
+                        ),
+                        Some("a bump needs the gradient of its height: take a height that does not use Gradient of a noise".into()),
+                    );
+                    self.chosen[i] = None;
+                    return;
+                }
+            }
+        }
+        // A zero bump is checked like any other, and then left out: its gradient is not
+        // compiled (the graph's other outputs stay as they are, bit for bit, and cost no more).
+        if bump_strength(&b) != 0.0 {
+            if !self.outputs[k].contains(&name) {
+                self.outputs[k].push(name.clone());
+            }
+            self.chosen[i] = Some((k, name, true));
+        } else if self.outputs[k].is_empty() {
+            // No output of this graph is evaluated; compile the smallest tape, not all outputs.
+            self.outputs[k].push(height);
         }
     }
 
@@ -315,16 +481,28 @@ impl<'a> Resolver<'a> {
             .output(&name)
             .map_or(Type::Scalar, |o| output_type(graph, o));
         if b.scalar && ty == Type::Vec3 {
-            self.problems.add(
-                C::Type,
-                &output_at(b),
+            let message = if b.is_bump() {
+                format!(
+                    "material \"{}\": `bump`: a height is a number, and output \"{name}\" is a vec3",
+                    b.material
+                )
+            } else {
                 format!(
                     "material \"{}\": `{}` is a number, and output \"{name}\" is a colour",
                     b.material, b.channel
-                ),
+                )
+            };
+            self.problems.add(
+                C::Type,
+                &output_at(b),
+                message,
                 Some("bind a scalar output".into()),
             );
             return None;
+        }
+        if b.is_bump() {
+            // Its gradient is compiled, not the height itself.
+            return Some((k, name, false));
         }
         if !self.outputs[k].contains(&name) {
             self.outputs[k].push(name.clone());
@@ -383,6 +561,7 @@ impl<'a> Resolver<'a> {
             diffuse: Channel::Constant(Vec3::ZERO),
             specular: Channel::Constant(Vec3::ZERO),
             shininess: Channel::Constant(Vec3::ZERO),
+            bump: None,
             groups: Vec::new(),
         };
         let mut has_ambient = false;
@@ -399,7 +578,7 @@ impl<'a> Resolver<'a> {
             .bindings
             .iter()
             .zip(&self.chosen)
-            .filter(|(b, _)| b.material == name)
+            .filter(|(b, _)| b.material == name && !(b.is_bump() && bump_strength(b) == 0.0))
         {
             let (k, output, vec3) = chosen.as_ref().expect("checked above");
             let transform = transform_of(b.transform).expect("checked above");
@@ -413,6 +592,14 @@ impl<'a> Resolver<'a> {
             };
             let tape = &textures[*k].tape;
             let channel = tape.output(output).expect("compiled").first_channel;
+            if b.is_bump() {
+                material.bump = Some(Bump {
+                    slot,
+                    channel,
+                    strength: bump_strength(b),
+                });
+                continue;
+            }
             *channel_mut(&mut material, b.channel) = Channel::Texture {
                 slot,
                 channel,
@@ -448,6 +635,7 @@ impl Groups {
                     texture,
                     space,
                     transform,
+                    gradient_to_space: Mat3::from(transform.matrix3).transpose(),
                 });
                 self.list.len() - 1
             }
@@ -456,13 +644,8 @@ impl Groups {
 }
 
 /// Where binding `b`'s `output` is in the scene file.
-fn output_at<'b>(b: Binding<'b>) -> [Key<'b>; 4] {
-    [
-        Key::Field("materials"),
-        Key::Entry(b.material),
-        Key::Field(b.channel),
-        Key::Field("output"),
-    ]
+fn output_at(b: Binding) -> Vec<Key> {
+    b.at(&[Key::Field("output")])
 }
 
 /// The output `name` that binding `b` names, or `None` (and a problem) when `graph` (at `path`)
@@ -531,11 +714,7 @@ fn default_output(
     let names: Vec<&str> = graph.outputs.iter().map(|o| o.name.as_str()).collect();
     problems.add(
         C::UnknownOutput,
-        &[
-            Key::Field("materials"),
-            Key::Entry(b.material),
-            Key::Field(b.channel),
-        ],
+        &b.at(&[]),
         format!(
             "material \"{}\": `{}` needs a {} output and the graph {} has none",
             b.material,
@@ -550,6 +729,17 @@ fn default_output(
         Some(format!("its outputs are: {}", names.join(", "))),
     );
     None
+}
+
+/// The name of the output that is the gradient of output `height` (not a name a graph file
+/// can give an output).
+fn gradient_output(height: &str) -> String {
+    format!("∇{height}")
+}
+
+/// The factor on a bump's gradient: its `strength` times its height's `multiply`, as shaded.
+fn bump_strength(b: &Binding) -> f32 {
+    (b.strength * b.multiply) as f32
 }
 
 /// The type of `output`'s value.

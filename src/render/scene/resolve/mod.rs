@@ -66,7 +66,8 @@ type TextureKey = (PathBuf, Vec<(String, u64)>);
 /// A binding's output: (index of its key, output name, whether the output is a vec3).
 type Chosen = (usize, String, bool);
 
-/// A texture binding found in a material, before compiling.
+/// A texture binding found in a material, before compiling: a channel's texture, or a bump's
+/// height (channel `bump`).
 #[derive(Clone, Copy)]
 struct Binding<'a> {
     material: &'a str,
@@ -78,9 +79,33 @@ struct Binding<'a> {
     transform: &'a [TransformDesc],
     multiply: f64,
     scalar: bool,
+    /// A bump's `strength` (1 for channels).
+    strength: f64,
+    /// A bump's height written `"FILE.OUTPUT"`.
+    short: bool,
 }
 
-impl Binding<'_> {
+impl<'a> Binding<'a> {
+    /// Whether this binding is a bump's height.
+    fn is_bump(&self) -> bool {
+        self.channel == "bump"
+    }
+
+    /// Where this binding's value `tail` is in the scene file: under the channel, or under a
+    /// bump's `height`.
+    fn at(&self, tail: &[Key<'a>]) -> Vec<Key<'a>> {
+        let mut at = vec![
+            Key::Field("materials"),
+            Key::Entry(self.material),
+            Key::Field(self.channel),
+        ];
+        if self.is_bump() {
+            at.push(Key::Field("height"));
+        }
+        at.extend_from_slice(tail);
+        at
+    }
+
     /// The (graph file, overrides) this binding's texture is shared by, paths relative to `base`.
     fn key(&self, base: &Path) -> TextureKey {
         (
