@@ -576,6 +576,7 @@ fn options_that_do_not_apply_are_usage_errors() {
         vec!["--object", "cube"],
         vec!["--space", "world"],
         vec!["--output", "vein"],
+        vec!["--bump", "vein"],
     ] {
         let mut all = vec![
             "render",
