@@ -181,7 +181,11 @@ impl Deriver<'_> {
                 let Some(e) = e else { continue };
                 let mut term = self.binary(BinaryOp::Mul, partial, e);
                 if let Some(nonzero) = guard {
+                    // And a tangent that is 0 at a point wins over a partial that is not
+                    // defined there (atan2(y, 0) with y flat: d = 0, not 0/0 · 0).
                     term = self.ternary(TernaryOp::Select, nonzero, term, partial);
+                    let moving = self.unary(UnaryOp::Abs, e);
+                    term = self.ternary(TernaryOp::Select, moving, term, e);
                 }
                 *o = Some(match *o {
                     Some(sum) => self.binary(BinaryOp::Add, sum, term),

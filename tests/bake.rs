@@ -1412,6 +1412,7 @@ fn force_replaces_files_and_png_folders_whole() {
                     );
                 }
             }
+            (Format::Ktx2, _, _) => unreachable!("tests/bake_ktx2.rs covers KTX2"),
         }
     }
 }

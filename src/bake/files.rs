@@ -2,11 +2,13 @@
 //! place only when complete.
 //!
 //! Output names: `DIR/STEM.OUTPUT.exr`, `DIR/STEM.OUTPUT/zNNNN.png` (slices) or
-//! `DIR/STEM.OUTPUT.png` (atlas), `DIR/STEM.OUTPUT.raw` with `DIR/STEM.OUTPUT.json`. While a bake
+//! `DIR/STEM.OUTPUT.png` (atlas), `DIR/STEM.OUTPUT.raw` with `DIR/STEM.OUTPUT.json`,
+//! `DIR/STEM.OUTPUT.ktx2`. While a bake
 //! runs, each goes to a hidden `.STEM.OUTPUT.*.partial` next to its final place; an interrupted
 //! or failed bake removes it (or, if the process is killed, leaves only that hidden name behind,
 //! which never looks finished).
 
+use super::ktx2::{self, Ktx2Description, Ktx2Format, Ktx2SampleType, Ktx2Sink};
 use super::sinks::{Exr, PngAtlas, PngSlices, Raw, RawSamples};
 use super::{bake_into, BakeError, BakeOptions, Grid, OutputStats, Sink, Window};
 use crate::graph::Type;
@@ -23,6 +25,21 @@ pub enum Format {
     Png,
     /// Packed voxels (x fastest, then y, then z) with a JSON sidecar.
     Raw,
+    /// One KTX 2.0 file per output holding a 3D texture: 8-bit (R8 / RGBA8 sRGB), or half or
+    /// single floats with --half / --float; --zstd supercompresses it.
+    Ktx2,
+}
+
+impl Format {
+    /// The name on the command line (`--format NAME`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::Exr => "exr",
+            Format::Png => "png",
+            Format::Raw => "raw",
+            Format::Ktx2 => "ktx2",
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -88,15 +105,20 @@ pub struct BakeFileOptions {
     pub raw_type: RawSampleType,
     /// Raw: add an opaque alpha channel (RGBA / grey+alpha).
     pub alpha: bool,
+    /// KTX2: 8-bit (default), half or single floats.
+    pub ktx2_type: Ktx2SampleType,
+    /// KTX2: Zstandard supercompression at this level (1 to 22; `None`: none).
+    pub zstd: Option<i32>,
     pub transfer: Transfer,
     /// Refuse a bake whose files would exceed this many bytes (uncompressed estimate).
     pub max_bytes: u64,
     /// Refuse a bake whose format would hold more than this many bytes in memory (EXR: the
-    /// whole volume; PNG atlas: a row of tiles; PNG slices: two rows).
+    /// whole volume; PNG atlas: a row of tiles; PNG slices: two rows; KTX2 with Zstandard: the
+    /// encoder's window and tables).
     pub max_held_bytes: u64,
     /// EXR compression.
     pub exr_compression: ExrCompression,
-    /// Recorded in the raw sidecar and the EXR header.
+    /// Recorded in the raw sidecar, the EXR header and the KTX2 key/value data.
     pub graph_path: String,
     /// The params the graph was baked with (overrides applied), in file order.
     pub params: Vec<(String, f64)>,
@@ -122,6 +144,8 @@ impl BakeFileOptions {
             atlas: false,
             raw_type: RawSampleType::U8,
             alpha: false,
+            ktx2_type: Ktx2SampleType::U8,
+            zstd: None,
             transfer: Transfer::Srgb,
             max_bytes: DEFAULT_MAX_BAKE_BYTES,
             max_held_bytes: DEFAULT_MAX_HELD_BYTES,
@@ -146,7 +170,13 @@ impl BakeFileOptions {
                         1
                     }
             }
+            Format::Ktx2 => u64::from(self.ktx2_format(ty).texel_bytes()),
         }
+    }
+
+    /// The KTX2 format of an output of type `ty`.
+    fn ktx2_format(&self, ty: Type) -> Ktx2Format {
+        Ktx2Format::new(ty, self.ktx2_type, self.transfer == Transfer::Srgb)
     }
 }
 
@@ -181,6 +211,7 @@ pub fn planned_outputs(tape: &Tape, options: &BakeFileOptions) -> Result<Vec<Pat
                 Format::Png if options.atlas => format!("{base}.png"),
                 Format::Png => base,
                 Format::Raw => format!("{base}.raw"),
+                Format::Ktx2 => format!("{base}.ktx2"),
             };
             Ok(output::join_inside(&options.out_dir, &name)?)
         })
@@ -211,6 +242,10 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> BakeError + '_ {
 /// output, never in a hot loop: the size difference between variants does not matter.)
 #[allow(clippy::large_enum_variant)]
 enum Pending {
+    Ktx2 {
+        sink: Ktx2Sink,
+        temp: tempfile::NamedTempFile,
+    },
     Exr {
         sink: Exr,
         temp: tempfile::NamedTempFile,
@@ -233,9 +268,10 @@ impl Pending {
     /// The temporary file or folder being written.
     fn temp_path(&self) -> &Path {
         match self {
-            Pending::Exr { temp, .. } | Pending::Atlas { temp, .. } | Pending::Raw { temp, .. } => {
-                temp.path()
-            }
+            Pending::Exr { temp, .. }
+            | Pending::Atlas { temp, .. }
+            | Pending::Raw { temp, .. }
+            | Pending::Ktx2 { temp, .. } => temp.path(),
             Pending::Slices { temp, .. } => temp.path(),
         }
     }
@@ -246,6 +282,7 @@ impl Pending {
             Pending::Slices { sink, .. } => sink,
             Pending::Atlas { sink, .. } => sink,
             Pending::Raw { sink, .. } => sink,
+            Pending::Ktx2 { sink, .. } => sink,
         }
     }
 }
@@ -341,13 +378,26 @@ fn preflight(tape: &Tape, options: &BakeFileOptions) -> Result<(Vec<PathBuf>, u6
     check_dimensions(&grid, options)?;
     let held = held_bytes(tape, options);
     if held > options.max_held_bytes {
-        let why = match options.format {
-            Format::Exr => "an EXR file is written from the whole volume, held in memory",
-            Format::Png if options.atlas => "a PNG atlas holds one row of tiles in memory",
-            _ => "a PNG slice is encoded a row at a time, two rows held in memory",
+        let (why, instead) = match options.format {
+            Format::Exr => (
+                "an EXR file is written from the whole volume, held in memory",
+                "bake --format raw (streamed)",
+            ),
+            Format::Png if options.atlas => (
+                "a PNG atlas holds one row of tiles in memory",
+                "bake --format raw (streamed)",
+            ),
+            Format::Ktx2 => (
+                "a KTX2 file's Zstandard encoder holds its window and match tables in memory, one encoder per output",
+                "use a lower --zstd level",
+            ),
+            _ => (
+                "a PNG slice is encoded a row at a time, two rows held in memory",
+                "bake --format raw (streamed)",
+            ),
         };
         return Err(BakeError::Refused(format!(
-            "{why}: this bake would hold about {}, more than the limit of {}; bake --format raw (streamed), a smaller grid, or pass --allow-large",
+            "{why}: this bake would hold about {}, more than the limit of {}; {instead}, a smaller grid, or pass --allow-large",
             human_bytes(held),
             human_bytes(options.max_held_bytes)
         )));
@@ -385,6 +435,21 @@ fn check_dimensions(grid: &Grid, options: &BakeFileOptions) -> Result<(), BakeEr
     let [nx, ny, nz] = grid.size.map(|n| n as u64);
     let (what, width, height) = match options.format {
         Format::Raw => return Ok(()),
+        Format::Ktx2 => {
+            let Some(size) = ktx2::texture_size(grid) else {
+                return Err(BakeError::Refused(format!(
+                    "a KTX2 texture would be {nx}×{ny}×{nz} texels; KTX2 stores each side as a 32-bit unsigned integer, at most {} (bake --format raw for any shape)",
+                    u32::MAX
+                )));
+            };
+            // Every level's byte length must fit the level index's 64 bits.
+            for output in [Type::Scalar, Type::Vec3] {
+                ktx2_description(options, options.ktx2_format(output), size, Vec::new())
+                    .validate()
+                    .map_err(BakeError::Refused)?;
+            }
+            return Ok(());
+        }
         Format::Exr => ("an EXR image (slices stacked)", nx, ny.saturating_mul(nz)),
         Format::Png if options.atlas => {
             let (columns, rows) = atlas_shape(nz);
@@ -431,6 +496,12 @@ fn held_bytes(tape: &Tape, options: &BakeFileOptions) -> u64 {
                         .saturating_mul(channels * sample)
                 }
                 Format::Png => (2 * nx).saturating_mul(channels * sample),
+                // Texels go through a buffered block; an encoder's state is the only large part.
+                Format::Ktx2 => options.zstd.map_or(0, |level| {
+                    let level_bytes =
+                        voxels.saturating_mul(u64::from(options.ktx2_format(o.ty).texel_bytes()));
+                    ktx2::zstd_encoder_bytes(level, level_bytes)
+                }),
             }
         })
         .fold(0, u64::saturating_add)
@@ -448,6 +519,23 @@ fn open_pending(
     let mut pending = Vec::with_capacity(finals.len());
     for (index, (output, final_path)) in tape.outputs.iter().zip(finals).enumerate() {
         pending.push(match options.format {
+            Format::Ktx2 => {
+                let temp = temp_file(&options.out_dir, final_path)?;
+                let file = temp.reopen().map_err(io(temp.path()))?;
+                let size = ktx2::texture_size(&grid).ok_or_else(|| {
+                    BakeError::Refused(
+                        "internal: a KTX2 side over 32 bits passed the checks".into(),
+                    )
+                })?;
+                let description = ktx2_description(
+                    options,
+                    options.ktx2_format(output.ty),
+                    size,
+                    ktx2_key_values(&grid, options, &output.name),
+                );
+                let sink = Ktx2Sink::create(temp.path(), file, index, description)?;
+                Pending::Ktx2 { sink, temp }
+            }
             Format::Exr => Pending::Exr {
                 sink: Exr {
                     output: index,
@@ -545,6 +633,15 @@ fn bake_into_files(
             };
             let bits = if options.depth16 { 16 } else { 8 };
             let description = match entry {
+                Pending::Ktx2 { sink, temp } => {
+                    sink.finish()?;
+                    staged.push((Staged::File(temp.into_temp_path()), final_path.clone()));
+                    let format = options.ktx2_format(output.ty);
+                    let zstd = options
+                        .zstd
+                        .map_or(String::new(), |level| format!(", Zstandard level {level}"));
+                    format!("KTX2 3D texture {nx}×{ny}×{nz} {}{zstd}", format.name)
+                }
                 Pending::Exr { sink, temp } => {
                     let file = temp.reopen().map_err(io(temp.path()))?;
                     let attributes = exr_attributes(&grid, options, &output.name);
@@ -721,6 +818,52 @@ fn exr_attributes(
         ("output", output.to_string()),
         ("version", env!("CARGO_PKG_VERSION").to_string()),
     ]
+}
+
+/// What a KTX2 file of the bake holds besides its texels: one level (the voxels), the format of
+/// the output, supercompression, key/value pairs.
+fn ktx2_description(
+    options: &BakeFileOptions,
+    format: Ktx2Format,
+    size: [u32; 3],
+    key_values: Vec<(String, String)>,
+) -> Ktx2Description {
+    Ktx2Description {
+        format,
+        size,
+        levels: 1,
+        zstd: options.zstd,
+        key_values,
+    }
+}
+
+/// The key/value data of a KTX2 file: the spec's `KTXorientation`, `KTXwriter` and (with
+/// Zstandard) `KTXwriterScParams`, and texgraph's own keys (keys not starting with `KTX`/`ktx`
+/// are free for applications).
+fn ktx2_key_values(grid: &Grid, options: &BakeFileOptions, output: &str) -> Vec<(String, String)> {
+    let mut pairs = vec![
+        ("KTXorientation", ktx2::ORIENTATION.to_string()),
+        (
+            "KTXwriter",
+            format!("texgraph {}", env!("CARGO_PKG_VERSION")),
+        ),
+        ("texgraph.graph", options.graph_path.clone()),
+        ("texgraph.output", output.to_string()),
+        ("texgraph.params", params_json(&options.params)),
+        ("texgraph.overrides", params_json(&options.overrides)),
+        (
+            "texgraph.region",
+            serde_json::to_string(&grid.region).unwrap_or_default(),
+        ),
+        (
+            "texgraph.voxel_centre",
+            "region.min + (index + 0.5) * (region.max - region.min) / size".to_string(),
+        ),
+    ];
+    if let Some(level) = options.zstd {
+        pairs.push(("KTXwriterScParams", format!("--zstd={level}")));
+    }
+    pairs.into_iter().map(|(k, v)| (k.to_string(), v)).collect()
 }
 
 /// `{"period":1.3,"octaves":2.0}`: params or overrides as a JSON object, in order.

@@ -1,5 +1,5 @@
 //! Stage 5, bake: a tape evaluated over a voxel grid, streamed window by window into a sink (an
-//! EXR, PNG or raw file writer, or an in-memory [`Volume`]).
+//! EXR, PNG, raw or KTX2 file writer, or an in-memory [`Volume`]).
 //!
 //! The voxels, in file order (x fastest, then y, then z), are cut into *segments*: runs of at
 //! most [`SEGMENT_VOXELS`] voxels inside one row (a row longer than that is split). A window is
@@ -9,15 +9,16 @@
 //! the same buffer. So the bake itself holds at most [`WINDOW_BYTES`] of samples plus one
 //! segment's buffers per thread, whatever the grid's shape (a 4 294 967 296 × 1 × 1 row and a
 //! 65 536 × 65 536 slice stream like a cube). What a sink keeps is its own bound, checked before
-//! the bake starts (`files.rs`): a raw writer and a PNG slice writer keep a row or two, a PNG
-//! atlas one row of tiles, an EXR file (whose writer needs the whole image) and a `Volume`
-//! everything.
+//! the bake starts (`files.rs`): a raw writer and a PNG slice writer keep a row or two, a KTX2
+//! writer a buffered block (and with Zstandard its encoder's window and tables), a PNG atlas one
+//! row of tiles, an EXR file (whose writer needs the whole image) and a `Volume` everything.
 //!
 //! Every voxel is evaluated on its own by the same code, segments do not depend on the thread
 //! count, and statistics are reduced in segment order, so results are bit-identical whatever
 //! the thread count.
 
 mod files;
+mod ktx2;
 mod sinks;
 
 pub use files::{
@@ -25,6 +26,7 @@ pub use files::{
     ExrCompression, Format, RawSampleType, Transfer, DEFAULT_MAX_BAKE_BYTES,
     DEFAULT_MAX_HELD_BYTES,
 };
+pub use ktx2::{Ktx2SampleType, DEFAULT_ZSTD_LEVEL, ZSTD_LEVELS};
 pub use sinks::{encode_u16, encode_u8, srgb_encode};
 
 use crate::graph::Type;

@@ -30,9 +30,24 @@ pub struct BakeArgs {
     /// Overwrite existing outputs.
     #[arg(long)]
     force: bool,
-    /// EXR: 16-bit half floats instead of 32-bit.
+    /// EXR: 16-bit half floats instead of 32-bit. KTX2: half floats (R16_SFLOAT,
+    /// R16G16B16A16_SFLOAT) instead of 8-bit.
     #[arg(long)]
     half: bool,
+    /// KTX2: 32-bit floats (R32_SFLOAT, R32G32B32A32_SFLOAT) instead of 8-bit.
+    #[arg(long)]
+    float: bool,
+    /// KTX2: Zstandard supercompression, each level compressed on its own; --zstd=LEVEL picks
+    /// the level, 1 (fastest) to 22 (smallest) [default level: 3].
+    #[arg(
+        long,
+        value_name = "LEVEL",
+        num_args = 0..=1,
+        require_equals = true,
+        default_missing_value = "3",
+        value_parser = clap::value_parser!(i32).range(1..=22)
+    )]
+    zstd: Option<i32>,
     /// EXR: lossless compression [default: zip].
     #[arg(long = "exr-compression", value_enum, value_name = "METHOD")]
     exr_compression: Option<crate::bake::ExrCompression>,
@@ -48,8 +63,8 @@ pub struct BakeArgs {
     /// Raw: add an opaque alpha channel (RGBA).
     #[arg(long)]
     alpha: bool,
-    /// PNG and raw u8: how colours are encoded in 8/16-bit files (scalars are always linear)
-    /// [default: srgb].
+    /// PNG, raw u8 and 8-bit KTX2: how colours are encoded in 8/16-bit files (scalars are always
+    /// linear) [default: srgb].
     #[arg(long, value_enum, value_name = "TRANSFER")]
     transfer: Option<crate::bake::Transfer>,
     /// Evaluate with the f64 reference path (values still stored as f32 or less).
@@ -63,7 +78,8 @@ pub struct BakeArgs {
     #[arg(long)]
     lod: bool,
     /// Bake even if the files would exceed the 16 GiB size limit, or the format would hold more
-    /// than 2 GiB in memory (EXR: the whole volume; PNG atlas: a row of tiles).
+    /// than 2 GiB in memory (EXR: the whole volume; PNG atlas: a row of tiles; KTX2 --zstd: the
+    /// encoders' tables).
     #[arg(long = "allow-large")]
     allow_large: bool,
     #[command(flatten)]
@@ -94,11 +110,7 @@ pub fn parse_size(text: &str) -> Result<[usize; 3], String> {
 pub fn bake_option_misuse(args: &BakeArgs) -> Vec<String> {
     use crate::bake::{Format, RawSampleType};
     let format = args.format;
-    let name = match format {
-        Format::Exr => "exr",
-        Format::Png => "png",
-        Format::Raw => "raw",
-    };
+    let name = format.name();
     let mut problems = Vec::new();
     let mut only = |given: bool, option: &str, applies: bool, to: &str| {
         if given && !applies {
@@ -107,7 +119,24 @@ pub fn bake_option_misuse(args: &BakeArgs) -> Vec<String> {
             ));
         }
     };
-    only(args.half, "--half", format == Format::Exr, "--format exr");
+    only(
+        args.half,
+        "--half",
+        matches!(format, Format::Exr | Format::Ktx2),
+        "--format exr or ktx2",
+    );
+    only(
+        args.float,
+        "--float",
+        format == Format::Ktx2,
+        "--format ktx2",
+    );
+    only(
+        args.zstd.is_some(),
+        "--zstd",
+        format == Format::Ktx2,
+        "--format ktx2",
+    );
     only(
         args.exr_compression.is_some(),
         "--exr-compression",
@@ -129,13 +158,30 @@ pub fn bake_option_misuse(args: &BakeArgs) -> Vec<String> {
     );
     only(args.alpha, "--alpha", format == Format::Raw, "--format raw");
     let eight_bit = format == Format::Png
-        || (format == Format::Raw && args.raw_type.unwrap_or_default() == RawSampleType::U8);
+        || (format == Format::Raw && args.raw_type.unwrap_or_default() == RawSampleType::U8)
+        || (format == Format::Ktx2 && !args.half && !args.float);
     only(
         args.transfer.is_some(),
         "--transfer",
         eight_bit,
-        "8/16-bit files (--format png, --format raw with --raw-type u8)",
+        "8/16-bit files (--format png, --format raw with --raw-type u8, --format ktx2 without --half or --float)",
     );
+    // `--zstd 5` reads 5 as a file (the level needs `=`): say so rather than "no such file".
+    if args.zstd.is_some() {
+        for file in &args.files {
+            let text = file.to_string_lossy();
+            let level = text.parse::<i32>().ok();
+            if level.is_some_and(|l| crate::bake::ZSTD_LEVELS.contains(&l)) && !file.exists() {
+                problems.push(format!(
+                    "`{text}` is not a graph file; give the Zstandard level with `=`: --zstd={text}"
+                ));
+            }
+        }
+    }
+    if format == Format::Ktx2 && args.half && args.float {
+        problems
+            .push("--half and --float are alternatives (16- or 32-bit floats): give one".into());
+    }
     problems
 }
 
@@ -219,12 +265,10 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
                 baked += 1;
                 total_voxels += report.voxels;
                 total_seconds += report.seconds;
-                let clamps = options.format == crate::bake::Format::Png
-                    || (options.format == crate::bake::Format::Raw
-                        && options.raw_type == crate::bake::RawSampleType::U8);
+                let clamps = eight_or_sixteen_bit(&options);
                 let text = bake_report(file, &grid, &report, threads, clamps);
                 write_stdout(|out| out.write_all(text.as_bytes()))?;
-                warn_about_values(file, &report, clamps);
+                warn_about_values(file, &report, clamps, options.format);
             }
             Err(BakeError::Cancelled) => {
                 eprintln!(
@@ -252,6 +296,17 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
     worst.map_or(Ok(()), Err)
 }
 
+/// The files hold 8/16-bit samples, so values outside [0, 1] are clamped.
+fn eight_or_sixteen_bit(options: &crate::bake::BakeFileOptions) -> bool {
+    use crate::bake::{Format, Ktx2SampleType, RawSampleType};
+    match options.format {
+        Format::Png => true,
+        Format::Raw => options.raw_type == RawSampleType::U8,
+        Format::Ktx2 => options.ktx2_type == Ktx2SampleType::U8,
+        Format::Exr => false,
+    }
+}
+
 /// The options of one graph's bake, from the command line.
 fn file_options(
     args: &BakeArgs,
@@ -274,6 +329,12 @@ fn file_options(
     options.atlas = args.atlas;
     options.raw_type = args.raw_type.unwrap_or_default();
     options.alpha = args.alpha;
+    options.ktx2_type = match (args.half, args.float) {
+        (_, true) => crate::bake::Ktx2SampleType::F32,
+        (true, false) => crate::bake::Ktx2SampleType::F16,
+        (false, false) => crate::bake::Ktx2SampleType::U8,
+    };
+    options.zstd = args.zstd;
     options.transfer = args.transfer.unwrap_or_default();
     options.graph_path = file.display().to_string();
     options.params = params.to_vec();
@@ -300,7 +361,17 @@ fn progress_bar(file: &Path, voxels: u64) -> indicatif::ProgressBar {
 }
 
 /// Warnings on stderr for non-finite values and, in 8/16-bit files, clamped ones.
-fn warn_about_values(file: &Path, report: &crate::bake::BakeReport, clamps: bool) {
+fn warn_about_values(
+    file: &Path,
+    report: &crate::bake::BakeReport,
+    clamps: bool,
+    format: crate::bake::Format,
+) {
+    let keep = if format == crate::bake::Format::Ktx2 {
+        "bake with --half or --float to keep them"
+    } else {
+        "bake --format exr or --raw-type f32 to keep them"
+    };
     for stats in &report.stats {
         if stats.non_finite() > 0 {
             eprintln!(
@@ -312,7 +383,7 @@ fn warn_about_values(file: &Path, report: &crate::bake::BakeReport, clamps: bool
         }
         let (below, above) = stats.clamped();
         if clamps && below + above > 0 {
-            eprintln!("warning: {}: output \"{}\": {below} values below 0 and {above} above 1 were clamped to [0, 1] in the 8/16-bit file (bake --format exr or --raw-type f32 to keep them)", file.display(), stats.name);
+            eprintln!("warning: {}: output \"{}\": {below} values below 0 and {above} above 1 were clamped to [0, 1] in the 8/16-bit file ({keep})", file.display(), stats.name);
         }
     }
 }
