@@ -289,36 +289,6 @@ pub enum Slope {
     Composite,
 }
 
-/// How the derivative of a node follows from its arguments' derivatives: the slot the
-/// `Gradient` node's chain rule dispatches on. The per-operation derivatives of the math
-/// kinds live next to their values in `ops.rs` (`UnaryOp::derivative`, `BinaryOp::partials`,
-/// `TernaryOp::partials`), checked against finite differences.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Derivative {
-    /// The sample point: the identity Jacobian.
-    Identity,
-    /// Assembled from the inputs' derivatives alone (Combine: one row each).
-    Assemble,
-    /// `f'(x) x'` (chain rule), `f'` from `UnaryOp::derivative`.
-    Unary,
-    /// `df/da a' + df/db b'`, from `BinaryOp::partials` (Scale and Translate lower to Mul/Add).
-    Binary,
-    /// The three partials of `TernaryOp::partials`.
-    Ternary,
-    /// Dot: `a' . b + a . b'`; Length: `(v . v') / |v|`; Cross: `a' x b + a x b'`; Normalize:
-    /// `(v' - n (n . v')) / |v|`.
-    Vector,
-    /// Rotate: `R p' + (dR/dtheta p) theta'`.
-    Rotation,
-    /// The basis' analytic gradient at the point, times the input's Jacobian; fractals sum it
-    /// over octaves with the chain factor `lacunarity^i`.
-    NoiseGradient,
-    /// The slope of the spline segment the input falls in, times the input's derivative.
-    Spline,
-    /// Lowered into other kinds' operations, each differentiated by its own rule.
-    Composite,
-}
-
 #[derive(Clone, Copy, Debug)]
 pub struct NodeDef {
     pub kind: Kind,
@@ -327,8 +297,6 @@ pub struct NodeDef {
     pub lowering: Lowering,
     /// Its Lipschitz rule, for level of detail.
     pub slope: Slope,
-    /// Its derivative rule, for `Gradient`.
-    pub derivative: Derivative,
     pub name: &'static str,
     pub args: &'static [ArgDef],
     pub output: OutputType,
@@ -579,30 +547,30 @@ const WARP_ARGS: &[ArgDef] = &[
 
 /// Every node kind, in the order `texgraph nodes` lists them.
 pub const CATALOGUE: &[NodeDef] = &[
-    NodeDef { kind: Kind::Position, lowering: Lowering::Position, slope: Slope::Identity, derivative: Derivative::Identity, name: "Position", args: &[], output: OutputType::Vec3, doc: "The sample point (x, y, z)." },
+    NodeDef { kind: Kind::Position, lowering: Lowering::Position, slope: Slope::Identity, name: "Position", args: &[], output: OutputType::Vec3, doc: "The sample point (x, y, z)." },
     NodeDef {
-        kind: Kind::Combine, lowering: Lowering::Combine, slope: Slope::Euclidean, derivative: Derivative::Assemble,
+        kind: Kind::Combine, lowering: Lowering::Combine, slope: Slope::Euclidean,
         name: "Combine",
         args: &[input("x", InputType::Scalar, "x component"), input("y", InputType::Scalar, "y component"), input("z", InputType::Scalar, "z component")],
         output: OutputType::Vec3,
         doc: "Builds a vec3 from three scalars.",
     },
     NodeDef {
-        kind: Kind::Scale, lowering: Lowering::Scale, slope: Slope::ConstantFactor, derivative: Derivative::Binary,
+        kind: Kind::Scale, lowering: Lowering::Scale, slope: Slope::ConstantFactor,
         name: "Scale",
         args: &[input("input", InputType::Vec3, "the point"), input("by", InputType::Any, "scale factor, scalar or per axis")],
         output: OutputType::Vec3,
         doc: "Component-wise product input * by (seed 001's texture repeat vector).",
     },
     NodeDef {
-        kind: Kind::Translate, lowering: Lowering::Translate, slope: Slope::Sum, derivative: Derivative::Binary,
+        kind: Kind::Translate, lowering: Lowering::Translate, slope: Slope::Sum,
         name: "Translate",
         args: &[input("input", InputType::Vec3, "the point"), input("by", InputType::Any, "offset, scalar or per axis")],
         output: OutputType::Vec3,
         doc: "Adds an offset: input + by.",
     },
     NodeDef {
-        kind: Kind::Rotate, lowering: Lowering::Rotate, slope: Slope::RigidMotion, derivative: Derivative::Rotation,
+        kind: Kind::Rotate, lowering: Lowering::Rotate, slope: Slope::RigidMotion,
         name: "Rotate",
         args: &[
             input("input", InputType::Vec3, "the point"),
@@ -613,122 +581,122 @@ pub const CATALOGUE: &[NodeDef] = &[
         doc: "Rotates the point about an axis through the origin; the pattern appears rotated the other way.",
     },
     NodeDef {
-        kind: Kind::Noise, lowering: Lowering::Noise, slope: Slope::Basis, derivative: Derivative::NoiseGradient,
+        kind: Kind::Noise, lowering: Lowering::Noise, slope: Slope::Basis,
         name: "Noise",
         args: NOISE_ARGS,
         output: OutputType::Scalar,
         doc: "One noise sample: Perlin (improved, 2002), Gradient (seed 000), Value (seeds 002/004), Simplex or Cellular.",
     },
     NodeDef {
-        kind: Kind::Fbm, lowering: Lowering::Fractal(FractalKind::Fbm), slope: Slope::FractalSum, derivative: Derivative::NoiseGradient,
+        kind: Kind::Fbm, lowering: Lowering::Fractal(FractalKind::Fbm), slope: Slope::FractalSum,
         name: "Fbm",
         args: FRACTAL_ARGS,
         output: OutputType::Scalar,
         doc: "Fractal sum: sum over octaves i of gain^i * basis(input * lacunarity^i).",
     },
     NodeDef {
-        kind: Kind::Turbulence, lowering: Lowering::Fractal(FractalKind::Turbulence), slope: Slope::FractalSum, derivative: Derivative::NoiseGradient,
+        kind: Kind::Turbulence, lowering: Lowering::Fractal(FractalKind::Turbulence), slope: Slope::FractalSum,
         name: "Turbulence",
         args: FRACTAL_ARGS,
         output: OutputType::Scalar,
         doc: "Perlin's turbulence: sum over octaves i of gain^i * |basis(input * lacunarity^i)|.",
     },
     NodeDef {
-        kind: Kind::Ridged, lowering: Lowering::Fractal(FractalKind::Ridged), slope: Slope::Unbounded("each octave is weighted by the one before"), derivative: Derivative::NoiseGradient,
+        kind: Kind::Ridged, lowering: Lowering::Fractal(FractalKind::Ridged), slope: Slope::Unbounded("each octave is weighted by the one before"),
         name: "Ridged",
         args: RIDGED_ARGS,
         output: OutputType::Scalar,
         doc: "Musgrave's ridged multifractal: sum of gain^i * s_i, s_i = max(offset - |n_i|, 0)^sharpness * w_i, w_0 = 1, w_i+1 = clamp(2 s_i, 0, 1).",
     },
     NodeDef {
-        kind: Kind::Billow, lowering: Lowering::Fractal(FractalKind::Billow), slope: Slope::FractalSum, derivative: Derivative::NoiseGradient,
+        kind: Kind::Billow, lowering: Lowering::Fractal(FractalKind::Billow), slope: Slope::FractalSum,
         name: "Billow",
         args: FRACTAL_ARGS,
         output: OutputType::Scalar,
         doc: "Billowy fractal: sum over octaves i of gain^i * (2 |basis(input * lacunarity^i)| - 1).",
     },
     NodeDef {
-        kind: Kind::Cellular, lowering: Lowering::Cellular, slope: Slope::Basis, derivative: Derivative::NoiseGradient,
+        kind: Kind::Cellular, lowering: Lowering::Cellular, slope: Slope::Basis,
         name: "Cellular",
         args: &[INPUT, SEED_ARG, JITTER_ARG, METRIC_ARG, VALUE_ARG, PERIOD_ARG],
         output: OutputType::Scalar,
         doc: "Worley's cellular noise: distances to the nearest feature points, one point per integer cell (exact search).",
     },
     NodeDef {
-        kind: Kind::WhiteNoise, lowering: Lowering::White, slope: Slope::Unbounded("white noise jumps at every cell face"), derivative: Derivative::NoiseGradient,
+        kind: Kind::WhiteNoise, lowering: Lowering::White, slope: Slope::Unbounded("white noise jumps at every cell face"),
         name: "WhiteNoise",
         args: &[INPUT, SEED_ARG, PERIOD_ARG],
         output: OutputType::Scalar,
         doc: "A random value in [0, 1) per integer cell of the point (a hash, no interpolation).",
     },
     NodeDef {
-        kind: Kind::VecNoise, lowering: Lowering::VecNoise, slope: Slope::Composite, derivative: Derivative::Composite,
+        kind: Kind::VecNoise, lowering: Lowering::VecNoise, slope: Slope::Composite,
         name: "VecNoise",
         args: NOISE_ARGS,
         output: OutputType::Vec3,
         doc: "Three decorrelated noise samples as a vec3: x uses `seed`, y and z the tables of seed + 2^53 and seed + 2^54.",
     },
     NodeDef {
-        kind: Kind::VecFbm, lowering: Lowering::VecFractal, slope: Slope::Composite, derivative: Derivative::Composite,
+        kind: Kind::VecFbm, lowering: Lowering::VecFractal, slope: Slope::Composite,
         name: "VecFbm",
         args: FRACTAL_ARGS,
         output: OutputType::Vec3,
         doc: "Three decorrelated fbm sums as a vec3 (seeds as VecNoise).",
     },
     NodeDef {
-        kind: Kind::Warp, lowering: Lowering::Warp, slope: Slope::Composite, derivative: Derivative::Composite,
+        kind: Kind::Warp, lowering: Lowering::Warp, slope: Slope::Composite,
         name: "Warp",
         args: WARP_ARGS,
         output: OutputType::Vec3,
         doc: "Domain warping: input + amount * VecFbm(input, ...); use it as the input of any node, nest it to warp the warp.",
     },
-    NodeDef { kind: Kind::Add, lowering: Lowering::Binary(BinaryOp::Add), slope: Slope::Sum, derivative: Derivative::Binary, name: "Add", args: ANY_AB, output: OutputType::Broadcast, doc: "a + b." },
-    NodeDef { kind: Kind::Sub, lowering: Lowering::Binary(BinaryOp::Sub), slope: Slope::Sum, derivative: Derivative::Binary, name: "Sub", args: ANY_AB, output: OutputType::Broadcast, doc: "a - b." },
-    NodeDef { kind: Kind::Mul, lowering: Lowering::Binary(BinaryOp::Mul), slope: Slope::ConstantFactor, derivative: Derivative::Binary, name: "Mul", args: ANY_AB, output: OutputType::Broadcast, doc: "a * b." },
-    NodeDef { kind: Kind::Div, lowering: Lowering::Binary(BinaryOp::Div), slope: Slope::ConstantDivisor, derivative: Derivative::Binary, name: "Div", args: ANY_AB, output: OutputType::Broadcast, doc: "a / b (IEEE: x/0 is +-inf, 0/0 is NaN)." },
-    NodeDef { kind: Kind::Min, lowering: Lowering::Binary(BinaryOp::Min), slope: Slope::Steepest, derivative: Derivative::Binary, name: "Min", args: ANY_AB, output: OutputType::Broadcast, doc: "The smaller of a and b; NaN if either is NaN." },
-    NodeDef { kind: Kind::Max, lowering: Lowering::Binary(BinaryOp::Max), slope: Slope::Steepest, derivative: Derivative::Binary, name: "Max", args: ANY_AB, output: OutputType::Broadcast, doc: "The larger of a and b; NaN if either is NaN." },
-    NodeDef { kind: Kind::Pow, lowering: Lowering::Binary(BinaryOp::Pow), slope: Slope::Unbounded("the slope of a^b grows without bound"), derivative: Derivative::Binary, name: "Pow", args: ANY_AB, output: OutputType::Broadcast, doc: "a raised to b (IEEE pow: a negative a with a non-integer b is NaN)." },
+    NodeDef { kind: Kind::Add, lowering: Lowering::Binary(BinaryOp::Add), slope: Slope::Sum, name: "Add", args: ANY_AB, output: OutputType::Broadcast, doc: "a + b." },
+    NodeDef { kind: Kind::Sub, lowering: Lowering::Binary(BinaryOp::Sub), slope: Slope::Sum, name: "Sub", args: ANY_AB, output: OutputType::Broadcast, doc: "a - b." },
+    NodeDef { kind: Kind::Mul, lowering: Lowering::Binary(BinaryOp::Mul), slope: Slope::ConstantFactor, name: "Mul", args: ANY_AB, output: OutputType::Broadcast, doc: "a * b." },
+    NodeDef { kind: Kind::Div, lowering: Lowering::Binary(BinaryOp::Div), slope: Slope::ConstantDivisor, name: "Div", args: ANY_AB, output: OutputType::Broadcast, doc: "a / b (IEEE: x/0 is +-inf, 0/0 is NaN)." },
+    NodeDef { kind: Kind::Min, lowering: Lowering::Binary(BinaryOp::Min), slope: Slope::Steepest, name: "Min", args: ANY_AB, output: OutputType::Broadcast, doc: "The smaller of a and b; NaN if either is NaN." },
+    NodeDef { kind: Kind::Max, lowering: Lowering::Binary(BinaryOp::Max), slope: Slope::Steepest, name: "Max", args: ANY_AB, output: OutputType::Broadcast, doc: "The larger of a and b; NaN if either is NaN." },
+    NodeDef { kind: Kind::Pow, lowering: Lowering::Binary(BinaryOp::Pow), slope: Slope::Unbounded("the slope of a^b grows without bound"), name: "Pow", args: ANY_AB, output: OutputType::Broadcast, doc: "a raised to b (IEEE pow: a negative a with a non-integer b is NaN)." },
     NodeDef {
-        kind: Kind::Atan2, lowering: Lowering::Binary(BinaryOp::Atan2), slope: Slope::Unbounded("the slope of atan2 grows without bound near the origin"), derivative: Derivative::Binary,
+        kind: Kind::Atan2, lowering: Lowering::Binary(BinaryOp::Atan2), slope: Slope::Unbounded("the slope of atan2 grows without bound near the origin"),
         name: "Atan2",
         args: &[input("y", InputType::Any, "y"), input("x", InputType::Any, "x")],
         output: OutputType::Broadcast,
         doc: "The angle of (x, y) in radians, in [-pi, pi]; Atan2(0, 0) is 0.",
     },
-    NodeDef { kind: Kind::Mod, lowering: Lowering::Binary(BinaryOp::Mod), slope: Slope::Unbounded("a floored modulo jumps"), derivative: Derivative::Binary, name: "Mod", args: ANY_AB, output: OutputType::Broadcast, doc: "Floored modulo: the result takes the sign of b; Mod(a, 0) is NaN." },
-    NodeDef { kind: Kind::Abs, lowering: Lowering::Unary(UnaryOp::Abs), slope: Slope::NoSteeper, derivative: Derivative::Unary, name: "Abs", args: ANY_X, output: OutputType::Broadcast, doc: "|x|." },
-    NodeDef { kind: Kind::Neg, lowering: Lowering::Unary(UnaryOp::Neg), slope: Slope::NoSteeper, derivative: Derivative::Unary, name: "Neg", args: ANY_X, output: OutputType::Broadcast, doc: "-x." },
-    NodeDef { kind: Kind::Sin, lowering: Lowering::Unary(UnaryOp::Sin), slope: Slope::NoSteeper, derivative: Derivative::Unary, name: "Sin", args: ANY_X, output: OutputType::Broadcast, doc: "sin(x), x in radians." },
-    NodeDef { kind: Kind::Cos, lowering: Lowering::Unary(UnaryOp::Cos), slope: Slope::NoSteeper, derivative: Derivative::Unary, name: "Cos", args: ANY_X, output: OutputType::Broadcast, doc: "cos(x), x in radians." },
-    NodeDef { kind: Kind::Sqrt, lowering: Lowering::Unary(UnaryOp::Sqrt), slope: Slope::Unbounded("the slope of a square root is unbounded at 0"), derivative: Derivative::Unary, name: "Sqrt", args: ANY_X, output: OutputType::Broadcast, doc: "Square root; NaN for negative x." },
-    NodeDef { kind: Kind::Floor, lowering: Lowering::Unary(UnaryOp::Floor), slope: Slope::Unbounded("floor jumps"), derivative: Derivative::Unary, name: "Floor", args: ANY_X, output: OutputType::Broadcast, doc: "The largest integer <= x." },
-    NodeDef { kind: Kind::Fract, lowering: Lowering::Unary(UnaryOp::Fract), slope: Slope::Unbounded("fract jumps"), derivative: Derivative::Unary, name: "Fract", args: ANY_X, output: OutputType::Broadcast, doc: "x - floor(x), in [0, 1); NaN for infinite x." },
-    NodeDef { kind: Kind::Exp, lowering: Lowering::Unary(UnaryOp::Exp), slope: Slope::Unbounded("the slope of e^x grows without bound"), derivative: Derivative::Unary, name: "Exp", args: ANY_X, output: OutputType::Broadcast, doc: "e^x; overflows to inf above about 88.72 (f32) or 709.78 (f64)." },
-    NodeDef { kind: Kind::Log, lowering: Lowering::Unary(UnaryOp::Log), slope: Slope::Unbounded("the slope of ln x is unbounded at 0"), derivative: Derivative::Unary, name: "Log", args: ANY_X, output: OutputType::Broadcast, doc: "Natural logarithm; -inf at 0, NaN below 0 (IEEE)." },
-    NodeDef { kind: Kind::Log2, lowering: Lowering::Unary(UnaryOp::Log2), slope: Slope::Unbounded("the slope of log2 x is unbounded at 0"), derivative: Derivative::Unary, name: "Log2", args: ANY_X, output: OutputType::Broadcast, doc: "Base-2 logarithm; -inf at 0, NaN below 0 (IEEE); exact at powers of two." },
-    NodeDef { kind: Kind::Tan, lowering: Lowering::Unary(UnaryOp::Tan), slope: Slope::Unbounded("tan has poles"), derivative: Derivative::Unary, name: "Tan", args: ANY_X, output: OutputType::Broadcast, doc: "tan(x), x in radians; very large near the poles at pi/2 + k pi." },
-    NodeDef { kind: Kind::Asin, lowering: Lowering::Unary(UnaryOp::Asin), slope: Slope::Unbounded("the slope of asin is unbounded at -1 and 1"), derivative: Derivative::Unary, name: "Asin", args: ANY_X, output: OutputType::Broadcast, doc: "arcsin in [-pi/2, pi/2]; NaN outside [-1, 1] (IEEE)." },
-    NodeDef { kind: Kind::Acos, lowering: Lowering::Unary(UnaryOp::Acos), slope: Slope::Unbounded("the slope of acos is unbounded at -1 and 1"), derivative: Derivative::Unary, name: "Acos", args: ANY_X, output: OutputType::Broadcast, doc: "arccos in [0, pi]; NaN outside [-1, 1] (IEEE)." },
-    NodeDef { kind: Kind::Sign, lowering: Lowering::Unary(UnaryOp::Sign), slope: Slope::Unbounded("sign jumps at 0"), derivative: Derivative::Unary, name: "Sign", args: ANY_X, output: OutputType::Broadcast, doc: "-1 below 0, 1 above; x itself at +0, -0 and NaN (GLSL sign)." },
-    NodeDef { kind: Kind::Round, lowering: Lowering::Unary(UnaryOp::Round), slope: Slope::Unbounded("round jumps"), derivative: Derivative::Unary, name: "Round", args: ANY_X, output: OutputType::Broadcast, doc: "The nearest integer, halves away from zero (Round(2.5) = 3, Round(-2.5) = -3)." },
-    NodeDef { kind: Kind::Trunc, lowering: Lowering::Unary(UnaryOp::Trunc), slope: Slope::Unbounded("trunc jumps"), derivative: Derivative::Unary, name: "Trunc", args: ANY_X, output: OutputType::Broadcast, doc: "x rounded toward zero." },
+    NodeDef { kind: Kind::Mod, lowering: Lowering::Binary(BinaryOp::Mod), slope: Slope::Unbounded("a floored modulo jumps"), name: "Mod", args: ANY_AB, output: OutputType::Broadcast, doc: "Floored modulo: the result takes the sign of b; Mod(a, 0) is NaN." },
+    NodeDef { kind: Kind::Abs, lowering: Lowering::Unary(UnaryOp::Abs), slope: Slope::NoSteeper, name: "Abs", args: ANY_X, output: OutputType::Broadcast, doc: "|x|." },
+    NodeDef { kind: Kind::Neg, lowering: Lowering::Unary(UnaryOp::Neg), slope: Slope::NoSteeper, name: "Neg", args: ANY_X, output: OutputType::Broadcast, doc: "-x." },
+    NodeDef { kind: Kind::Sin, lowering: Lowering::Unary(UnaryOp::Sin), slope: Slope::NoSteeper, name: "Sin", args: ANY_X, output: OutputType::Broadcast, doc: "sin(x), x in radians." },
+    NodeDef { kind: Kind::Cos, lowering: Lowering::Unary(UnaryOp::Cos), slope: Slope::NoSteeper, name: "Cos", args: ANY_X, output: OutputType::Broadcast, doc: "cos(x), x in radians." },
+    NodeDef { kind: Kind::Sqrt, lowering: Lowering::Unary(UnaryOp::Sqrt), slope: Slope::Unbounded("the slope of a square root is unbounded at 0"), name: "Sqrt", args: ANY_X, output: OutputType::Broadcast, doc: "Square root; NaN for negative x." },
+    NodeDef { kind: Kind::Floor, lowering: Lowering::Unary(UnaryOp::Floor), slope: Slope::Unbounded("floor jumps"), name: "Floor", args: ANY_X, output: OutputType::Broadcast, doc: "The largest integer <= x." },
+    NodeDef { kind: Kind::Fract, lowering: Lowering::Unary(UnaryOp::Fract), slope: Slope::Unbounded("fract jumps"), name: "Fract", args: ANY_X, output: OutputType::Broadcast, doc: "x - floor(x), in [0, 1); NaN for infinite x." },
+    NodeDef { kind: Kind::Exp, lowering: Lowering::Unary(UnaryOp::Exp), slope: Slope::Unbounded("the slope of e^x grows without bound"), name: "Exp", args: ANY_X, output: OutputType::Broadcast, doc: "e^x; overflows to inf above about 88.72 (f32) or 709.78 (f64)." },
+    NodeDef { kind: Kind::Log, lowering: Lowering::Unary(UnaryOp::Log), slope: Slope::Unbounded("the slope of ln x is unbounded at 0"), name: "Log", args: ANY_X, output: OutputType::Broadcast, doc: "Natural logarithm; -inf at 0, NaN below 0 (IEEE)." },
+    NodeDef { kind: Kind::Log2, lowering: Lowering::Unary(UnaryOp::Log2), slope: Slope::Unbounded("the slope of log2 x is unbounded at 0"), name: "Log2", args: ANY_X, output: OutputType::Broadcast, doc: "Base-2 logarithm; -inf at 0, NaN below 0 (IEEE); exact at powers of two." },
+    NodeDef { kind: Kind::Tan, lowering: Lowering::Unary(UnaryOp::Tan), slope: Slope::Unbounded("tan has poles"), name: "Tan", args: ANY_X, output: OutputType::Broadcast, doc: "tan(x), x in radians; very large near the poles at pi/2 + k pi." },
+    NodeDef { kind: Kind::Asin, lowering: Lowering::Unary(UnaryOp::Asin), slope: Slope::Unbounded("the slope of asin is unbounded at -1 and 1"), name: "Asin", args: ANY_X, output: OutputType::Broadcast, doc: "arcsin in [-pi/2, pi/2]; NaN outside [-1, 1] (IEEE)." },
+    NodeDef { kind: Kind::Acos, lowering: Lowering::Unary(UnaryOp::Acos), slope: Slope::Unbounded("the slope of acos is unbounded at -1 and 1"), name: "Acos", args: ANY_X, output: OutputType::Broadcast, doc: "arccos in [0, pi]; NaN outside [-1, 1] (IEEE)." },
+    NodeDef { kind: Kind::Sign, lowering: Lowering::Unary(UnaryOp::Sign), slope: Slope::Unbounded("sign jumps at 0"), name: "Sign", args: ANY_X, output: OutputType::Broadcast, doc: "-1 below 0, 1 above; x itself at +0, -0 and NaN (GLSL sign)." },
+    NodeDef { kind: Kind::Round, lowering: Lowering::Unary(UnaryOp::Round), slope: Slope::Unbounded("round jumps"), name: "Round", args: ANY_X, output: OutputType::Broadcast, doc: "The nearest integer, halves away from zero (Round(2.5) = 3, Round(-2.5) = -3)." },
+    NodeDef { kind: Kind::Trunc, lowering: Lowering::Unary(UnaryOp::Trunc), slope: Slope::Unbounded("trunc jumps"), name: "Trunc", args: ANY_X, output: OutputType::Broadcast, doc: "x rounded toward zero." },
     NodeDef {
-        kind: Kind::Step, lowering: Lowering::Binary(BinaryOp::Step), slope: Slope::Unbounded("step jumps at its edge"), derivative: Derivative::Binary,
+        kind: Kind::Step, lowering: Lowering::Binary(BinaryOp::Step), slope: Slope::Unbounded("step jumps at its edge"),
         name: "Step",
         args: &[input("edge", InputType::Any, "the edge"), input("x", InputType::Any, "the value tested")],
         output: OutputType::Broadcast,
         doc: "GLSL step: 0 where x < edge, 1 where x >= edge; NaN if either is NaN.",
     },
     NodeDef {
-        kind: Kind::Select, lowering: Lowering::Ternary(TernaryOp::Select), slope: Slope::Unbounded("select jumps where its condition changes sign"), derivative: Derivative::Ternary,
+        kind: Kind::Select, lowering: Lowering::Ternary(TernaryOp::Select), slope: Slope::Unbounded("select jumps where its condition changes sign"),
         name: "Select",
         args: &[input("condition", InputType::Scalar, "chooses a where > 0, else b (NaN chooses b)"), input("a", InputType::Any, "value where condition > 0"), input("b", InputType::Any, "value elsewhere")],
         output: OutputType::Broadcast,
         doc: "a where condition > 0, else b (a scalar condition chooses whole vec3 branches).",
     },
     NodeDef {
-        kind: Kind::MapRange, lowering: Lowering::MapRange, slope: Slope::Composite, derivative: Derivative::Composite,
+        kind: Kind::MapRange, lowering: Lowering::MapRange, slope: Slope::Composite,
         name: "MapRange",
         args: &[
             input("input", InputType::Any, "the value"),
@@ -741,65 +709,65 @@ pub const CATALOGUE: &[NodeDef] = &[
         output: OutputType::Broadcast,
         doc: "Linear remap: to_min + t (to_max - to_min), t = (input - from_min) / (from_max - from_min), t clamped to [0, 1] when clamp is true.",
     },
-    NodeDef { kind: Kind::Length, lowering: Lowering::Length, slope: Slope::NoSteeper, derivative: Derivative::Vector, name: "Length", args: &[input("v", InputType::Vec3, "the vector")], output: OutputType::Scalar, doc: "Euclidean length of a vec3." },
+    NodeDef { kind: Kind::Length, lowering: Lowering::Length, slope: Slope::NoSteeper, name: "Length", args: &[input("v", InputType::Vec3, "the vector")], output: OutputType::Scalar, doc: "Euclidean length of a vec3." },
     NodeDef {
-        kind: Kind::Dot, lowering: Lowering::Dot, slope: Slope::ConstantProjection, derivative: Derivative::Vector,
+        kind: Kind::Dot, lowering: Lowering::Dot, slope: Slope::ConstantProjection,
         name: "Dot",
         args: &[input("a", InputType::Vec3, "left vector"), input("b", InputType::Vec3, "right vector")],
         output: OutputType::Scalar,
         doc: "Dot product of two vec3.",
     },
     NodeDef {
-        kind: Kind::Cross, lowering: Lowering::Cross, slope: Slope::ConstantProjection, derivative: Derivative::Vector,
+        kind: Kind::Cross, lowering: Lowering::Cross, slope: Slope::ConstantProjection,
         name: "Cross",
         args: &[input("a", InputType::Vec3, "left vector"), input("b", InputType::Vec3, "right vector")],
         output: OutputType::Vec3,
         doc: "Cross product a x b (right-handed).",
     },
     NodeDef {
-        kind: Kind::Normalize, lowering: Lowering::Normalize, slope: Slope::Unbounded("a direction turns fastest near the origin"), derivative: Derivative::Vector,
+        kind: Kind::Normalize, lowering: Lowering::Normalize, slope: Slope::Unbounded("a direction turns fastest near the origin"),
         name: "Normalize",
         args: &[input("v", InputType::Vec3, "the vector")],
         output: OutputType::Vec3,
         doc: "v / |v| (no overflow or underflow for any finite v); (0, 0, 0) for the zero vector; NaN if a component is infinite or NaN.",
     },
     NodeDef {
-        kind: Kind::Distance, lowering: Lowering::Distance, slope: Slope::Composite, derivative: Derivative::Composite,
+        kind: Kind::Distance, lowering: Lowering::Distance, slope: Slope::Composite,
         name: "Distance",
         args: &[input("a", InputType::Vec3, "one point"), input("b", InputType::Vec3, "the other point")],
         output: OutputType::Scalar,
         doc: "Euclidean distance |a - b|.",
     },
     NodeDef {
-        kind: Kind::Gradient, lowering: Lowering::Gradient, slope: Slope::Composite, derivative: Derivative::Composite,
+        kind: Kind::Gradient, lowering: Lowering::Gradient, slope: Slope::Composite,
         name: "Gradient",
         args: &[input("of", InputType::Scalar, "the scalar node differentiated")],
         output: OutputType::Vec3,
         doc: "The exact gradient (d/dx, d/dy, d/dz) of a scalar node with respect to the sample point (forward-mode differentiation; analytic noise derivatives).",
     },
     NodeDef {
-        kind: Kind::Clamp, lowering: Lowering::Ternary(TernaryOp::Clamp), slope: Slope::ConstantBounds, derivative: Derivative::Ternary,
+        kind: Kind::Clamp, lowering: Lowering::Ternary(TernaryOp::Clamp), slope: Slope::ConstantBounds,
         name: "Clamp",
         args: &[input("input", InputType::Any, "the value"), input_or("min", InputType::Any, 0.0, "lower bound"), input_or("max", InputType::Any, 1.0, "upper bound")],
         output: OutputType::Broadcast,
         doc: "min(max(input, min), max); NaN stays NaN.",
     },
     NodeDef {
-        kind: Kind::Mix, lowering: Lowering::Ternary(TernaryOp::Mix), slope: Slope::ConstantBlend, derivative: Derivative::Ternary,
+        kind: Kind::Mix, lowering: Lowering::Ternary(TernaryOp::Mix), slope: Slope::ConstantBlend,
         name: "Mix",
         args: &[input("a", InputType::Any, "value at t = 0"), input("b", InputType::Any, "value at t = 1"), input("t", InputType::Any, "blend factor, not clamped")],
         output: OutputType::Broadcast,
         doc: "Linear blend a + t * (b - a), t not clamped.",
     },
     NodeDef {
-        kind: Kind::Smoothstep, lowering: Lowering::Ternary(TernaryOp::Smoothstep), slope: Slope::ConstantEdges, derivative: Derivative::Ternary,
+        kind: Kind::Smoothstep, lowering: Lowering::Ternary(TernaryOp::Smoothstep), slope: Slope::ConstantEdges,
         name: "Smoothstep",
         args: &[input("edge0", InputType::Any, "where the step starts"), input("edge1", InputType::Any, "where the step ends"), input("x", InputType::Any, "the value")],
         output: OutputType::Broadcast,
         doc: "GLSL smoothstep: t = clamp((x - edge0) / (edge1 - edge0), 0, 1), t*t*(3 - 2t); a hard step at edge0 when edge0 = edge1.",
     },
     NodeDef {
-        kind: Kind::Hermite, lowering: Lowering::Hermite, slope: Slope::Unbounded("not yet bounded (its steepest slope depends on the tangents)"), derivative: Derivative::Spline,
+        kind: Kind::Hermite, lowering: Lowering::Hermite, slope: Slope::Unbounded("not yet bounded (its steepest slope depends on the tangents)"),
         name: "Hermite",
         args: &[
             input("input", InputType::Scalar, "the value; clamped to [0, 1]"),
@@ -812,7 +780,7 @@ pub const CATALOGUE: &[NodeDef] = &[
         doc: "Cubic Hermite spline on t = clamp(input, 0, 1) from p0 (slope m0) to p1 (slope m1): seed 000's crack sharpening.",
     },
     NodeDef {
-        kind: Kind::ColorRamp, lowering: Lowering::Ramp, slope: Slope::SteepestSegment, derivative: Derivative::Spline,
+        kind: Kind::ColorRamp, lowering: Lowering::Ramp, slope: Slope::SteepestSegment,
         name: "ColorRamp",
         args: &[
             input("input", InputType::Scalar, "the value; clamped to the first and last stop"),
@@ -828,7 +796,7 @@ pub const CATALOGUE: &[NodeDef] = &[
         doc: "Colour spline: maps a scalar to a colour through sorted stops.",
     },
     NodeDef {
-        kind: Kind::Curve, lowering: Lowering::Curve, slope: Slope::SteepestSegment, derivative: Derivative::Spline,
+        kind: Kind::Curve, lowering: Lowering::Curve, slope: Slope::SteepestSegment,
         name: "Curve",
         args: &[
             input("input", InputType::Scalar, "the value; clamped to the first and last point"),
@@ -844,28 +812,28 @@ pub const CATALOGUE: &[NodeDef] = &[
         doc: "Scalar spline: maps a scalar through sorted (x, y) points.",
     },
     NodeDef {
-        kind: Kind::Luminance, lowering: Lowering::Luminance, slope: Slope::Composite, derivative: Derivative::Composite,
+        kind: Kind::Luminance, lowering: Lowering::Luminance, slope: Slope::Composite,
         name: "Luminance",
         args: &[input("colour", InputType::Vec3, "linear RGB")],
         output: OutputType::Scalar,
         doc: "Relative luminance with the Rec. 709 weights: 0.2126 r + 0.7152 g + 0.0722 b.",
     },
     NodeDef {
-        kind: Kind::HsvToRgb, lowering: Lowering::HsvToRgb, slope: Slope::Composite, derivative: Derivative::Composite,
+        kind: Kind::HsvToRgb, lowering: Lowering::HsvToRgb, slope: Slope::Composite,
         name: "HsvToRgb",
         args: &[input("hsv", InputType::Vec3, "(hue in turns, wrapping; saturation; value)")],
         output: OutputType::Vec3,
         doc: "HSV to RGB: hue in turns (0 red, 1/3 green, 2/3 blue; any real hue wraps), saturation and value not clamped.",
     },
     NodeDef {
-        kind: Kind::RgbToHsv, lowering: Lowering::RgbToHsv, slope: Slope::Composite, derivative: Derivative::Composite,
+        kind: Kind::RgbToHsv, lowering: Lowering::RgbToHsv, slope: Slope::Composite,
         name: "RgbToHsv",
         args: &[input("rgb", InputType::Vec3, "the colour")],
         output: OutputType::Vec3,
         doc: "RGB to HSV: hue in turns [0, 1) (0 for greys), saturation (max - min) / max (0 where max <= 0), value max(r, g, b).",
     },
     NodeDef {
-        kind: Kind::Blend, lowering: Lowering::Blend, slope: Slope::Composite, derivative: Derivative::Composite,
+        kind: Kind::Blend, lowering: Lowering::Blend, slope: Slope::Composite,
         name: "Blend",
         args: &[
             input("base", InputType::Any, "the colour below"),
@@ -877,7 +845,7 @@ pub const CATALOGUE: &[NodeDef] = &[
         doc: "Blend modes of image editors: Mix(base, mode(base, layer), t), per component, not clamped.",
     },
     NodeDef {
-        kind: Kind::Import, lowering: Lowering::Import, slope: Slope::Composite, derivative: Derivative::Composite,
+        kind: Kind::Import, lowering: Lowering::Import, slope: Slope::Composite,
         name: "Import",
         args: &[
             ArgDef { name: "file", kind: ArgKind::Text, default: None, doc: "the graph file, relative to this file" },

@@ -132,26 +132,6 @@ impl UnaryOp {
         }
     }
 
-    /// `d/dx apply(x)` (the `Gradient` chain rule's factor; 0 at a jump, one side at a kink).
-    pub fn derivative(self, x: f64) -> f64 {
-        match self {
-            UnaryOp::Abs => sign_of(x),
-            UnaryOp::Neg => -1.0,
-            UnaryOp::Sin => x.cos(),
-            UnaryOp::Cos => -x.sin(),
-            UnaryOp::Sqrt => 0.5 / x.sqrt(),
-            UnaryOp::Floor => 0.0,
-            UnaryOp::Fract => 1.0,
-            UnaryOp::Exp => x.exp(),
-            UnaryOp::Log => 1.0 / x,
-            UnaryOp::Log2 => 1.0 / (x * std::f64::consts::LN_2),
-            UnaryOp::Tan => 1.0 + x.tan() * x.tan(),
-            UnaryOp::Asin => 1.0 / (1.0 - x * x).sqrt(),
-            UnaryOp::Acos => -1.0 / (1.0 - x * x).sqrt(),
-            UnaryOp::Sign | UnaryOp::Round | UnaryOp::Trunc => 0.0,
-        }
-    }
-
     pub fn name(self) -> &'static str {
         match self {
             UnaryOp::Abs => "abs",
@@ -204,29 +184,6 @@ impl BinaryOp {
         }
     }
 
-    /// `(d/da, d/db)` of `apply(a, b)`.
-    pub fn partials(self, a: f64, b: f64) -> (f64, f64) {
-        match self {
-            BinaryOp::Add => (1.0, 1.0),
-            BinaryOp::Sub => (1.0, -1.0),
-            BinaryOp::Mul => (b, a),
-            BinaryOp::Div => (1.0 / b, -a / (b * b)),
-            BinaryOp::Min if a <= b => (1.0, 0.0),
-            BinaryOp::Min => (0.0, 1.0),
-            BinaryOp::Max if a >= b => (1.0, 0.0),
-            BinaryOp::Max => (0.0, 1.0),
-            BinaryOp::Pow => (b * a.powf(b - 1.0), a.powf(b) * a.ln()),
-            // atan2(y, x): the first operand is y.
-            BinaryOp::Atan2 => {
-                let r2 = a * a + b * b;
-                (b / r2, -a / r2)
-            }
-            BinaryOp::Mod => (1.0, -(a / b).floor()),
-            // Flat on both sides of the edge (the jump itself has no derivative).
-            BinaryOp::Step => (0.0, 0.0),
-        }
-    }
-
     pub fn name(self) -> &'static str {
         match self {
             BinaryOp::Add => "add",
@@ -266,30 +223,6 @@ impl TernaryOp {
             S::NAN
         } else {
             r
-        }
-    }
-
-    /// The three partial derivatives of `apply(a, b, c)`.
-    pub fn partials(self, a: f64, b: f64, c: f64) -> [f64; 3] {
-        match self {
-            TernaryOp::Clamp if a < b => [0.0, 1.0, 0.0],
-            TernaryOp::Clamp if a > c => [0.0, 0.0, 1.0],
-            TernaryOp::Clamp => [1.0, 0.0, 0.0],
-            TernaryOp::Mix => [1.0 - c, c, b - a],
-            TernaryOp::Smoothstep => {
-                let width = b - a;
-                let t = (c - a) / width;
-                if !(t > 0.0 && t < 1.0) {
-                    return [0.0; 3];
-                }
-                // d smoothstep / dt = 6t(1 - t); t = (x - e0) / (e1 - e0).
-                let ds = 6.0 * t * (1.0 - t);
-                let w2 = width * width;
-                [ds * (c - b) / w2, -ds * (c - a) / w2, ds / width]
-            }
-            // The condition's switch is a jump: flat in the condition on both sides.
-            TernaryOp::Select if a > 0.0 => [0.0, 1.0, 0.0],
-            TernaryOp::Select => [0.0, 0.0, 1.0],
         }
     }
 
@@ -612,94 +545,6 @@ pub fn select<S: Real>(condition: S, a: S, b: S) -> S {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Central difference of `f` at `x`; `None` where a jump or kink lies within the step
-    /// (the two one-sided differences disagree), so only smooth points are compared.
-    fn numeric(f: impl Fn(f64) -> f64, x: f64) -> Option<f64> {
-        let h = 1e-6 * x.abs().max(1.0);
-        let (left, right) = ((f(x) - f(x - h)) / h, (f(x + h) - f(x)) / h);
-        let scale = left.abs().max(right.abs()).max(1.0);
-        ((left - right).abs() < 1e-3 * scale).then_some((f(x + h) - f(x - h)) / (2.0 * h))
-    }
-
-    fn close(analytic: f64, numeric: f64) -> bool {
-        (analytic - numeric).abs() <= 1e-4 * numeric.abs().max(1.0)
-    }
-
-    /// Every operation's derivative against finite differences of its own value, at points
-    /// scattered over the interesting range (each operand in [-3, 3], positive for Sqrt/Pow).
-    #[test]
-    fn derivatives_match_finite_differences() {
-        let mut rng = crate::noise::SplitMix64::new(7);
-        let mut draw = || rng.next_f64() * 6.0 - 3.0;
-        let mut compared = 0;
-        for _ in 0..400 {
-            let (a, b, c) = (draw(), draw(), draw());
-            for op in UnaryOp::ALL {
-                // Inside each operation's domain (away from its poles and ends).
-                let x = match op {
-                    UnaryOp::Sqrt | UnaryOp::Log | UnaryOp::Log2 => a.abs() + 0.1,
-                    UnaryOp::Asin | UnaryOp::Acos => a / 3.3,
-                    UnaryOp::Tan => a / 2.2,
-                    _ => a,
-                };
-                if let Some(n) = numeric(|x| op.apply(x), x) {
-                    assert!(
-                        close(op.derivative(x), n),
-                        "{op} at {x}: {} vs {n}",
-                        op.derivative(x)
-                    );
-                    compared += 1;
-                }
-            }
-            for op in BinaryOp::ALL {
-                let a = if op == BinaryOp::Pow {
-                    a.abs() + 0.1
-                } else {
-                    a
-                };
-                let (da, db) = op.partials(a, b);
-                for (analytic, n) in [
-                    (da, numeric(|x| op.apply(x, b), a)),
-                    (db, numeric(|x| op.apply(a, x), b)),
-                ] {
-                    if let Some(n) = n {
-                        assert!(close(analytic, n), "{op} at ({a}, {b}): {analytic} vs {n}");
-                        compared += 1;
-                    }
-                }
-            }
-            for op in TernaryOp::ALL {
-                // Ordered edges/bounds: the operations' meaningful use.
-                let (lo, hi) = (a.min(b), a.max(b));
-                let args = match op {
-                    TernaryOp::Clamp => [c, lo, hi],
-                    TernaryOp::Mix => [a, b, c],
-                    TernaryOp::Smoothstep => [lo, hi, c],
-                    TernaryOp::Select => [a, b, c],
-                };
-                let partials = op.partials(args[0], args[1], args[2]);
-                for (i, analytic) in partials.into_iter().enumerate() {
-                    let f = |x: f64| {
-                        let mut v = args;
-                        v[i] = x;
-                        op.apply(v[0], v[1], v[2])
-                    };
-                    if let Some(n) = numeric(f, args[i]) {
-                        assert!(
-                            close(analytic, n),
-                            "{op} d{i} at {args:?}: {analytic} vs {n}"
-                        );
-                        compared += 1;
-                    }
-                }
-            }
-        }
-        assert!(
-            compared > 400 * 20,
-            "only {compared} smooth points compared"
-        );
-    }
 
     #[test]
     fn floored_mod_takes_sign_of_divisor() {

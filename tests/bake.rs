@@ -7,6 +7,7 @@
 //! mix-up or a wrong centre formula shows.
 
 use std::collections::BTreeMap;
+mod common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -38,19 +39,7 @@ const NON_FINITE: &str = r#"Graph(nodes: { "p": Position }, outputs: {
 // ---------------------------------------------------------------------------------------------
 // Graphs and grids
 
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// Loads a graph file of the crate with param overrides; returns its tape and params.
-fn load_with(path: &str, overrides: &[(&str, f64)]) -> (Tape, Vec<(String, f64)>) {
-    let check = CheckOptions {
-        overrides: overrides.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
-    };
-    let (graph, tape) = texgraph::load_tape(&root().join(path), &check, &CompileOptions::default())
-        .unwrap_or_else(|e| panic!("{path}: {e}"));
-    (tape, graph.params().to_vec())
-}
+use common::{crate_root as root, load_graph_file as load_with};
 
 fn load(path: &str) -> Tape {
     load_with(path, &[]).0

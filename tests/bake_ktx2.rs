@@ -7,6 +7,7 @@
 //! The grids are odd (5×3×4) over a box with negative coordinates, so that an axis mix-up, a
 //! wrong texel order or a row padding shows.
 
+mod common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -31,19 +32,7 @@ const EXTREMES: &str = r#"Graph(nodes: { "p": Position }, outputs: {
 // ---------------------------------------------------------------------------------------------
 // Graphs, grids and the reference
 
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// A graph file of the crate: its tape and params.
-fn load_file(path: &str, overrides: &[(&str, f64)]) -> (Tape, Vec<(String, f64)>) {
-    let check = CheckOptions {
-        overrides: overrides.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
-    };
-    let (graph, tape) = texgraph::load_tape(&root().join(path), &check, &CompileOptions::default())
-        .unwrap_or_else(|e| panic!("{path}: {e}"));
-    (tape, graph.params().to_vec())
-}
+use common::{crate_root as root, load_graph_file as load_file};
 
 fn load_text(text: &str) -> Tape {
     let graph = texgraph::check(

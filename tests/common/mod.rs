@@ -135,3 +135,22 @@ pub fn point_and_batch<S: Real>(
     }
     Ok(batch)
 }
+
+/// The crate's folder (graph paths in tests are relative to it).
+pub fn crate_root() -> &'static std::path::Path {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A graph file of the crate with param overrides: its tape and its params after them.
+pub fn load_graph_file(path: &str, overrides: &[(&str, f64)]) -> (Tape, Vec<(String, f64)>) {
+    let check = texgraph::CheckOptions {
+        overrides: overrides.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
+    };
+    let (graph, tape) = texgraph::load_tape(
+        &crate_root().join(path),
+        &check,
+        &texgraph::CompileOptions::default(),
+    )
+    .unwrap_or_else(|e| panic!("{path}: {e}"));
+    (tape, graph.params().to_vec())
+}
