@@ -44,6 +44,13 @@ enum Command {
     /// graph is invalid, 2 if a bake was refused or failed to write (the other graphs still
     /// bake), 130 if interrupted by Ctrl-C (nothing of the interrupted graph is written).
     Bake(BakeArgs),
+    /// Check a zarr store written by `bake --format zarr` (or by the parts of a split bake):
+    /// every shard present, matching its manifest's length and crc32c, baked for the array's
+    /// metadata and tape.
+    ///
+    /// Lists what is missing, corrupt or stale. Exit code 0 when complete, 1 when any shard is
+    /// not, 2 when a path is not a texgraph zarr store.
+    Verify(cli::verify::VerifyArgs),
     /// Measure error against run time: every evaluation strategy against the f64 reference.
     ///
     /// For each output: the f64 reference, f32 per point and per batch, f32 with footprint level
@@ -122,6 +129,7 @@ fn main() -> ExitCode {
         Command::Check(args) => cli::check::check(args),
         Command::Eval(args) => cli::eval::eval(args),
         Command::Bake(args) => cli::bake::bake(args),
+        Command::Verify(args) => cli::verify::verify(args),
         Command::Report(args) => cli::report::report_command(args),
         Command::Render(args) => cli::render::render_command(args, false),
         Command::Watch(args) => cli::render::render_command(args, true),

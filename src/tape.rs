@@ -236,6 +236,33 @@ impl Tape {
         &self.stats
     }
 
+    /// A fingerprint of what the tape computes (FNV-1a 64 over its instructions, constants,
+    /// outputs and tables' keys, not over its process-local id): equal tapes compiled in
+    /// different processes, or by different runs of one build, have equal fingerprints. A bake
+    /// records it (zarr attributes, shard manifests) to tell a resumable store from a stale one.
+    pub fn fingerprint(&self) -> u64 {
+        let text = format!(
+            "{:?}|{}|{}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}",
+            self.instrs,
+            self.scalar_slots,
+            self.vec3_slots,
+            self.scalar_constants,
+            self.vec3_constants,
+            self.outputs,
+            self.tables.iter().map(|(key, _)| key).collect::<Vec<_>>(),
+            self.octaves,
+            self.octave_counts,
+            self.matrices,
+            self.axes,
+            self.hermites,
+            self.ramps,
+            self.curves,
+        );
+        text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+            (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+        })
+    }
+
     /// Total output channels: 1 per scalar output, 3 per vec3 output.
     pub fn channels(&self) -> usize {
         self.outputs.iter().map(|o| o.ty.channels()).sum()

@@ -1046,19 +1046,19 @@ fn cli_options_that_do_not_apply_are_usage_errors() {
     for (args, message) in [
         (
             vec!["--zstd"],
-            "--zstd applies to --format ktx2 only, not to --format png",
+            "--zstd applies to --format ktx2 and --format zarr with --compression zstd only, not to --format png",
         ),
         (
             vec!["--format", "raw", "--zstd=5"],
-            "--zstd applies to --format ktx2 only, not to --format raw",
+            "--zstd applies to --format ktx2 and --format zarr with --compression zstd only, not to --format raw",
         ),
         (
             vec!["--format", "exr", "--float"],
-            "--float applies to --format ktx2 only, not to --format exr",
+            "--float applies to --format ktx2 or zarr only, not to --format exr",
         ),
         (
             vec!["--half"],
-            "--half applies to --format exr or ktx2 only, not to --format png",
+            "--half applies to --format exr, ktx2 or zarr only, not to --format png",
         ),
         (
             vec!["--format", "ktx2", "--atlas"],
@@ -1095,6 +1095,24 @@ fn cli_options_that_do_not_apply_are_usage_errors() {
         (vec!["--format", "ktx2", "--zstd=0"], "--zstd"),
         (vec!["--format", "ktx2", "--zstd=23"], "--zstd"),
         (vec!["--format", "ktx2", "--zstd=fast"], "--zstd"),
+        (
+            vec!["--format", "zarr", "--compression", "blosc", "--zstd=5"],
+            "--zstd applies to --format ktx2 and --format zarr with --compression zstd only",
+        ),
+        (
+            vec!["--format", "ktx2", "--chunk", "8"],
+            "--chunk applies to --format zarr only, not to --format ktx2",
+        ),
+        (
+            vec!["--format", "raw", "--shard", "8"],
+            "--shard applies to --format zarr only, not to --format raw",
+        ),
+        (
+            vec!["--format", "png", "--compression", "none"],
+            "--compression applies to --format zarr only",
+        ),
+        (vec!["--format", "png", "--part", "1/2"], "--part splits a zarr store's shards"),
+        (vec!["--format", "zarr", "--parts", "2"], "--parts N goes with --part auto"),
     ] {
         let mut all = vec!["bake", MARBLE, "--size", "2", "--out", path_str(&out)];
         all.extend(args.iter().copied());

@@ -532,11 +532,11 @@ fn options_that_do_not_apply_are_usage_errors() {
     for (args, message) in [
         (
             vec!["--half"],
-            "--half applies to --format exr or ktx2 only, not to --format png",
+            "--half applies to --format exr, ktx2 or zarr only, not to --format png",
         ),
         (
             vec!["--format", "raw", "--half"],
-            "--half applies to --format exr or ktx2 only, not to --format raw",
+            "--half applies to --format exr, ktx2 or zarr only, not to --format raw",
         ),
         (
             vec!["--raw-type", "f32"],

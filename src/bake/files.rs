@@ -28,6 +28,9 @@ pub enum Format {
     /// One KTX 2.0 file per output holding a 3D texture: 8-bit (R8 / RGBA8 sRGB), or half or
     /// single floats with --half / --float; --zstd supercompresses it.
     Ktx2,
+    /// A Zarr v3 store per graph (an array per output, chunked and sharded): 8-bit, or half or
+    /// single floats with --half / --float; --part splits it over processes.
+    Zarr,
 }
 
 impl Format {
@@ -38,6 +41,7 @@ impl Format {
             Format::Png => "png",
             Format::Raw => "raw",
             Format::Ktx2 => "ktx2",
+            Format::Zarr => "zarr",
         }
     }
 }
@@ -107,8 +111,11 @@ pub struct BakeFileOptions {
     pub alpha: bool,
     /// KTX2: 8-bit (default), half or single floats.
     pub ktx2_type: Ktx2SampleType,
-    /// KTX2: Zstandard supercompression at this level (1 to 22; `None`: none).
+    /// KTX2: Zstandard supercompression at this level (1 to 22; `None`: none). Zarr: the zstd
+    /// level (`None`: the default, 3).
     pub zstd: Option<i32>,
+    /// Zarr: chunking, sharding, compression and which part of the shards to bake.
+    pub zarr: super::zarr::ZarrSettings,
     pub transfer: Transfer,
     /// Refuse a bake whose files would exceed this many bytes (uncompressed estimate).
     pub max_bytes: u64,
@@ -146,6 +153,7 @@ impl BakeFileOptions {
             alpha: false,
             ktx2_type: Ktx2SampleType::U8,
             zstd: None,
+            zarr: super::zarr::ZarrSettings::default(),
             transfer: Transfer::Srgb,
             max_bytes: DEFAULT_MAX_BAKE_BYTES,
             max_held_bytes: DEFAULT_MAX_HELD_BYTES,
@@ -171,6 +179,7 @@ impl BakeFileOptions {
                     }
             }
             Format::Ktx2 => u64::from(self.ktx2_format(ty).texel_bytes()),
+            Format::Zarr => channels * super::zarr::sample_type(self).bytes(),
         }
     }
 
@@ -202,6 +211,9 @@ pub struct BakeReport {
 /// child of the output folder: a name that would leave it is refused (the checker already
 /// refuses such output names; this is the second line of defence).
 pub fn planned_outputs(tape: &Tape, options: &BakeFileOptions) -> Result<Vec<PathBuf>, BakeError> {
+    if options.format == Format::Zarr {
+        return Ok(vec![super::zarr::store_path(options)?]);
+    }
     tape.outputs
         .iter()
         .map(|o| {
@@ -212,6 +224,7 @@ pub fn planned_outputs(tape: &Tape, options: &BakeFileOptions) -> Result<Vec<Pat
                 Format::Png => base,
                 Format::Raw => format!("{base}.raw"),
                 Format::Ktx2 => format!("{base}.ktx2"),
+                Format::Zarr => unreachable!("a zarr bake writes one store"),
             };
             Ok(output::join_inside(&options.out_dir, &name)?)
         })
@@ -341,6 +354,12 @@ pub fn bake_files(
     options: &BakeFileOptions,
     progress: &mut dyn FnMut(u64),
 ) -> Result<BakeReport, BakeError> {
+    if options.format == Format::Zarr {
+        // A store is written in place, shard by shard, each shard atomically (zarr.rs).
+        validate_grid(&options.bake.grid)?;
+        super::zarr::preflight(tape, options)?;
+        return super::zarr::bake_zarr(tape, options, progress);
+    }
     let (finals, voxels) = preflight(tape, options)?;
     let created_out_dir = !options.out_dir.exists();
     std::fs::create_dir_all(&options.out_dir).map_err(io(&options.out_dir))?;
@@ -434,7 +453,7 @@ const MAX_IMAGE_SIDE: u64 = i32::MAX as u64;
 fn check_dimensions(grid: &Grid, options: &BakeFileOptions) -> Result<(), BakeError> {
     let [nx, ny, nz] = grid.size.map(|n| n as u64);
     let (what, width, height) = match options.format {
-        Format::Raw => return Ok(()),
+        Format::Raw | Format::Zarr => return Ok(()),
         Format::Ktx2 => {
             let Some(size) = ktx2::texture_size(grid) else {
                 return Err(BakeError::Refused(format!(
@@ -486,7 +505,7 @@ fn held_bytes(tape: &Tape, options: &BakeFileOptions) -> u64 {
             let channels = o.ty.channels() as u64;
             let sample = if options.depth16 { 2 } else { 1 };
             match options.format {
-                Format::Raw => 0,
+                Format::Raw | Format::Zarr => 0,
                 Format::Exr => voxels.saturating_mul(channels * 4),
                 Format::Png if options.atlas => {
                     let (columns, _) = atlas_shape(nz);
@@ -519,6 +538,7 @@ fn open_pending(
     let mut pending = Vec::with_capacity(finals.len());
     for (index, (output, final_path)) in tape.outputs.iter().zip(finals).enumerate() {
         pending.push(match options.format {
+            Format::Zarr => unreachable!("zarr bakes are written by zarr.rs"),
             Format::Ktx2 => {
                 let temp = temp_file(&options.out_dir, final_path)?;
                 let file = temp.reopen().map_err(io(temp.path()))?;
@@ -783,7 +803,7 @@ fn commit(staged: Vec<(Staged, PathBuf)>, out_dir: &Path) -> Result<(), BakeErro
     Ok(())
 }
 
-fn validate_grid(grid: &Grid) -> Result<(), BakeError> {
+pub(super) fn validate_grid(grid: &Grid) -> Result<(), BakeError> {
     if grid.size.contains(&0) {
         return Err(BakeError::Refused(format!(
             "the grid size {:?} has a zero dimension",
@@ -871,7 +891,7 @@ fn params_json(params: &[(String, f64)]) -> String {
     serde_json::Value::Object(params_map(params)).to_string()
 }
 
-fn params_map(params: &[(String, f64)]) -> serde_json::Map<String, serde_json::Value> {
+pub(super) fn params_map(params: &[(String, f64)]) -> serde_json::Map<String, serde_json::Value> {
     params
         .iter()
         .map(|(k, v)| (k.clone(), serde_json::json!(v)))

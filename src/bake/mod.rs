@@ -19,7 +19,9 @@
 
 mod files;
 mod ktx2;
+pub mod part;
 mod sinks;
+pub mod zarr;
 
 pub use files::{
     bake_files, human_bytes, planned_outputs, BakeFileOptions, BakeReport, BakedFile,

@@ -21,9 +21,29 @@ pub struct BakeArgs {
     /// File format.
     #[arg(long, value_enum, default_value_t)]
     format: crate::bake::Format,
-    /// Folder the files go to (created if missing).
+    /// Folder the files go to (created if missing). Zarr: a path ending in `.zarr` is the store
+    /// itself (one graph file), any other folder gets a store `STEM.zarr` per graph.
     #[arg(long, value_name = "DIR", default_value = "baked")]
     out: PathBuf,
+    /// Zarr: voxels per inner chunk side [default: 64].
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    chunk: Option<u64>,
+    /// Zarr: voxels per shard side, a multiple of --chunk (one object per shard; the unit of
+    /// --part and of resuming) [default: 512].
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    shard: Option<u64>,
+    /// Zarr: chunk compression [default: zstd, level from --zstd=LEVEL, default 3].
+    #[arg(long, value_enum, value_name = "METHOD")]
+    compression: Option<crate::bake::zarr::ZarrCompression>,
+    /// Bake only part I of N (from 1): of a zarr store's shards (one graph file), or of the
+    /// sorted list of graph files (several). `auto` reads a Kubernetes Indexed Job's
+    /// JOB_COMPLETION_INDEX (with --parts N) or a Slurm job array's SLURM_ARRAY_TASK_ID and
+    /// SLURM_ARRAY_TASK_COUNT.
+    #[arg(long, value_name = "I/N|auto")]
+    part: Option<String>,
+    /// With --part auto under Kubernetes: how many parts (the Indexed Job's completions).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    parts: Option<u64>,
     /// Worker threads (default: one per core).
     #[arg(long, value_name = "N", default_value_t = 0)]
     threads: usize,
@@ -31,14 +51,14 @@ pub struct BakeArgs {
     #[arg(long)]
     force: bool,
     /// EXR: 16-bit half floats instead of 32-bit. KTX2: half floats (R16_SFLOAT,
-    /// R16G16B16A16_SFLOAT) instead of 8-bit.
+    /// R16G16B16A16_SFLOAT) instead of 8-bit. Zarr: float16 instead of uint8.
     #[arg(long)]
     half: bool,
-    /// KTX2: 32-bit floats (R32_SFLOAT, R32G32B32A32_SFLOAT) instead of 8-bit.
+    /// KTX2: 32-bit floats (R32_SFLOAT, R32G32B32A32_SFLOAT) instead of 8-bit. Zarr: float32.
     #[arg(long)]
     float: bool,
     /// KTX2: Zstandard supercompression, each level compressed on its own; --zstd=LEVEL picks
-    /// the level, 1 (fastest) to 22 (smallest) [default level: 3].
+    /// the level, 1 (fastest) to 22 (smallest) [default level: 3]. Zarr: the zstd level.
     #[arg(
         long,
         value_name = "LEVEL",
@@ -122,21 +142,31 @@ pub fn bake_option_misuse(args: &BakeArgs) -> Vec<String> {
     only(
         args.half,
         "--half",
-        matches!(format, Format::Exr | Format::Ktx2),
-        "--format exr or ktx2",
+        matches!(format, Format::Exr | Format::Ktx2 | Format::Zarr),
+        "--format exr, ktx2 or zarr",
     );
     only(
         args.float,
         "--float",
-        format == Format::Ktx2,
-        "--format ktx2",
+        matches!(format, Format::Ktx2 | Format::Zarr),
+        "--format ktx2 or zarr",
     );
     only(
         args.zstd.is_some(),
         "--zstd",
-        format == Format::Ktx2,
-        "--format ktx2",
+        format == Format::Ktx2
+            || (format == Format::Zarr
+                && args.compression.unwrap_or_default()
+                    == crate::bake::zarr::ZarrCompression::Zstd),
+        "--format ktx2 and --format zarr with --compression zstd",
     );
+    for (given, option) in [
+        (args.chunk.is_some(), "--chunk"),
+        (args.shard.is_some(), "--shard"),
+        (args.compression.is_some(), "--compression"),
+    ] {
+        only(given, option, format == Format::Zarr, "--format zarr");
+    }
     only(
         args.exr_compression.is_some(),
         "--exr-compression",
@@ -159,13 +189,28 @@ pub fn bake_option_misuse(args: &BakeArgs) -> Vec<String> {
     only(args.alpha, "--alpha", format == Format::Raw, "--format raw");
     let eight_bit = format == Format::Png
         || (format == Format::Raw && args.raw_type.unwrap_or_default() == RawSampleType::U8)
-        || (format == Format::Ktx2 && !args.half && !args.float);
+        || (matches!(format, Format::Ktx2 | Format::Zarr) && !args.half && !args.float);
     only(
         args.transfer.is_some(),
         "--transfer",
         eight_bit,
-        "8/16-bit files (--format png, --format raw with --raw-type u8, --format ktx2 without --half or --float)",
+        "8/16-bit files (--format png, --format raw with --raw-type u8, --format ktx2 or zarr without --half or --float)",
     );
+    if args.parts.is_some() && args.part.as_deref() != Some("auto") {
+        problems.push("--parts N goes with --part auto (a Kubernetes Indexed Job)".into());
+    }
+    if args.part.is_some() && args.files.len() == 1 && format != Format::Zarr {
+        problems.push(format!("--part splits a zarr store's shards or a list of several graph files; one graph file baked to --format {name} is one job"));
+    }
+    if format == Format::Zarr
+        && args.files.len() > 1
+        && args
+            .out
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("zarr"))
+    {
+        problems.push(format!("{} names one zarr store, but {} graph files each bake a store of their own: give --out a folder (each graph gets FOLDER/STEM.zarr)", args.out.display(), args.files.len()));
+    }
     // `--zstd 5` reads 5 as a file (the level needs `=`): say so rather than "no such file".
     if args.zstd.is_some() {
         for file in &args.files {
@@ -178,7 +223,7 @@ pub fn bake_option_misuse(args: &BakeArgs) -> Vec<String> {
             }
         }
     }
-    if format == Format::Ktx2 && args.half && args.float {
+    if matches!(format, Format::Ktx2 | Format::Zarr) && args.half && args.float {
         problems
             .push("--half and --float are alternatives (16- or 32-bit floats): give one".into());
     }
@@ -194,6 +239,39 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
         }
         return Err(Failure::Usage);
     }
+    let part = match args.part.as_deref() {
+        None => Ok(crate::bake::part::Part::WHOLE),
+        Some("auto") => {
+            crate::bake::part::Part::from_env(args.parts, |name| std::env::var(name).ok())
+        }
+        Some(text) => crate::bake::part::Part::parse(text).map_err(|e| format!("--part: {e}")),
+    }
+    .map_err(|problem| {
+        eprintln!("error: {problem}");
+        Failure::Usage
+    })?;
+    // Several graph files: the part is a share of the sorted list, each file baked whole. One
+    // file: the part is a share of its zarr store's shards.
+    let (files, shard_part) = if args.files.len() > 1 {
+        let mut sorted = args.files.clone();
+        sorted.sort();
+        let mine: Vec<PathBuf> = sorted
+            .into_iter()
+            .enumerate()
+            .filter(|(i, _)| part.owns(*i as u64))
+            .map(|(_, f)| f)
+            .collect();
+        if !part.is_whole() {
+            eprintln!(
+                "part {part}: {} of the {} graph files",
+                mine.len(),
+                args.files.len()
+            );
+        }
+        (mine, crate::bake::part::Part::WHOLE)
+    } else {
+        (args.files.clone(), part)
+    };
     let threads = threads_or_warn(args.threads);
     let cancel = Arc::new(AtomicBool::new(false));
     {
@@ -216,7 +294,7 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
     let fail = |worst: &mut Option<Failure>, f: Failure| *worst = Failure::worst(*worst, f);
     let (mut total_voxels, mut total_seconds, mut baked) = (0u64, 0f64, 0usize);
     let mut produced: std::collections::HashSet<PathBuf> = std::collections::HashSet::new();
-    for file in &args.files {
+    for file in &files {
         let (graph, tape) = match crate::load_tape(file, &check_options, &compile_options) {
             Ok(loaded) => loaded,
             Err(error) => {
@@ -235,7 +313,8 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
             },
             cancel: Some(cancel.clone()),
         };
-        let options = file_options(&args, file, &graph.params, bake);
+        let mut options = file_options(&args, file, &graph.params, bake);
+        options.zarr.part = shard_part;
         // Two graphs with the same file name (a/x.ron, b/x.ron) would write the same files.
         let planned = match crate::bake::planned_outputs(&tape, &options) {
             Ok(planned) => planned,
@@ -283,14 +362,14 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
             }
         }
     }
-    if args.files.len() > 1 {
-        let failed = args.files.len() - baked;
+    if files.len() > 1 {
+        let failed = files.len() - baked;
         let rate = if total_seconds > 0.0 {
             total_voxels as f64 / total_seconds / 1e6
         } else {
             0.0
         };
-        let line = format!("baked {baked} of {} graphs: {total_voxels} voxels in {total_seconds:.3} s, {rate:.2} Mvoxels/s{}\n", args.files.len(), if failed > 0 { format!("; {failed} failed") } else { String::new() });
+        let line = format!("baked {baked} of {} graphs: {total_voxels} voxels in {total_seconds:.3} s, {rate:.2} Mvoxels/s{}\n", files.len(), if failed > 0 { format!("; {failed} failed") } else { String::new() });
         write_stdout(|out| out.write_all(line.as_bytes()))?;
     }
     worst.map_or(Ok(()), Err)
@@ -302,7 +381,7 @@ fn eight_or_sixteen_bit(options: &crate::bake::BakeFileOptions) -> bool {
     match options.format {
         Format::Png => true,
         Format::Raw => options.raw_type == RawSampleType::U8,
-        Format::Ktx2 => options.ktx2_type == Ktx2SampleType::U8,
+        Format::Ktx2 | Format::Zarr => options.ktx2_type == Ktx2SampleType::U8,
         Format::Exr => false,
     }
 }
@@ -335,6 +414,9 @@ fn file_options(
         (false, false) => crate::bake::Ktx2SampleType::U8,
     };
     options.zstd = args.zstd;
+    options.zarr.chunk = args.chunk.unwrap_or(crate::bake::zarr::DEFAULT_CHUNK);
+    options.zarr.shard = args.shard.unwrap_or(crate::bake::zarr::DEFAULT_SHARD);
+    options.zarr.compression = args.compression.unwrap_or_default();
     options.transfer = args.transfer.unwrap_or_default();
     options.graph_path = file.display().to_string();
     options.params = params.to_vec();

@@ -1,0 +1,1220 @@
+//! `bake --format zarr`: a Zarr v3 store per graph, written with the `zarrs` crate (metadata,
+//! chunk grid, sharding codec with a crc32c index, zstd / blosc, chunk keys); texgraph adds only
+//! how a bake is cut into shards, which process bakes which (`--part`), and how a re-run knows
+//! what is already done.
+//!
+//! Layout of `STORE` (`--out X.zarr`, or `--out DIR` → `DIR/STEM.zarr`):
+//! - `zarr.json`: the root group, attributes `texgraph` (graph, params, region, size, version).
+//! - `OUTPUT/zarr.json`: one array per output, shape (nz, ny, nx) or (nz, ny, nx, 3), dimension
+//!   names z, y, x(, c); chunk grid = shards of `--shard` voxels a side (clipped to the array,
+//!   whole chunks), each holding inner chunks of `--chunk` voxels a side (and all 3 channels).
+//! - `OUTPUT/c/KZ/KY/KX`: a shard (zarr's default chunk key encoding), and beside it
+//!   `OUTPUT/c/KZ/KY/KX.texgraph.json`: its manifest (byte length, crc32c of the shard's bytes,
+//!   the fingerprints of the tape and of the array metadata it was baked for).
+//!
+//! Every write goes to a hidden temporary in the destination's folder and is renamed into place
+//! ([`AtomicStore`]), the shard first, its manifest after: a shard with a matching manifest is
+//! complete. Metadata is a pure function of the graph and the options, so every part writes the
+//! same bytes (idempotent). A part evaluates its shards one at a time, whole shards only, so no
+//! two parts write the same key, and every voxel is evaluated by the same code from its global
+//! index: the store is bit-identical whatever the parts and the order they run or re-run in.
+
+use super::part::Part;
+use super::{collect_stats, encode_u8, Transfer};
+use super::{BakeError, BakeFileOptions, BakeReport, BakedFile, ChannelStats, Grid, Precision};
+use crate::graph::Type;
+use crate::output;
+use crate::real::Real;
+use crate::tape::Tape;
+use crate::Workspace;
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+use zarrs::array::codec::api::ArrayToBytesCodecTraits;
+use zarrs::array::codec::{
+    BloscCodec, ShardingCodecBuilder, ShardingCodecOptions, SubchunkWriteOrder, ZstdCodec,
+};
+use zarrs::array::{Array, ArrayBuilder, ArrayBytes, ArrayMetadataOptions, CodecOptions};
+use zarrs::storage::{
+    Bytes, OffsetBytesIterator, StorageError, StoreKey, StorePrefix, WritableStorageTraits,
+};
+
+/// Default voxels per inner chunk side (`--chunk`).
+pub const DEFAULT_CHUNK: u64 = 64;
+/// Default voxels per shard side (`--shard`).
+pub const DEFAULT_SHARD: u64 = 512;
+/// Suffix of a shard's manifest key.
+pub const MANIFEST_SUFFIX: &str = ".texgraph.json";
+
+/// How chunks are compressed inside a shard.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum ZarrCompression {
+    /// Zstandard at the `--zstd=LEVEL` level (default 3).
+    #[default]
+    Zstd,
+    /// Blosc: LZ4 at level 5 with byte shuffle (bit shuffle for 8-bit samples).
+    Blosc,
+    /// No compression.
+    None,
+}
+
+/// The zarr-specific options of a bake.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ZarrSettings {
+    pub chunk: u64,
+    pub shard: u64,
+    pub compression: ZarrCompression,
+    /// Which shards this process bakes.
+    pub part: Part,
+}
+
+impl Default for ZarrSettings {
+    fn default() -> Self {
+        ZarrSettings {
+            chunk: DEFAULT_CHUNK,
+            shard: DEFAULT_SHARD,
+            compression: ZarrCompression::Zstd,
+            part: Part::WHOLE,
+        }
+    }
+}
+
+/// The store a graph's bake writes: `--out` itself when it ends in `.zarr`, else `DIR/STEM.zarr`.
+pub fn store_path(options: &BakeFileOptions) -> Result<PathBuf, BakeError> {
+    let out = &options.out_dir;
+    if out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("zarr"))
+    {
+        Ok(out.clone())
+    } else {
+        Ok(output::join_inside(out, &format!("{}.zarr", options.stem))?)
+    }
+}
+
+/// A filesystem store whose every `set` is atomic: the value goes to a hidden temporary in the
+/// key's folder, is synced and renamed over the key ([`output::write_atomic`]). Only what a bake
+/// needs: whole values, erase.
+pub struct AtomicStore {
+    root: PathBuf,
+}
+
+impl AtomicStore {
+    pub fn new(root: impl Into<PathBuf>) -> AtomicStore {
+        AtomicStore { root: root.into() }
+    }
+
+    fn path(&self, key: &StoreKey) -> PathBuf {
+        self.root.join(key.as_str())
+    }
+
+    fn write(&self, key: &str, value: &[u8]) -> Result<(), StorageError> {
+        let path = self.root.join(key);
+        std::fs::create_dir_all(output::parent_dir(&path))?;
+        output::write_atomic(&path, |w| w.write_all(value))
+            .map_err(|e| StorageError::Other(e.to_string()))
+    }
+}
+
+impl WritableStorageTraits for AtomicStore {
+    fn set(&self, key: &StoreKey, value: Bytes) -> Result<(), StorageError> {
+        self.write(key.as_str(), &value)
+    }
+
+    fn set_partial_many(
+        &self,
+        key: &StoreKey,
+        _offset_values: OffsetBytesIterator,
+    ) -> Result<(), StorageError> {
+        Err(StorageError::Other(format!(
+            "{}: texgraph writes whole values only",
+            key.as_str()
+        )))
+    }
+
+    fn erase(&self, key: &StoreKey) -> Result<(), StorageError> {
+        match std::fs::remove_file(self.path(key)) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e.into()),
+            _ => Ok(()),
+        }
+    }
+
+    fn erase_prefix(&self, prefix: &StorePrefix) -> Result<(), StorageError> {
+        match std::fs::remove_dir_all(self.root.join(prefix.as_str())) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e.into()),
+            _ => Ok(()),
+        }
+    }
+
+    fn supports_set_partial(&self) -> bool {
+        false
+    }
+}
+
+/// Sample type of the arrays: 8-bit (colours through `--transfer`), half or single floats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ZarrSample {
+    U8,
+    F16,
+    F32,
+}
+
+impl ZarrSample {
+    pub fn bytes(self) -> u64 {
+        match self {
+            ZarrSample::U8 => 1,
+            ZarrSample::F16 => 2,
+            ZarrSample::F32 => 4,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            ZarrSample::U8 => "uint8",
+            ZarrSample::F16 => "float16",
+            ZarrSample::F32 => "float32",
+        }
+    }
+
+    fn data_type(self) -> zarrs::array::DataType {
+        use zarrs::array::data_type;
+        match self {
+            ZarrSample::U8 => data_type::uint8(),
+            ZarrSample::F16 => data_type::float16(),
+            ZarrSample::F32 => data_type::float32(),
+        }
+    }
+
+    /// Appends `values` in this type's native-endian bytes (the `bytes` codec's input).
+    fn encode(self, values: &[f32], srgb: bool, out: &mut [u8]) {
+        match self {
+            ZarrSample::U8 => {
+                for (o, &v) in out.iter_mut().zip(values) {
+                    *o = encode_u8(v, srgb);
+                }
+            }
+            ZarrSample::F16 => {
+                for (o, &v) in out.chunks_exact_mut(2).zip(values) {
+                    o.copy_from_slice(&half::f16::from_f32(v).to_ne_bytes());
+                }
+            }
+            ZarrSample::F32 => {
+                for (o, &v) in out.chunks_exact_mut(4).zip(values) {
+                    o.copy_from_slice(&v.to_ne_bytes());
+                }
+            }
+        }
+    }
+}
+
+/// The shape of a bake's store: array shape, shard and chunk sides (per axis, z y x order).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Sharding {
+    /// Voxels per axis, z, y, x.
+    pub shape: [u64; 3],
+    /// Shard side per axis (z, y, x): `--shard` clipped to the array rounded up to whole chunks.
+    pub shard: [u64; 3],
+    /// Inner chunk side per axis: `--chunk` clipped to the array.
+    pub chunk: [u64; 3],
+}
+
+impl Sharding {
+    /// Checks `--chunk` and `--shard` and clips them to the grid.
+    pub fn new(grid: &Grid, chunk: u64, shard: u64) -> Result<Sharding, BakeError> {
+        if chunk == 0 || shard == 0 {
+            return Err(BakeError::Refused(
+                "--chunk and --shard must be at least 1 voxel".into(),
+            ));
+        }
+        if !shard.is_multiple_of(chunk) {
+            return Err(BakeError::Refused(format!(
+                "--shard {shard} is not a multiple of --chunk {chunk}: a shard holds whole chunks"
+            )));
+        }
+        let [nx, ny, nz] = grid.size.map(|n| n as u64);
+        let shape = [nz, ny, nx];
+        let chunk = shape.map(|n| chunk.min(n));
+        let mut clipped = [0; 3];
+        for a in 0..3 {
+            clipped[a] = shard.min(shape[a].div_ceil(chunk[a]) * chunk[a]);
+        }
+        Ok(Sharding {
+            shape,
+            shard: clipped,
+            chunk,
+        })
+    }
+
+    /// Shards per axis (z, y, x).
+    pub fn shards(&self) -> [u64; 3] {
+        [0, 1, 2].map(|a| self.shape[a].div_ceil(self.shard[a]))
+    }
+
+    pub fn shard_count(&self) -> u64 {
+        self.shards().iter().product()
+    }
+
+    /// Shard number `s` (C order, z slowest) as (kz, ky, kx).
+    pub fn shard_index(&self, s: u64) -> [u64; 3] {
+        let [_, sy, sx] = self.shards();
+        [s / (sy * sx), (s / sx) % sy, s % sx]
+    }
+
+    /// Voxels per shard (the full shard shape, edges included).
+    pub fn shard_voxels(&self) -> u64 {
+        self.shard.iter().product()
+    }
+
+    /// The voxel ranges of shard `k` inside the array, per axis (z, y, x).
+    pub fn shard_ranges(&self, k: [u64; 3]) -> [std::ops::Range<u64>; 3] {
+        [0, 1, 2].map(|a| {
+            let start = k[a] * self.shard[a];
+            start..(start + self.shard[a]).min(self.shape[a])
+        })
+    }
+}
+
+/// One output's array while a bake runs.
+struct OutputArray {
+    name: String,
+    ty: Type,
+    first_channel: usize,
+    srgb: bool,
+    array: Array<AtomicStore>,
+    /// Fingerprint (crc32c) of the array's metadata document.
+    metadata_crc: u32,
+}
+
+/// The sample type `options` asks for.
+pub fn sample_type(options: &BakeFileOptions) -> ZarrSample {
+    match options.ktx2_type {
+        super::Ktx2SampleType::U8 => ZarrSample::U8,
+        super::Ktx2SampleType::F16 => ZarrSample::F16,
+        super::Ktx2SampleType::F32 => ZarrSample::F32,
+    }
+}
+
+/// Bytes a zarr bake holds beyond evaluation: every output's shard, decoded, and its encoding.
+pub fn held_bytes(tape: &Tape, options: &BakeFileOptions) -> Result<u64, BakeError> {
+    let sharding = Sharding::new(&options.bake.grid, options.zarr.chunk, options.zarr.shard)?;
+    let sample = sample_type(options).bytes();
+    Ok(tape
+        .outputs
+        .iter()
+        .map(|o| {
+            sharding
+                .shard_voxels()
+                .saturating_mul(o.ty.channels() as u64 * sample)
+                .saturating_mul(2)
+        })
+        .fold(0, u64::saturating_add))
+}
+
+/// What is checked before a zarr bake starts: `--chunk` / `--shard`, the bytes this part writes
+/// (uncompressed) against the size limit, and what it holds in memory against the memory bound.
+pub fn preflight(tape: &Tape, options: &BakeFileOptions) -> Result<(), BakeError> {
+    let sharding = Sharding::new(&options.bake.grid, options.zarr.chunk, options.zarr.shard)?;
+    let part = options.zarr.part;
+    let owned: u64 = (0..sharding.shard_count())
+        .filter(|&s| part.owns(s))
+        .map(|s| {
+            sharding
+                .shard_ranges(sharding.shard_index(s))
+                .iter()
+                .map(|r| r.end - r.start)
+                .product::<u64>()
+        })
+        .sum();
+    let sample = sample_type(options).bytes();
+    let estimate = tape
+        .outputs
+        .iter()
+        .map(|o| owned.saturating_mul(o.ty.channels() as u64 * sample))
+        .fold(0u64, u64::saturating_add);
+    if estimate > options.max_bytes {
+        return Err(BakeError::Refused(format!(
+            "this bake{} would write about {} uncompressed ({owned} voxels × {} output(s)), more than the limit of {}; split it with --part I/N, or raise the limit (--allow-large)",
+            if part.is_whole() { String::new() } else { format!(" (part {part})") },
+            super::human_bytes(estimate),
+            tape.outputs.len(),
+            super::human_bytes(options.max_bytes)
+        )));
+    }
+    let held = held_bytes(tape, options)?;
+    if held > options.max_held_bytes {
+        return Err(BakeError::Refused(format!(
+            "a zarr bake holds each output's shard in memory while it encodes it: shards of {:?} voxels (z, y, x) hold about {}, more than the limit of {}; use a smaller --shard, or pass --allow-large",
+            sharding.shard,
+            super::human_bytes(held),
+            super::human_bytes(options.max_held_bytes)
+        )));
+    }
+    Ok(())
+}
+
+/// The `texgraph` attributes shared by the group and every array.
+fn texgraph_attributes(
+    options: &BakeFileOptions,
+    tape: &Tape,
+) -> serde_json::Map<String, serde_json::Value> {
+    let grid = options.bake.grid;
+    let mut map = serde_json::Map::new();
+    let mut t = serde_json::Map::new();
+    t.insert("version".into(), env!("CARGO_PKG_VERSION").into());
+    // The file name only: the parts of a split bake may name one file by different paths (a
+    // relative path, another mount point), and every part must write the same metadata. What
+    // the graph computes is in `tape`.
+    let graph_name = Path::new(&options.graph_path)
+        .file_name()
+        .map_or(options.graph_path.clone(), |n| {
+            n.to_string_lossy().into_owned()
+        });
+    t.insert("graph".into(), graph_name.into());
+    t.insert(
+        "params".into(),
+        serde_json::Value::Object(super::files::params_map(&options.params)),
+    );
+    t.insert(
+        "overrides".into(),
+        serde_json::Value::Object(super::files::params_map(&options.overrides)),
+    );
+    t.insert(
+        "region".into(),
+        serde_json::json!({"min": grid.region.min, "max": grid.region.max}),
+    );
+    t.insert("size".into(), serde_json::json!(grid.size));
+    t.insert(
+        "voxel_centres".into(),
+        "voxel (i, j, k) = array[k, j, i] samples region.min + (index + 0.5) * (region.max - region.min) / size, per axis"
+            .into(),
+    );
+    t.insert(
+        "precision".into(),
+        match options.bake.precision {
+            Precision::F32 => "f32",
+            Precision::F64 => "f64",
+        }
+        .into(),
+    );
+    t.insert("tape".into(), format!("{:016x}", tape.fingerprint()).into());
+    map.insert("texgraph".into(), serde_json::Value::Object(t));
+    map
+}
+
+fn storage(path: &str) -> impl Fn(StorageError) -> BakeError + '_ {
+    move |e| BakeError::Encode {
+        path: path.to_string(),
+        message: e.to_string(),
+    }
+}
+
+/// Builds (does not write) the array of one output.
+fn build_array(
+    store: &Arc<AtomicStore>,
+    options: &BakeFileOptions,
+    tape: &Tape,
+    sharding: &Sharding,
+    output: &crate::tape::TapeOutput,
+) -> Result<Array<AtomicStore>, BakeError> {
+    let sample = sample_type(options);
+    let channels = output.ty.channels() as u64;
+    let colour = output.ty == Type::Vec3;
+    let mut shape = sharding.shape.to_vec();
+    let mut shard = sharding.shard.to_vec();
+    let mut chunk = sharding.chunk.to_vec();
+    let mut dims = vec!["z", "y", "x"];
+    if colour {
+        shape.push(channels);
+        shard.push(channels);
+        chunk.push(channels);
+        dims.push("c");
+    }
+    let data_type = sample.data_type();
+    let mut sharding_codec = ShardingCodecBuilder::new(
+        chunk
+            .iter()
+            .map(|&n| std::num::NonZeroU64::new(n).expect("sides are at least 1"))
+            .collect(),
+        &data_type,
+    );
+    let typesize = sample.bytes() as usize;
+    let compressor: Vec<Arc<dyn zarrs::array::codec::api::BytesToBytesCodecTraits>> =
+        match options.zarr.compression {
+            ZarrCompression::Zstd => vec![Arc::new(ZstdCodec::new(
+                options.zstd.unwrap_or(super::DEFAULT_ZSTD_LEVEL),
+                false,
+            ))],
+            ZarrCompression::Blosc => {
+                use zarrs::metadata_ext::codec::blosc::{BloscCompressor, BloscShuffleMode};
+                let shuffle = if typesize == 1 {
+                    BloscShuffleMode::BitShuffle
+                } else {
+                    BloscShuffleMode::Shuffle
+                };
+                let codec = BloscCodec::new(
+                    BloscCompressor::LZ4,
+                    5u8.try_into().expect("5 is a blosc level"),
+                    None,
+                    shuffle,
+                    Some(typesize),
+                )
+                .map_err(|e| BakeError::Refused(format!("blosc: {e}")))?;
+                vec![Arc::new(codec)]
+            }
+            ZarrCompression::None => Vec::new(),
+        };
+    sharding_codec.bytes_to_bytes_codecs(compressor);
+    let fill: zarrs::array::FillValue = match sample {
+        ZarrSample::U8 => 0u8.into(),
+        ZarrSample::F16 => half::f16::ZERO.into(),
+        ZarrSample::F32 => 0f32.into(),
+    };
+    let mut attributes = texgraph_attributes(options, tape);
+    if let Some(serde_json::Value::Object(t)) = attributes.get_mut("texgraph") {
+        t.insert("output".into(), output.name.clone().into());
+        t.insert(
+            "type".into(),
+            if colour { "colour" } else { "scalar" }.into(),
+        );
+        let transfer = if colour && sample == ZarrSample::U8 {
+            match options.transfer {
+                Transfer::Srgb => "srgb",
+                Transfer::Linear => "linear",
+            }
+        } else {
+            "linear"
+        };
+        t.insert("transfer".into(), transfer.into());
+    }
+    let path = format!("/{}", output.name);
+    ArrayBuilder::new(shape, shard, data_type, fill)
+        // Inner chunks in C order, whatever order the threads finish them in: a shard's bytes
+        // are a function of its values (zarrs' default appends them as they complete).
+        .array_to_bytes_codec(Arc::new(sharding_codec.build().with_options(
+            ShardingCodecOptions::default().with_subchunk_write_order(SubchunkWriteOrder::C),
+        )))
+        .dimension_names(Some(dims))
+        .attributes(attributes)
+        .build(store.clone(), &path)
+        .map_err(|e| BakeError::Refused(format!("{path}: {e}")))
+}
+
+/// Options for metadata documents: no zarrs version stamp, so every texgraph build that makes
+/// the same array writes the same bytes whatever zarrs version it links.
+fn metadata_options() -> ArrayMetadataOptions {
+    ArrayMetadataOptions::default().with_include_zarrs_metadata(false)
+}
+
+/// The JSON document of an array's metadata, as written.
+fn metadata_json(array: &Array<AtomicStore>) -> Result<Vec<u8>, BakeError> {
+    serde_json::to_vec_pretty(&array.metadata_opt(&metadata_options()))
+        .map_err(|e| BakeError::Refused(format!("array metadata: {e}")))
+}
+
+/// What is at the store path must be absent, an empty folder, or a Zarr v3 group.
+fn check_store(store: &Path) -> Result<(), BakeError> {
+    output::check_out_folder(store)?;
+    if !store.exists() {
+        return Ok(());
+    }
+    let root = store.join("zarr.json");
+    match std::fs::read(&root) {
+        Ok(bytes) => {
+            let doc: serde_json::Value = serde_json::from_slice(&bytes).map_err(|e| {
+                BakeError::Refused(format!(
+                    "{}: not a Zarr v3 metadata document: {e}",
+                    root.display()
+                ))
+            })?;
+            if doc["zarr_format"] != 3 || doc["node_type"] != "group" {
+                return Err(BakeError::Refused(format!(
+                    "{}: is not a Zarr v3 group (zarr_format {}, node_type {}); refusing to write into it",
+                    root.display(),
+                    doc["zarr_format"],
+                    doc["node_type"]
+                )));
+            }
+            Ok(())
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            // Another part may have written the document between the two looks.
+            if only_metadata_temporaries(store)? || root.exists() {
+                Ok(())
+            } else {
+                Err(BakeError::Refused(format!(
+                    "{}: exists and is not a Zarr store (no zarr.json); refusing to write into it: give --out a new path",
+                    store.display()
+                )))
+            }
+        }
+        Err(e) => Err(BakeError::Io {
+            path: root.display().to_string(),
+            source: e,
+        }),
+    }
+}
+
+/// Whether `dir` is empty or holds only the temporary of a `zarr.json` another part is writing
+/// right now (parts start together; a node's document is written before anything inside it).
+fn only_metadata_temporaries(dir: &Path) -> Result<bool, BakeError> {
+    Ok(std::fs::read_dir(dir)
+        .map_err(|e| BakeError::Io {
+            path: dir.display().to_string(),
+            source: e,
+        })?
+        .flatten()
+        .all(|entry| {
+            entry
+                .file_name()
+                .to_str()
+                .is_some_and(|n| n.starts_with(".zarr.json.") && n.ends_with(".partial"))
+        }))
+}
+
+/// What to do with an array's folder before writing its metadata.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Existing {
+    /// Absent, or baked with the same metadata: write (the same bytes) and resume.
+    Resume,
+    /// Baked with other settings, and `--force` on a whole bake: remove it first.
+    Replace,
+}
+
+/// Checks one array's existing metadata: it must be identical to this bake's, else the store
+/// was baked with other settings; `--force` on a whole (not split) bake replaces the array, a
+/// split bake never does (other parts may be writing it). Writes nothing.
+fn check_metadata(
+    store_dir: &Path,
+    array: &Array<AtomicStore>,
+    json: &[u8],
+    options: &BakeFileOptions,
+) -> Result<Existing, BakeError> {
+    let name = array.path().as_str().trim_start_matches('/');
+    let dir = store_dir.join(name);
+    let doc = dir.join("zarr.json");
+    match std::fs::read(&doc) {
+        Ok(existing) if existing == json => Ok(Existing::Resume),
+        Ok(existing) => {
+            let what = mismatch(&existing, json);
+            if !(options.force && options.zarr.part.is_whole()) {
+                let hint = if options.zarr.part.is_whole() {
+                    "pass --force to rebake it with these settings, or bake into a new store"
+                } else {
+                    "every part of a split bake must use the same graph and settings; delete the store (or bake into a new one) to change them"
+                };
+                return Err(BakeError::Refused(format!(
+                    "{}: was baked with other settings (stored: {what}); {hint}",
+                    dir.display()
+                )));
+            }
+            Ok(Existing::Replace)
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            if dir.exists() && !only_metadata_temporaries(&dir)? {
+                // Another part may have written the document between the two looks.
+                if doc.exists() {
+                    return check_metadata(store_dir, array, json, options);
+                }
+                return Err(BakeError::Refused(format!(
+                    "{}: exists and is not a Zarr array (no zarr.json); refusing to write into it",
+                    dir.display()
+                )));
+            }
+            Ok(Existing::Resume)
+        }
+        Err(e) => Err(BakeError::Io {
+            path: doc.display().to_string(),
+            source: e,
+        }),
+    }
+}
+
+/// Names the first fields where two metadata documents differ.
+fn mismatch(existing: &[u8], wanted: &[u8]) -> String {
+    let (Ok(a), Ok(b)) = (
+        serde_json::from_slice::<serde_json::Value>(existing),
+        serde_json::from_slice::<serde_json::Value>(wanted),
+    ) else {
+        return "its zarr.json is not valid JSON".into();
+    };
+    let mut diffs = Vec::new();
+    let sharding = |v: &serde_json::Value| v["codecs"][0]["configuration"].clone();
+    let (sa, sb) = (sharding(&a), sharding(&b));
+    if sa["chunk_shape"] != sb["chunk_shape"] {
+        diffs.push(format!(
+            "chunks {} but this bake has {}",
+            sa["chunk_shape"], sb["chunk_shape"]
+        ));
+    }
+    if sa["codecs"] != sb["codecs"] {
+        diffs.push(format!(
+            "chunk codecs {} but this bake has {}",
+            sa["codecs"], sb["codecs"]
+        ));
+    }
+    for key in ["shape", "data_type", "chunk_grid", "fill_value"] {
+        if a[key] != b[key] {
+            diffs.push(format!("{key} {} but this bake has {}", a[key], b[key]));
+        }
+    }
+    let (ta, tb) = (&a["attributes"]["texgraph"], &b["attributes"]["texgraph"]);
+    for key in ["tape", "region", "size", "precision", "transfer"] {
+        if ta[key] != tb[key] {
+            diffs.push(format!("{key} {} but this bake has {}", ta[key], tb[key]));
+        }
+    }
+    if diffs.is_empty() && a["codecs"] != b["codecs"] {
+        diffs.push("the sharding codec's index differs".into());
+    }
+    if diffs.is_empty() {
+        diffs.push("attributes differ".into());
+    }
+    diffs.join("; ")
+}
+
+/// A shard's manifest, as written beside it.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Manifest {
+    pub key: String,
+    pub bytes: u64,
+    /// crc32c of the shard's bytes, 8 hex digits.
+    pub crc32c: String,
+    /// crc32c of the array's zarr.json the shard belongs to.
+    pub array_metadata_crc32c: String,
+    /// The tape's fingerprint (attributes.texgraph.tape).
+    pub tape: String,
+}
+
+/// Why a shard is not complete.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ShardState {
+    Complete,
+    Missing,
+    NoManifest,
+    Corrupt(String),
+    Stale(String),
+}
+
+/// Checks a shard against its manifest: present, the manifest readable and for this array and
+/// tape, length and checksum as recorded.
+pub fn shard_state(store_dir: &Path, key: &str, metadata_crc: u32, tape: &str) -> ShardState {
+    let path = store_dir.join(key);
+    let manifest_path = store_dir.join(format!("{key}{MANIFEST_SUFFIX}"));
+    let Ok(bytes) = std::fs::read(&path) else {
+        return ShardState::Missing;
+    };
+    let Ok(text) = std::fs::read(&manifest_path) else {
+        return ShardState::NoManifest;
+    };
+    let manifest: Manifest = match serde_json::from_slice(&text) {
+        Ok(m) => m,
+        Err(e) => return ShardState::Corrupt(format!("its manifest is unreadable: {e}")),
+    };
+    if manifest.array_metadata_crc32c != format!("{metadata_crc:08x}") || manifest.tape != tape {
+        return ShardState::Stale(format!(
+            "baked for another array or tape (manifest: metadata {}, tape {}; array: metadata {metadata_crc:08x}, tape {tape})",
+            manifest.array_metadata_crc32c, manifest.tape
+        ));
+    }
+    let crc = format!("{:08x}", crc32c::crc32c(&bytes));
+    if manifest.bytes != bytes.len() as u64 || manifest.crc32c != crc {
+        return ShardState::Corrupt(format!(
+            "{} bytes with crc32c {crc}; its manifest records {} bytes with crc32c {}",
+            bytes.len(),
+            manifest.bytes,
+            manifest.crc32c
+        ));
+    }
+    ShardState::Complete
+}
+
+/// Bakes the shards of `options.zarr.part` into the store; skips shards already complete
+/// (unless `--force`).
+pub fn bake_zarr(
+    tape: &Tape,
+    options: &BakeFileOptions,
+    progress: &mut dyn FnMut(u64),
+) -> Result<BakeReport, BakeError> {
+    let grid = options.bake.grid;
+    let store_dir = store_path(options)?;
+    let sharding = Sharding::new(&grid, options.zarr.chunk, options.zarr.shard)?;
+    check_store(&store_dir)?;
+    std::fs::create_dir_all(&store_dir).map_err(|e| BakeError::Io {
+        path: store_dir.display().to_string(),
+        source: e,
+    })?;
+    let store = Arc::new(AtomicStore::new(&store_dir));
+    let group = zarrs::group::GroupBuilder::new()
+        .attributes(texgraph_attributes(options, tape))
+        .build(store.clone(), "/")
+        .map_err(|e| BakeError::Refused(format!("zarr group: {e}")))?;
+    // Every array checked before anything is written: a refused bake changes nothing.
+    let mut built = Vec::with_capacity(tape.outputs.len());
+    for output in &tape.outputs {
+        let array = build_array(&store, options, tape, &sharding, output)?;
+        let json = metadata_json(&array)?;
+        let existing = check_metadata(&store_dir, &array, &json, options)?;
+        built.push((output, array, existing));
+    }
+    let root = store_dir.join("zarr.json").display().to_string();
+    group.store_metadata().map_err(storage(&root))?;
+    let sample = sample_type(options);
+    let mut arrays = Vec::with_capacity(tape.outputs.len());
+    for (output, array, existing) in built {
+        let dir = store_dir.join(&output.name);
+        if existing == Existing::Replace {
+            std::fs::remove_dir_all(&dir).map_err(|e| BakeError::Io {
+                path: dir.display().to_string(),
+                source: e,
+            })?;
+        }
+        array
+            .store_metadata_opt(&metadata_options())
+            .map_err(storage(&dir.join("zarr.json").display().to_string()))?;
+        // The crc of the document as stored (zarrs writes the same serialisation).
+        let stored =
+            std::fs::read(store_dir.join(&output.name).join("zarr.json")).map_err(|e| {
+                BakeError::Io {
+                    path: store_dir.join(&output.name).display().to_string(),
+                    source: e,
+                }
+            })?;
+        arrays.push(OutputArray {
+            name: output.name.clone(),
+            ty: output.ty,
+            first_channel: output.first_channel,
+            srgb: output.ty == Type::Vec3
+                && sample == ZarrSample::U8
+                && options.transfer == Transfer::Srgb,
+            array,
+            metadata_crc: crc32c::crc32c(&stored),
+        });
+    }
+    let tape_hash = format!("{:016x}", tape.fingerprint());
+    let (threads, _) = super::capped_threads(options.bake.threads);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| BakeError::Refused(format!("cannot start {threads} worker threads: {e}")))?;
+    let started = std::time::Instant::now();
+    let mut stats = vec![ChannelStats::default(); tape.channels()];
+    let (mut baked, mut skipped, mut voxels) = (0u64, 0u64, 0u64);
+    let part = options.zarr.part;
+    let mut owned = 0u64;
+    for s in 0..sharding.shard_count() {
+        if !part.owns(s) {
+            continue;
+        }
+        owned += 1;
+        if options
+            .bake
+            .cancel
+            .as_ref()
+            .is_some_and(|c| c.load(Ordering::Relaxed))
+        {
+            return Err(BakeError::Cancelled);
+        }
+        let k = sharding.shard_index(s);
+        let keys: Vec<String> = arrays
+            .iter()
+            .map(|a| {
+                a.array
+                    .chunk_key(&shard_indices(k, a.ty))
+                    .as_str()
+                    .to_string()
+            })
+            .collect();
+        let complete = !options.force
+            && arrays.iter().zip(&keys).all(|(a, key)| {
+                shard_state(&store_dir, key, a.metadata_crc, &tape_hash) == ShardState::Complete
+            });
+        if complete {
+            skipped += 1;
+            continue;
+        }
+        for key in &keys {
+            remove_stale_temporaries(&store_dir, key);
+        }
+        let shard_stats = bake_shard(
+            tape, options, &pool, &sharding, k, &arrays, &keys, &store, &tape_hash,
+        )?;
+        for (total, part) in stats.iter_mut().zip(&shard_stats) {
+            total.merge(part);
+        }
+        baked += 1;
+        voxels += sharding
+            .shard_ranges(k)
+            .iter()
+            .map(|r| r.end - r.start)
+            .product::<u64>();
+        progress(voxels);
+    }
+    let seconds = started.elapsed().as_secs_f64();
+    let [nz, ny, nx] = sharding.shape;
+    let compression = match options.zarr.compression {
+        ZarrCompression::Zstd => {
+            format!("zstd {}", options.zstd.unwrap_or(super::DEFAULT_ZSTD_LEVEL))
+        }
+        ZarrCompression::Blosc => "blosc lz4".into(),
+        ZarrCompression::None => "uncompressed".into(),
+    };
+    let part_text = if part.is_whole() {
+        String::new()
+    } else {
+        format!(", part {part}")
+    };
+    let files = arrays
+        .iter()
+        .map(|a| BakedFile {
+            output: a.name.clone(),
+            path: store_dir.join(&a.name),
+            description: format!(
+                "Zarr array {nx}×{ny}×{nz} {}{} {}, chunks {:?} in shards {:?} (z, y, x), {compression}: {baked} shard(s) baked, {skipped} already complete, of {owned}{part_text} ({} in the store)",
+                if a.ty == Type::Vec3 { "RGB " } else { "" },
+                sample.name(),
+                if a.srgb { "sRGB" } else { "linear" },
+                sharding.chunk,
+                sharding.shard,
+                sharding.shard_count(),
+            ),
+        })
+        .collect();
+    Ok(BakeReport {
+        files,
+        stats: collect_stats(tape, &stats),
+        voxels,
+        seconds,
+    })
+}
+
+/// The chunk-grid indices of shard `k` in an array of type `ty`.
+fn shard_indices(k: [u64; 3], ty: Type) -> Vec<u64> {
+    let mut v = k.to_vec();
+    if ty == Type::Vec3 {
+        v.push(0);
+    }
+    v
+}
+
+/// Evaluates shard `k` for every output, encodes it with the array's codecs, writes it and its
+/// manifest. Returns the statistics of its voxels.
+#[allow(clippy::too_many_arguments)]
+fn bake_shard(
+    tape: &Tape,
+    options: &BakeFileOptions,
+    pool: &rayon::ThreadPool,
+    sharding: &Sharding,
+    k: [u64; 3],
+    arrays: &[OutputArray],
+    keys: &[String],
+    store: &AtomicStore,
+    tape_hash: &str,
+) -> Result<Vec<ChannelStats>, BakeError> {
+    let store_dir = store.root.as_path();
+    let sample = sample_type(options);
+    let mut buffers: Vec<Vec<u8>> = arrays
+        .iter()
+        .map(|a| {
+            let len = sharding.shard_voxels() * a.ty.channels() as u64 * sample.bytes();
+            vec![0u8; len as usize]
+        })
+        .collect();
+    let stats = match options.bake.precision {
+        Precision::F32 => eval_shard::<f32>(tape, options, pool, sharding, k, arrays, &mut buffers),
+        Precision::F64 => eval_shard::<f64>(tape, options, pool, sharding, k, arrays, &mut buffers),
+    };
+    for ((a, key), buffer) in arrays.iter().zip(keys).zip(buffers) {
+        let indices = shard_indices(k, a.ty);
+        let shape = a
+            .array
+            .chunk_shape(&indices)
+            .map_err(|e| BakeError::Encode {
+                path: key.clone(),
+                message: e.to_string(),
+            })?;
+        let encoded = a
+            .array
+            .codecs()
+            .encode(
+                ArrayBytes::new_flen(buffer),
+                &shape,
+                a.array.data_type(),
+                a.array.fill_value(),
+                &CodecOptions::default(),
+            )
+            .map(std::borrow::Cow::into_owned)
+            .map_err(|e| BakeError::Encode {
+                path: store_dir.join(key).display().to_string(),
+                message: e.to_string(),
+            })?;
+        let bytes: &[u8] = &encoded;
+        store
+            .write(key, bytes)
+            .map_err(storage(&store_dir.join(key).display().to_string()))?;
+        let manifest = Manifest {
+            key: key.clone(),
+            bytes: bytes.len() as u64,
+            crc32c: format!("{:08x}", crc32c::crc32c(bytes)),
+            array_metadata_crc32c: format!("{:08x}", a.metadata_crc),
+            tape: tape_hash.to_string(),
+        };
+        let text = serde_json::to_vec_pretty(&manifest).expect("a manifest serialises");
+        let manifest_key = format!("{key}{MANIFEST_SUFFIX}");
+        store.write(&manifest_key, &text).map_err(storage(
+            &store_dir.join(&manifest_key).display().to_string(),
+        ))?;
+    }
+    Ok(stats)
+}
+
+/// Evaluates the in-bounds voxels of shard `k` into each output's shard buffer (its sample type,
+/// C order z, y, x, channel; voxels past the array's edge keep the fill value 0), one z slice of
+/// the shard per task. Statistics are merged in slice order.
+fn eval_shard<S: Real>(
+    tape: &Tape,
+    options: &BakeFileOptions,
+    pool: &rayon::ThreadPool,
+    sharding: &Sharding,
+    k: [u64; 3],
+    arrays: &[OutputArray],
+    buffers: &mut [Vec<u8>],
+) -> Vec<ChannelStats> {
+    let grid = &options.bake.grid;
+    let sample = sample_type(options);
+    let [rz, ry, rx] = sharding.shard_ranges(k);
+    let [_, sy, sx] = sharding.shard.map(|n| n as usize);
+    let channels = tape.channels();
+    let width = (rx.end - rx.start) as usize;
+    let xs: Vec<f64> = (rx.start..rx.end)
+        .map(|i| grid.centre(0, i as usize))
+        .collect();
+    // Per z slice of the shard: a mutable view of each output's slice.
+    let mut slices: Vec<Vec<&mut [u8]>> = (0..(rz.end - rz.start) as usize)
+        .map(|_| Vec::new())
+        .collect();
+    for (a, buffer) in arrays.iter().zip(buffers.iter_mut()) {
+        let slice_bytes = sy * sx * a.ty.channels() * sample.bytes() as usize;
+        for (z, view) in buffer
+            .chunks_mut(slice_bytes)
+            .take(slices.len())
+            .enumerate()
+        {
+            slices[z].push(view);
+        }
+    }
+    let per_slice: Vec<Vec<ChannelStats>> = pool.install(|| {
+        slices
+            .into_par_iter()
+            .enumerate()
+            .map_init(
+                || {
+                    (
+                        Workspace::<S>::new(),
+                        vec![S::ZERO; channels * width],
+                        Vec::new(),
+                    )
+                },
+                |(workspace, out, interleaved), (z, mut views)| {
+                    let kz = rz.start as usize + z;
+                    let mut stats = vec![ChannelStats::default(); channels];
+                    let zs = vec![grid.centre(2, kz); width];
+                    for (jy, j) in (ry.start..ry.end).enumerate() {
+                        let ys = vec![grid.centre(1, j as usize); width];
+                        tape.eval_batch(workspace, &xs, &ys, &zs, out);
+                        for (a, view) in arrays.iter().zip(views.iter_mut()) {
+                            let c = a.ty.channels();
+                            interleaved.clear();
+                            for i in 0..width {
+                                for ch in 0..c {
+                                    let v = out[(a.first_channel + ch) * width + i].to_f64() as f32;
+                                    stats[a.first_channel + ch].add(v);
+                                    interleaved.push(v);
+                                }
+                            }
+                            let b = sample.bytes() as usize;
+                            let row = jy * sx * c * b;
+                            sample.encode(interleaved, a.srgb, &mut view[row..row + width * c * b]);
+                        }
+                    }
+                    stats
+                },
+            )
+            .collect()
+    });
+    let mut stats = vec![ChannelStats::default(); channels];
+    for part in &per_slice {
+        for (total, p) in stats.iter_mut().zip(part) {
+            total.merge(p);
+        }
+    }
+    stats
+}
+
+/// Removes hidden temporaries a killed bake left for `key` (`.NAME.XXXXXX.partial`, of the
+/// shard or of its manifest) in the key's folder. Only the part that owns a shard writes it, so
+/// these are that part's own leftovers.
+fn remove_stale_temporaries(store_dir: &Path, key: &str) {
+    let path = store_dir.join(key);
+    let (Some(dir), Some(name)) = (path.parent(), path.file_name().and_then(|n| n.to_str())) else {
+        return;
+    };
+    let prefixes = [format!(".{name}."), format!(".{name}{MANIFEST_SUFFIX}.")];
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let file = entry.file_name();
+        let Some(file) = file.to_str() else { continue };
+        let ours = prefixes.iter().any(|p| {
+            file.strip_prefix(p.as_str())
+                .and_then(|rest| rest.strip_suffix(".partial"))
+                .is_some_and(|random| !random.is_empty() && !random.contains('.'))
+        });
+        if ours {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
+}
+
+/// What `texgraph verify` found in one array.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ArrayCheck {
+    /// The array's path in the store (`colour`).
+    pub name: String,
+    pub shards: u64,
+    /// Every shard that is not complete, with why.
+    pub problems: Vec<(String, ShardState)>,
+}
+
+/// Checks every shard of every texgraph array in the store at `store_dir`: present, with a
+/// manifest for this array's metadata and tape, length and crc32c as recorded.
+pub fn verify_store(store_dir: &Path) -> Result<Vec<ArrayCheck>, BakeError> {
+    let root = store_dir.join("zarr.json");
+    let doc = read_json(&root)?;
+    if doc["zarr_format"] != 3 || doc["node_type"] != "group" {
+        return Err(BakeError::Refused(format!(
+            "{}: is not a Zarr v3 group",
+            root.display()
+        )));
+    }
+    let mut arrays = Vec::new();
+    find_arrays(store_dir, "", &mut arrays)?;
+    if arrays.is_empty() {
+        return Err(BakeError::Refused(format!(
+            "{}: holds no array baked by texgraph",
+            store_dir.display()
+        )));
+    }
+    arrays
+        .into_iter()
+        .map(|name| check_array(store_dir, &name))
+        .collect()
+}
+
+fn read_json(path: &Path) -> Result<serde_json::Value, BakeError> {
+    let bytes = std::fs::read(path).map_err(|e| BakeError::Io {
+        path: path.display().to_string(),
+        source: e,
+    })?;
+    serde_json::from_slice(&bytes)
+        .map_err(|e| BakeError::Refused(format!("{}: not a JSON document: {e}", path.display())))
+}
+
+/// The texgraph arrays under `dir` (a group), depth first, in name order.
+fn find_arrays(store_dir: &Path, prefix: &str, out: &mut Vec<String>) -> Result<(), BakeError> {
+    let dir = store_dir.join(prefix);
+    let mut entries: Vec<_> = std::fs::read_dir(&dir)
+        .map_err(|e| BakeError::Io {
+            path: dir.display().to_string(),
+            source: e,
+        })?
+        .flatten()
+        .filter(|e| e.file_type().is_ok_and(|t| t.is_dir()))
+        .filter_map(|e| e.file_name().to_str().map(str::to_string))
+        .filter(|n| !n.starts_with('.'))
+        .collect();
+    entries.sort();
+    for name in entries {
+        let path = if prefix.is_empty() {
+            name
+        } else {
+            format!("{prefix}/{name}")
+        };
+        let doc_path = store_dir.join(&path).join("zarr.json");
+        if !doc_path.exists() {
+            continue;
+        }
+        let doc = read_json(&doc_path)?;
+        match doc["node_type"].as_str() {
+            Some("array") if doc["attributes"]["texgraph"]["tape"].is_string() => out.push(path),
+            Some("group") => find_arrays(store_dir, &path, out)?,
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+fn check_array(store_dir: &Path, name: &str) -> Result<ArrayCheck, BakeError> {
+    let doc_path = store_dir.join(name).join("zarr.json");
+    let bytes = std::fs::read(&doc_path).map_err(|e| BakeError::Io {
+        path: doc_path.display().to_string(),
+        source: e,
+    })?;
+    let doc: serde_json::Value = serde_json::from_slice(&bytes)
+        .map_err(|e| BakeError::Refused(format!("{}: {e}", doc_path.display())))?;
+    let numbers = |v: &serde_json::Value| -> Option<Vec<u64>> {
+        v.as_array()?.iter().map(|n| n.as_u64()).collect()
+    };
+    let shape = numbers(&doc["shape"]);
+    let shard = numbers(&doc["chunk_grid"]["configuration"]["chunk_shape"]);
+    let (Some(shape), Some(shard)) = (shape, shard) else {
+        return Err(BakeError::Refused(format!(
+            "{}: no regular chunk grid",
+            doc_path.display()
+        )));
+    };
+    if shape.len() != shard.len() || shard.contains(&0) {
+        return Err(BakeError::Refused(format!(
+            "{}: shape and chunk shape disagree",
+            doc_path.display()
+        )));
+    }
+    let tape = doc["attributes"]["texgraph"]["tape"]
+        .as_str()
+        .unwrap_or_default()
+        .to_string();
+    let crc = crc32c::crc32c(&bytes);
+    let counts: Vec<u64> = shape
+        .iter()
+        .zip(&shard)
+        .map(|(n, s)| n.div_ceil(*s))
+        .collect();
+    let total: u64 = counts.iter().product();
+    let mut problems = Vec::new();
+    for s in 0..total {
+        let mut rest = s;
+        let mut index = vec![0; counts.len()];
+        for a in (0..counts.len()).rev() {
+            index[a] = rest % counts[a];
+            rest /= counts[a];
+        }
+        let key = format!(
+            "{name}/c/{}",
+            index
+                .iter()
+                .map(u64::to_string)
+                .collect::<Vec<_>>()
+                .join("/")
+        );
+        let state = shard_state(store_dir, &key, crc, &tape);
+        if state != ShardState::Complete {
+            problems.push((key, state));
+        }
+    }
+    Ok(ArrayCheck {
+        name: name.to_string(),
+        shards: total,
+        problems,
+    })
+}
