@@ -116,6 +116,8 @@ pub struct BakeFileOptions {
     pub zstd: Option<i32>,
     /// Zarr: chunking, sharding, compression and which part of the shards to bake.
     pub zarr: super::zarr::ZarrSettings,
+    /// Mip levels, level 0 (the grid) first; 1 without `--mips`. Set by [`bake_mipmapped`].
+    pub levels: u32,
     pub transfer: Transfer,
     /// Refuse a bake whose files would exceed this many bytes (uncompressed estimate).
     pub max_bytes: u64,
@@ -154,6 +156,7 @@ impl BakeFileOptions {
             ktx2_type: Ktx2SampleType::U8,
             zstd: None,
             zarr: super::zarr::ZarrSettings::default(),
+            levels: 1,
             transfer: Transfer::Srgb,
             max_bytes: DEFAULT_MAX_BAKE_BYTES,
             max_held_bytes: DEFAULT_MAX_HELD_BYTES,
@@ -360,10 +363,112 @@ pub fn bake_files(
         super::zarr::preflight(tape, options)?;
         return super::zarr::bake_zarr(tape, options, progress);
     }
-    let (finals, voxels) = preflight(tape, options)?;
+    if options.levels > 1 {
+        return Err(BakeError::Refused(
+            "internal: a mip chain is baked by bake_mipmapped".into(),
+        ));
+    }
+    bake_checked(&[tape], options, progress)
+}
+
+/// What every mip level of a texgraph bake is, in words (KTX2 key `texgraph.mips`, zarr
+/// attributes, docs/baking.md).
+pub const MIPS_NOTE: &str = "level L has max(1, n >> L) voxels per axis over the same region, each baked from the graph at its own voxel centres with footprint level of detail for its spacing (octaves finer than the voxel left out, faded, their mean added back), not box-filtered from level 0";
+
+/// Levels of a full mip chain of `grid`: down to 1 voxel on every axis (⌊log2(largest side)⌋ + 1).
+pub fn mip_level_count(grid: &Grid) -> u32 {
+    let largest = grid.size.iter().copied().max().unwrap_or(1).max(1) as u64;
+    64 - largest.leading_zeros()
+}
+
+/// Level `level` of `grid`'s mip chain: max(1, n >> level) voxels per axis, the same region.
+pub fn mip_grid(grid: &Grid, level: u32) -> Grid {
+    Grid {
+        size: grid
+            .size
+            .map(|n| (n.checked_shr(level).unwrap_or(0)).max(1)),
+        region: grid.region,
+    }
+}
+
+/// The footprint a level is baked with: its smallest voxel side (as `bake --lod` takes it).
+/// `None` for a flat region (no footprint).
+pub fn mip_spacing(grid: &Grid, level: u32) -> Option<f64> {
+    let spacing = mip_grid(grid, level)
+        .spacing()
+        .into_iter()
+        .fold(f64::INFINITY, f64::min);
+    (spacing > 0.0 && spacing.is_finite()).then_some(spacing)
+}
+
+/// Bakes a mip chain: `tapes[L]` is the graph compiled for level L's footprint
+/// ([`mip_spacing`]), level 0 first. KTX2 writes one file holding every level; PNG, EXR and raw
+/// write each level into its own folder `OUT/mipL/` (named as a bake of that level alone);
+/// zarr writes an OME-Zarr multiscale group per output. Every level is checked before any is
+/// baked. Returns one report per file set (one for KTX2 and zarr, one per level otherwise).
+pub fn bake_mipmapped(
+    tapes: &[Tape],
+    options: &BakeFileOptions,
+    progress: &mut dyn FnMut(u64),
+) -> Result<Vec<BakeReport>, BakeError> {
+    let grid = options.bake.grid;
+    validate_grid(&grid)?;
+    let most = mip_level_count(&grid);
+    if tapes.is_empty() || tapes.len() as u32 > most {
+        return Err(BakeError::Refused(format!(
+            "a grid of {:?} voxels has 1 to {most} mip levels, not {}",
+            grid.size,
+            tapes.len()
+        )));
+    }
+    let mut options = options.clone();
+    options.levels = tapes.len() as u32;
+    let refs: Vec<&Tape> = tapes.iter().collect();
+    match options.format {
+        Format::Ktx2 => Ok(vec![bake_checked(&refs, &options, progress)?]),
+        Format::Zarr => {
+            super::zarr::preflight(&tapes[0], &options)?;
+            Ok(vec![super::zarr::bake_zarr_levels(
+                &refs, &options, progress,
+            )?])
+        }
+        Format::Png | Format::Exr | Format::Raw => {
+            let level_options: Vec<BakeFileOptions> = (0..options.levels)
+                .map(|level| {
+                    let mut o = options.clone();
+                    o.levels = 1;
+                    o.bake.grid = mip_grid(&grid, level);
+                    o.out_dir = options.out_dir.join(format!("mip{level}"));
+                    o
+                })
+                .collect();
+            output::check_out_folder(&options.out_dir)?;
+            for (tape, o) in tapes.iter().zip(&level_options) {
+                preflight(tape, o)?;
+            }
+            let mut done = 0u64;
+            let mut reports = Vec::with_capacity(tapes.len());
+            for (tape, o) in tapes.iter().zip(&level_options) {
+                let before = done;
+                let report = bake_files(tape, o, &mut |v| progress(before + v))?;
+                done += report.voxels;
+                reports.push(report);
+            }
+            Ok(reports)
+        }
+    }
+}
+
+/// [`bake_files`] after the format dispatch, for one level or (KTX2) a mip chain.
+fn bake_checked(
+    tapes: &[&Tape],
+    options: &BakeFileOptions,
+    progress: &mut dyn FnMut(u64),
+) -> Result<BakeReport, BakeError> {
+    let (finals, _) = preflight(tapes[0], options)?;
     let created_out_dir = !options.out_dir.exists();
     std::fs::create_dir_all(&options.out_dir).map_err(io(&options.out_dir))?;
-    let result = bake_into_files(tape, options, &finals, voxels, progress);
+    let result = bake_into_files(tapes, options, &finals, progress);
     if result.is_err() && created_out_dir {
         // Leave no trace of a bake that did not happen (only if the folder is still empty).
         let _ = std::fs::remove_dir(&options.out_dir);
@@ -620,14 +725,46 @@ fn open_pending(
     Ok(pending)
 }
 
+/// Bakes every level (`tapes[L]` over [`mip_grid`] L; one level without mips) into the
+/// writers, the smallest level first (KTX2 stores them so). Returns level 0's statistics.
+fn bake_levels(
+    tapes: &[&Tape],
+    options: &BakeFileOptions,
+    pending: &mut [Pending],
+    progress: &mut dyn FnMut(u64),
+) -> Result<(Vec<OutputStats>, u64), BakeError> {
+    let grid = options.bake.grid;
+    let mut done = 0u64;
+    let mut level0 = Vec::new();
+    for (level, tape) in tapes.iter().enumerate().rev() {
+        let mut bake = options.bake.clone();
+        bake.grid = mip_grid(&grid, level as u32);
+        let before = done;
+        let stats = bake_into(tape, &bake, &mut Fanout(pending), &mut |v| {
+            progress(before + v)
+        })?;
+        done += bake.grid.voxels().unwrap_or(0);
+        if level > 0 {
+            for p in pending.iter_mut() {
+                if let Pending::Ktx2 { sink, .. } = p {
+                    sink.next_level()?;
+                }
+            }
+        } else {
+            level0 = stats;
+        }
+    }
+    Ok((level0, done))
+}
+
 fn bake_into_files(
-    tape: &Tape,
+    tapes: &[&Tape],
     options: &BakeFileOptions,
     finals: &[PathBuf],
-    voxels: u64,
     progress: &mut dyn FnMut(u64),
 ) -> Result<BakeReport, BakeError> {
     let grid = options.bake.grid;
+    let tape = tapes[0];
     let mut pending = open_pending(tape, options, finals)?;
 
     let temps: Vec<(PathBuf, PathBuf)> = pending
@@ -636,7 +773,7 @@ fn bake_into_files(
         .map(|(p, f)| (p.temp_path().to_path_buf(), f.clone()))
         .collect();
     let started = std::time::Instant::now();
-    let stats = bake_into(tape, &options.bake, &mut Fanout(&mut pending), progress)
+    let (stats, voxels) = bake_levels(tapes, options, &mut pending, progress)
         .map_err(|e| name_final_file(e, &temps))?;
     let seconds = started.elapsed().as_secs_f64();
 
@@ -660,7 +797,12 @@ fn bake_into_files(
                     let zstd = options
                         .zstd
                         .map_or(String::new(), |level| format!(", Zstandard level {level}"));
-                    format!("KTX2 3D texture {nx}×{ny}×{nz} {}{zstd}", format.name)
+                    let mips = if options.levels > 1 {
+                        format!(", {} mip levels baked from the graph", options.levels)
+                    } else {
+                        String::new()
+                    };
+                    format!("KTX2 3D texture {nx}×{ny}×{nz} {}{zstd}{mips}", format.name)
                 }
                 Pending::Exr { sink, temp } => {
                     let file = temp.reopen().map_err(io(temp.path()))?;
@@ -840,8 +982,8 @@ fn exr_attributes(
     ]
 }
 
-/// What a KTX2 file of the bake holds besides its texels: one level (the voxels), the format of
-/// the output, supercompression, key/value pairs.
+/// What a KTX2 file of the bake holds besides its texels: its levels (1, or the mip chain), the
+/// format of the output, supercompression, key/value pairs.
 fn ktx2_description(
     options: &BakeFileOptions,
     format: Ktx2Format,
@@ -851,7 +993,7 @@ fn ktx2_description(
     Ktx2Description {
         format,
         size,
-        levels: 1,
+        levels: options.levels.max(1),
         zstd: options.zstd,
         key_values,
     }
@@ -882,6 +1024,9 @@ fn ktx2_key_values(grid: &Grid, options: &BakeFileOptions, output: &str) -> Vec<
     ];
     if let Some(level) = options.zstd {
         pairs.push(("KTXwriterScParams", format!("--zstd={level}")));
+    }
+    if options.levels > 1 {
+        pairs.push(("texgraph.mips", MIPS_NOTE.to_string()));
     }
     pairs.into_iter().map(|(k, v)| (k.to_string(), v)).collect()
 }

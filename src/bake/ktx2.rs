@@ -589,10 +589,13 @@ pub(crate) fn zstd_encoder_bytes(level: i32, bytes: u64) -> u64 {
     any_size.min(by_size.saturating_add(2 << 20))
 }
 
-/// The bake's sink for one output: its texels, encoded, streamed into level 0.
+/// The bake's sink for one output: its texels, encoded, streamed into the open level (the
+/// smallest first: a mip chain is baked level by level, [`Ktx2Sink::next_level`] between them).
 pub(crate) struct Ktx2Sink {
     pub path: PathBuf,
     writer: Ktx2Writer<io::BufWriter<std::fs::File>>,
+    /// The level being written.
+    level: u32,
     output: usize,
     format: Ktx2Format,
     scratch: Vec<f32>,
@@ -600,7 +603,7 @@ pub(crate) struct Ktx2Sink {
 }
 
 impl Ktx2Sink {
-    /// Writes the header of output `output`'s file into `file` and opens its one level.
+    /// Writes the header of output `output`'s file into `file` and opens its smallest level.
     pub fn create(
         path: &Path,
         file: std::fs::File,
@@ -612,17 +615,33 @@ impl Ktx2Sink {
             source,
         };
         let format = description.format;
+        let level = description.levels.saturating_sub(1);
         let mut writer = Ktx2Writer::new(io::BufWriter::with_capacity(1 << 16, file), description)
             .map_err(io)?;
-        writer.begin_level(0).map_err(io)?;
+        writer.begin_level(level).map_err(io)?;
         Ok(Ktx2Sink {
             path: path.to_path_buf(),
             writer,
+            level,
             output,
             format,
             scratch: Vec::new(),
             bytes: Vec::new(),
         })
+    }
+
+    /// Ends the open level and opens the next larger one.
+    pub fn next_level(&mut self) -> Result<(), BakeError> {
+        let io = |source| BakeError::Io {
+            path: self.path.display().to_string(),
+            source,
+        };
+        self.writer.end_level().map_err(io)?;
+        self.level = self.level.checked_sub(1).ok_or_else(|| BakeError::Encode {
+            path: self.path.display().to_string(),
+            message: "internal: no KTX2 level after level 0".into(),
+        })?;
+        self.writer.begin_level(self.level).map_err(io)
     }
 
     /// Ends the level, writes the level index, and syncs the file.

@@ -21,12 +21,13 @@ mod files;
 mod ktx2;
 pub mod part;
 mod sinks;
+pub mod vdb;
 pub mod zarr;
 
 pub use files::{
-    bake_files, human_bytes, planned_outputs, BakeFileOptions, BakeReport, BakedFile,
-    ExrCompression, Format, RawSampleType, Transfer, DEFAULT_MAX_BAKE_BYTES,
-    DEFAULT_MAX_HELD_BYTES,
+    bake_files, bake_mipmapped, human_bytes, mip_grid, mip_level_count, mip_spacing,
+    planned_outputs, BakeFileOptions, BakeReport, BakedFile, ExrCompression, Format, RawSampleType,
+    Transfer, DEFAULT_MAX_BAKE_BYTES, DEFAULT_MAX_HELD_BYTES, MIPS_NOTE,
 };
 pub use ktx2::{Ktx2SampleType, DEFAULT_ZSTD_LEVEL, ZSTD_LEVELS};
 pub use sinks::{encode_u16, encode_u8, srgb_encode};

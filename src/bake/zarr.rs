@@ -416,6 +416,7 @@ fn build_array(
     tape: &Tape,
     sharding: &Sharding,
     output: &crate::tape::TapeOutput,
+    path: &str,
 ) -> Result<Array<AtomicStore>, BakeError> {
     let sample = sample_type(options);
     let channels = output.ty.channels() as u64;
@@ -487,7 +488,7 @@ fn build_array(
         };
         t.insert("transfer".into(), transfer.into());
     }
-    let path = format!("/{}", output.name);
+    let path = format!("/{path}");
     ArrayBuilder::new(shape, shard, data_type, fill)
         // Inner chunks in C order, whatever order the threads finish them in: a shard's bytes
         // are a function of its values (zarrs' default appends them as they complete).
@@ -586,11 +587,10 @@ enum Existing {
 /// split bake never does (other parts may be writing it). Writes nothing.
 fn check_metadata(
     store_dir: &Path,
-    array: &Array<AtomicStore>,
+    name: &str,
     json: &[u8],
     options: &BakeFileOptions,
 ) -> Result<Existing, BakeError> {
-    let name = array.path().as_str().trim_start_matches('/');
     let dir = store_dir.join(name);
     let doc = dir.join("zarr.json");
     match std::fs::read(&doc) {
@@ -614,7 +614,7 @@ fn check_metadata(
             if dir.exists() && !only_metadata_temporaries(&dir)? {
                 // Another part may have written the document between the two looks.
                 if doc.exists() {
-                    return check_metadata(store_dir, array, json, options);
+                    return check_metadata(store_dir, name, json, options);
                 }
                 return Err(BakeError::Refused(format!(
                     "{}: exists and is not a Zarr array (no zarr.json); refusing to write into it",
@@ -736,121 +736,324 @@ pub fn bake_zarr(
     options: &BakeFileOptions,
     progress: &mut dyn FnMut(u64),
 ) -> Result<BakeReport, BakeError> {
-    let grid = options.bake.grid;
+    bake_zarr_levels(&[tape], options, progress)
+}
+
+/// One mip level of a zarr bake: its tape, options (its grid), shard layout and arrays.
+struct Level<'t> {
+    tape: &'t Tape,
+    options: BakeFileOptions,
+    sharding: Sharding,
+    arrays: Vec<OutputArray>,
+    tape_hash: String,
+}
+
+/// The store path (relative, `/`-separated) of output `name`'s array at `level`: `name`, or
+/// `name/L` in a multiscale group.
+fn array_path(name: &str, level: usize, multiscale: bool) -> String {
+    if multiscale {
+        format!("{name}/{level}")
+    } else {
+        name.to_string()
+    }
+}
+
+/// The OME-Zarr (NGFF 0.5) `multiscales` attributes of output `output`'s group: one dataset
+/// per level with its voxel size and the offset of its first voxel centre.
+fn ome_attributes(
+    output: &crate::tape::TapeOutput,
+    grid: &Grid,
+    levels: usize,
+) -> serde_json::Value {
+    let mut axes = vec![
+        serde_json::json!({"name": "z", "type": "space"}),
+        serde_json::json!({"name": "y", "type": "space"}),
+        serde_json::json!({"name": "x", "type": "space"}),
+    ];
+    if output.ty == Type::Vec3 {
+        axes.push(serde_json::json!({"name": "c", "type": "channel"}));
+    }
+    let datasets: Vec<serde_json::Value> = (0..levels)
+        .map(|level| {
+            let g = super::files::mip_grid(grid, level as u32);
+            let s = g.spacing();
+            let mut scale = vec![s[2], s[1], s[0]];
+            let mut translation = vec![g.centre(2, 0), g.centre(1, 0), g.centre(0, 0)];
+            if output.ty == Type::Vec3 {
+                scale.push(1.0);
+                translation.push(0.0);
+            }
+            serde_json::json!({
+                "path": level.to_string(),
+                "coordinateTransformations": [
+                    {"type": "scale", "scale": scale},
+                    {"type": "translation", "translation": translation},
+                ],
+            })
+        })
+        .collect();
+    serde_json::json!({
+        "version": "0.5",
+        "multiscales": [{
+            "name": output.name,
+            "axes": axes,
+            "datasets": datasets,
+            "type": "graph-prefiltered: each level baked from the graph with footprint level of detail",
+        }],
+    })
+}
+
+/// Builds the multiscale group of every output (writes nothing).
+fn output_groups(
+    store: &Arc<AtomicStore>,
+    tapes: &[&Tape],
+    options: &BakeFileOptions,
+) -> Result<Vec<(String, Vec<u8>)>, BakeError> {
+    let mut groups = Vec::new();
+    for output in &tapes[0].outputs {
+        let mut attributes = texgraph_attributes(options, tapes[0]);
+        if let Some(serde_json::Value::Object(t)) = attributes.get_mut("texgraph") {
+            t.insert("mips".into(), super::files::MIPS_NOTE.into());
+            t.insert("output".into(), output.name.clone().into());
+        }
+        attributes.insert(
+            "ome".into(),
+            ome_attributes(output, &options.bake.grid, tapes.len()),
+        );
+        let group = zarrs::group::GroupBuilder::new()
+            .attributes(attributes)
+            .build(store.clone(), &format!("/{}", output.name))
+            .map_err(|e| BakeError::Refused(format!("zarr group {}: {e}", output.name)))?;
+        let json = group_json(&group)?;
+        groups.push((output.name.clone(), json));
+    }
+    Ok(groups)
+}
+
+fn group_json(group: &zarrs::group::Group<AtomicStore>) -> Result<Vec<u8>, BakeError> {
+    match group.metadata_opt(&Default::default()) {
+        zarrs::group::GroupMetadata::V3(m) => serde_json::to_vec_pretty(&m)
+            .map_err(|e| BakeError::Refused(format!("group metadata: {e}"))),
+        _ => Err(BakeError::Refused("internal: not a Zarr v3 group".into())),
+    }
+}
+
+/// Checks every node the bake writes against what is in the store, then writes the metadata
+/// (a refused bake writes nothing) and returns the levels ready for their shards.
+fn open_levels<'t>(
+    store: &Arc<AtomicStore>,
+    store_dir: &Path,
+    tapes: &[&'t Tape],
+    options: &BakeFileOptions,
+) -> Result<Vec<Level<'t>>, BakeError> {
+    let multiscale = tapes.len() > 1;
+    let mut replace = std::collections::BTreeSet::new();
+    let groups = if multiscale {
+        output_groups(store, tapes, options)?
+    } else {
+        Vec::new()
+    };
+    for (name, json) in &groups {
+        if check_metadata(store_dir, name, json, options)? == Existing::Replace {
+            replace.insert(name.clone());
+        }
+    }
+    let mut planned = Vec::new();
+    for (level, tape) in tapes.iter().enumerate() {
+        let mut level_options = options.clone();
+        level_options.bake.grid = super::files::mip_grid(&options.bake.grid, level as u32);
+        let sharding = Sharding::new(
+            &level_options.bake.grid,
+            options.zarr.chunk,
+            options.zarr.shard,
+        )?;
+        let mut arrays = Vec::new();
+        for output in &tape.outputs {
+            let path = array_path(&output.name, level, multiscale);
+            let array = build_array(store, &level_options, tape, &sharding, output, &path)?;
+            let json = metadata_json(&array)?;
+            if check_metadata(store_dir, &path, &json, options)? == Existing::Replace {
+                replace.insert(output.name.clone());
+            }
+            arrays.push((output, path, array));
+        }
+        planned.push((tape, level_options, sharding, arrays));
+    }
+    let root = zarrs::group::GroupBuilder::new()
+        .attributes(texgraph_attributes(options, tapes[0]))
+        .build(store.clone(), "/")
+        .map_err(|e| BakeError::Refused(format!("zarr group: {e}")))?;
+    write_node(store_dir, "", &group_json(&root)?)?;
+    for name in &replace {
+        let dir = store_dir.join(name);
+        std::fs::remove_dir_all(&dir).map_err(|e| BakeError::Io {
+            path: dir.display().to_string(),
+            source: e,
+        })?;
+    }
+    for (name, json) in &groups {
+        write_node(store_dir, name, json)?;
+    }
+    let mut levels = Vec::with_capacity(planned.len());
+    for (tape, level_options, sharding, arrays) in planned {
+        let mut opened = Vec::with_capacity(arrays.len());
+        for (output, path, array) in arrays {
+            let json = metadata_json(&array)?;
+            write_node(store_dir, &path, &json)?;
+            opened.push(OutputArray {
+                name: output.name.clone(),
+                ty: output.ty,
+                first_channel: output.first_channel,
+                srgb: output.ty == Type::Vec3
+                    && sample_type(options) == ZarrSample::U8
+                    && options.transfer == Transfer::Srgb,
+                array,
+                metadata_crc: crc32c::crc32c(&json),
+            });
+        }
+        levels.push(Level {
+            tape,
+            options: level_options,
+            sharding,
+            arrays: opened,
+            tape_hash: format!("{:016x}", tape.fingerprint()),
+        });
+    }
+    Ok(levels)
+}
+
+/// Writes a node's `zarr.json` (the bytes zarrs serialises) atomically.
+fn write_node(store_dir: &Path, path: &str, json: &[u8]) -> Result<(), BakeError> {
+    let key = if path.is_empty() {
+        "zarr.json".to_string()
+    } else {
+        format!("{path}/zarr.json")
+    };
+    AtomicStore::new(store_dir)
+        .write(&key, json)
+        .map_err(storage(&store_dir.join(&key).display().to_string()))
+}
+
+/// Bakes a zarr store with one array per output (one level) or, for a mip chain (`tapes[L]`
+/// compiled for level L), an OME-Zarr multiscale group per output with an array per level.
+/// Shards are numbered level by level (level 0's first) for `--part`.
+pub fn bake_zarr_levels(
+    tapes: &[&Tape],
+    options: &BakeFileOptions,
+    progress: &mut dyn FnMut(u64),
+) -> Result<BakeReport, BakeError> {
     let store_dir = store_path(options)?;
-    let sharding = Sharding::new(&grid, options.zarr.chunk, options.zarr.shard)?;
+    for level in 0..tapes.len() {
+        let grid = super::files::mip_grid(&options.bake.grid, level as u32);
+        Sharding::new(&grid, options.zarr.chunk, options.zarr.shard)?;
+    }
     check_store(&store_dir)?;
     std::fs::create_dir_all(&store_dir).map_err(|e| BakeError::Io {
         path: store_dir.display().to_string(),
         source: e,
     })?;
     let store = Arc::new(AtomicStore::new(&store_dir));
-    let group = zarrs::group::GroupBuilder::new()
-        .attributes(texgraph_attributes(options, tape))
-        .build(store.clone(), "/")
-        .map_err(|e| BakeError::Refused(format!("zarr group: {e}")))?;
-    // Every array checked before anything is written: a refused bake changes nothing.
-    let mut built = Vec::with_capacity(tape.outputs.len());
-    for output in &tape.outputs {
-        let array = build_array(&store, options, tape, &sharding, output)?;
-        let json = metadata_json(&array)?;
-        let existing = check_metadata(&store_dir, &array, &json, options)?;
-        built.push((output, array, existing));
-    }
-    let root = store_dir.join("zarr.json").display().to_string();
-    group.store_metadata().map_err(storage(&root))?;
-    let sample = sample_type(options);
-    let mut arrays = Vec::with_capacity(tape.outputs.len());
-    for (output, array, existing) in built {
-        let dir = store_dir.join(&output.name);
-        if existing == Existing::Replace {
-            std::fs::remove_dir_all(&dir).map_err(|e| BakeError::Io {
-                path: dir.display().to_string(),
-                source: e,
-            })?;
-        }
-        array
-            .store_metadata_opt(&metadata_options())
-            .map_err(storage(&dir.join("zarr.json").display().to_string()))?;
-        // The crc of the document as stored (zarrs writes the same serialisation).
-        let stored =
-            std::fs::read(store_dir.join(&output.name).join("zarr.json")).map_err(|e| {
-                BakeError::Io {
-                    path: store_dir.join(&output.name).display().to_string(),
-                    source: e,
-                }
-            })?;
-        arrays.push(OutputArray {
-            name: output.name.clone(),
-            ty: output.ty,
-            first_channel: output.first_channel,
-            srgb: output.ty == Type::Vec3
-                && sample == ZarrSample::U8
-                && options.transfer == Transfer::Srgb,
-            array,
-            metadata_crc: crc32c::crc32c(&stored),
-        });
-    }
-    let tape_hash = format!("{:016x}", tape.fingerprint());
+    let levels = open_levels(&store, &store_dir, tapes, options)?;
     let (threads, _) = super::capped_threads(options.bake.threads);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .map_err(|e| BakeError::Refused(format!("cannot start {threads} worker threads: {e}")))?;
     let started = std::time::Instant::now();
-    let mut stats = vec![ChannelStats::default(); tape.channels()];
-    let (mut baked, mut skipped, mut voxels) = (0u64, 0u64, 0u64);
-    let part = options.zarr.part;
-    let mut owned = 0u64;
-    for s in 0..sharding.shard_count() {
-        if !part.owns(s) {
-            continue;
+    let mut stats = vec![ChannelStats::default(); tapes[0].channels()];
+    let mut count = ShardCount::default();
+    let mut item = 0u64;
+    for (l, level) in levels.iter().enumerate() {
+        for s in 0..level.sharding.shard_count() {
+            let mine = options.zarr.part.owns(item);
+            item += 1;
+            if !mine {
+                continue;
+            }
+            let cancelled = options.bake.cancel.as_ref();
+            if cancelled.is_some_and(|c| c.load(Ordering::Relaxed)) {
+                return Err(BakeError::Cancelled);
+            }
+            let shard_stats = bake_one_shard(level, s, &pool, &store, options, &mut count)?;
+            if l == 0 {
+                for (total, part) in stats.iter_mut().zip(&shard_stats) {
+                    total.merge(part);
+                }
+            }
+            progress(count.voxels);
         }
-        owned += 1;
-        if options
-            .bake
-            .cancel
-            .as_ref()
-            .is_some_and(|c| c.load(Ordering::Relaxed))
-        {
-            return Err(BakeError::Cancelled);
-        }
-        let k = sharding.shard_index(s);
-        let keys: Vec<String> = arrays
-            .iter()
-            .map(|a| {
-                a.array
-                    .chunk_key(&shard_indices(k, a.ty))
-                    .as_str()
-                    .to_string()
-            })
-            .collect();
-        let complete = !options.force
-            && arrays.iter().zip(&keys).all(|(a, key)| {
-                shard_state(&store_dir, key, a.metadata_crc, &tape_hash) == ShardState::Complete
-            });
-        if complete {
-            skipped += 1;
-            continue;
-        }
-        for key in &keys {
-            remove_stale_temporaries(&store_dir, key);
-        }
-        let shard_stats = bake_shard(
-            tape, options, &pool, &sharding, k, &arrays, &keys, &store, &tape_hash,
-        )?;
-        for (total, part) in stats.iter_mut().zip(&shard_stats) {
-            total.merge(part);
-        }
-        baked += 1;
-        voxels += sharding
-            .shard_ranges(k)
-            .iter()
-            .map(|r| r.end - r.start)
-            .product::<u64>();
-        progress(voxels);
     }
-    let seconds = started.elapsed().as_secs_f64();
+    Ok(BakeReport {
+        files: zarr_files(&store_dir, &levels, options, &count),
+        stats: collect_stats(tapes[0], &stats),
+        voxels: count.voxels,
+        seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// Shards of this part: owned, baked, skipped (complete), voxels evaluated.
+#[derive(Default)]
+struct ShardCount {
+    owned: u64,
+    baked: u64,
+    skipped: u64,
+    voxels: u64,
+}
+
+/// Bakes shard `s` of a level unless it is complete (and not `--force`). Returns its voxels'
+/// statistics (empty when skipped).
+fn bake_one_shard(
+    level: &Level<'_>,
+    s: u64,
+    pool: &rayon::ThreadPool,
+    store: &AtomicStore,
+    options: &BakeFileOptions,
+    count: &mut ShardCount,
+) -> Result<Vec<ChannelStats>, BakeError> {
+    count.owned += 1;
+    let store_dir = store.root.as_path();
+    let k = level.sharding.shard_index(s);
+    let keys: Vec<String> = level
+        .arrays
+        .iter()
+        .map(|a| {
+            a.array
+                .chunk_key(&shard_indices(k, a.ty))
+                .as_str()
+                .trim_start_matches('/')
+                .to_string()
+        })
+        .collect();
+    let complete = !options.force
+        && level.arrays.iter().zip(&keys).all(|(a, key)| {
+            shard_state(store_dir, key, a.metadata_crc, &level.tape_hash) == ShardState::Complete
+        });
+    if complete {
+        count.skipped += 1;
+        return Ok(Vec::new());
+    }
+    for key in &keys {
+        remove_stale_temporaries(store_dir, key);
+    }
+    let stats = bake_shard(level, pool, k, &keys, store)?;
+    count.baked += 1;
+    count.voxels += level
+        .sharding
+        .shard_ranges(k)
+        .iter()
+        .map(|r| r.end - r.start)
+        .product::<u64>();
+    Ok(stats)
+}
+
+/// The report's lines: one per output (its array, or its multiscale group).
+fn zarr_files(
+    store_dir: &Path,
+    levels: &[Level<'_>],
+    options: &BakeFileOptions,
+    count: &ShardCount,
+) -> Vec<BakedFile> {
+    let sharding = &levels[0].sharding;
     let [nz, ny, nx] = sharding.shape;
     let compression = match options.zarr.compression {
         ZarrCompression::Zstd => {
@@ -859,33 +1062,40 @@ pub fn bake_zarr(
         ZarrCompression::Blosc => "blosc lz4".into(),
         ZarrCompression::None => "uncompressed".into(),
     };
+    let part = options.zarr.part;
     let part_text = if part.is_whole() {
         String::new()
     } else {
         format!(", part {part}")
     };
-    let files = arrays
+    let total: u64 = levels.iter().map(|l| l.sharding.shard_count()).sum();
+    let mips = if levels.len() > 1 {
+        format!(
+            "OME-Zarr multiscale group of {} levels baked from the graph, level 0 ",
+            levels.len()
+        )
+    } else {
+        String::new()
+    };
+    levels[0]
+        .arrays
         .iter()
         .map(|a| BakedFile {
             output: a.name.clone(),
             path: store_dir.join(&a.name),
             description: format!(
-                "Zarr array {nx}×{ny}×{nz} {}{} {}, chunks {:?} in shards {:?} (z, y, x), {compression}: {baked} shard(s) baked, {skipped} already complete, of {owned}{part_text} ({} in the store)",
+                "{mips}Zarr array {nx}×{ny}×{nz} {}{} {}, chunks {:?} in shards {:?} (z, y, x), {compression}: {} shard(s) baked, {} already complete, of {}{part_text} ({total} in the store)",
                 if a.ty == Type::Vec3 { "RGB " } else { "" },
-                sample.name(),
+                sample_type(options).name(),
                 if a.srgb { "sRGB" } else { "linear" },
                 sharding.chunk,
                 sharding.shard,
-                sharding.shard_count(),
+                count.baked,
+                count.skipped,
+                count.owned,
             ),
         })
-        .collect();
-    Ok(BakeReport {
-        files,
-        stats: collect_stats(tape, &stats),
-        voxels,
-        seconds,
-    })
+        .collect()
 }
 
 /// The chunk-grid indices of shard `k` in an array of type `ty`.
@@ -899,18 +1109,15 @@ fn shard_indices(k: [u64; 3], ty: Type) -> Vec<u64> {
 
 /// Evaluates shard `k` for every output, encodes it with the array's codecs, writes it and its
 /// manifest. Returns the statistics of its voxels.
-#[allow(clippy::too_many_arguments)]
 fn bake_shard(
-    tape: &Tape,
-    options: &BakeFileOptions,
+    level: &Level<'_>,
     pool: &rayon::ThreadPool,
-    sharding: &Sharding,
     k: [u64; 3],
-    arrays: &[OutputArray],
     keys: &[String],
     store: &AtomicStore,
-    tape_hash: &str,
 ) -> Result<Vec<ChannelStats>, BakeError> {
+    let (options, sharding, arrays) = (&level.options, &level.sharding, &level.arrays);
+    let (tape, tape_hash) = (level.tape, level.tape_hash.as_str());
     let store_dir = store.root.as_path();
     let sample = sample_type(options);
     let mut buffers: Vec<Vec<u8>> = arrays

@@ -90,6 +90,12 @@ pub struct BakeArgs {
     /// Evaluate with the f64 reference path (values still stored as f32 or less).
     #[arg(long = "f64")]
     double: bool,
+    /// Prefiltered mip levels down to 1 voxel, each baked from the graph at its own voxel
+    /// centres with footprint level of detail for its spacing: KTX2 stores them in its file,
+    /// zarr as OME-Zarr multiscales (a group per output, an array per level), PNG, EXR and raw
+    /// in level folders OUT/mip0, OUT/mip1, ...
+    #[arg(long)]
+    mips: bool,
     /// No progress bar.
     #[arg(long, short)]
     quiet: bool,
@@ -196,6 +202,9 @@ pub fn bake_option_misuse(args: &BakeArgs) -> Vec<String> {
         eight_bit,
         "8/16-bit files (--format png, --format raw with --raw-type u8, --format ktx2 or zarr without --half or --float)",
     );
+    if args.mips && (args.lod || args.graph.spacing.is_some()) {
+        problems.push("--mips bakes every level with the footprint of its own voxels; --lod and --spacing do not apply".into());
+    }
     if args.parts.is_some() && args.part.as_deref() != Some("auto") {
         problems.push("--parts N goes with --part auto (a Kubernetes Indexed Job)".into());
     }
@@ -329,25 +338,48 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
             fail(&mut worst, Failure::Usage);
             continue;
         }
-        let bar = show_progress.then(|| progress_bar(file, grid.voxels().unwrap_or(u64::MAX)));
-        let result = bake_files(&tape, &options, &mut |done| {
+        let tapes = if args.mips {
+            match mip_tapes(&graph, &compile_options, &grid) {
+                Ok(tapes) => tapes,
+                Err(error) => {
+                    fail(&mut worst, print_load_error(error));
+                    continue;
+                }
+            }
+        } else {
+            vec![tape]
+        };
+        let all_voxels = (0..tapes.len() as u32)
+            .map(|l| crate::bake::mip_grid(&grid, l).voxels().unwrap_or(u64::MAX))
+            .fold(0u64, u64::saturating_add);
+        let bar = show_progress.then(|| progress_bar(file, all_voxels));
+        let mut show = |done| {
             if let Some(bar) = &bar {
                 bar.set_position(done);
             }
-        });
+        };
+        let result = if args.mips {
+            crate::bake::bake_mipmapped(&tapes, &options, &mut show)
+        } else {
+            bake_files(&tapes[0], &options, &mut show).map(|r| vec![r])
+        };
         if let Some(bar) = &bar {
             bar.finish_and_clear();
         }
         match result {
-            Ok(report) => {
+            Ok(reports) => {
                 produced.extend(planned);
                 baked += 1;
-                total_voxels += report.voxels;
-                total_seconds += report.seconds;
-                let clamps = eight_or_sixteen_bit(&options);
-                let text = bake_report(file, &grid, &report, threads, clamps);
-                write_stdout(|out| out.write_all(text.as_bytes()))?;
-                warn_about_values(file, &report, clamps, options.format);
+                // One report per level folder (PNG, EXR, raw), else one for the whole chain.
+                for (level, report) in reports.iter().enumerate() {
+                    total_voxels += report.voxels;
+                    total_seconds += report.seconds;
+                    let level_grid = crate::bake::mip_grid(&grid, level as u32);
+                    let clamps = eight_or_sixteen_bit(&options);
+                    let text = bake_report(file, &level_grid, report, threads, clamps);
+                    write_stdout(|out| out.write_all(text.as_bytes()))?;
+                    warn_about_values(file, report, clamps, options.format);
+                }
             }
             Err(BakeError::Cancelled) => {
                 eprintln!(
@@ -373,6 +405,22 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
         write_stdout(|out| out.write_all(line.as_bytes()))?;
     }
     worst.map_or(Ok(()), Err)
+}
+
+/// The graph compiled for every level of `grid`'s mip chain, each with its level's footprint
+/// (level of detail for its voxel size).
+fn mip_tapes(
+    graph: &crate::CheckedGraph,
+    compile_options: &crate::CompileOptions,
+    grid: &crate::bake::Grid,
+) -> Result<Vec<crate::Tape>, crate::LoadError> {
+    (0..crate::bake::mip_level_count(grid))
+        .map(|level| {
+            let mut options = compile_options.clone();
+            options.spacing = crate::bake::mip_spacing(grid, level);
+            crate::compile(graph, &options).map_err(crate::LoadError::Invalid)
+        })
+        .collect()
 }
 
 /// The files hold 8/16-bit samples, so values outside [0, 1] are clamped.
