@@ -1403,6 +1403,7 @@ fn force_replaces_files_and_png_folders_whole() {
             }
             (Format::Ktx2, _, _) => unreachable!("tests/bake_ktx2.rs covers KTX2"),
             (Format::Zarr, _, _) => unreachable!("tests/bake_zarr.rs covers zarr"),
+            (Format::Vdb, _, _) => unreachable!("tests/bake_vdb_reader.rs covers vdb"),
         }
     }
 }

@@ -31,6 +31,9 @@ pub enum Format {
     /// A Zarr v3 store per graph (an array per output, chunked and sharded): 8-bit, or half or
     /// single floats with --half / --float; --part splits it over processes.
     Zarr,
+    /// One OpenVDB file per graph: a float grid per scalar output, a vec3s grid per colour
+    /// output (values as evaluated), transform from the region.
+    Vdb,
 }
 
 impl Format {
@@ -42,6 +45,7 @@ impl Format {
             Format::Raw => "raw",
             Format::Ktx2 => "ktx2",
             Format::Zarr => "zarr",
+            Format::Vdb => "vdb",
         }
     }
 }
@@ -183,6 +187,7 @@ impl BakeFileOptions {
             }
             Format::Ktx2 => u64::from(self.ktx2_format(ty).texel_bytes()),
             Format::Zarr => channels * super::zarr::sample_type(self).bytes(),
+            Format::Vdb => channels * 4,
         }
     }
 
@@ -217,6 +222,10 @@ pub fn planned_outputs(tape: &Tape, options: &BakeFileOptions) -> Result<Vec<Pat
     if options.format == Format::Zarr {
         return Ok(vec![super::zarr::store_path(options)?]);
     }
+    if options.format == Format::Vdb {
+        let name = format!("{}.vdb", options.stem);
+        return Ok(vec![output::join_inside(&options.out_dir, &name)?]);
+    }
     tape.outputs
         .iter()
         .map(|o| {
@@ -227,7 +236,7 @@ pub fn planned_outputs(tape: &Tape, options: &BakeFileOptions) -> Result<Vec<Pat
                 Format::Png => base,
                 Format::Raw => format!("{base}.raw"),
                 Format::Ktx2 => format!("{base}.ktx2"),
-                Format::Zarr => unreachable!("a zarr bake writes one store"),
+                Format::Zarr | Format::Vdb => unreachable!("one store or file per graph"),
             };
             Ok(output::join_inside(&options.out_dir, &name)?)
         })
@@ -363,6 +372,10 @@ pub fn bake_files(
         super::zarr::preflight(tape, options)?;
         return super::zarr::bake_zarr(tape, options, progress);
     }
+    if options.format == Format::Vdb {
+        let (finals, _) = preflight(tape, options)?;
+        return super::vdb_bake::bake_vdb(tape, options, &finals[0], progress);
+    }
     if options.levels > 1 {
         return Err(BakeError::Refused(
             "internal: a mip chain is baked by bake_mipmapped".into(),
@@ -426,6 +439,9 @@ pub fn bake_mipmapped(
     let refs: Vec<&Tape> = tapes.iter().collect();
     match options.format {
         Format::Ktx2 => Ok(vec![bake_checked(&refs, &options, progress)?]),
+        Format::Vdb => Err(BakeError::Refused(
+            "--mips applies to --format ktx2, zarr, png, exr and raw; an OpenVDB grid has no mip levels".into(),
+        )),
         Format::Zarr => {
             super::zarr::preflight(&tapes[0], &options)?;
             Ok(vec![super::zarr::bake_zarr_levels(
@@ -515,6 +531,10 @@ fn preflight(tape: &Tape, options: &BakeFileOptions) -> Result<(Vec<PathBuf>, u6
                 "a KTX2 file's Zstandard encoder holds its window and match tables in memory, one encoder per output",
                 "use a lower --zstd level",
             ),
+            Format::Vdb => (
+                "a VDB file is written from the whole volume, held in memory",
+                "bake --format zarr (chunked, streamed shard by shard)",
+            ),
             _ => (
                 "a PNG slice is encoded a row at a time, two rows held in memory",
                 "bake --format raw (streamed)",
@@ -559,6 +579,9 @@ fn check_dimensions(grid: &Grid, options: &BakeFileOptions) -> Result<(), BakeEr
     let [nx, ny, nz] = grid.size.map(|n| n as u64);
     let (what, width, height) = match options.format {
         Format::Raw | Format::Zarr => return Ok(()),
+        Format::Vdb => {
+            return super::vdb_bake::check_size(grid);
+        }
         Format::Ktx2 => {
             let Some(size) = ktx2::texture_size(grid) else {
                 return Err(BakeError::Refused(format!(
@@ -611,7 +634,7 @@ fn held_bytes(tape: &Tape, options: &BakeFileOptions) -> u64 {
             let sample = if options.depth16 { 2 } else { 1 };
             match options.format {
                 Format::Raw | Format::Zarr => 0,
-                Format::Exr => voxels.saturating_mul(channels * 4),
+                Format::Exr | Format::Vdb => voxels.saturating_mul(channels * 4),
                 Format::Png if options.atlas => {
                     let (columns, _) = atlas_shape(nz);
                     (2 * columns)
@@ -643,7 +666,7 @@ fn open_pending(
     let mut pending = Vec::with_capacity(finals.len());
     for (index, (output, final_path)) in tape.outputs.iter().zip(finals).enumerate() {
         pending.push(match options.format {
-            Format::Zarr => unreachable!("zarr bakes are written by zarr.rs"),
+            Format::Zarr | Format::Vdb => unreachable!("zarr and vdb bakes are written apart"),
             Format::Ktx2 => {
                 let temp = temp_file(&options.out_dir, final_path)?;
                 let file = temp.reopen().map_err(io(temp.path()))?;
@@ -1032,7 +1055,7 @@ fn ktx2_key_values(grid: &Grid, options: &BakeFileOptions, output: &str) -> Vec<
 }
 
 /// `{"period":1.3,"octaves":2.0}`: params or overrides as a JSON object, in order.
-fn params_json(params: &[(String, f64)]) -> String {
+pub(super) fn params_json(params: &[(String, f64)]) -> String {
     serde_json::Value::Object(params_map(params)).to_string()
 }
 

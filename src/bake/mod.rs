@@ -22,6 +22,7 @@ mod ktx2;
 pub mod part;
 mod sinks;
 pub mod vdb;
+mod vdb_bake;
 pub mod zarr;
 
 pub use files::{

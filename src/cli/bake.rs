@@ -430,7 +430,7 @@ fn eight_or_sixteen_bit(options: &crate::bake::BakeFileOptions) -> bool {
         Format::Png => true,
         Format::Raw => options.raw_type == RawSampleType::U8,
         Format::Ktx2 | Format::Zarr => options.ktx2_type == Ktx2SampleType::U8,
-        Format::Exr => false,
+        Format::Exr | Format::Vdb => false,
     }
 }
 

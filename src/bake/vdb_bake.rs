@@ -1,0 +1,144 @@
+//! `bake --format vdb`: the bake's voxels gathered per output, then written as one OpenVDB file
+//! per graph by [`super::vdb`] (a grid per output, named by it), through a temporary renamed
+//! into place. An OpenVDB file is written from whole grids, so the volume is held in memory:
+//! `voxels × channels × 4` bytes, checked against the memory bound before the bake.
+
+use super::vdb::{write_vdb, VdbGrid, VdbGridKind, MAX_AXIS_VOXELS};
+use super::{bake_into, BakeError, BakeFileOptions, BakeReport, BakedFile, Grid, Sink, Window};
+use crate::graph::Type;
+use crate::output;
+use crate::tape::Tape;
+use std::path::Path;
+
+/// Refuses grids a VDB index space cannot hold (coordinates are 32-bit signed integers).
+pub(super) fn check_size(grid: &Grid) -> Result<(), BakeError> {
+    if grid.size.iter().any(|&n| n > MAX_AXIS_VOXELS) {
+        return Err(BakeError::Refused(format!(
+            "a VDB grid would be {:?} voxels; OpenVDB's index coordinates are 32-bit, at most {MAX_AXIS_VOXELS} a side",
+            grid.size
+        )));
+    }
+    Ok(())
+}
+
+/// Every output's voxels, channels interleaved, x fastest (VDB's writer order).
+struct Gather {
+    outputs: Vec<Vec<f32>>,
+}
+
+impl Sink for Gather {
+    fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
+        for (o, data) in self.outputs.iter_mut().enumerate() {
+            for (s, segment) in window.segments() {
+                window.push_interleaved(o, s, &segment, data);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Bakes `tape` and writes `path` (checked by the caller's preflight: size, memory bound,
+/// destination).
+pub(super) fn bake_vdb(
+    tape: &Tape,
+    options: &BakeFileOptions,
+    path: &Path,
+    progress: &mut dyn FnMut(u64),
+) -> Result<BakeReport, BakeError> {
+    let grid = options.bake.grid;
+    let voxels = grid
+        .voxels()
+        .ok_or_else(|| BakeError::Refused("the grid has too many voxels to count".into()))?;
+    let mut gather = Gather {
+        outputs: Vec::with_capacity(tape.outputs.len()),
+    };
+    for o in &tape.outputs {
+        let mut data = Vec::new();
+        let len = usize::try_from(voxels)
+            .ok()
+            .and_then(|v| v.checked_mul(o.ty.channels()));
+        len.and_then(|len| data.try_reserve_exact(len).ok())
+            .ok_or_else(|| {
+                BakeError::Refused(format!(
+                    "a volume of {:?} voxels for output \"{}\" does not fit in memory",
+                    grid.size, o.name
+                ))
+            })?;
+        gather.outputs.push(data);
+    }
+    let started = std::time::Instant::now();
+    let stats = bake_into(tape, &options.bake, &mut gather, progress)?;
+    let spacing = grid.spacing();
+    let origin = [0, 1, 2].map(|a| grid.centre(a, 0));
+    let metadata: Vec<Vec<(String, String)>> = tape
+        .outputs
+        .iter()
+        .map(|o| {
+            vec![
+                ("texgraph.graph".into(), options.graph_path.clone()),
+                ("texgraph.output".into(), o.name.clone()),
+                (
+                    "texgraph.params".into(),
+                    super::files::params_json(&options.params),
+                ),
+                (
+                    "texgraph.region".into(),
+                    serde_json::to_string(&grid.region).unwrap_or_default(),
+                ),
+                (
+                    "texgraph.voxel_centre".into(),
+                    "index (i, j, k) samples region.min + (index + 0.5) * (region.max - region.min) / size".into(),
+                ),
+                ("texgraph.version".into(), env!("CARGO_PKG_VERSION").into()),
+            ]
+        })
+        .collect();
+    let grids: Vec<VdbGrid<'_>> = tape
+        .outputs
+        .iter()
+        .zip(&gather.outputs)
+        .zip(&metadata)
+        .map(|((o, values), metadata)| VdbGrid {
+            name: &o.name,
+            kind: if o.ty == Type::Vec3 {
+                VdbGridKind::Vec3
+            } else {
+                VdbGridKind::Float
+            },
+            size: grid.size,
+            values,
+            voxel_size: spacing,
+            origin,
+            metadata,
+        })
+        .collect();
+    if !options.out_dir.exists() {
+        std::fs::create_dir_all(&options.out_dir).map_err(|e| BakeError::Io {
+            path: options.out_dir.display().to_string(),
+            source: e,
+        })?;
+    }
+    output::write_atomic(path, |w| write_vdb(w, &grids))?;
+    let seconds = started.elapsed().as_secs_f64();
+    let [nx, ny, nz] = grid.size;
+    let files = tape
+        .outputs
+        .iter()
+        .map(|o| BakedFile {
+            output: o.name.clone(),
+            path: path.to_path_buf(),
+            description: format!(
+                "OpenVDB grid \"{}\" ({}) {nx}×{ny}×{nz}, voxel size {:?}",
+                o.name,
+                if o.ty == Type::Vec3 { "vec3s" } else { "float" },
+                spacing
+            ),
+        })
+        .collect();
+    Ok(BakeReport {
+        files,
+        stats,
+        voxels,
+        seconds,
+    })
+}
