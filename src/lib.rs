@@ -43,6 +43,7 @@ pub mod eval;
 pub mod graph;
 pub mod limits;
 pub mod load;
+pub mod mip_report;
 pub(crate) mod lod;
 pub mod nodes;
 pub mod noise;

@@ -33,6 +33,14 @@ pub struct ReportArgs {
     /// cell boundaries (--points, --runs, --region and --output do not apply).
     #[arg(long, conflicts_with_all = ["points", "runs", "region", "outputs"])]
     stability: bool,
+    /// Compare mip levels instead: for each level of a --mip-size³ grid, the error of
+    /// graph-prefiltered levels (what `bake --mips` writes) and of box-downsampled levels
+    /// against the f64 reference box-filtered over each voxel (4³ points per level-0 voxel).
+    #[arg(long, conflicts_with_all = ["stability", "markdown", "plot", "points", "runs"])]
+    mips: bool,
+    /// With --mips: voxels per axis of level 0.
+    #[arg(long = "mip-size", value_name = "N", default_value_t = 64, value_parser = clap::value_parser!(u64).range(1..=512), requires = "mips")]
+    mip_size: u64,
     /// Report only this output (repeatable).
     #[arg(long = "output", value_name = "NAME")]
     outputs: Vec<String>,
@@ -71,6 +79,32 @@ pub fn report_command(args: ReportArgs) -> Result<(), Failure> {
             region: args.region.unwrap_or_default(),
             ..Default::default()
         };
+        if args.mips {
+            let region = args.region.unwrap_or_default();
+            let rows = crate::mip_report::mip_report(&graph, args.mip_size as usize, region)
+                .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
+            let rows: Vec<_> = rows
+                .into_iter()
+                .filter(|r| args.outputs.is_empty() || args.outputs.contains(&r.output))
+                .collect();
+            if args.json {
+                json_rows.extend(
+                    rows.iter().map(
+                        |r| serde_json::json!({ "graph": file.display().to_string(), "row": r }),
+                    ),
+                );
+                continue;
+            }
+            let text = format!(
+                "{}: mip levels of a {}³ bake over [{}], error against the f64 reference box-filtered over each voxel\n{}",
+                file.display(),
+                args.mip_size,
+                region_text(&region),
+                crate::mip_report::mip_table_markdown(&rows)
+            );
+            write_stdout(|out| out.write_all(text.as_bytes()))?;
+            continue;
+        }
         let text =
             if args.markdown {
                 let rows = crate::report::accuracy_report(&graph, &args.outputs, &options)
