@@ -295,7 +295,8 @@ pub fn sample_type(options: &BakeFileOptions) -> ZarrSample {
     }
 }
 
-/// Bytes a zarr bake holds beyond evaluation: every output's shard, decoded, and its encoding.
+/// Bytes a zarr bake holds beyond evaluation: three shards' worth per output (the shard being
+/// evaluated, the one being written, and that one's encoding; evaluation and writing overlap).
 pub fn held_bytes(tape: &Tape, options: &BakeFileOptions) -> Result<u64, BakeError> {
     let sharding = Sharding::new(&options.bake.grid, options.zarr.chunk, options.zarr.shard)?;
     let sample = sample_type(options).bytes();
@@ -306,7 +307,7 @@ pub fn held_bytes(tape: &Tape, options: &BakeFileOptions) -> Result<u64, BakeErr
             sharding
                 .shard_voxels()
                 .saturating_mul(o.ty.channels() as u64 * sample)
-                .saturating_mul(2)
+                .saturating_mul(3)
         })
         .fold(0, u64::saturating_add))
 }
@@ -962,27 +963,56 @@ pub fn bake_zarr_levels(
     let started = std::time::Instant::now();
     let mut stats = vec![ChannelStats::default(); tapes[0].channels()];
     let mut count = ShardCount::default();
-    let mut item = 0u64;
-    for (l, level) in levels.iter().enumerate() {
-        for s in 0..level.sharding.shard_count() {
-            let mine = options.zarr.part.owns(item);
-            item += 1;
-            if !mine {
-                continue;
+    // Evaluation and writing overlap: while the writer encodes and writes shard i, the pool
+    // evaluates shard i + 1 (at most two shards in flight, the bound `held_bytes` checks).
+    let (send, receive) = std::sync::mpsc::sync_channel::<ShardJob>(0);
+    std::thread::scope(|scope| -> Result<(), BakeError> {
+        let levels = &levels;
+        let store = &store;
+        let writer = scope.spawn(move || -> Result<(), BakeError> {
+            for job in receive {
+                write_shard(&levels[job.level], job, store)?;
             }
-            let cancelled = options.bake.cancel.as_ref();
-            if cancelled.is_some_and(|c| c.load(Ordering::Relaxed)) {
-                return Err(BakeError::Cancelled);
-            }
-            let shard_stats = bake_one_shard(level, s, &pool, &store, options, &mut count)?;
-            if l == 0 {
-                for (total, part) in stats.iter_mut().zip(&shard_stats) {
-                    total.merge(part);
+            Ok(())
+        });
+        let evaluated = (|| -> Result<(), BakeError> {
+            let mut item = 0u64;
+            for (l, level) in levels.iter().enumerate() {
+                for s in 0..level.sharding.shard_count() {
+                    let mine = options.zarr.part.owns(item);
+                    item += 1;
+                    if !mine {
+                        continue;
+                    }
+                    let cancelled = options.bake.cancel.as_ref();
+                    if cancelled.is_some_and(|c| c.load(Ordering::Relaxed)) {
+                        return Err(BakeError::Cancelled);
+                    }
+                    let Some((job, shard_stats)) =
+                        eval_one_shard(levels, l, s, &pool, store, options, &mut count)
+                    else {
+                        continue;
+                    };
+                    if l == 0 {
+                        for (total, part) in stats.iter_mut().zip(&shard_stats) {
+                            total.merge(part);
+                        }
+                    }
+                    // A closed channel means the writer failed: its error is reported below.
+                    if send.send(job).is_err() {
+                        return Ok(());
+                    }
+                    progress(count.voxels);
                 }
             }
-            progress(count.voxels);
-        }
-    }
+            Ok(())
+        })();
+        drop(send);
+        let written = writer
+            .join()
+            .unwrap_or_else(|_| Err(BakeError::Refused("the zarr writer thread panicked".into())));
+        written.and(evaluated)
+    })?;
     Ok(BakeReport {
         files: zarr_files(&store_dir, &levels, options, &count),
         stats: collect_stats(tapes[0], &stats),
@@ -1000,16 +1030,18 @@ struct ShardCount {
     voxels: u64,
 }
 
-/// Bakes shard `s` of a level unless it is complete (and not `--force`). Returns its voxels'
-/// statistics (empty when skipped).
-fn bake_one_shard(
-    level: &Level<'_>,
+/// Evaluates shard `s` of level `l` unless it is complete (and not `--force`). Returns the job
+/// for the writer and its voxels' statistics (`None` when skipped).
+fn eval_one_shard(
+    levels: &[Level<'_>],
+    l: usize,
     s: u64,
     pool: &rayon::ThreadPool,
     store: &AtomicStore,
     options: &BakeFileOptions,
     count: &mut ShardCount,
-) -> Result<Vec<ChannelStats>, BakeError> {
+) -> Option<(ShardJob, Vec<ChannelStats>)> {
+    let level = &levels[l];
     count.owned += 1;
     let store_dir = store.root.as_path();
     let k = level.sharding.shard_index(s);
@@ -1030,12 +1062,12 @@ fn bake_one_shard(
         });
     if complete {
         count.skipped += 1;
-        return Ok(Vec::new());
+        return None;
     }
     for key in &keys {
         remove_stale_temporaries(store_dir, key);
     }
-    let stats = bake_shard(level, pool, k, &keys, store)?;
+    let (buffers, stats) = eval_shard_buffers(level, pool, k);
     count.baked += 1;
     count.voxels += level
         .sharding
@@ -1043,7 +1075,13 @@ fn bake_one_shard(
         .iter()
         .map(|r| r.end - r.start)
         .product::<u64>();
-    Ok(stats)
+    let job = ShardJob {
+        level: l,
+        k,
+        keys,
+        buffers,
+    };
+    Some((job, stats))
 }
 
 /// The report's lines: one per output (its array, or its multiscale group).
@@ -1109,16 +1147,24 @@ fn shard_indices(k: [u64; 3], ty: Type) -> Vec<u64> {
 
 /// Evaluates shard `k` for every output, encodes it with the array's codecs, writes it and its
 /// manifest. Returns the statistics of its voxels.
-fn bake_shard(
+/// An evaluated shard on its way to the writer: its level, index, keys and every output's
+/// decoded shard.
+struct ShardJob {
+    level: usize,
+    k: [u64; 3],
+    keys: Vec<String>,
+    buffers: Vec<Vec<u8>>,
+}
+
+/// Evaluates shard `k` of `level` for every output. Returns the decoded shards and the
+/// statistics of its voxels.
+fn eval_shard_buffers(
     level: &Level<'_>,
     pool: &rayon::ThreadPool,
     k: [u64; 3],
-    keys: &[String],
-    store: &AtomicStore,
-) -> Result<Vec<ChannelStats>, BakeError> {
+) -> (Vec<Vec<u8>>, Vec<ChannelStats>) {
     let (options, sharding, arrays) = (&level.options, &level.sharding, &level.arrays);
-    let (tape, tape_hash) = (level.tape, level.tape_hash.as_str());
-    let store_dir = store.root.as_path();
+    let tape = level.tape;
     let sample = sample_type(options);
     let mut buffers: Vec<Vec<u8>> = arrays
         .iter()
@@ -1131,7 +1177,14 @@ fn bake_shard(
         Precision::F32 => eval_shard::<f32>(tape, options, pool, sharding, k, arrays, &mut buffers),
         Precision::F64 => eval_shard::<f64>(tape, options, pool, sharding, k, arrays, &mut buffers),
     };
-    for ((a, key), buffer) in arrays.iter().zip(keys).zip(buffers) {
+    (buffers, stats)
+}
+
+/// Encodes an evaluated shard with each array's codecs and writes it, then its manifest.
+fn write_shard(level: &Level<'_>, job: ShardJob, store: &AtomicStore) -> Result<(), BakeError> {
+    let (arrays, tape_hash, k) = (&level.arrays, level.tape_hash.as_str(), job.k);
+    let store_dir = store.root.as_path();
+    for ((a, key), buffer) in arrays.iter().zip(&job.keys).zip(job.buffers) {
         let indices = shard_indices(k, a.ty);
         let shape = a
             .array
@@ -1172,7 +1225,7 @@ fn bake_shard(
             &store_dir.join(&manifest_key).display().to_string(),
         ))?;
     }
-    Ok(stats)
+    Ok(())
 }
 
 /// Evaluates the in-bounds voxels of shard `k` into each output's shard buffer (its sample type,
