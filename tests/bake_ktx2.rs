@@ -17,7 +17,7 @@ use texgraph::bake::{
     bake_files, encode_u8, BakeError, BakeFileOptions, BakeReport, Format, Grid, Ktx2SampleType,
     Region, Transfer,
 };
-use texgraph::{CheckOptions, CompileOptions, SourceFile, Tape, Type, Workspace};
+use texgraph::{CheckOptions, CompileOptions, SourceFile, Tape, Type};
 
 const BIN: &str = env!("CARGO_BIN_EXE_texgraph");
 /// Outputs `colour` (vec3) and `vein` (scalar): noise, so every value is a fraction.
@@ -54,32 +54,7 @@ fn odd_grid() -> Grid {
     }
 }
 
-/// The documented voxel centre, computed here independently of `Grid::centre`.
-fn centre(grid: &Grid, axis: usize, index: usize) -> f64 {
-    let (lo, hi) = (grid.region.min[axis], grid.region.max[axis]);
-    lo + (index as f64 + 0.5) * (hi - lo) / grid.size[axis] as f64
-}
-
-/// Each output evaluated with `eval_point` (f32) at every voxel centre: channels interleaved,
-/// x fastest, then y, then z (KTX2's texel order, spec "levelImages").
-fn expected(tape: &Tape, grid: &Grid) -> Vec<Vec<f32>> {
-    let mut workspace = Workspace::<f32>::new();
-    let mut out = vec![0f32; tape.channels()];
-    let mut values = vec![Vec::new(); tape.outputs().len()];
-    let [nx, ny, nz] = grid.size;
-    for k in 0..nz {
-        for j in 0..ny {
-            for i in 0..nx {
-                let p = [centre(grid, 0, i), centre(grid, 1, j), centre(grid, 2, k)];
-                tape.eval_point(&mut workspace, p, &mut out);
-                for (values, o) in values.iter_mut().zip(tape.outputs()) {
-                    values.extend_from_slice(&out[o.first_channel..][..o.ty.channels()]);
-                }
-            }
-        }
-    }
-    values
-}
+use common::expected_volume as expected;
 
 fn options(dir: &Path, grid: Grid, sample: Ktx2SampleType, zstd: Option<i32>) -> BakeFileOptions {
     let mut options = BakeFileOptions::new("g", dir);

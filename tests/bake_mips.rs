@@ -10,7 +10,7 @@ use std::process::Command;
 use std::sync::Arc;
 
 use texgraph::bake::{bake_mipmapped, BakeFileOptions, Format, Grid, Ktx2SampleType, Region};
-use texgraph::{CheckOptions, CompileOptions, SourceFile, Tape, Workspace};
+use texgraph::{CheckOptions, CompileOptions, SourceFile, Tape};
 
 const BIN: &str = env!("CARGO_BIN_EXE_texgraph");
 
@@ -64,33 +64,7 @@ fn tapes(grid: &Grid) -> Vec<Tape> {
         .collect()
 }
 
-/// Every output at every voxel centre of `grid` by `eval_point` of `tape`, channels
-/// interleaved, x fastest, then y, then z.
-fn expected(tape: &Tape, grid: &Grid) -> Vec<Vec<f32>> {
-    let mut workspace = Workspace::<f32>::new();
-    let mut out = vec![0f32; tape.channels()];
-    let mut values = vec![Vec::new(); tape.outputs().len()];
-    let [nx, ny, nz] = grid.size;
-    let centre = |a: usize, i: usize| {
-        let (lo, hi) = (grid.region.min[a], grid.region.max[a]);
-        lo + (i as f64 + 0.5) * (hi - lo) / grid.size[a] as f64
-    };
-    for k in 0..nz {
-        for j in 0..ny {
-            for i in 0..nx {
-                tape.eval_point(
-                    &mut workspace,
-                    [centre(0, i), centre(1, j), centre(2, k)],
-                    &mut out,
-                );
-                for (values, o) in values.iter_mut().zip(tape.outputs()) {
-                    values.extend_from_slice(&out[o.first_channel..][..o.ty.channels()]);
-                }
-            }
-        }
-    }
-    values
-}
+use common::expected_volume as expected;
 
 fn options(out: &Path, format: Format) -> BakeFileOptions {
     let mut options = BakeFileOptions::new("mips", out);

@@ -154,3 +154,31 @@ pub fn load_graph_file(path: &str, overrides: &[(&str, f64)]) -> (Tape, Vec<(Str
     .unwrap_or_else(|e| panic!("{path}: {e}"));
     (tape, graph.params().to_vec())
 }
+
+/// The documented voxel centre (docs/baking.md, "The grid"), computed here independently of
+/// `Grid::centre`: `region.min + (index + 0.5) · (region.max − region.min) / size`.
+pub fn voxel_centre(grid: &texgraph::bake::Grid, axis: usize, index: usize) -> f64 {
+    let (lo, hi) = (grid.region.min[axis], grid.region.max[axis]);
+    lo + (index as f64 + 0.5) * (hi - lo) / grid.size[axis] as f64
+}
+
+/// Each output of `tape` by `eval_point` (f32, a bake's precision) at every voxel centre of
+/// `grid`: channels interleaved, x fastest, then y, then z (raw's, KTX2's and zarr's C order).
+pub fn expected_volume(tape: &Tape, grid: &texgraph::bake::Grid) -> Vec<Vec<f32>> {
+    let mut workspace = Workspace::<f32>::new();
+    let mut out = vec![0f32; tape.channels()];
+    let mut values = vec![Vec::new(); tape.outputs().len()];
+    let [nx, ny, nz] = grid.size;
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                let p = [0, 1, 2].map(|a| voxel_centre(grid, a, [i, j, k][a]));
+                tape.eval_point(&mut workspace, p, &mut out);
+                for (values, o) in values.iter_mut().zip(tape.outputs()) {
+                    values.extend_from_slice(&out[o.first_channel..][..o.ty.channels()]);
+                }
+            }
+        }
+    }
+    values
+}
