@@ -265,7 +265,10 @@ mod tests {
         let rows = mip_report(&graph, 8, region).unwrap();
         assert_eq!(rows.len(), 4);
         for r in &rows {
-            assert!(r.prefiltered_max < 1e-6 && r.downsampled_max < 1e-6, "{r:?}");
+            assert!(
+                r.prefiltered_max < 1e-6 && r.downsampled_max < 1e-6,
+                "{r:?}"
+            );
         }
     }
 
