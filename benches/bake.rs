@@ -3,12 +3,19 @@
 //! worker threads, so the ratio of the two is the parallel scaling; `bake/marble_128_png` writes
 //! the PNG slices as `texgraph bake --format png` does.
 //!
+//! `bake/threads/{raw,png}_256/threads_N` bake the same marble over 256³ voxels to files through
+//! `bake_files` (what `texgraph bake --format raw|png --size 256 --threads N` runs), on 1 and 2
+//! threads: evaluation overlapped with encoding and writing, end to end, so the ratio of the two
+//! is the scaling a user sees (docs/performance.md). Flat sampling, 10 runs each: about a
+//! minute for the group.
+//!
 //! Run: `cargo bench --bench bake`.
 
-use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use criterion::{criterion_group, criterion_main, Criterion, SamplingMode, Throughput};
 use std::time::Duration;
 use texgraph::bake::{
-    bake_files, bake_into, BakeError, BakeFileOptions, BakeOptions, Grid, Precision, Sink, Window,
+    bake_files, bake_into, BakeError, BakeFileOptions, BakeOptions, Format, Grid, Precision, Sink,
+    Window,
 };
 use texgraph::{CheckOptions, CompileOptions};
 
@@ -61,6 +68,37 @@ fn benches(c: &mut Criterion) {
             bake_files(&tape, &options, &mut |_| {}).expect("bakes")
         })
     });
+    group.finish();
+    threads(c, &tape);
+}
+
+/// The 256³ marble to raw and PNG files on 1 and 2 threads, end to end.
+fn threads(c: &mut Criterion, tape: &texgraph::Tape) {
+    let grid = Grid::cube(256);
+    let mut group = c.benchmark_group("bake/threads");
+    group.throughput(Throughput::Elements(grid.voxels().unwrap_or(0)));
+    group
+        .sampling_mode(SamplingMode::Flat)
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(10))
+        .warm_up_time(Duration::from_secs(1));
+    let out = tempfile::tempdir().expect("temp dir");
+    for (name, format) in [("raw", Format::Raw), ("png", Format::Png)] {
+        for threads in [1usize, 2] {
+            let mut options = BakeFileOptions::new("marble", out.path());
+            options.format = format;
+            options.force = true;
+            options.bake = BakeOptions {
+                grid,
+                threads,
+                precision: Precision::F32,
+                cancel: None,
+            };
+            group.bench_function(format!("{name}_256/threads_{threads}"), |b| {
+                b.iter(|| bake_files(tape, &options, &mut |_| {}).expect("bakes"))
+            });
+        }
+    }
     group.finish();
 }
 

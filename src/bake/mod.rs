@@ -5,13 +5,19 @@
 //! most [`SEGMENT_VOXELS`] voxels inside one row (a row longer than that is split). A window is
 //! a run of consecutive segments: whole z slices when a slice is small, part of a slice when it
 //! is large. The segments of a window are evaluated in parallel (rayon, one task per segment,
-//! each with its own workspace), then the window is handed to the sink; the next window reuses
-//! the same buffer. So the bake itself holds at most [`WINDOW_BYTES`] of samples plus one
+//! each with its own workspace) while a writer thread hands the previous window to the sink: a
+//! pipeline two windows deep, over two buffers that swap (the sink runs inside the same pool, so
+//! a sink that encodes in parallel, PNG slices or raw, shares the workers with the evaluation;
+//! the writer thread itself only waits on the pool, so `threads` workers do all the work, and one
+//! thread evaluates and writes in turn). A sink's error stops the bake at the next hand-over, a
+//! cancellation before the next window; either way the writer is joined before the bake returns.
+//! So the bake itself holds at most two windows, 2 × [`WINDOW_BYTES`] of samples, plus one
 //! segment's buffers per thread, whatever the grid's shape (a 4 294 967 296 × 1 × 1 row and a
 //! 65 536 × 65 536 slice stream like a cube). What a sink keeps is its own bound, checked before
-//! the bake starts (`files.rs`): a raw writer and a PNG slice writer keep a row or two, a KTX2
-//! writer a buffered block (and with Zstandard its encoder's window and tables), a PNG atlas one
-//! row of tiles, an EXR file (whose writer needs the whole image) and a `Volume` everything.
+//! the bake starts (`files.rs`): a raw writer a batch of at most 256 Ki voxels (7 MiB at most),
+//! a PNG slice writer a row or two, a KTX2 writer a buffered block (and with Zstandard its
+//! encoder's window and tables), a PNG atlas one row of tiles, an EXR file (whose writer needs
+//! the whole image) and a `Volume` everything.
 //!
 //! Every voxel is evaluated on its own by the same code, segments do not depend on the thread
 //! count, and statistics are reduced in segment order, so results are bit-identical whatever
@@ -39,7 +45,7 @@ use crate::tape::Tape;
 use crate::Workspace;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::{mpsc, Arc};
 
 /// The box the grid covers. Default: the unit cube [0, 1]³.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -271,7 +277,8 @@ pub const SEGMENT_VOXELS: usize = 64 * 1024;
 /// Bound on one segment's evaluated samples (channels × voxels × 8 bytes): a graph with many
 /// outputs gets shorter segments.
 pub const SEGMENT_BYTES: usize = 4 << 20;
-/// Bound on a window's samples (channels × voxels × 4 bytes), unless one segment is larger.
+/// Bound on a window's samples (channels × voxels × 4 bytes), unless one segment is larger. A
+/// bake holds two windows (one evaluated while the other is written): 2 × this.
 pub const WINDOW_BYTES: usize = 64 << 20;
 
 /// How a grid is cut into segments and windows; depends on the grid, the channel count and the
@@ -417,14 +424,32 @@ impl Window<'_> {
     /// Appends the voxels of the window's segment `s` (of `segment` geometry) for output
     /// `output` to `out`, channels interleaved.
     pub fn push_interleaved(&self, output: usize, s: usize, segment: &Segment, out: &mut Vec<f32>) {
+        let start = out.len();
+        out.resize(
+            start + segment.len * self.outputs[output].ty.channels(),
+            0.0,
+        );
+        self.copy_interleaved(output, s, segment, &mut out[start..]);
+    }
+
+    /// Writes the voxels of the window's segment `s` (of `segment` geometry) for output
+    /// `output` into `out`, channels interleaved; `out` holds exactly `segment.len` voxels.
+    pub fn copy_interleaved(&self, output: usize, s: usize, segment: &Segment, out: &mut [f32]) {
         let o = &self.outputs[output];
         let width = o.ty.channels();
         let len = self.layout.segment_len;
         let base = s * self.channels * len;
-        out.reserve(segment.len * width);
-        for i in 0..segment.len {
-            for c in 0..width {
-                out.push(self.data[base + (o.first_channel + c) * len + i]);
+        assert_eq!(out.len(), segment.len * width, "a segment's voxels");
+        if width == 1 {
+            let start = base + o.first_channel * len;
+            out.copy_from_slice(&self.data[start..start + segment.len]);
+            return;
+        }
+        for c in 0..width {
+            let start = base + (o.first_channel + c) * len;
+            let channel = &self.data[start..start + segment.len];
+            for (t, v) in out[c..].iter_mut().step_by(width).zip(channel) {
+                *t = *v;
             }
         }
     }
@@ -561,6 +586,48 @@ pub fn bake_into(
     }
 }
 
+/// What the coordinating thread, the workers and the writer thread share about a bake.
+struct Plan<'a> {
+    grid: &'a Grid,
+    layout: Layout,
+    channels: usize,
+    outputs: Vec<WindowOutput>,
+}
+
+impl Plan<'_> {
+    /// Samples per segment (every channel, `segment_len` voxels each).
+    fn block(&self) -> usize {
+        self.channels * self.layout.segment_len
+    }
+
+    /// The window of `job`'s segments over its buffer.
+    fn window<'a>(&'a self, job: &'a Job) -> Window<'a> {
+        Window {
+            grid: self.grid,
+            layout: &self.layout,
+            first_segment: job.first,
+            segments: job.count,
+            channels: self.channels,
+            outputs: &self.outputs,
+            data: &job.buffer[..job.count * self.block()],
+        }
+    }
+}
+
+/// An evaluated window on its way to the writer thread (and its buffer on its way back).
+struct Job {
+    first: u64,
+    count: usize,
+    buffer: Vec<f32>,
+}
+
+/// Bakes window by window, two windows in flight: while the pool evaluates window i + 1 into
+/// one buffer, a writer thread hands window i, in the other, to the sink; then they swap. So at
+/// most two windows of samples exist. The statistics are merged here, in segment order, and
+/// `progress` is called here once a window is written. A sink error (the writer stops at it) is
+/// returned at the next hand-over, at most one window's evaluation later; a cancellation stops
+/// before the next window; either way the writer finishes the window it holds and is joined
+/// before this returns.
 fn bake_with<S: Real>(
     tape: &Tape,
     options: &BakeOptions,
@@ -570,7 +637,11 @@ fn bake_with<S: Real>(
 ) -> Result<Vec<OutputStats>, BakeError> {
     let grid = &options.grid;
     let channels = tape.channels();
-    let outputs: Vec<WindowOutput> = tape
+    let mut stats: Vec<ChannelStats> = vec![ChannelStats::default(); channels];
+    let Some(layout) = Layout::new(grid, channels, pool.current_num_threads()) else {
+        return Ok(collect_stats(tape, &stats));
+    };
+    let outputs = tape
         .outputs
         .iter()
         .map(|o| WindowOutput {
@@ -579,89 +650,154 @@ fn bake_with<S: Real>(
             first_channel: o.first_channel,
         })
         .collect();
-    let mut stats: Vec<ChannelStats> = vec![ChannelStats::default(); channels];
-    let Some(layout) = Layout::new(grid, channels, pool.current_num_threads()) else {
-        return Ok(collect_stats(tape, &stats));
+    let plan = &Plan {
+        grid,
+        layout,
+        channels,
+        outputs,
     };
-    let seg_len = layout.segment_len;
-    let block = channels * seg_len;
-    let mut buffer = vec![0f32; layout.per_window * block];
-    let mut first = 0u64;
-    while first < layout.total {
-        if options
+    let cancelled = || {
+        options
             .cancel
             .as_ref()
             .is_some_and(|c| c.load(Ordering::Relaxed))
-        {
-            return Err(BakeError::Cancelled);
-        }
-        let count = (layout.total - first).min(layout.per_window as u64) as usize;
-        let data = &mut buffer[..count * block];
-        // One task per segment; each returns its channel statistics, merged below in order.
-        let segment_stats: Vec<Vec<ChannelStats>> = pool.install(|| {
-            data.par_chunks_mut(block)
-                .enumerate()
-                .map_init(
-                    || {
-                        (
-                            Workspace::<S>::new(),
-                            // The x coordinates of the last segment, and where it started: rows
-                            // that fit in one segment reuse them for every row.
-                            (Vec::with_capacity(seg_len), usize::MAX),
-                            Vec::with_capacity(seg_len),
-                            Vec::with_capacity(seg_len),
-                            vec![S::ZERO; block],
-                        )
-                    },
-                    |(workspace, (xs, xs_start), ys, zs, out), (s, target)| {
-                        let segment = layout.segment(grid, first + s as u64);
-                        let n = segment.len;
-                        if *xs_start != segment.i0 || xs.len() != n {
-                            xs.clear();
-                            xs.extend((segment.i0..segment.i0 + n).map(|i| grid.centre(0, i)));
-                            *xs_start = segment.i0;
-                        }
-                        ys.clear();
-                        ys.resize(n, grid.centre(1, segment.j));
-                        zs.clear();
-                        zs.resize(n, grid.centre(2, segment.k));
-                        let out = &mut out[..channels * n];
-                        tape.eval_batch(workspace, xs, ys, zs, out);
-                        let mut seg_stats = vec![ChannelStats::default(); channels];
-                        for (c, stat) in seg_stats.iter_mut().enumerate() {
-                            for (t, v) in target[c * seg_len..c * seg_len + n]
-                                .iter_mut()
-                                .zip(&out[c * n..(c + 1) * n])
-                            {
-                                *t = v.to_f64() as f32;
-                                stat.add(*t);
-                            }
-                        }
-                        seg_stats
-                    },
-                )
-                .collect()
-        });
-        for part in &segment_stats {
-            for (total, part) in stats.iter_mut().zip(part) {
-                total.merge(part);
+    };
+    std::thread::scope(|scope| {
+        // One job at a time is in the writer's hands (the loop waits for it before sending the
+        // next), so neither send below ever blocks for long; dropping `jobs` (any return from
+        // this closure, a panic included) ends the writer's loop.
+        let (jobs, to_write) = mpsc::sync_channel::<Job>(1);
+        let (written, done) = mpsc::channel::<Result<Job, BakeError>>();
+        scope.spawn(move || write_windows(plan, pool, sink, to_write, written));
+        let mut spare: Option<Vec<f32>> = None;
+        // The segment after the window the writer holds.
+        let mut in_flight: Option<u64> = None;
+        let mut first = 0u64;
+        while first < layout.total {
+            if cancelled() {
+                return Err(BakeError::Cancelled);
             }
+            let count = (layout.total - first).min(layout.per_window as u64) as usize;
+            let mut buffer = spare
+                .take()
+                .unwrap_or_else(|| vec![0f32; layout.per_window * plan.block()]);
+            let segment_stats =
+                evaluate_window::<S>(tape, plan, pool, first, &mut buffer[..count * plan.block()]);
+            for part in &segment_stats {
+                for (total, part) in stats.iter_mut().zip(part) {
+                    total.merge(part);
+                }
+            }
+            if let Some(end) = in_flight.take() {
+                spare = Some(wait_written(&done)?.buffer);
+                progress(layout.voxels_before(grid, end));
+                if cancelled() {
+                    return Err(BakeError::Cancelled);
+                }
+            }
+            jobs.send(Job {
+                first,
+                count,
+                buffer,
+            })
+            .map_err(|_| writer_stopped())?;
+            first += count as u64;
+            in_flight = Some(first);
         }
-        let window = Window {
-            grid,
-            layout: &layout,
-            first_segment: first,
-            segments: count,
-            channels,
-            outputs: &outputs,
-            data,
-        };
-        // Inside the pool, so a sink that encodes in parallel (PNG slices) uses its threads.
-        pool.install(|| sink.window(&window))?;
-        progress(layout.voxels_before(grid, first + count as u64));
-        first += count as u64;
+        if let Some(end) = in_flight {
+            wait_written(&done)?;
+            progress(layout.voxels_before(grid, end));
+        }
+        Ok(collect_stats(tape, &stats))
+    })
+}
+
+/// The writer thread: hands each job's window to the sink, inside the pool (so a sink that
+/// encodes in parallel, PNG slices, uses its workers, alongside the evaluation of the next
+/// window), and sends the job back with the result; stops at the first error.
+fn write_windows(
+    plan: &Plan<'_>,
+    pool: &rayon::ThreadPool,
+    sink: &mut dyn Sink,
+    jobs: mpsc::Receiver<Job>,
+    written: mpsc::Sender<Result<Job, BakeError>>,
+) {
+    for job in jobs {
+        let result = pool.install(|| sink.window(&plan.window(&job)));
+        let failed = result.is_err();
+        if written.send(result.map(|()| job)).is_err() || failed {
+            return;
+        }
     }
-    Ok(collect_stats(tape, &stats))
+}
+
+/// Waits for the writer to finish the window it holds.
+fn wait_written(done: &mpsc::Receiver<Result<Job, BakeError>>) -> Result<Job, BakeError> {
+    done.recv().map_err(|_| writer_stopped())?
+}
+
+/// The writer thread is gone without a word: only a panic in the sink does that, and the scope
+/// re-raises it when it joins the thread.
+fn writer_stopped() -> BakeError {
+    BakeError::Refused("internal: the bake's writer thread stopped".into())
+}
+
+/// Evaluates the `data.len() / block` segments from `first` into `data`, in parallel, one task
+/// per segment; returns each segment's channel statistics, in segment order.
+fn evaluate_window<S: Real>(
+    tape: &Tape,
+    plan: &Plan<'_>,
+    pool: &rayon::ThreadPool,
+    first: u64,
+    data: &mut [f32],
+) -> Vec<Vec<ChannelStats>> {
+    let (grid, layout, channels) = (plan.grid, &plan.layout, plan.channels);
+    let seg_len = layout.segment_len;
+    let block = plan.block();
+    pool.install(|| {
+        data.par_chunks_mut(block)
+            .enumerate()
+            .map_init(
+                || {
+                    (
+                        Workspace::<S>::new(),
+                        // The x coordinates of the last segment, and where it started: rows
+                        // that fit in one segment reuse them for every row.
+                        (Vec::with_capacity(seg_len), usize::MAX),
+                        Vec::with_capacity(seg_len),
+                        Vec::with_capacity(seg_len),
+                        vec![S::ZERO; block],
+                    )
+                },
+                |(workspace, (xs, xs_start), ys, zs, out), (s, target)| {
+                    let segment = layout.segment(grid, first + s as u64);
+                    let n = segment.len;
+                    if *xs_start != segment.i0 || xs.len() != n {
+                        xs.clear();
+                        xs.extend((segment.i0..segment.i0 + n).map(|i| grid.centre(0, i)));
+                        *xs_start = segment.i0;
+                    }
+                    ys.clear();
+                    ys.resize(n, grid.centre(1, segment.j));
+                    zs.clear();
+                    zs.resize(n, grid.centre(2, segment.k));
+                    let out = &mut out[..channels * n];
+                    tape.eval_batch(workspace, xs, ys, zs, out);
+                    let mut seg_stats = vec![ChannelStats::default(); channels];
+                    for (c, stat) in seg_stats.iter_mut().enumerate() {
+                        for (t, v) in target[c * seg_len..c * seg_len + n]
+                            .iter_mut()
+                            .zip(&out[c * n..(c + 1) * n])
+                        {
+                            *t = v.to_f64() as f32;
+                            stat.add(*t);
+                        }
+                    }
+                    seg_stats
+                },
+            )
+            .collect()
+    })
 }
 
 fn collect_stats(tape: &Tape, stats: &[ChannelStats]) -> Vec<OutputStats> {
@@ -744,5 +880,154 @@ mod tests {
         // Small slices: whole slices per window.
         let layout = Layout::new(&grid([128, 128, 128]), 4, 2).unwrap();
         assert_eq!(layout.per_window % 128, 0);
+    }
+
+    /// A cheap one-output graph (x) for the pipeline tests.
+    fn x_tape() -> Tape {
+        let file = crate::SourceFile::new(
+            "x.ron",
+            r#"Graph(nodes: { "p": Position }, outputs: { "x": "p.x" })"#,
+        );
+        let graph = crate::check(file, &crate::CheckOptions::default()).expect("checks");
+        crate::compile(&graph, &crate::CompileOptions::default()).expect("compiles")
+    }
+
+    /// 512 × 512 × 6 voxels of one channel: windows of half a slice on 1 thread, of a slice on 2
+    /// or 3.
+    fn pipeline_options(threads: usize) -> BakeOptions {
+        BakeOptions {
+            grid: grid([512, 512, 6]),
+            threads,
+            ..BakeOptions::default()
+        }
+    }
+
+    /// Counts the windows it is handed (shared, so progress can look), checks they come in
+    /// order, and fails on window `fail_at` (or panics, when `panic`).
+    struct Counting {
+        seen: Arc<std::sync::atomic::AtomicUsize>,
+        next_segment: u64,
+        fail_at: Option<usize>,
+        panic: bool,
+    }
+
+    impl Counting {
+        fn new(fail_at: Option<usize>) -> Counting {
+            Counting {
+                seen: Arc::default(),
+                next_segment: 0,
+                fail_at,
+                panic: false,
+            }
+        }
+    }
+
+    impl Sink for Counting {
+        fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
+            assert_eq!(
+                window.first_segment, self.next_segment,
+                "windows in file order"
+            );
+            self.next_segment += window.segments as u64;
+            let index = self.seen.fetch_add(1, Ordering::SeqCst);
+            if Some(index) == self.fail_at {
+                assert!(!self.panic, "the sink panics on window {index}");
+                return Err(BakeError::Encode {
+                    path: "sink".into(),
+                    message: format!("window {index} failed"),
+                });
+            }
+            Ok(())
+        }
+    }
+
+    /// Progress is reported from the coordinating thread once each window is written, with
+    /// the voxels done so far, and the bake ends with every window written.
+    #[test]
+    fn progress_follows_the_written_windows() {
+        let tape = x_tape();
+        for threads in [1, 2, 3] {
+            let options = pipeline_options(threads);
+            let mut sink = Counting::new(None);
+            let seen = sink.seen.clone();
+            let mut reported = Vec::new();
+            let stats = bake_into(&tape, &options, &mut sink, &mut |voxels| {
+                reported.push(voxels);
+                assert!(
+                    seen.load(Ordering::SeqCst) >= reported.len(),
+                    "reported before written"
+                );
+            })
+            .expect("bakes");
+            let layout = Layout::new(&options.grid, 1, threads).unwrap();
+            let ends: Vec<u64> = (1..=layout.total.div_ceil(layout.per_window as u64))
+                .map(|w| (w * layout.per_window as u64).min(layout.total))
+                .map(|end| layout.voxels_before(&options.grid, end))
+                .collect();
+            assert!(ends.len() >= 6, "{threads} threads: {} windows", ends.len());
+            assert_eq!(seen.load(Ordering::SeqCst), ends.len(), "{threads} threads");
+            assert_eq!(reported, ends, "{threads} threads");
+            assert_eq!(stats[0].channels[0].finite(), 6 * 512 * 512);
+        }
+    }
+
+    /// A sink that fails on the third window: its error comes back, no window after it is
+    /// written or reported, and nothing hangs.
+    #[test]
+    fn a_failing_sink_stops_the_bake_with_its_error() {
+        let tape = x_tape();
+        for threads in [1, 2, 3] {
+            let mut sink = Counting::new(Some(2));
+            let seen = sink.seen.clone();
+            let mut reported = 0;
+            let result = bake_into(&tape, &pipeline_options(threads), &mut sink, &mut |_| {
+                reported += 1;
+            });
+            match result {
+                Err(BakeError::Encode { message, .. }) => assert_eq!(message, "window 2 failed"),
+                other => panic!("{threads} threads: {other:?}"),
+            }
+            assert_eq!(
+                seen.load(Ordering::SeqCst),
+                3,
+                "{threads} threads: windows written"
+            );
+            assert_eq!(reported, 2, "{threads} threads: windows reported");
+        }
+    }
+
+    /// A flag raised after the first window stops the bake with `Cancelled`: the window then
+    /// evaluated is not handed to the sink.
+    #[test]
+    fn a_cancelled_bake_stops_between_windows() {
+        let tape = x_tape();
+        for threads in [1, 2] {
+            let cancel = Arc::new(AtomicBool::new(false));
+            let options = BakeOptions {
+                cancel: Some(cancel.clone()),
+                ..pipeline_options(threads)
+            };
+            let mut sink = Counting::new(None);
+            let seen = sink.seen.clone();
+            let mut reported = 0;
+            let result = bake_into(&tape, &options, &mut sink, &mut |_| {
+                reported += 1;
+                cancel.store(true, Ordering::Relaxed);
+            });
+            assert!(matches!(result, Err(BakeError::Cancelled)), "{result:?}");
+            assert_eq!((seen.load(Ordering::SeqCst), reported), (1, 1));
+        }
+    }
+
+    /// A sink that panics: the panic reaches the caller (the writer thread is joined), no hang.
+    #[test]
+    fn a_panicking_sink_panics_the_bake() {
+        let tape = x_tape();
+        let mut sink = Counting::new(Some(1));
+        sink.panic = true;
+        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            bake_into(&tape, &pipeline_options(2), &mut sink, &mut |_| {})
+        }));
+        assert!(result.is_err());
     }
 }

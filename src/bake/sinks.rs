@@ -325,43 +325,106 @@ pub(super) enum RawSamples {
     F32 { alpha: bool },
 }
 
-/// Tightly packed voxels, x fastest, then y, then z, channels interleaved: streamed.
+/// Tightly packed voxels, x fastest, then y, then z, channels interleaved: streamed, a batch of
+/// segments at a time (at most [`RAW_BATCH_VOXELS`] voxels), each batch gathered and encoded in
+/// parallel, then written.
 pub(super) struct Raw {
     pub path: PathBuf,
     pub writer: std::io::BufWriter<std::fs::File>,
     pub output: usize,
     pub ty: Type,
     pub samples: RawSamples,
+    /// The batch's samples, channels interleaved.
     pub scratch: Vec<f32>,
+    /// The batch's encoded bytes.
     pub bytes: Vec<u8>,
+}
+
+/// Most voxels a raw writer gathers and encodes at once (whole segments, which are at most
+/// [`super::SEGMENT_VOXELS`] ≤ this). It holds them twice, as f32 samples and as encoded bytes:
+/// at most 12 + 16 bytes a voxel, 7 MiB.
+const RAW_BATCH_VOXELS: usize = 1 << 18;
+/// Voxels per parallel encoding task.
+const RAW_TASK_VOXELS: usize = 1 << 14;
+
+impl RawSamples {
+    /// Encoded bytes of one voxel of `width` channels.
+    fn voxel_bytes(self, width: usize) -> usize {
+        match self {
+            RawSamples::U8 { alpha, .. } => width + usize::from(alpha),
+            RawSamples::F32 { alpha } => 4 * (width + usize::from(alpha)),
+        }
+    }
+
+    /// Encodes whole voxels of `ty` (`samples`, interleaved) into `out`, exactly their size.
+    fn encode(self, ty: Type, samples: &[f32], out: &mut [u8]) {
+        let width = ty.channels();
+        let size = self.voxel_bytes(width);
+        for (voxel, out) in samples.chunks_exact(width).zip(out.chunks_exact_mut(size)) {
+            match self {
+                RawSamples::U8 { srgb, alpha } => {
+                    let srgb = srgb && ty == Type::Vec3;
+                    for (o, &v) in out.iter_mut().zip(voxel) {
+                        *o = encode_u8(v, srgb);
+                    }
+                    if alpha {
+                        out[width] = 255;
+                    }
+                }
+                RawSamples::F32 { alpha } => {
+                    for (o, v) in out.chunks_exact_mut(4).zip(voxel) {
+                        o.copy_from_slice(&v.to_le_bytes());
+                    }
+                    if alpha {
+                        out[4 * width..].copy_from_slice(&1.0f32.to_le_bytes());
+                    }
+                }
+            }
+        }
+    }
 }
 
 impl Sink for Raw {
     fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
-        let width = self.ty.channels();
-        for (s, segment) in window.segments() {
-            self.scratch.clear();
-            window.push_interleaved(self.output, s, &segment, &mut self.scratch);
-            self.bytes.clear();
-            for voxel in self.scratch.chunks_exact(width) {
-                match self.samples {
-                    RawSamples::U8 { srgb, alpha } => {
-                        let srgb = srgb && self.ty == Type::Vec3;
-                        self.bytes.extend(voxel.iter().map(|&v| encode_u8(v, srgb)));
-                        if alpha {
-                            self.bytes.push(255);
-                        }
-                    }
-                    RawSamples::F32 { alpha } => {
-                        for v in voxel {
-                            self.bytes.extend(v.to_le_bytes());
-                        }
-                        if alpha {
-                            self.bytes.extend(1.0f32.to_le_bytes());
-                        }
-                    }
-                }
+        let (grid, layout) = (window.grid, window.layout);
+        let (samples, ty, output) = (self.samples, self.ty, self.output);
+        let width = ty.channels();
+        let size = samples.voxel_bytes(width);
+        // Tasks: runs of whole segments, about RAW_TASK_VOXELS voxels (or one segment); batches
+        // of tasks, at most RAW_BATCH_VOXELS voxels.
+        let per_task = (RAW_TASK_VOXELS / layout.segment_len).max(1);
+        let per_batch = (RAW_BATCH_VOXELS / layout.segment_len).max(per_task);
+        let voxel = |s: usize| layout.voxels_before(grid, window.first_segment + s as u64) as usize;
+        for batch in (0..window.segments).step_by(per_batch) {
+            let batch_end = (batch + per_batch).min(window.segments);
+            let voxels = voxel(batch_end) - voxel(batch);
+            self.scratch.resize(voxels * width, 0.0);
+            self.bytes.resize(voxels * size, 0);
+            // Each task's segments and its share of the two buffers.
+            let mut tasks = Vec::new();
+            let (mut scratch, mut bytes) = (&mut self.scratch[..], &mut self.bytes[..]);
+            for task in (batch..batch_end).step_by(per_task) {
+                let task_end = (task + per_task).min(batch_end);
+                let n = voxel(task_end) - voxel(task);
+                let (task_samples, rest) = std::mem::take(&mut scratch).split_at_mut(n * width);
+                scratch = rest;
+                let (task_bytes, rest) = std::mem::take(&mut bytes).split_at_mut(n * size);
+                bytes = rest;
+                tasks.push((task..task_end, task_samples, task_bytes));
             }
+            // Inside the bake's pool (sinks run there): gathered and encoded in parallel.
+            tasks
+                .into_par_iter()
+                .for_each(|(segments, task_samples, task_bytes)| {
+                    let mut at = 0;
+                    for s in segments {
+                        let segment = layout.segment(grid, window.first_segment + s as u64);
+                        let n = segment.len * width;
+                        window.copy_interleaved(output, s, &segment, &mut task_samples[at..at + n]);
+                        at += n;
+                    }
+                    samples.encode(ty, task_samples, task_bytes);
+                });
             self.writer.write_all(&self.bytes).map_err(io(&self.path))?;
         }
         Ok(())

@@ -969,9 +969,12 @@ pub fn bake_zarr_levels(
     std::thread::scope(|scope| -> Result<(), BakeError> {
         let levels = &levels;
         let store = &store;
+        let pool = &pool;
         let writer = scope.spawn(move || -> Result<(), BakeError> {
+            // Inside the bake's pool: zarrs encodes a shard's inner chunks in parallel on the
+            // current pool, so `--threads` bounds encoding too.
             for job in receive {
-                write_shard(&levels[job.level], job, store)?;
+                pool.install(|| write_shard(&levels[job.level], job, store))?;
             }
             Ok(())
         });
@@ -989,7 +992,7 @@ pub fn bake_zarr_levels(
                         return Err(BakeError::Cancelled);
                     }
                     let Some((job, shard_stats)) =
-                        eval_one_shard(levels, l, s, &pool, store, options, &mut count)
+                        eval_one_shard(levels, l, s, pool, store, options, &mut count)
                     else {
                         continue;
                     };
