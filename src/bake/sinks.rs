@@ -18,12 +18,22 @@ pub fn srgb_encode(linear: f32) -> f32 {
     }
 }
 
+/// `x.round()` for `x` in [0, 2^24): half away from zero, without libm's `roundf` call (a
+/// truncating conversion and one compare; ~8 % of an 8-bit bake's time went to `roundf`).
+/// Exact: `x − trunc(x)` is computed without rounding for such `x` (Sterbenz), so the compare
+/// with 0.5 decides exactly as `round` does.
+#[inline]
+fn round_non_negative(x: f32) -> u32 {
+    let t = x as u32;
+    t + u32::from(x - t as f32 >= 0.5)
+}
+
 /// Clamp to [0, 1] (NaN → 0), apply the transfer if asked, scale to 0..=255 and round.
 #[inline]
 pub fn encode_u8(v: f32, srgb: bool) -> u8 {
     let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
     let v = if srgb { srgb_encode(v) } else { v };
-    (v * 255.0).round() as u8
+    round_non_negative(v * 255.0).min(255) as u8
 }
 
 /// As [`encode_u8`], to 0..=65535.
@@ -31,7 +41,7 @@ pub fn encode_u8(v: f32, srgb: bool) -> u8 {
 pub fn encode_u16(v: f32, srgb: bool) -> u16 {
     let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
     let v = if srgb { srgb_encode(v) } else { v };
-    (v * 65535.0).round() as u16
+    round_non_negative(v * 65535.0).min(65535) as u16
 }
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> BakeError + '_ {
@@ -530,6 +540,30 @@ impl Exr {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rounding_is_roundf_exactly() {
+        // Every 31st float in [0, 1], scaled as both encodings scale, and every half-way point
+        // and its neighbours.
+        let mut bits = 0u32;
+        while bits <= 1.0f32.to_bits() {
+            let v = f32::from_bits(bits);
+            for scale in [255.0f32, 65535.0] {
+                let x = v * scale;
+                assert_eq!(round_non_negative(x), x.round() as u32, "{x:?}");
+            }
+            bits += 31;
+        }
+        for k in 0..65536u32 {
+            let half = k as f32 + 0.5;
+            for x in [half, half.next_down(), half.next_up(), k as f32] {
+                assert_eq!(round_non_negative(x), x.round() as u32, "{x:?}");
+            }
+        }
+        assert_eq!(encode_u8(f32::NAN, true), 0);
+        assert_eq!(encode_u8(2.0, true), 255);
+        assert_eq!(encode_u16(1.0, false), 65535);
+    }
 
     #[test]
     fn srgb_transfer_hits_its_anchor_points() {
