@@ -524,6 +524,16 @@ impl Sink for VolumeSink {
 /// Bakes into memory. Needs `voxels × channels × 4` bytes, reserved up front: a volume whose
 /// size overflows or cannot be allocated is refused with an error, before any evaluation.
 pub fn bake_volume(tape: &Tape, options: &BakeOptions) -> Result<Volume, BakeError> {
+    bake_volume_with_progress(tape, options, &mut |_| {})
+}
+
+/// [`bake_volume`], calling `progress` with the voxels done after each window (the VDB writer
+/// bakes this way).
+pub fn bake_volume_with_progress(
+    tape: &Tape,
+    options: &BakeOptions,
+    progress: &mut dyn FnMut(u64),
+) -> Result<Volume, BakeError> {
     let voxels = options.grid.voxels().and_then(|v| usize::try_from(v).ok());
     let mut outputs = Vec::with_capacity(tape.outputs.len());
     for o in &tape.outputs {
@@ -543,7 +553,7 @@ pub fn bake_volume(tape: &Tape, options: &BakeOptions) -> Result<Volume, BakeErr
         });
     }
     let mut sink = VolumeSink { outputs };
-    let stats = bake_into(tape, options, &mut sink, &mut |_| {})?;
+    let stats = bake_into(tape, options, &mut sink, progress)?;
     Ok(Volume {
         grid: options.grid,
         outputs: sink.outputs,

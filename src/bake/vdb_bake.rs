@@ -4,7 +4,7 @@
 //! `voxels × channels × 4` bytes, checked against the memory bound before the bake.
 
 use super::vdb::{write_vdb, VdbGrid, VdbGridKind, MAX_AXIS_VOXELS};
-use super::{bake_into, BakeError, BakeFileOptions, BakeReport, BakedFile, Grid, Sink, Window};
+use super::{BakeError, BakeFileOptions, BakeReport, BakedFile, Grid};
 use crate::graph::Type;
 use crate::output;
 use crate::tape::Tape;
@@ -21,22 +21,6 @@ pub(super) fn check_size(grid: &Grid) -> Result<(), BakeError> {
     Ok(())
 }
 
-/// Every output's voxels, channels interleaved, x fastest (VDB's writer order).
-struct Gather {
-    outputs: Vec<Vec<f32>>,
-}
-
-impl Sink for Gather {
-    fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
-        for (o, data) in self.outputs.iter_mut().enumerate() {
-            for (s, segment) in window.segments() {
-                window.push_interleaved(o, s, &segment, data);
-            }
-        }
-        Ok(())
-    }
-}
-
 /// Bakes `tape` and writes `path` (checked by the caller's preflight: size, memory bound,
 /// destination).
 pub(super) fn bake_vdb(
@@ -46,28 +30,9 @@ pub(super) fn bake_vdb(
     progress: &mut dyn FnMut(u64),
 ) -> Result<BakeReport, BakeError> {
     let grid = options.bake.grid;
-    let voxels = grid
-        .voxels()
-        .ok_or_else(|| BakeError::Refused("the grid has too many voxels to count".into()))?;
-    let mut gather = Gather {
-        outputs: Vec::with_capacity(tape.outputs.len()),
-    };
-    for o in &tape.outputs {
-        let mut data = Vec::new();
-        let len = usize::try_from(voxels)
-            .ok()
-            .and_then(|v| v.checked_mul(o.ty.channels()));
-        len.and_then(|len| data.try_reserve_exact(len).ok())
-            .ok_or_else(|| {
-                BakeError::Refused(format!(
-                    "a volume of {:?} voxels for output \"{}\" does not fit in memory",
-                    grid.size, o.name
-                ))
-            })?;
-        gather.outputs.push(data);
-    }
     let started = std::time::Instant::now();
-    let stats = bake_into(tape, &options.bake, &mut gather, progress)?;
+    let volume = super::bake_volume_with_progress(tape, &options.bake, progress)?;
+    let voxels = grid.voxels().unwrap_or(u64::MAX);
     let spacing = grid.spacing();
     let origin = [0, 1, 2].map(|a| grid.centre(a, 0));
     let metadata: Vec<Vec<(String, String)>> = tape
@@ -96,9 +61,9 @@ pub(super) fn bake_vdb(
     let grids: Vec<VdbGrid<'_>> = tape
         .outputs
         .iter()
-        .zip(&gather.outputs)
+        .zip(&volume.outputs)
         .zip(&metadata)
-        .map(|((o, values), metadata)| VdbGrid {
+        .map(|((o, volume_output), metadata)| VdbGrid {
             name: &o.name,
             kind: if o.ty == Type::Vec3 {
                 VdbGridKind::Vec3
@@ -106,7 +71,7 @@ pub(super) fn bake_vdb(
                 VdbGridKind::Float
             },
             size: grid.size,
-            values,
+            values: &volume_output.data,
             voxel_size: spacing,
             origin,
             metadata,
@@ -137,7 +102,7 @@ pub(super) fn bake_vdb(
         .collect();
     Ok(BakeReport {
         files,
-        stats,
+        stats: volume.stats,
         voxels,
         seconds,
     })

@@ -1276,15 +1276,16 @@ fn eval_shard<S: Real>(
                         Workspace::<S>::new(),
                         vec![S::ZERO; channels * width],
                         Vec::new(),
+                        (vec![0f64; width], vec![0f64; width]),
                     )
                 },
-                |(workspace, out, interleaved), (z, mut views)| {
+                |(workspace, out, interleaved, (ys, zs)), (z, mut views)| {
                     let kz = rz.start as usize + z;
                     let mut stats = vec![ChannelStats::default(); channels];
-                    let zs = vec![grid.centre(2, kz); width];
+                    zs.fill(grid.centre(2, kz));
                     for (jy, j) in (ry.start..ry.end).enumerate() {
-                        let ys = vec![grid.centre(1, j as usize); width];
-                        tape.eval_batch(workspace, &xs, &ys, &zs, out);
+                        ys.fill(grid.centre(1, j as usize));
+                        tape.eval_batch(workspace, &xs, ys, zs, out);
                         for (a, view) in arrays.iter().zip(views.iter_mut()) {
                             let c = a.ty.channels();
                             interleaved.clear();

@@ -79,9 +79,9 @@ pub mod shade;
 pub mod teapot;
 
 pub use scene::{
-    load_scene, BumpDesc, ChannelDesc, CompiledTexture, HeightDesc, LightDesc, MaterialDesc,
-    ObjectDesc, PreviewBump, PreviewDefaults, PreviewObject, Scene, SceneDesc, ShapeDesc, Space,
-    TransformDesc,
+    load_scene, BumpDesc, ChannelDesc, CompiledTexture, HeightDesc, HeightTexture, LightDesc,
+    MaterialDesc, ObjectDesc, PreviewBump, PreviewDefaults, PreviewObject, Scene, SceneDesc,
+    ShapeDesc, Space, TransformDesc,
 };
 pub use shade::Counters;
 

@@ -181,33 +181,26 @@ pub enum HeightDesc {
     /// with no transform.
     Output(String),
     /// The fields of a `Texture(...)` channel.
-    Texture {
-        graph: String,
-        /// By default the graph's first scalar output.
-        output: Option<String>,
-        set: BTreeMap<String, f64>,
-        space: Space,
-        transform: Vec<TransformDesc>,
-        multiply: f64,
-    },
+    Texture(HeightTexture),
 }
 
 /// The fields of `Texture(...)` in a height, read through a map (the form is told apart from a
 /// string by what the reader finds; the name `Texture` is checked against the spanned tree).
-#[derive(Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(rename = "Texture", deny_unknown_fields)]
-struct HeightTexture {
-    graph: String,
+pub struct HeightTexture {
+    pub graph: String,
+    /// By default the graph's first scalar output.
     #[serde(default)]
-    output: Option<String>,
+    pub output: Option<String>,
     #[serde(default)]
-    set: BTreeMap<String, f64>,
+    pub set: BTreeMap<String, f64>,
     #[serde(default)]
-    space: Space,
+    pub space: Space,
     #[serde(default)]
-    transform: Vec<TransformDesc>,
+    pub transform: Vec<TransformDesc>,
     #[serde(default = "one")]
-    multiply: f64,
+    pub multiply: f64,
 }
 
 impl<'de> Deserialize<'de> for HeightDesc {
@@ -225,16 +218,8 @@ impl<'de> Deserialize<'de> for HeightDesc {
                 self,
                 map: A,
             ) -> Result<HeightDesc, A::Error> {
-                let t =
-                    HeightTexture::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
-                Ok(HeightDesc::Texture {
-                    graph: t.graph,
-                    output: t.output,
-                    set: t.set,
-                    space: t.space,
-                    transform: t.transform,
-                    multiply: t.multiply,
-                })
+                HeightTexture::deserialize(serde::de::value::MapAccessDeserializer::new(map))
+                    .map(HeightDesc::Texture)
             }
         }
         d.deserialize_any(Height)
@@ -762,8 +747,8 @@ mod tests {
         assert_eq!(bump.strength, -0.5);
         assert!(matches!(
             &bump.height,
-            HeightDesc::Texture { graph, output: None, space: Space::World, multiply, .. }
-                if graph == "g.ron" && *multiply == 1.0
+            HeightDesc::Texture(t)
+                if t.graph == "g.ron" && t.output.is_none() && t.space == Space::World && t.multiply == 1.0
         ));
         assert!(scene.materials["t"].bump.is_none());
         match &scene.materials["t"].diffuse {

@@ -3,8 +3,8 @@
 
 use super::{
     default_ambient_light, default_background, default_up, BumpDesc, CameraDesc, ChannelDesc,
-    HeightDesc, LightDesc, MaterialDesc, ObjectDesc, ScaleBy, SceneDesc, ShapeDesc, Space,
-    TransformDesc,
+    HeightDesc, HeightTexture, LightDesc, MaterialDesc, ObjectDesc, ScaleBy, SceneDesc, ShapeDesc,
+    Space, TransformDesc,
 };
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -72,14 +72,14 @@ impl PreviewDefaults {
             TransformDesc::Translate(0.5, 0.5, 0.5),
         ];
         let bump = self.bump.as_ref().map(|b| BumpDesc {
-            height: HeightDesc::Texture {
+            height: HeightDesc::Texture(HeightTexture {
                 graph: graph.clone(),
                 output: Some(b.output.clone()),
                 set: self.overrides.iter().cloned().collect(),
                 space: self.space,
                 transform: transform.clone(),
                 multiply: 1.0,
-            },
+            }),
             strength: b.strength,
         });
         let texture = ChannelDesc::Texture {

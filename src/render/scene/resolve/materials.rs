@@ -108,7 +108,7 @@ impl<'a> Resolver<'a> {
             ]
         };
         let multiply = match &bump.height {
-            HeightDesc::Texture { multiply, .. } if finite(&[*multiply]) => *multiply,
+            HeightDesc::Texture(t) if finite(&[t.multiply]) => t.multiply,
             _ => 1.0,
         };
         if !finite(&[bump.strength]) || !finite(&[bump.strength * multiply]) {
@@ -161,22 +161,15 @@ impl<'a> Resolver<'a> {
                     Some("such as \"stone.ron.height\" (split at the last dot), or write Texture(graph: \"stone.ron\", output: \"height\")".into()),
                 ),
             },
-            HeightDesc::Texture {
-                graph,
-                output,
-                set,
-                space,
-                transform,
-                multiply,
-            } => {
+            HeightDesc::Texture(t) => {
                 self.height_form(name);
                 self.texture_channel(binding(
-                    graph,
-                    output.as_deref(),
-                    set,
-                    *space,
-                    transform,
-                    *multiply,
+                    &t.graph,
+                    t.output.as_deref(),
+                    &t.set,
+                    t.space,
+                    &t.transform,
+                    t.multiply,
                     false,
                 ))
             }
