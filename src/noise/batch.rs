@@ -1356,7 +1356,54 @@ fn inside_wraps(wraps: &mut [u8; CHUNK], cell: &[u8; CHUNK], src: &[f64], f: f64
         for (w, &x) in wraps.iter_mut().zip(src) {
             *w = u8::from(x * f >= top);
         }
+    } else {
+        wraps.fill(0);
     }
+}
+
+/// The least and greatest of a chunk's coordinates along one axis, `None` when one is NaN: once
+/// per chunk, so that each octave tests "every scaled coordinate inside [0, P)" and "every one
+/// below 2^51" on the two ends alone (rounding is monotone: `lo · f <= x · f <= hi · f` for
+/// f >= 0, reversed for f < 0). Eight running lanes, so that the loop vectorises.
+#[inline(always)]
+fn axis_bounds(src: &[f64]) -> Option<(f64, f64)> {
+    const W: usize = 32;
+    let mut lo = [f64::INFINITY; W];
+    let mut hi = [f64::NEG_INFINITY; W];
+    let mut nan = [false; W];
+    let (groups, rest) = src.as_chunks::<W>();
+    for g in groups {
+        for j in 0..W {
+            lo[j] = lo[j].min(g[j]);
+            hi[j] = hi[j].max(g[j]);
+            nan[j] |= g[j].is_nan();
+        }
+    }
+    for (j, &x) in rest.iter().enumerate() {
+        lo[j] = if x < lo[j] { x } else { lo[j] };
+        hi[j] = if x > hi[j] { x } else { hi[j] };
+        nan[j] |= x.is_nan();
+    }
+    if nan.contains(&true) {
+        return None;
+    }
+    let lo = lo
+        .iter()
+        .fold(f64::INFINITY, |m, &v| if v < m { v } else { m });
+    let hi = hi
+        .iter()
+        .fold(f64::NEG_INFINITY, |m, &v| if v > m { v } else { m });
+    Some((lo, hi))
+}
+
+/// Whether `x · f` lies in [0, `p`) for every x in `bounds` (see [`axis_bounds`]).
+#[inline(always)]
+fn scaled_inside(bounds: Option<(f64, f64)>, f: f64, p: f64) -> bool {
+    bounds.is_some_and(|(lo, hi)| {
+        let (a, b) = (lo * f, hi * f);
+        let (min, max) = if a <= b { (a, b) } else { (b, a) };
+        min >= 0.0 && max < p
+    })
 }
 
 /// `out[i] = k.sample_periodic(p_i, period)` bit for bit (see [`periodic_octaves`]).
@@ -1428,28 +1475,36 @@ fn periodic_octaves<S: Real, K: LatticeKernel, const ACC: bool, const TURB: bool
     const WIDE: bool = !target_cfg_f!(target_feature = "avx512bw"); // see `sample_lanes`
     let mut lattice = Lattice::<S>::new();
     let shuffle = target_cfg_f!(target_feature = "avx512vbmi") && !table_reads_forced();
-    let mut q = [[0.0f64; CHUNK]; 3];
-    let mut last = [[0.0f64; CHUNK]; 3];
+    // Per axis, which lanes sit in the period's last cell (1), and each axis's upper corners.
+    let mut wraps = [[0u8; CHUNK]; 3];
+    let mut hi = [[0u8; CHUNK]; 3];
     let chunks = out.chunks_mut(CHUNK).zip(x.chunks(CHUNK).zip(y.chunks(CHUNK)).zip(z.chunks(CHUNK)));
     for (out, ((x, y), z)) in chunks {
         let m = out.len().min(CHUNK); // bounded: no lane index needs a check (see `Lattice::noise`)
+        let bounds = [axis_bounds(x), axis_bounds(y), axis_bounds(z)];
+        // The largest |coordinate| of the chunk (NaN when one is NaN, failing every test).
+        let magnitude = if bounds.iter().all(Option::is_some) {
+            let ends = bounds.iter().flatten();
+            ends.fold(0.0f64, |m, &(lo, hi)| m.max(lo.abs()).max(hi.abs()))
+        } else {
+            f64::NAN
+        };
         for ((&f, &amp), &period) in freqs.iter().zip(amps).zip(periods) {
-            // Every scaled coordinate, and so every reduced one, below 2^51 (the periods too).
-            let fast = fits([x, y, z], f) && period.iter().all(|&p| (p as f64) < TWO51);
-            // Per axis, which lanes sit in the period's last cell (1 in `wraps`).
-            let mut wraps = [[0u8; CHUNK]; 3];
+            // Every scaled coordinate, and so every reduced one, below 2^51 (the periods too):
+            // `fits` on the chunk's largest magnitude (rounding is monotone).
+            let fast = magnitude * f.abs() < TWO51 && period.iter().all(|&p| (p as f64) < TWO51);
             for (a, src) in [x, y, z].into_iter().enumerate() {
                 let p = period[a];
                 // Every scaled coordinate of the axis already inside [0, P) (baking one tile,
                 // what tiling is for): the reduction is the identity there (`period::reduce`
                 // gives `c + (x - c)`, exactly x), so only the lattice step runs.
-                let inside = src.iter().fold(true, |ok, &v| ok & (v * f >= 0.0) & (v * f < p as f64));
-                if fast && inside {
+                if fast && scaled_inside(bounds[a], f, p as f64) {
                     lattice.fill_axis(a, f, src);
                     inside_wraps(&mut wraps[a], &lattice.cell[a], src, f, p);
                 } else {
-                    let reduced = &mut q[a];
-                    let last = &mut last[a];
+                    // The reduction's cell index per lane (made here: zeroing it and `reduced`
+                    // once per call cost the one-tile bench, which never needs them, 3 %).
+                    let mut last = [0.0f64; CHUNK];
                     if fast {
                         // The fast reduction vectorises, and goes on to the lattice step in the
                         // same pass (a reduced coordinate is in [0, P), below 2^51 here, where
@@ -1461,6 +1516,7 @@ fn periodic_octaves<S: Real, K: LatticeKernel, const ACC: bool, const TURB: bool
                             (lattice.cell[a][i], lattice.frac[a][i]) = lattice_lane_fast::<S>(r);
                         }
                     } else {
+                        let mut reduced = [0.0f64; CHUNK];
                         for i in 0..m {
                             let (r, c) = period::reduce(src[i] * f, p);
                             reduced[i] = r;
@@ -1486,7 +1542,6 @@ fn periodic_octaves<S: Real, K: LatticeKernel, const ACC: bool, const TURB: bool
             } else if shuffle {
                 // Each axis's upper corner: cell 0 in a period's last cell, else the next one;
                 // then every lane's hashes by byte shuffles.
-                let mut hi = [[0u8; CHUNK]; 3];
                 for a in 0..3 {
                     let (cell, wraps) = (&lattice.cell[a][..m], &wraps[a][..m]);
                     for ((h, &c), &w) in hi[a].iter_mut().zip(cell).zip(wraps) {

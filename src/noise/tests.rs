@@ -1901,6 +1901,39 @@ fn tiled_batches_inside_one_period_equal_point() {
     with_table_reads(check);
 }
 
+/// Tiled batches whose chunks are inside one period except for one wild lane (NaN, ±inf, 2^60,
+/// -0.5, exactly P) on one axis, at several positions in the chunk: the per-chunk bounds that
+/// pick the identity reduction and the fast lattice step must see that lane (a NaN on one axis
+/// must not hide a huge value on another), and every lane must still equal the point function.
+#[test]
+fn tiled_batches_with_one_wild_lane_equal_point() {
+    // Not powers of two: the fast reduction of a huge coordinate would be wrong.
+    let period = [3, 5, 7];
+    let mut rng = SplitMix64::new(66);
+    for basis in BASES {
+        let t = NoiseTable::periodic(basis, 8, Some(period));
+        let schedule = Octaves::new(4.0, 2.0, 0.5, 1).with_period(Some(period));
+        for wild in [f64::NAN, f64::INFINITY, -f64::INFINITY, 2f64.powi(60) + 4096.0, -0.5, 5.0] {
+            for (axis, at) in [(0, 0), (1, 100), (2, 255), (0, 256), (1, 299)] {
+                let mut pts: Vec<[f64; 3]> = (0..300)
+                    .map(|_| std::array::from_fn(|a| rng.next_f64() * period[a] as f64))
+                    .collect();
+                pts[at][axis] = wild;
+                if wild.is_nan() {
+                    // And a huge value on the axis before it in another lane of the same chunk
+                    // (a NaN taken for "no bound" would hide it from the axes after).
+                    pts[at ^ 1][(axis + 2) % 3] = 2f64.powi(55) + 24.0;
+                }
+                let what = format!("{basis:?} wild {wild} on axis {axis} at lane {at}");
+                assert_sample_batch_is_point::<f32>(&t, &pts, &what);
+                assert_sample_batch_is_point::<f64>(&t, &pts, &what);
+                check_batches::<f32>(&t, &schedule, &pts, &what);
+                check_batches::<f64>(&t, &schedule, &pts, &what);
+            }
+        }
+    }
+}
+
 /// The cellular SIMD kernel against the point function for batch lengths around its chunk and
 /// the per-point threshold, on tame, edge and wild (huge, non-finite) points, for every metric
 /// and value.
