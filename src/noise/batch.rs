@@ -853,8 +853,8 @@ fn cellular_lanes<S: Real, const METRIC: u8>(
 fn finite_min_max(v: &[f64; CELL_GROUP]) -> Option<(f64, f64)> {
     let mut lo = *v;
     let mut hi = *v;
-    // x - x is 0 for finite x and NaN otherwise; sums keep the NaN.
-    let mut bad = v.map(|x| x - x);
+    // x · 0 is ±0 for finite x and NaN otherwise; sums keep the NaN.
+    let mut bad = v.map(|x| x * 0.0);
     let mut width = CELL_GROUP / 2;
     while width > 0 {
         for i in 0..width {

@@ -1913,7 +1913,14 @@ fn tiled_batches_with_one_wild_lane_equal_point() {
     for basis in BASES {
         let t = NoiseTable::periodic(basis, 8, Some(period));
         let schedule = Octaves::new(4.0, 2.0, 0.5, 1).with_period(Some(period));
-        for wild in [f64::NAN, f64::INFINITY, -f64::INFINITY, 2f64.powi(60) + 4096.0, -0.5, 5.0] {
+        for wild in [
+            f64::NAN,
+            f64::INFINITY,
+            -f64::INFINITY,
+            2f64.powi(60) + 4096.0,
+            -0.5,
+            5.0,
+        ] {
             for (axis, at) in [(0, 0), (1, 100), (2, 255), (0, 256), (1, 299)] {
                 let mut pts: Vec<[f64; 3]> = (0..300)
                     .map(|_| std::array::from_fn(|a| rng.next_f64() * period[a] as f64))
