@@ -826,7 +826,7 @@ fn cellular_lanes<S: Real, const METRIC: u8>(
         // settle (a further ring could hold a nearer point) or whose point is not finite.
         let mut far = [false; N];
         for i in 0..m {
-            let f = [lanes.frac64[0][i], lanes.frac64[1][i], lanes.frac64[2][i]];
+            let f = [x[i] - lanes.floor[0][i], y[i] - lanes.floor[1][i], z[i] - lanes.floor[2][i]];
             let needed = if uses_f2 { lanes.f2[i] } else { lanes.f1[i] };
             let gap = cellular::ring_gap::<S>(2, jitter, f);
             let gap = if metric == Metric::Euclidean { gap * gap } else { gap };
@@ -847,32 +847,26 @@ fn cellular_lanes<S: Real, const METRIC: u8>(
 }
 }
 
-/// The least and greatest of a group's cell floors, or `None` when one is not finite; in a
-/// tree of lane-wise operations (a fold's NaN-aware `min` would run lane by lane).
+/// One lane's running search step, branch-free: a distance `dist` to the point of cell hash `h`
+/// becomes the nearest (the old nearest second) or the second nearest, with the point function's
+/// strict comparisons (so ties keep the earlier cell, and infinite distances change nothing).
+/// Values in, values out (references into the lane arrays kept LLVM from vectorising the loops).
 #[inline(always)]
-fn finite_min_max(v: &[f64; CELL_GROUP]) -> Option<(f64, f64)> {
-    let mut lo = *v;
-    let mut hi = *v;
-    // x · 0 is ±0 for finite x and NaN otherwise; sums keep the NaN.
-    let mut bad = v.map(|x| x * 0.0);
-    let mut width = CELL_GROUP / 2;
-    while width > 0 {
-        for i in 0..width {
-            lo[i] = if lo[i + width] < lo[i] {
-                lo[i + width]
-            } else {
-                lo[i]
-            };
-            hi[i] = if hi[i + width] > hi[i] {
-                hi[i + width]
-            } else {
-                hi[i]
-            };
-            bad[i] += bad[i + width];
-        }
-        width /= 2;
+fn nearer<S: Real>((f1, f2, nearest): (S, S, u32), dist: S, h: u32) -> (S, S, u32) {
+    let closer = dist < f1;
+    let second = dist < f2;
+    let f2 = if closer {
+        f1
+    } else if second {
+        dist
+    } else {
+        f2
+    };
+    if closer {
+        (dist, f2, h)
+    } else {
+        (f1, f2, nearest)
     }
-    (bad[0] == 0.0).then_some((lo[0], hi[0]))
 }
 
 /// Lanes per chunk of a cellular batch.
@@ -895,7 +889,6 @@ struct CellLanes<S> {
     cell: [[u8; CELL_CHUNK]; 3],
     floor: [[f64; CELL_CHUNK]; 3],
     frac: [[S; CELL_CHUNK]; 3],
-    frac64: [[f64; CELL_CHUNK]; 3],
     f1: [S; CELL_CHUNK],
     f2: [S; CELL_CHUNK],
     nearest: [u32; CELL_CHUNK],
@@ -909,7 +902,6 @@ impl<S: Real> CellLanes<S> {
             cell: [[0; CELL_CHUNK]; 3],
             floor: [[0.0; CELL_CHUNK]; 3],
             frac: [[S::ZERO; CELL_CHUNK]; 3],
-            frac64: [[0.0; CELL_CHUNK]; 3],
             f1: [S::ZERO; CELL_CHUNK],
             f2: [S::ZERO; CELL_CHUNK],
             nearest: [0; CELL_CHUNK],
@@ -926,7 +918,6 @@ impl<S: Real> CellLanes<S> {
             for i in 0..m {
                 (self.cell[a][i], self.frac[a][i]) = lattice_lane_exact::<S>(src[i]);
                 self.floor[a][i] = src[i].floor();
-                self.frac64[a][i] = src[i] - self.floor[a][i];
             }
         }
         // The lanes past `m` copy lane m - 1, so that every group has CELL_GROUP real lanes.
@@ -965,19 +956,20 @@ impl<S: Real> CellLanes<S> {
         lo: usize,
     ) -> bool {
         const G: usize = CELL_GROUP;
-        if lo + G > CELL_CHUNK {
-            return false;
-        }
-        // Per axis: the union's first cell byte and length, and each lane's offset to every
-        // union cell (infinite outside its neighbourhood).
+        const { assert!(CELL_CHUNK.is_multiple_of(G)) }; // so `lo + G <= CELL_CHUNK`
+                                                         // Per axis: the union's first cell byte and length, and each lane's offset to every
+                                                         // union cell (infinite outside its neighbourhood).
         let mut base = [0u8; 3];
         let mut len = [0usize; 3];
         let mut offsets = [[[S::ZERO; G]; CELL_SPAN + 2]; 3];
         for a in 0..3 {
             let floor: &[f64; G] = self.floor[a][lo..lo + G].try_into().expect("G lanes");
-            let Some((min, max)) = finite_min_max(floor) else {
+            let Some((min, max)) = lane_bounds::<G>(floor) else {
                 return false;
             };
+            if !(min.is_finite() && max.is_finite()) {
+                return false;
+            }
             // Integers: the difference is exact when it is small.
             let span = max - min + 1.0;
             if span > CELL_SPAN as f64 {
@@ -1021,17 +1013,7 @@ impl<S: Real> CellLanes<S> {
                     for j in 0..G {
                         let d: [S; 3] = std::array::from_fn(|a| o[a][j] + q[a] - frac[a][j]);
                         let dist = super::cellular::distance(metric, d);
-                        let closer = dist < f1[j];
-                        let second = dist < f2[j];
-                        f2[j] = if closer {
-                            f1[j]
-                        } else if second {
-                            dist
-                        } else {
-                            f2[j]
-                        };
-                        nearest[j] = if closer { h } else { nearest[j] };
-                        f1[j] = if closer { dist } else { f1[j] };
+                        (f1[j], f2[j], nearest[j]) = nearer((f1[j], f2[j], nearest[j]), dist, h);
                     }
                 }
             }
@@ -1079,17 +1061,8 @@ impl<S: Real> CellLanes<S> {
                         let q = [features[0][k], features[1][k], features[2][k]];
                         let d: [S; 3] = std::array::from_fn(|a| offset[a] + q[a] - self.frac[a][i]);
                         let dist = super::cellular::distance(metric, d);
-                        let closer = dist < self.f1[i];
-                        let second = dist < self.f2[i];
-                        self.f2[i] = if closer {
-                            self.f1[i]
-                        } else if second {
-                            dist
-                        } else {
-                            self.f2[i]
-                        };
-                        self.nearest[i] = if closer { h[i] } else { self.nearest[i] };
-                        self.f1[i] = if closer { dist } else { self.f1[i] };
+                        let best = (self.f1[i], self.f2[i], self.nearest[i]);
+                        (self.f1[i], self.f2[i], self.nearest[i]) = nearer(best, dist, h[i]);
                     }
                 }
             }
@@ -1361,13 +1334,12 @@ fn inside_wraps(wraps: &mut [u8; CHUNK], cell: &[u8; CHUNK], src: &[f64], f: f64
     }
 }
 
-/// The least and greatest of a chunk's coordinates along one axis, `None` when one is NaN: once
-/// per chunk, so that each octave tests "every scaled coordinate inside [0, P)" and "every one
-/// below 2^51" on the two ends alone (rounding is monotone: `lo · f <= x · f <= hi · f` for
-/// f >= 0, reversed for f < 0). Eight running lanes, so that the loop vectorises.
+/// The least and greatest of `src`, `None` when one is NaN, in `W` running lanes and then a tree
+/// of lane-wise steps (a fold's NaN-aware `min` would run lane by lane): the tiled kernels' chunk
+/// bounds (see [`scaled_inside`]: rounding is monotone, so `lo · f <= x · f <= hi · f` for
+/// f >= 0, reversed for f < 0) and a cellular group's cell span. `W` a power of two.
 #[inline(always)]
-fn axis_bounds(src: &[f64]) -> Option<(f64, f64)> {
-    const W: usize = 32;
+fn lane_bounds<const W: usize>(src: &[f64]) -> Option<(f64, f64)> {
     let mut lo = [f64::INFINITY; W];
     let mut hi = [f64::NEG_INFINITY; W];
     let mut nan = [false; W];
@@ -1380,23 +1352,23 @@ fn axis_bounds(src: &[f64]) -> Option<(f64, f64)> {
         }
     }
     for (j, &x) in rest.iter().enumerate() {
-        lo[j] = if x < lo[j] { x } else { lo[j] };
-        hi[j] = if x > hi[j] { x } else { hi[j] };
+        lo[j] = lo[j].min(x);
+        hi[j] = hi[j].max(x);
         nan[j] |= x.is_nan();
     }
-    if nan.contains(&true) {
-        return None;
+    let mut width = W / 2;
+    while width > 0 {
+        for j in 0..width {
+            lo[j] = lo[j].min(lo[j + width]);
+            hi[j] = hi[j].max(hi[j + width]);
+            nan[j] |= nan[j + width];
+        }
+        width /= 2;
     }
-    let lo = lo
-        .iter()
-        .fold(f64::INFINITY, |m, &v| if v < m { v } else { m });
-    let hi = hi
-        .iter()
-        .fold(f64::NEG_INFINITY, |m, &v| if v > m { v } else { m });
-    Some((lo, hi))
+    (!nan[0]).then_some((lo[0], hi[0]))
 }
 
-/// Whether `x · f` lies in [0, `p`) for every x in `bounds` (see [`axis_bounds`]).
+/// Whether `x · f` lies in [0, `p`) for every x in `bounds` (see [`lane_bounds`]).
 #[inline(always)]
 fn scaled_inside(bounds: Option<(f64, f64)>, f: f64, p: f64) -> bool {
     bounds.is_some_and(|(lo, hi)| {
@@ -1481,7 +1453,7 @@ fn periodic_octaves<S: Real, K: LatticeKernel, const ACC: bool, const TURB: bool
     let chunks = out.chunks_mut(CHUNK).zip(x.chunks(CHUNK).zip(y.chunks(CHUNK)).zip(z.chunks(CHUNK)));
     for (out, ((x, y), z)) in chunks {
         let m = out.len().min(CHUNK); // bounded: no lane index needs a check (see `Lattice::noise`)
-        let bounds = [axis_bounds(x), axis_bounds(y), axis_bounds(z)];
+        let bounds = [x, y, z].map(lane_bounds::<32>);
         // The largest |coordinate| of the chunk (NaN when one is NaN, failing every test).
         let magnitude = if bounds.iter().all(Option::is_some) {
             let ends = bounds.iter().flatten();

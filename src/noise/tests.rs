@@ -1941,6 +1941,20 @@ fn tiled_batches_with_one_wild_lane_equal_point() {
     }
 }
 
+/// Every metric with every value of cellular noise.
+fn cellular_kinds() -> impl Iterator<Item = (Metric, CellularValue)> {
+    let values = [
+        CellularValue::F1,
+        CellularValue::F2,
+        CellularValue::F2MinusF1,
+        CellularValue::CellValue,
+        CellularValue::Edge,
+    ];
+    [Metric::Euclidean, Metric::Manhattan, Metric::Chebyshev]
+        .into_iter()
+        .flat_map(move |metric| values.map(|value| (metric, value)))
+}
+
 /// The cellular SIMD kernel against the point function for batch lengths around its chunk and
 /// the per-point threshold, on tame, edge and wild (huge, non-finite) points, for every metric
 /// and value.
@@ -1951,22 +1965,14 @@ fn cellular_batch_equals_point_for_every_length() {
         batch_pool(71, 200, 10),
         batch_pool(72, 200, 12),
     ];
-    for metric in [Metric::Euclidean, Metric::Manhattan, Metric::Chebyshev] {
-        for value in [
-            CellularValue::F1,
-            CellularValue::F2,
-            CellularValue::F2MinusF1,
-            CellularValue::CellValue,
-            CellularValue::Edge,
-        ] {
-            let t = NoiseTable::new(cellular(0.85, metric, value), 13);
-            for len in [1, 7, 8, 9, 63, 64, 65, 130, 200] {
-                for pool in &pools {
-                    let pts = &pool[..len];
-                    let what = format!("{metric:?} {value:?} {len}");
-                    assert_sample_batch_is_point::<f32>(&t, pts, &what);
-                    assert_sample_batch_is_point::<f64>(&t, pts, &what);
-                }
+    for (metric, value) in cellular_kinds() {
+        let t = NoiseTable::new(cellular(0.85, metric, value), 13);
+        for len in [1, 7, 8, 9, 63, 64, 65, 130, 200] {
+            for pool in &pools {
+                let pts = &pool[..len];
+                let what = format!("{metric:?} {value:?} {len}");
+                assert_sample_batch_is_point::<f32>(&t, pts, &what);
+                assert_sample_batch_is_point::<f64>(&t, pts, &what);
             }
         }
     }
@@ -2012,22 +2018,14 @@ fn cellular_coherent_groups_equal_point() {
         }
     }
     for jitter in [0.0, 0.5, 1.0] {
-        for metric in [Metric::Euclidean, Metric::Manhattan, Metric::Chebyshev] {
-            for value in [
-                CellularValue::F1,
-                CellularValue::F2,
-                CellularValue::F2MinusF1,
-                CellularValue::CellValue,
-                CellularValue::Edge,
-            ] {
-                let t = NoiseTable::new(cellular(jitter, metric, value), 29);
-                let what = format!("jitter {jitter} {metric:?} {value:?}");
-                assert_sample_batch_is_point::<f32>(&t, &pts, &what);
-                assert_sample_batch_is_point::<f64>(&t, &pts, &what);
-                // Odd starts and lengths: groups cut at other lanes, tails shorter than a group.
-                assert_sample_batch_is_point::<f32>(&t, &pts[5..100], &what);
-                assert_sample_batch_is_point::<f64>(&t, &pts[37..90], &what);
-            }
+        for (metric, value) in cellular_kinds() {
+            let t = NoiseTable::new(cellular(jitter, metric, value), 29);
+            let what = format!("jitter {jitter} {metric:?} {value:?}");
+            assert_sample_batch_is_point::<f32>(&t, &pts, &what);
+            assert_sample_batch_is_point::<f64>(&t, &pts, &what);
+            // Odd starts and lengths: groups cut at other lanes, tails shorter than a group.
+            assert_sample_batch_is_point::<f32>(&t, &pts[5..100], &what);
+            assert_sample_batch_is_point::<f64>(&t, &pts[37..90], &what);
         }
     }
     let coherent = super::batch::COHERENT_GROUPS.with(std::cell::Cell::get) - before;
