@@ -163,6 +163,57 @@ impl Tape {
     ) {
         let n = if ONE_LANE { 1 } else { x.len() };
         for instr in &self.instrs {
+            self.step::<S, ONE_LANE>(ws, instr, x, y, z, n);
+        }
+    }
+
+    /// Evaluates like [`Tape::eval_batch`] and adds each instruction's wall time to `times`
+    /// (one entry per instruction, in tape order): the per-node cost `texgraph serve` shows is
+    /// measured by the interpreter itself, not estimated. The clock is read around every
+    /// instruction of every chunk, so the total is a little above an untimed run's.
+    ///
+    /// # Panics
+    /// As [`Tape::eval_batch`], and if `times.len()` differs from the instruction count.
+    pub fn eval_batch_timed<S: Real>(
+        &self,
+        workspace: &mut Workspace<S>,
+        points: [&[f64]; 3],
+        out: &mut [S],
+        times: &mut [std::time::Duration],
+    ) {
+        let [x, y, z] = points;
+        let n = x.len();
+        assert!(y.len() == n && z.len() == n && out.len() == self.channels() * n);
+        assert_eq!(times.len(), self.instrs.len(), "one time per instruction");
+        workspace.bind(self);
+        let mut start = 0;
+        while start < n {
+            let end = (start + LANES).min(n);
+            let lanes = end - start;
+            let (cx, cy, cz) = (&x[start..end], &y[start..end], &z[start..end]);
+            for (instr, time) in self.instrs.iter().zip(times.iter_mut()) {
+                let began = std::time::Instant::now();
+                self.step::<S, false>(workspace, instr, cx, cy, cz, lanes);
+                *time += began.elapsed();
+            }
+            self.write_outputs::<S, false>(workspace, lanes, start, n, out);
+            start = end;
+        }
+    }
+
+    /// Runs one instruction over `n` lanes (the body of [`Tape::run_chunk`]'s loop).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn step<S: Real, const ONE_LANE: bool>(
+        &self,
+        ws: &mut Workspace<S>,
+        instr: &Instr,
+        x: &[f64],
+        y: &[f64],
+        z: &[f64],
+        n: usize,
+    ) {
+        {
             match *instr {
                 Instr::Position { dst } => {
                     let planes = &mut ws.vec3s[dst as usize];

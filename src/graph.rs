@@ -261,6 +261,8 @@ pub struct CheckedGraph {
     pub(crate) named: Vec<(crate::syntax::Text, NodeId)>,
     /// Params after `--set` overrides, in file order.
     pub(crate) params: Vec<(String, f64)>,
+    /// The file's `ranges`: a slider range (min, max) per param, for `texgraph serve`.
+    pub(crate) ranges: Vec<(String, f64, f64)>,
     pub(crate) stats: GraphStats,
     /// Every file imported, directly or through other imports, as the paths were resolved.
     pub(crate) imports: Vec<std::path::PathBuf>,
@@ -282,6 +284,17 @@ impl CheckedGraph {
     /// The params after `--set` overrides, in file order.
     pub fn params(&self) -> &[(String, f64)] {
         &self.params
+    }
+
+    /// The slider ranges the file gives its params (`ranges`), as (name, min, max).
+    pub fn param_ranges(&self) -> &[(String, f64, f64)] {
+        &self.ranges
+    }
+
+    /// The file's node ids in file order, each with the node it became (a folded node: its
+    /// constant).
+    pub fn named_nodes(&self) -> impl Iterator<Item = (&str, NodeId)> {
+        self.named.iter().map(|(name, id)| (name.as_str(), *id))
     }
 
     /// The files this graph imports, directly or through other imports (to watch them, to
@@ -324,6 +337,21 @@ impl CheckedGraph {
                 span: self.nodes[*id as usize].origin.span,
             })
             .collect();
+        graph
+    }
+
+    /// The same graph with every named node (not folded to a constant) as an output too, after
+    /// the file's outputs: a node can be evaluated, previewed and timed by its id (`texgraph
+    /// serve`). Nodes and outputs share one namespace, so no name is taken twice.
+    pub fn with_node_probes(&self) -> CheckedGraph {
+        let mut graph = self.with_node_outputs();
+        let probes = std::mem::take(&mut graph.outputs);
+        graph.outputs = self.outputs.clone();
+        for probe in probes {
+            if graph.output(&probe.name).is_none() {
+                graph.outputs.push(probe);
+            }
+        }
         graph
     }
 

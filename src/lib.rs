@@ -52,6 +52,7 @@ pub mod output;
 pub(crate) mod points;
 pub mod real;
 pub mod report;
+pub mod serve;
 pub mod stability;
 pub(crate) mod summary;
 pub(crate) mod syntax;

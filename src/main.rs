@@ -69,6 +69,13 @@ enum Command {
     /// Re-render whenever the graph or scene file (or any file it uses) is saved; a broken edit
     /// prints its diagnostic and keeps the last good image.
     Watch(RenderArgs),
+    /// Serve a live authoring page: preview, slice, every node's thumbnail and cost, params as
+    /// sliders, errors, hover values and the accuracy report, updated on every save.
+    ///
+    /// FILE is a graph file, a scene file or a folder of graphs. The page is at
+    /// http://127.0.0.1:7878/ by default (localhost only unless --host); its WebSocket protocol is
+    /// documented in docs/serve.md.
+    Serve(cli::serve::ServeArgs),
 }
 
 #[derive(Args)]
@@ -133,6 +140,7 @@ fn main() -> ExitCode {
         Command::Report(args) => cli::report::report_command(args),
         Command::Render(args) => cli::render::render_command(args, false),
         Command::Watch(args) => cli::render::render_command(args, true),
+        Command::Serve(args) => cli::serve::serve(args),
         Command::Nodes(args) => {
             let text = if args.markdown {
                 texgraph::nodes::catalogue_markdown()

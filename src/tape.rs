@@ -340,6 +340,153 @@ fn vec3_text(v: &[f64; 3]) -> String {
     format!("({}, {}, {})", v[0], v[1], v[2])
 }
 
+impl Tape {
+    /// Each instruction as the disassembly writes it (without its number), with the graph node
+    /// it was written in: `texgraph serve` lists a node's instructions.
+    pub fn instruction_lines(&self) -> impl Iterator<Item = (&str, String)> + '_ {
+        self.instrs
+            .iter()
+            .zip(&self.origins)
+            .map(|(instr, origin)| (&**origin, self.instruction_text(instr)))
+    }
+
+    /// The graph node each instruction was written in, in tape order.
+    pub fn origins(&self) -> impl Iterator<Item = &str> + '_ {
+        self.origins.iter().map(|o| &**o)
+    }
+
+    fn instruction_text(&self, instr: &Instr) -> String {
+        match instr {
+            Instr::Position { dst } => format!("v{dst} = position"),
+            Instr::Splat { dst, src } => format!("v{dst} = splat s{src}"),
+            Instr::Combine { dst, x, y, z } => format!("v{dst} = combine s{x}, s{y}, s{z}"),
+            Instr::Component { dst, src, axis } => {
+                format!("s{dst} = v{src}.{}", ["x", "y", "z"][*axis as usize % 3])
+            }
+            Instr::UnaryScalar { op, dst, src } => format!("s{dst} = {op} s{src}"),
+            Instr::UnaryVec3 { op, dst, src } => format!("v{dst} = {op} v{src}"),
+            Instr::BinaryScalar { op, dst, a, b } => format!("s{dst} = {op} s{a}, s{b}"),
+            Instr::BinaryVec3 { op, dst, a, b } => format!("v{dst} = {op} v{a}, v{b}"),
+            Instr::TernaryScalar { op, dst, a, b, c } => {
+                format!("s{dst} = {op} s{a}, s{b}, s{c}")
+            }
+            Instr::TernaryVec3 { op, dst, a, b, c } => {
+                format!("v{dst} = {op} v{a}, v{b}, v{c}")
+            }
+            Instr::Dot { dst, a, b } => format!("s{dst} = dot v{a}, v{b}"),
+            Instr::Length { dst, src } => format!("s{dst} = length v{src}"),
+            Instr::Cross { dst, a, b } => format!("v{dst} = cross v{a}, v{b}"),
+            Instr::Normalize { dst, src } => format!("v{dst} = normalize v{src}"),
+            Instr::RotateConst { dst, src, matrix } => {
+                let m = &self.matrices[*matrix as usize];
+                format!(
+                    "v{dst} = rotate v{src} matrix [{}, {}, {}]",
+                    vec3_text(&m[0]),
+                    vec3_text(&m[1]),
+                    vec3_text(&m[2])
+                )
+            }
+            Instr::RotateVarying {
+                dst,
+                src,
+                degrees,
+                axis,
+            } => {
+                format!(
+                    "v{dst} = rotate v{src} axis={} degrees=s{degrees}",
+                    vec3_text(&self.axes[*axis as usize])
+                )
+            }
+            Instr::Noise { dst, src, table } => format!(
+                "s{dst} = noise v{src} {}",
+                basis_name(&self.tables[*table as usize].0)
+            ),
+            Instr::NoiseGradient { dst, src, table } => format!(
+                "v{dst} = gradient noise v{src} {}",
+                basis_name(&self.tables[*table as usize].0)
+            ),
+            Instr::FractalGradient {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+            } => {
+                let schedule = &self.octaves[*octaves as usize];
+                format!(
+                    "v{dst} = gradient {} v{src} {} octaves={}",
+                    style_name(style),
+                    basis_name(&self.tables[*table as usize].0),
+                    schedule.len(),
+                ) + &periods_text(schedule)
+            }
+            Instr::Fractal {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+                bias,
+            } => {
+                let schedule = &self.octaves[*octaves as usize];
+                let bias = if *bias != 0.0 {
+                    format!(" bias={bias}")
+                } else {
+                    String::new()
+                };
+                let amplitudes: Vec<String> =
+                    schedule.amplitudes.iter().map(|a| a.to_string()).collect();
+                let frequencies: Vec<String> =
+                    schedule.frequencies.iter().map(|a| a.to_string()).collect();
+                format!(
+                    "s{dst} = {} v{src} {} octaves={} frequencies=[{}] amplitudes=[{}]",
+                    style_name(style),
+                    basis_name(&self.tables[*table as usize].0),
+                    schedule.len(),
+                    frequencies.join(", "),
+                    amplitudes.join(", "),
+                ) + &periods_text(schedule)
+                    + &bias
+            }
+            Instr::Hermite { dst, src, spline } => {
+                let h = &self.hermites[*spline as usize];
+                format!(
+                    "s{dst} = hermite s{src} p0={} p1={} m0={} m1={}",
+                    h.p0, h.p1, h.m0, h.m1
+                )
+            }
+            Instr::Ramp { dst, src, ramp } => {
+                let r = &self.ramps[*ramp as usize];
+                let stops: Vec<String> = r
+                    .knots()
+                    .iter()
+                    .zip(r.values())
+                    .map(|(t, c)| format!("({t}, {})", vec3_text(c)))
+                    .collect();
+                format!(
+                    "v{dst} = ramp s{src} {:?} [{}]",
+                    r.interpolation(),
+                    stops.join(", ")
+                )
+            }
+            Instr::Curve { dst, src, curve } => {
+                let c = &self.curves[*curve as usize];
+                let points: Vec<String> = c
+                    .knots()
+                    .iter()
+                    .zip(c.values())
+                    .map(|(x, y)| format!("({x}, {})", y[0]))
+                    .collect();
+                format!(
+                    "s{dst} = curve s{src} {:?} [{}]",
+                    c.interpolation(),
+                    points.join(", ")
+                )
+            }
+        }
+    }
+}
+
 /// The disassembly: stable, human readable, one instruction per line. It is a golden format.
 impl fmt::Display for Tape {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -358,134 +505,7 @@ impl fmt::Display for Tape {
             writeln!(f, "const v{slot} = {}", vec3_text(v))?;
         }
         for (i, (instr, origin)) in self.instrs.iter().zip(&self.origins).enumerate() {
-            let text = match instr {
-                Instr::Position { dst } => format!("v{dst} = position"),
-                Instr::Splat { dst, src } => format!("v{dst} = splat s{src}"),
-                Instr::Combine { dst, x, y, z } => format!("v{dst} = combine s{x}, s{y}, s{z}"),
-                Instr::Component { dst, src, axis } => {
-                    format!("s{dst} = v{src}.{}", ["x", "y", "z"][*axis as usize % 3])
-                }
-                Instr::UnaryScalar { op, dst, src } => format!("s{dst} = {op} s{src}"),
-                Instr::UnaryVec3 { op, dst, src } => format!("v{dst} = {op} v{src}"),
-                Instr::BinaryScalar { op, dst, a, b } => format!("s{dst} = {op} s{a}, s{b}"),
-                Instr::BinaryVec3 { op, dst, a, b } => format!("v{dst} = {op} v{a}, v{b}"),
-                Instr::TernaryScalar { op, dst, a, b, c } => {
-                    format!("s{dst} = {op} s{a}, s{b}, s{c}")
-                }
-                Instr::TernaryVec3 { op, dst, a, b, c } => {
-                    format!("v{dst} = {op} v{a}, v{b}, v{c}")
-                }
-                Instr::Dot { dst, a, b } => format!("s{dst} = dot v{a}, v{b}"),
-                Instr::Length { dst, src } => format!("s{dst} = length v{src}"),
-                Instr::Cross { dst, a, b } => format!("v{dst} = cross v{a}, v{b}"),
-                Instr::Normalize { dst, src } => format!("v{dst} = normalize v{src}"),
-                Instr::RotateConst { dst, src, matrix } => {
-                    let m = &self.matrices[*matrix as usize];
-                    format!(
-                        "v{dst} = rotate v{src} matrix [{}, {}, {}]",
-                        vec3_text(&m[0]),
-                        vec3_text(&m[1]),
-                        vec3_text(&m[2])
-                    )
-                }
-                Instr::RotateVarying {
-                    dst,
-                    src,
-                    degrees,
-                    axis,
-                } => {
-                    format!(
-                        "v{dst} = rotate v{src} axis={} degrees=s{degrees}",
-                        vec3_text(&self.axes[*axis as usize])
-                    )
-                }
-                Instr::Noise { dst, src, table } => format!(
-                    "s{dst} = noise v{src} {}",
-                    basis_name(&self.tables[*table as usize].0)
-                ),
-                Instr::NoiseGradient { dst, src, table } => format!(
-                    "v{dst} = gradient noise v{src} {}",
-                    basis_name(&self.tables[*table as usize].0)
-                ),
-                Instr::FractalGradient {
-                    dst,
-                    src,
-                    table,
-                    octaves,
-                    style,
-                } => {
-                    let schedule = &self.octaves[*octaves as usize];
-                    format!(
-                        "v{dst} = gradient {} v{src} {} octaves={}",
-                        style_name(style),
-                        basis_name(&self.tables[*table as usize].0),
-                        schedule.len(),
-                    ) + &periods_text(schedule)
-                }
-                Instr::Fractal {
-                    dst,
-                    src,
-                    table,
-                    octaves,
-                    style,
-                    bias,
-                } => {
-                    let schedule = &self.octaves[*octaves as usize];
-                    let bias = if *bias != 0.0 {
-                        format!(" bias={bias}")
-                    } else {
-                        String::new()
-                    };
-                    let amplitudes: Vec<String> =
-                        schedule.amplitudes.iter().map(|a| a.to_string()).collect();
-                    let frequencies: Vec<String> =
-                        schedule.frequencies.iter().map(|a| a.to_string()).collect();
-                    format!(
-                        "s{dst} = {} v{src} {} octaves={} frequencies=[{}] amplitudes=[{}]",
-                        style_name(style),
-                        basis_name(&self.tables[*table as usize].0),
-                        schedule.len(),
-                        frequencies.join(", "),
-                        amplitudes.join(", "),
-                    ) + &periods_text(schedule)
-                        + &bias
-                }
-                Instr::Hermite { dst, src, spline } => {
-                    let h = &self.hermites[*spline as usize];
-                    format!(
-                        "s{dst} = hermite s{src} p0={} p1={} m0={} m1={}",
-                        h.p0, h.p1, h.m0, h.m1
-                    )
-                }
-                Instr::Ramp { dst, src, ramp } => {
-                    let r = &self.ramps[*ramp as usize];
-                    let stops: Vec<String> = r
-                        .knots()
-                        .iter()
-                        .zip(r.values())
-                        .map(|(t, c)| format!("({t}, {})", vec3_text(c)))
-                        .collect();
-                    format!(
-                        "v{dst} = ramp s{src} {:?} [{}]",
-                        r.interpolation(),
-                        stops.join(", ")
-                    )
-                }
-                Instr::Curve { dst, src, curve } => {
-                    let c = &self.curves[*curve as usize];
-                    let points: Vec<String> = c
-                        .knots()
-                        .iter()
-                        .zip(c.values())
-                        .map(|(x, y)| format!("({x}, {})", y[0]))
-                        .collect();
-                    format!(
-                        "s{dst} = curve s{src} {:?} [{}]",
-                        c.interpolation(),
-                        points.join(", ")
-                    )
-                }
-            };
+            let text = self.instruction_text(instr);
             writeln!(f, "{i:04}  {text:<48} ; {origin}")?;
         }
         for output in &self.outputs {

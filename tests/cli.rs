@@ -1079,3 +1079,42 @@ fn render_prints_the_seed_003_timing_table() {
         );
     }
 }
+
+#[test]
+fn serve_refuses_a_missing_input_and_a_taken_port() {
+    let output = run(&["serve", "no/such/graph.ron", "--port", "0"]);
+    assert_eq!(code(&output), 2, "{}", show(&["serve"], &output));
+    assert!(
+        stderr(&output).contains("no/such/graph.ron"),
+        "{}",
+        stderr(&output)
+    );
+    let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = taken.local_addr().unwrap().port().to_string();
+    let output = run(&["serve", "graphs/seed003_marble.ron", "--port", &port]);
+    assert_eq!(code(&output), 2, "{}", show(&["serve"], &output));
+    assert!(
+        stderr(&output).contains("cannot listen"),
+        "{}",
+        stderr(&output)
+    );
+}
+
+#[test]
+fn serve_prints_its_localhost_url() {
+    use std::io::BufRead;
+    let mut child = command(&["serve", "graphs/seed003_marble.ron", "--port", "0"])
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(
+        line.starts_with("texgraph serve: http://127.0.0.1:"),
+        "{line}"
+    );
+}

@@ -21,6 +21,7 @@ fn small(samples: u32) -> RenderOptions {
         samples: Some(samples),
         threads: None,
         progress: false,
+        cancel: None,
     }
 }
 
@@ -226,6 +227,7 @@ fn images_do_not_depend_on_the_thread_count() {
             samples: Some(3),
             threads: Some(threads),
             progress: false,
+            cancel: None,
         };
         let (image, stats) = render(&scene, &options).unwrap();
         assert_eq!(stats.threads, threads);
@@ -821,6 +823,7 @@ fn gallery() {
         samples: None,
         threads: None,
         progress: false,
+        cancel: None,
     };
     for entry in std::fs::read_dir("graphs/scenes").unwrap() {
         let path = entry.unwrap().path();
@@ -951,6 +954,7 @@ fn docs_scenes_md_examples_load_and_render() {
         samples: Some(1),
         threads: None,
         progress: false,
+        cancel: None,
     };
     let (mut scenes, mut previews, mut invalid) = (0, 0, 0);
     let mut failures = String::new();
@@ -1255,6 +1259,7 @@ fn bump_plane(graphs: &[(&str, String)], bump: &str, object_transform: &str) -> 
         samples: Some(1),
         threads: None,
         progress: false,
+        cancel: None,
     };
     render(&scene, &options).unwrap().0
 }

@@ -132,6 +132,7 @@ pub fn scene_bytes(data: &[u8]) {
                 samples: Some(1),
                 threads: Some(1),
                 progress: false,
+                cancel: None,
             };
             // Errors (a mesh that cannot be read, say) are fine; panics are not.
             let _ = render(&scene, &options);

@@ -68,6 +68,7 @@ fn check_with(
         builder: GraphBuilder::with_capacity(file.text.len() / 16),
         diagnostics: Vec::new(),
         params: Vec::new(),
+        ranges: Vec::new(),
         node_index: HashMap::default(),
         lowered: Vec::new(),
         written: 0,
@@ -85,6 +86,7 @@ fn check_with(
                 outputs,
                 named,
                 params: checker.params,
+                ranges: checker.ranges,
                 stats,
                 imports: checker.imports.files.clone(),
             };
@@ -126,6 +128,8 @@ struct Checker {
     builder: GraphBuilder,
     diagnostics: Vec<Diagnostic>,
     params: Vec<(String, f64)>,
+    /// The `ranges` section: (param, min, max).
+    ranges: Vec<(String, f64, f64)>,
     /// Node id → index in the file's `nodes` map.
     node_index: HashMap<Text, usize>,
     /// What each named node became; `None` until lowered or when it failed.

@@ -29,12 +29,15 @@ impl Checker {
         let mut params = None;
         let mut nodes = None;
         let mut outputs = None;
+        let mut ranges = None;
         for (field, value) in fields {
             let known = match field.value.as_str() {
-                "params" | "nodes" | "outputs" => field.value.as_str(),
+                "params" | "nodes" | "outputs" | "ranges" => field.value.as_str(),
                 other => {
-                    let hint =
-                        nodes::suggest_from(other, ["params", "nodes", "outputs"].into_iter());
+                    let hint = nodes::suggest_from(
+                        other,
+                        ["params", "nodes", "outputs", "ranges"].into_iter(),
+                    );
                     let mut d = Diagnostic::new(
                         Class::UnknownArgument,
                         format!("unknown field `{other}` in Graph"),
@@ -43,9 +46,9 @@ impl Checker {
                     .label("not a Graph field");
                     d = d.help(match hint {
                         Some(h) => format!(
-                            "did you mean `{h}`? A graph has `params`, `nodes` and `outputs`"
+                            "did you mean `{h}`? A graph has `params`, `nodes`, `outputs` and `ranges`"
                         ),
-                        None => "a graph has `params`, `nodes` and `outputs`".into(),
+                        None => "a graph has `params`, `nodes`, `outputs` and `ranges`".into(),
                     });
                     self.error(d);
                     // Read a near miss (`node:`) as what it was meant to be, so its contents are
@@ -59,6 +62,7 @@ impl Checker {
             let slot = match known {
                 "params" => &mut params,
                 "nodes" => &mut nodes,
+                "ranges" => &mut ranges,
                 _ => &mut outputs,
             };
             if slot.is_some() {
@@ -79,6 +83,9 @@ impl Checker {
             span: root.span,
         };
         self.params(params.unwrap_or(&empty), options);
+        if let Some(ranges) = ranges {
+            self.ranges(ranges);
+        }
         let node_entries = self.map_entries(nodes.unwrap_or(&empty), "nodes");
         let declared = node_entries.len();
         if declared > limits::MAX_NODES {
@@ -344,6 +351,71 @@ impl Checker {
                     None => format!("its params are: {}", known.join(", ")),
                 });
                 self.error(d);
+            }
+        }
+    }
+
+    /// The optional `ranges` map: a slider range `(min, max)` per param, for `texgraph serve`
+    /// (docs/serve.md). Each name must be a param; both numbers finite, `min < max`.
+    fn ranges(&mut self, value: &Value) {
+        for (name, v) in self.map_entries(value, "ranges") {
+            let node = format!("ranges.{}", name.value);
+            if !self.params.iter().any(|(p, _)| *p == name.value) {
+                let known: Vec<&str> = self.params.iter().map(|(p, _)| p.as_str()).collect();
+                let help = match nodes::suggest_from(&name.value, known.iter().copied()) {
+                    Some(s) => format!("did you mean \"{s}\"? A range belongs to a param"),
+                    None => "a range belongs to a param of the graph's `params`".to_string(),
+                };
+                self.error(
+                    Diagnostic::new(
+                        Class::UnknownParam,
+                        format!("range for \"{}\", which is not a param", name.value),
+                    )
+                    .in_node(node)
+                    .at(name.span)
+                    .label("no such param")
+                    .help(help),
+                );
+                continue;
+            }
+            let pair = match &v.kind {
+                ValueKind::Tuple { name: None, items } if items.len() == 2 => {
+                    match (&items[0].kind, &items[1].kind) {
+                        (ValueKind::Number(a), ValueKind::Number(b)) => Some((*a, *b)),
+                        _ => None,
+                    }
+                }
+                _ => None,
+            };
+            match pair {
+                Some((min, max)) if min.is_finite() && max.is_finite() && min < max => {
+                    if self.ranges.iter().any(|(p, _, _)| *p == name.value.as_str()) {
+                        self.error(
+                            Diagnostic::new(
+                                Class::DuplicateName,
+                                format!("the range of \"{}\" is given twice", name.value),
+                            )
+                            .in_node(node)
+                            .at(name.span)
+                            .label("second range"),
+                        );
+                    } else {
+                        self.ranges.push((name.value.to_string(), min, max));
+                    }
+                }
+                _ => self.error(
+                    Diagnostic::new(
+                        Class::BadParameter,
+                        format!(
+                            "the range of \"{}\" must be `(min, max)`: two finite numbers, min < max",
+                            name.value
+                        ),
+                    )
+                    .in_node(node)
+                    .at(v.span)
+                    .label("expected (min, max)")
+                    .help("for example `ranges: { \"period\": (0.1, 10.0) }`"),
+                ),
             }
         }
     }

@@ -7,6 +7,7 @@ pub mod check;
 pub mod eval;
 pub mod render;
 pub mod report;
+pub mod serve;
 pub mod verify;
 
 use crate::{CheckOptions, CompileOptions, LoadError};

@@ -102,6 +102,7 @@ pub fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
             .threads
             .map(|t| if t == 0 { 0 } else { threads_or_warn(t) }),
         progress: !args.quiet,
+        cancel: None,
     };
     if args.timing_table {
         if args.bump.is_some() {

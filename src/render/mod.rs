@@ -140,6 +140,28 @@ pub struct RenderOptions {
     pub threads: Option<usize>,
     /// Show a progress bar (only when stderr is a terminal).
     pub progress: bool,
+    /// Stop early (at the next tile) when this says so: the render then fails with
+    /// [`RenderError::Cancelled`] (`texgraph serve` drops work a newer edit made stale).
+    pub cancel: Option<Cancel>,
+}
+
+/// A cancellation check: cancelled once a shared counter has moved past the value it had when
+/// the work began (a generation number that every newer edit bumps).
+#[derive(Clone, Debug)]
+pub struct Cancel {
+    counter: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    at: u64,
+}
+
+impl Cancel {
+    /// Work of generation `at`, cancelled when `counter` no longer reads `at`.
+    pub fn new(counter: std::sync::Arc<std::sync::atomic::AtomicU64>, at: u64) -> Cancel {
+        Cancel { counter, at }
+    }
+
+    pub fn is_cancelled(&self) -> bool {
+        self.counter.load(std::sync::atomic::Ordering::Acquire) != self.at
+    }
 }
 
 /// Why a scene could not be loaded or rendered.
@@ -162,6 +184,9 @@ pub enum RenderError {
     /// The file watcher failed (exit code 2).
     #[error("watching files: {0}")]
     Watch(#[from] notify::Error),
+    /// [`RenderOptions::cancel`] said stop (exit code 2; not an error a user sees).
+    #[error("the render was cancelled")]
+    Cancelled,
 }
 
 fn render_all(list: &[Diagnostics]) -> String {
@@ -329,7 +354,11 @@ pub fn render(
         .or(scene.samples())
         .unwrap_or(DEFAULT_SAMPLES);
     check_samples(samples).map_err(RenderError::Options)?;
-    let run = || render_in_pool(scene, width, height, samples, options.progress);
+    let cancel = options.cancel.as_ref();
+    let run = || {
+        render_in_pool(scene, (width, height), samples, options.progress, cancel)
+            .ok_or(RenderError::Cancelled)
+    };
     match options.threads {
         Some(threads) => {
             if threads == 0 {
@@ -342,19 +371,19 @@ pub fn render(
                 .map_err(|e| {
                     RenderError::Options(format!("cannot start {threads} worker threads: {e}"))
                 })?;
-            Ok(pool.install(run))
+            pool.install(run)
         }
-        None => Ok(run()),
+        None => run(),
     }
 }
 
 fn render_in_pool(
     scene: &Scene,
-    width: u32,
-    height: u32,
+    (width, height): (u32, u32),
     samples: u32,
     progress: bool,
-) -> (RenderedImage, RenderStats) {
+    cancel: Option<&Cancel>,
+) -> Option<(RenderedImage, RenderStats)> {
     let started = Instant::now();
     let tiles = shade::tiles(width, height);
     let bar = (progress && std::io::stderr().is_terminal()).then(|| {
@@ -374,6 +403,9 @@ fn render_in_pool(
             || shade::Scratch::new(scene),
             |scratch, tile| {
                 let mut pixels = Vec::new();
+                if cancel.is_some_and(Cancel::is_cancelled) {
+                    return (pixels, Counters::default(), Duration::ZERO);
+                }
                 let mut texture_time = Duration::ZERO;
                 let counters = shade::render_tile(
                     scene,
@@ -394,6 +426,9 @@ fn render_in_pool(
         .collect();
     if let Some(bar) = &bar {
         bar.finish_and_clear();
+    }
+    if cancel.is_some_and(Cancel::is_cancelled) {
+        return None;
     }
     let mut pixels = vec![[0.0f32; 3]; width as usize * height as usize];
     let mut counters = Counters::default();
@@ -419,14 +454,14 @@ fn render_in_pool(
         total_seconds: 0.0,
         counters,
     };
-    (
+    Some((
         RenderedImage {
             width,
             height,
             pixels,
         },
         stats,
-    )
+    ))
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -472,7 +507,7 @@ pub fn load_input(path: &Path, defaults: &PreviewDefaults) -> Result<Scene, Rend
     load_input_tracking(path, defaults, &mut Vec::new())
 }
 
-fn load_input_tracking(
+pub(crate) fn load_input_tracking(
     path: &Path,
     defaults: &PreviewDefaults,
     files: &mut Vec<PathBuf>,
@@ -566,10 +601,10 @@ impl Previewer {
 }
 
 /// Watched files as (canonical folder, file name).
-type WatchList = Vec<(PathBuf, std::ffi::OsString)>;
+pub(crate) type WatchList = Vec<(PathBuf, std::ffi::OsString)>;
 
 /// Whether a file-system event can change what the previewer renders.
-fn relevant(event: &notify::Event, watched: &[(PathBuf, std::ffi::OsString)]) -> bool {
+pub(crate) fn relevant(event: &notify::Event, watched: &[(PathBuf, std::ffi::OsString)]) -> bool {
     use notify::event::{AccessKind, AccessMode, EventKind};
     let kind_matters = match event.kind {
         EventKind::Create(_) | EventKind::Modify(_) | EventKind::Remove(_) | EventKind::Any => true,
@@ -589,7 +624,7 @@ fn relevant(event: &notify::Event, watched: &[(PathBuf, std::ffi::OsString)]) ->
 
 /// The folders to watch and the (folder, name) pairs that matter. Folders rather than files:
 /// editors often save by writing a new file and renaming it over the old one.
-fn watch_list(files: &[PathBuf]) -> WatchList {
+pub(crate) fn watch_list(files: &[PathBuf]) -> WatchList {
     files
         .iter()
         .filter_map(|f| {
@@ -692,6 +727,7 @@ pub fn seed003_sphere(graph: &str, overrides: &[(&str, f64)]) -> SceneDesc {
         },
     );
     SceneDesc {
+        probe_nodes: false,
         camera: scene::CameraDesc {
             position: [0.0, 0.0, 3.6],
             look_at: [0.0, 0.0, 0.0],
@@ -858,6 +894,7 @@ pub fn timing_table(graph: &Path, options: &TimingOptions) -> Result<TimingTable
             samples: Some(options.samples),
             threads: options.threads,
             progress: false,
+            cancel: None,
         };
         let mut best: Option<RenderStats> = None;
         for _ in 0..options.repeats.max(1) {

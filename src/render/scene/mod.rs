@@ -79,6 +79,10 @@ pub struct SceneDesc {
     /// Samples per pixel when the command line gives none.
     #[serde(default)]
     pub samples: Option<u32>,
+    /// Not in the file format: every named node of every graph may be bound like an output
+    /// (`texgraph serve` previews a node an author clicks).
+    #[serde(skip)]
+    pub probe_nodes: bool,
 }
 
 fn default_background() -> [f64; 3] {
@@ -603,6 +607,16 @@ impl Scene {
     ) -> Result<Scene, RenderError> {
         let desc = defaults.scene_desc(graph);
         resolve(&desc, Path::new(""), None, files)
+    }
+
+    /// [`Scene::from_desc`], adding every file it read (graphs, their imports, meshes) to
+    /// `files`, also when it fails (what to watch for a fix).
+    pub(crate) fn from_desc_tracking(
+        desc: &SceneDesc,
+        base: &Path,
+        files: &mut Vec<PathBuf>,
+    ) -> Result<Scene, RenderError> {
+        resolve(desc, base, None, files)
     }
 
     /// Resolves a scene description built in code; relative paths are relative to `base`.

@@ -136,6 +136,7 @@ impl PreviewDefaults {
             }
         };
         SceneDesc {
+            probe_nodes: false,
             camera,
             lights: vec![
                 LightDesc::Point {

@@ -338,6 +338,7 @@ impl<'a> Resolver<'a> {
             }
         }
         match result {
+            Ok(g) if self.desc.probe_nodes => Some(g.with_node_probes()),
             Ok(g) => Some(g),
             Err(LoadError::Io { source, .. }) => {
                 self.problems.add(

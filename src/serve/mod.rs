@@ -1,0 +1,313 @@
+//! `texgraph serve`: a local page that shows a graph's preview, slice, every node, its params
+//! and its errors live while the author edits the file in their own editor (docs/serve.md).
+//!
+//! Three parts, by what they wait on:
+//! - the **worker** (`worker.rs`, one OS thread): file events (notify) and changes from the
+//!   page wake it; it checks, evaluates and renders one *generation* at a time through
+//!   `session.rs`, which is library code only, and publishes each result as it is ready;
+//! - the **server** (axum on a small tokio runtime): the static page, `/api/state` and one
+//!   WebSocket per tab (`client.rs`);
+//! - the **published state**: the newest message of each type, in a `tokio::sync::watch`
+//!   channel. A tab is sent what changed when it is ready for more, so a slow tab skips
+//!   intermediate states instead of queueing them or holding anyone up.
+//!
+//! A change bumps the generation counter at once, which cancels the work of older generations
+//! at their next block of points or tile (`render::Cancel`).
+
+mod client;
+pub mod protocol;
+pub mod session;
+mod worker;
+pub mod writeback;
+
+use protocol::Settings;
+use serde_json::{json, Value};
+use std::collections::BTreeMap;
+use std::net::{IpAddr, SocketAddr};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+/// The page, served from the binary.
+const PAGE: &str = include_str!("page.html");
+
+/// Where and what to serve.
+#[derive(Clone, Debug)]
+pub struct ServeOptions {
+    /// A graph file, a scene file or a folder of graph files.
+    pub input: PathBuf,
+    /// The address to listen on (127.0.0.1 unless the user says otherwise).
+    pub host: IpAddr,
+    /// The port; 0 picks a free one.
+    pub port: u16,
+}
+
+/// Why the server could not start.
+#[derive(Debug, thiserror::Error)]
+pub enum ServeError {
+    #[error("{}: {source}", path.display())]
+    Input {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("cannot listen on {addr}: {source}")]
+    Listen {
+        addr: SocketAddr,
+        source: std::io::Error,
+    },
+    #[error("{0}")]
+    Start(String),
+}
+
+/// What `serve` was given.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    Graph,
+    Scene,
+    Folder,
+}
+
+impl Mode {
+    fn name(self) -> &'static str {
+        match self {
+            Mode::Graph => "graph",
+            Mode::Scene => "scene",
+            Mode::Folder => "folder",
+        }
+    }
+}
+
+/// The newest message of each type, each with the version it was published at.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Published {
+    pub messages: BTreeMap<&'static str, (u64, Arc<str>)>,
+    next: u64,
+}
+
+/// Counts shown in `status` messages (and read by the tests).
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub(crate) struct Counters {
+    pub generations: u64,
+    pub drafts: u64,
+    pub fulls: u64,
+    pub cancelled: u64,
+}
+
+/// A reason for the worker to start a generation.
+pub(crate) enum Kick {
+    /// A watched file changed (debounced) or the page changed something.
+    Change {
+        file: bool,
+        at: std::time::Instant,
+    },
+    Stop,
+}
+
+/// State shared by the worker, the watcher callback and every connection.
+pub(crate) struct Shared {
+    pub mode: Mode,
+    pub input: PathBuf,
+    /// Folder mode: the graph files listed (relative to the folder).
+    pub graphs: Vec<String>,
+    pub settings: Mutex<Settings>,
+    pub generation: Arc<AtomicU64>,
+    pub kicks: std::sync::mpsc::Sender<Kick>,
+    pub state: tokio::sync::watch::Sender<Published>,
+    pub loaded: Mutex<Option<Arc<session::Loaded>>>,
+    pub counters: Mutex<Counters>,
+}
+
+/// A `Mutex` whose holder panicked still holds consistent data here (every critical section
+/// only assigns): use it rather than poisoning the server.
+pub(crate) fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+impl Shared {
+    /// Publishes `message` (an object with its `type`) to every tab and `/api/state`.
+    pub fn publish(&self, kind: &'static str, message: Value) {
+        let text: Arc<str> = message.to_string().into();
+        self.state.send_modify(|p| {
+            p.next += 1;
+            let version = p.next;
+            p.messages.insert(kind, (version, text));
+        });
+    }
+
+    /// Starts a new generation: older work is cancelled at its next check.
+    pub fn change(&self, file: bool) {
+        self.generation.fetch_add(1, Ordering::AcqRel);
+        let _ = self.kicks.send(Kick::Change {
+            file,
+            at: std::time::Instant::now(),
+        });
+    }
+
+    pub fn publish_settings(&self) {
+        let settings = lock(&self.settings).clone();
+        let mut message = serde_json::to_value(&settings).expect("settings serialise");
+        message["type"] = json!("settings");
+        self.publish("settings", message);
+    }
+
+    /// The graph file shown now.
+    pub fn graph_path(&self, settings: &Settings) -> Option<PathBuf> {
+        match self.mode {
+            Mode::Graph => Some(self.input.clone()),
+            Mode::Folder => settings.graph.as_ref().map(|g| self.input.join(g)),
+            // The scene's first graph, found when the scene is loaded.
+            Mode::Scene => None,
+        }
+    }
+}
+
+/// A running server.
+pub struct Server {
+    addr: SocketAddr,
+    shared: Arc<Shared>,
+    shutdown: Option<tokio::sync::oneshot::Sender<()>>,
+    http: Option<std::thread::JoinHandle<()>>,
+    worker: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Server {
+    /// The address it listens on.
+    pub fn addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// The page's URL.
+    pub fn url(&self) -> String {
+        format!("http://{}/", self.addr)
+    }
+
+    /// Blocks until the server stops (it does not, unless its thread fails).
+    pub fn wait(mut self) {
+        if let Some(http) = self.http.take() {
+            let _ = http.join();
+        }
+    }
+
+    /// Stops serving: connections are closed, the worker's current generation cancelled.
+    pub fn stop(mut self) {
+        self.halt();
+    }
+
+    fn halt(&mut self) {
+        if let Some(tx) = self.shutdown.take() {
+            let _ = tx.send(());
+        }
+        self.shared.generation.fetch_add(1, Ordering::AcqRel);
+        let _ = self.shared.kicks.send(Kick::Stop);
+        for handle in [self.http.take(), self.worker.take()].into_iter().flatten() {
+            let _ = handle.join();
+        }
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        self.halt();
+    }
+}
+
+/// The graph files of a folder, and of its subfolders one level down, sorted.
+fn folder_graphs(dir: &Path) -> Result<Vec<String>, std::io::Error> {
+    let mut out = Vec::new();
+    let mut visit =
+        |sub: &Path, prefix: &str, deep: bool| -> Result<Vec<PathBuf>, std::io::Error> {
+            let mut dirs = Vec::new();
+            for entry in std::fs::read_dir(sub)? {
+                let path = entry?.path();
+                let name = path.file_name().map(|n| n.to_string_lossy().into_owned());
+                let Some(name) = name else { continue };
+                if path.is_dir() && deep && !name.starts_with('.') {
+                    dirs.push(path);
+                } else if name.ends_with(".ron") {
+                    out.push(format!("{prefix}{name}"));
+                }
+            }
+            Ok(dirs)
+        };
+    for sub in visit(dir, "", true)? {
+        let prefix = format!("{}/", sub.file_name().unwrap_or_default().to_string_lossy());
+        visit(&sub, &prefix, false)?;
+    }
+    out.sort();
+    Ok(out)
+}
+
+/// What the input is: a folder, a scene file or a graph file (a file that cannot be read is
+/// refused before the server starts).
+fn mode_of(input: &Path) -> Result<(Mode, Vec<String>), ServeError> {
+    let io = |source| ServeError::Input {
+        path: input.to_path_buf(),
+        source,
+    };
+    if std::fs::metadata(input).map_err(io)?.is_dir() {
+        return Ok((Mode::Folder, folder_graphs(input).map_err(io)?));
+    }
+    let text = std::fs::read_to_string(input).map_err(io)?;
+    match crate::render::input_kind(&text) {
+        crate::render::InputKind::Scene => Ok((Mode::Scene, Vec::new())),
+        crate::render::InputKind::Graph => Ok((Mode::Graph, Vec::new())),
+    }
+}
+
+/// Starts serving `options.input`: binds the address, starts the worker (which checks and
+/// renders the input at once) and the HTTP server, and returns.
+pub fn start(options: ServeOptions) -> Result<Server, ServeError> {
+    let (mode, graphs) = mode_of(&options.input)?;
+    let addr = SocketAddr::new(options.host, options.port);
+    let listener =
+        std::net::TcpListener::bind(addr).map_err(|source| ServeError::Listen { addr, source })?;
+    listener
+        .set_nonblocking(true)
+        .map_err(|source| ServeError::Listen { addr, source })?;
+    let addr = listener
+        .local_addr()
+        .map_err(|source| ServeError::Listen { addr, source })?;
+    let (kicks, kick_rx) = std::sync::mpsc::channel();
+    let settings = Settings {
+        graph: graphs.first().cloned(),
+        ..Settings::default()
+    };
+    let shared = Arc::new(Shared {
+        mode,
+        input: options.input.clone(),
+        graphs,
+        settings: Mutex::new(settings),
+        generation: Arc::new(AtomicU64::new(1)),
+        kicks,
+        state: tokio::sync::watch::Sender::new(Published::default()),
+        loaded: Mutex::new(None),
+        counters: Mutex::new(Counters::default()),
+    });
+    shared.publish(
+        "hello",
+        json!({
+            "type": "hello", "version": 1, "input": options.input.display().to_string(),
+            "mode": mode.name(), "graphs": shared.graphs,
+            "limits": {"preview": protocol::MAX_PREVIEW, "slice": protocol::MAX_SLICE,
+                       "thumb": protocol::MAX_THUMB},
+        }),
+    );
+    shared.publish_settings();
+    let worker = worker::spawn(shared.clone(), kick_rx).map_err(ServeError::Start)?;
+    shared.change(true);
+    let (shutdown, shutdown_rx) = tokio::sync::oneshot::channel();
+    let http =
+        client::spawn_http(shared.clone(), listener, shutdown_rx).map_err(ServeError::Start)?;
+    Ok(Server {
+        addr,
+        shared,
+        shutdown: Some(shutdown),
+        http: Some(http),
+        worker: Some(worker),
+    })
+}
+
+/// The page's HTML (for tests and tools that embed it).
+pub fn page() -> &'static str {
+    PAGE
+}
