@@ -655,3 +655,68 @@ async fn a_folder_lists_its_graphs_and_opens_one() {
     })
     .await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_scene_file_previews_the_scene_and_lists_its_graph() {
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/graphs/scenes/seed003_sphere.ron"
+    );
+    let server = serve(Path::new(scene));
+    let mut tab = Tab::open(&server).await;
+    tab.until("ready", |t| t.settled()).await;
+    assert_eq!(tab.get("hello")["mode"], "scene");
+    let graph = tab.get("graph");
+    assert!(
+        graph["file"]
+            .as_str()
+            .unwrap()
+            .ends_with("seed003_marble.ron"),
+        "{}",
+        graph["file"]
+    );
+    assert_eq!(graph["nodes"].as_array().unwrap().len(), 5);
+    assert!(non_blank(&image_of(&tab.get("preview")["png"])));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_report_answers_the_asking_tab_only() {
+    let (_dir, path) = marble_copy();
+    let server = serve(&path);
+    let mut asking = Tab::open(&server).await;
+    let mut other = Tab::open(&server).await;
+    asking.until("ready", |t| t.ready()).await;
+    other.until("ready", |t| t.ready()).await;
+    asking.send(json!({"type": "report"})).await;
+    asking
+        .until("the report", |t| t.reply("report").is_some())
+        .await;
+    let report = asking.reply("report").unwrap();
+    let rows = report["rows"].as_array().unwrap();
+    let strategies: Vec<&str> = rows
+        .iter()
+        .filter(|r| r["output"] == "vein")
+        .map(|r| r["strategy"].as_str().unwrap())
+        .collect();
+    assert!(
+        strategies.contains(&"f64 reference (batch)"),
+        "{strategies:?}"
+    );
+    assert!(
+        strategies.iter().any(|s| s.contains("f32")),
+        "{strategies:?}"
+    );
+    assert!(report["text"].as_str().unwrap().contains("vein"));
+    // The f32 batch is within 1e-4 of the reference on the marble (docs/accuracy.md).
+    for row in rows.iter().filter(|r| r["strategy"] == "f32 batch") {
+        assert!(row["max_abs_error"].as_f64().unwrap() < 1e-4, "{row}");
+    }
+    // Replies go to the tab that asked; the other tab gets none.
+    other
+        .send(json!({"type": "hover", "id": 1, "u": 0.5, "v": 0.5}))
+        .await;
+    other
+        .until("its own reply", |t| t.reply("hover").is_some())
+        .await;
+    assert!(other.reply("report").is_none());
+}
