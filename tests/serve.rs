@@ -720,3 +720,83 @@ async fn the_report_answers_the_asking_tab_only() {
         .await;
     assert!(other.reply("report").is_none());
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn foreign_pages_and_rebound_host_names_are_refused() {
+    use tokio_tungstenite::tungstenite::client::IntoClientRequest;
+    let (_dir, path) = marble_copy();
+    let server = serve(&path);
+    let url = format!("ws://{}/ws", server.addr());
+    let attempt = |headers: &[(&'static str, String)]| {
+        let mut request = url.clone().into_client_request().unwrap();
+        for (name, value) in headers {
+            request.headers_mut().insert(*name, value.parse().unwrap());
+        }
+        tokio_tungstenite::connect_async(request)
+    };
+    // Any web page may open a WebSocket to localhost: a foreign origin is refused...
+    let evil = attempt(&[("origin", "http://evil.example".into())]).await;
+    assert!(evil.is_err(), "a foreign origin connected");
+    // ... and a foreign name resolving to 127.0.0.1 (DNS rebinding) too.
+    let port = server.addr().port();
+    let rebound = attempt(&[("host", format!("evil.example:{port}"))]).await;
+    assert!(rebound.is_err(), "a foreign host name connected");
+    // The page's own origin, and a tool that sends none, are let in.
+    let own = attempt(&[("origin", format!("http://127.0.0.1:{port}"))]).await;
+    assert!(own.is_ok(), "{:?}", own.err());
+    let localhost = attempt(&[
+        ("host", format!("localhost:{port}")),
+        ("origin", format!("http://localhost:{port}")),
+    ])
+    .await;
+    assert!(localhost.is_ok(), "{:?}", localhost.err());
+    let mut stream = std::net::TcpStream::connect(server.addr()).unwrap();
+    write!(
+        stream,
+        "GET /api/state HTTP/1.1\r\nHost: evil.example\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
+    let mut response = String::new();
+    stream.read_to_string(&mut response).unwrap();
+    assert!(response.starts_with("HTTP/1.1 403"), "{response}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_named_node_becomes_the_preview_and_slice_output() {
+    let (_dir, path) = marble_copy();
+    let server = serve(&path);
+    let mut tab = Tab::open(&server).await;
+    tab.until("ready", |t| t.settled()).await;
+    let colour = tab.get("preview")["png"].clone();
+    // `fractal` is a node, not an output of the file.
+    tab.send(json!({"type": "view", "output": "fractal"})).await;
+    tab.until("the node previewed", |t| {
+        t.settled()
+            && t.get("preview")["output"] == "fractal"
+            && t.get("slice")["output"] == "fractal"
+    })
+    .await;
+    assert_ne!(tab.get("preview")["png"], colour);
+    let slice = tab.get("slice");
+    let nodes = tab.get("nodes");
+    let thumb = nodes["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|n| n["name"] == "fractal")
+        .unwrap()
+        .clone();
+    // The slice's printed range and the thumbnail's come from the same node on the same window.
+    assert_eq!(slice["value_type"], "scalar");
+    let (lo, hi) = (
+        slice["min"].as_f64().unwrap(),
+        slice["max"].as_f64().unwrap(),
+    );
+    assert!(lo < hi && lo > -2.0 && hi < 2.0, "{lo} {hi}");
+    assert!((thumb["min"].as_f64().unwrap() - lo).abs() < 0.2, "{thumb}");
+    tab.send(json!({"type": "view", "output": null})).await;
+    tab.until("back to the default", |t| {
+        t.settled() && t.get("preview")["output"] == "colour"
+    })
+    .await;
+}

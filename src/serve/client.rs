@@ -6,6 +6,7 @@ use super::protocol::{self, Request};
 use super::{lock, session, writeback, Mode, Shared};
 use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
 use axum::extract::State;
+use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{Html, IntoResponse, Json};
 use axum::routing::get;
 use axum::Router;
@@ -55,8 +56,47 @@ pub(super) fn spawn_http(
         .map_err(|e| format!("cannot start the server thread: {e}"))
 }
 
+/// The host name of a `Host` header's value (`[::1]:7878` → `[::1]`, `localhost:7878` →
+/// `localhost`).
+fn host_name(host: &str) -> &str {
+    match host.strip_prefix('[') {
+        Some(rest) => rest
+            .split_once(']')
+            .map_or(host, |(name, _)| &host[..name.len() + 2]),
+        None => host.split(':').next().unwrap_or(host),
+    }
+}
+
+/// Whether a request may read the state or open the WebSocket. A browser lets any web page
+/// open a WebSocket to localhost, so a foreign `Origin` is refused (a tool without one, an
+/// editor plug-in, is not a browser page and is let in); on a loopback address the `Host` must
+/// name this machine, which defeats DNS rebinding (a foreign name resolving to 127.0.0.1).
+fn refused(headers: &HeaderMap, loopback: bool) -> Option<String> {
+    let host = headers
+        .get(header::HOST)
+        .and_then(|h| h.to_str().ok())
+        .unwrap_or("");
+    if loopback && !matches!(host_name(host), "localhost" | "127.0.0.1" | "[::1]") {
+        return Some(format!("host `{host}` is not this machine"));
+    }
+    let origin = headers.get(header::ORIGIN)?;
+    let origin = origin.to_str().unwrap_or("");
+    let origin_host = origin
+        .strip_prefix("http://")
+        .or_else(|| origin.strip_prefix("https://"))
+        .unwrap_or("");
+    (origin_host != host).then(|| format!("origin `{origin}` is not this page ({host})"))
+}
+
+fn forbidden(message: String) -> axum::response::Response {
+    (StatusCode::FORBIDDEN, message).into_response()
+}
+
 /// `GET /api/state`: the newest message of each type.
-async fn state(State(shared): State<Arc<Shared>>) -> impl IntoResponse {
+async fn state(State(shared): State<Arc<Shared>>, headers: HeaderMap) -> axum::response::Response {
+    if let Some(message) = refused(&headers, shared.loopback) {
+        return forbidden(message);
+    }
     let published = shared.state.borrow().clone();
     let mut out = serde_json::Map::new();
     for kind in [
@@ -69,13 +109,21 @@ async fn state(State(shared): State<Arc<Shared>>) -> impl IntoResponse {
             .unwrap_or(Value::Null);
         out.insert(kind.to_string(), value);
     }
-    Json(Value::Object(out))
+    Json(Value::Object(out)).into_response()
 }
 
-async fn upgrade(ws: WebSocketUpgrade, State(shared): State<Arc<Shared>>) -> impl IntoResponse {
+async fn upgrade(
+    ws: WebSocketUpgrade,
+    State(shared): State<Arc<Shared>>,
+    headers: HeaderMap,
+) -> axum::response::Response {
+    if let Some(message) = refused(&headers, shared.loopback) {
+        return forbidden(message);
+    }
     ws.max_message_size(MAX_REQUEST_BYTES)
         .max_frame_size(MAX_REQUEST_BYTES)
         .on_upgrade(move |socket| connection(socket, shared))
+        .into_response()
 }
 
 type Sink = futures_util::stream::SplitSink<WebSocket, Message>;
@@ -289,6 +337,11 @@ fn write_back(
         .collect();
     let shared = shared.clone();
     reply_with(reply, move || {
+        let file = loaded.path.display().to_string();
+        if values.is_empty() {
+            // Nothing differs from the file: it is left alone (no save, no reload).
+            return json!({"type": "written", "file": file, "params": {}}).to_string();
+        }
         if let Err(e) = writeback::write_params(&loaded.path, &values) {
             return error("write", e);
         }
@@ -302,7 +355,6 @@ fn write_back(
         shared.change(true);
         let params: serde_json::Map<String, Value> =
             values.iter().map(|(k, v)| (k.clone(), json!(v))).collect();
-        json!({"type": "written", "file": loaded.path.display().to_string(), "params": params})
-            .to_string()
+        json!({"type": "written", "file": file, "params": params}).to_string()
     });
 }

@@ -106,6 +106,8 @@ pub(crate) enum Kick {
 /// State shared by the worker, the watcher callback and every connection.
 pub(crate) struct Shared {
     pub mode: Mode,
+    /// Listening on a loopback address: requests must name this machine as their host.
+    pub loopback: bool,
     pub input: PathBuf,
     /// Folder mode: the graph files listed (relative to the folder).
     pub graphs: Vec<String>,
@@ -274,6 +276,7 @@ pub fn start(options: ServeOptions) -> Result<Server, ServeError> {
     };
     let shared = Arc::new(Shared {
         mode,
+        loopback: options.host.is_loopback(),
         input: options.input.clone(),
         graphs,
         settings: Mutex::new(settings),

@@ -22,6 +22,10 @@ use std::time::{Duration, Instant};
 /// bounds the memory of one thumbnail pass whatever the graph's size.
 pub const MAX_PROBED_NODES: usize = 256;
 
+/// Most values (f32) one thumbnail pass holds: nodes × channels × side²; a larger request is
+/// served at a smaller side (64 MiB, whatever the graph and the requested size).
+const MAX_THUMB_VALUES: usize = 1 << 24;
+
 /// Points evaluated per block of a slice or thumbnail pass (cancellation is checked between
 /// blocks).
 const BLOCK: usize = 4096;
@@ -391,7 +395,8 @@ fn clock_overhead() -> Duration {
     samples[samples.len() / 2]
 }
 
-/// Thumbnails (n×n over the slice window) of the first [`MAX_PROBED_NODES`] named nodes, each
+/// Thumbnails (n×n over the slice window, smaller when [`MAX_THUMB_VALUES`] says so) of the
+/// first [`MAX_PROBED_NODES`] named nodes, each
 /// with the time per point of its own instructions, measured by
 /// [`Tape::eval_batch_timed`] over the thumbnail's points (passes repeated until 20 ms or 5
 /// passes; each instruction's fastest pass counts). `None` when cancelled.
@@ -425,9 +430,11 @@ pub fn thumbnails(
         },
     )
     .ok()?;
+    let channels = tape.channels();
+    let fits = ((MAX_THUMB_VALUES / channels.max(1)) as f64).sqrt() as u32;
+    let n = n.min(fits.max(8));
     let [x, y, z] = slice_points(w, n);
     let count = x.len();
-    let channels = tape.channels();
     let mut values = vec![0.0f32; channels * count];
     let mut ws = Workspace::<f32>::new();
     let block = (BLOCK / channels.max(1)).clamp(256, BLOCK);

@@ -279,11 +279,13 @@ impl Worker {
                 })
             })
             .collect();
-        let points = u64::from(settings.thumb_size).pow(2);
+        // The side served (smaller than asked when a large graph would not fit the bound).
+        let side = thumbs.first().map_or(settings.thumb_size, |t| t.plane.side);
+        let points = u64::from(side).pow(2);
         self.shared.publish(
             "nodes",
             json!({
-                "type": "nodes", "generation": generation, "size": settings.thumb_size,
+                "type": "nodes", "generation": generation, "size": side,
                 "points": points, "nodes": nodes,
             }),
         );
