@@ -3,41 +3,19 @@
 //! renamed, slow graphs, rapid saves, hostile and vanishing clients, huge sizes).
 
 use base64::Engine as _;
+use common::{marble_copy, save_by_rename as save, serve, MARBLE};
 use futures_util::{SinkExt, StreamExt};
 use serde_json::{json, Value};
 use std::collections::HashMap;
 use std::io::{Read, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::{Duration, Instant};
-use texgraph::serve::{start, ServeOptions, Server};
+use texgraph::serve::Server;
+
+mod common;
 use tokio_tungstenite::tungstenite::Message;
 
-const MARBLE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/graphs/seed003_marble.ron");
 const WAIT: Duration = Duration::from_secs(30);
-
-fn serve(input: &Path) -> Server {
-    start(ServeOptions {
-        input: input.to_path_buf(),
-        host: "127.0.0.1".parse().unwrap(),
-        port: 0,
-    })
-    .expect("the server starts")
-}
-
-/// A copy of the seed 003 marble in a fresh folder.
-fn marble_copy() -> (tempfile::TempDir, PathBuf) {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("marble.ron");
-    std::fs::copy(MARBLE, &path).unwrap();
-    (dir, path)
-}
-
-/// Saves `text` the way many editors do: a new file renamed over the old one.
-fn save(path: &Path, text: &str) {
-    let temp = path.with_extension("ron.tmp~");
-    std::fs::write(&temp, text).unwrap();
-    std::fs::rename(&temp, path).unwrap();
-}
 
 type Socket =
     tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;

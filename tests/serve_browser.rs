@@ -8,18 +8,20 @@
 //! `chromium-driver`) every test says SKIPPED and passes, unless `TEXGRAPH_REQUIRE_BROWSER=1`
 //! (CI sets it once it has installed them): then a missing browser fails the test.
 
+use common::{marble_copy, save_by_rename, serve, MARBLE};
 use fantoccini::{Client, ClientBuilder};
 use serde_json::{json, Value};
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
-use texgraph::serve::{start, ServeOptions, Server};
+use texgraph::serve::Server;
+
+mod common;
 
 const CHROMIUM: &str = "/usr/bin/chromium";
 const CHROMEDRIVER: &str = "/usr/bin/chromedriver";
-const MARBLE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/graphs/seed003_marble.ron");
 /// The marble's named nodes, in file order.
 const MARBLE_NODES: [&str; 5] = ["v", "fractal", "phase", "vein", "colour"];
 /// How long a wait on the page may take (a debug build renders the full preview).
@@ -344,30 +346,6 @@ fn drawn(s: &Value, nodes: &[&str]) -> bool {
 /// A new full preview: not the remembered one.
 fn preview_changed(s: &Value) -> bool {
     image_loaded(&s["preview"], PREVIEW) && s["preview"]["same"] == false
-}
-
-fn serve(input: &Path) -> Server {
-    start(ServeOptions {
-        input: input.to_path_buf(),
-        host: "127.0.0.1".parse().unwrap(),
-        port: 0,
-    })
-    .expect("the server starts")
-}
-
-/// A copy of the seed 003 marble in a fresh folder.
-fn marble_copy() -> (tempfile::TempDir, PathBuf) {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("marble.ron");
-    std::fs::copy(MARBLE, &path).unwrap();
-    (dir, path)
-}
-
-/// Saves `text` the way many editors do: a new file renamed over the old one.
-fn save_by_rename(path: &Path, text: &str) {
-    let temp = path.with_extension("ron.tmp~");
-    std::fs::write(&temp, text).unwrap();
-    std::fs::rename(&temp, path).unwrap();
 }
 
 /// The server's newest state (`/api/state`).

@@ -327,6 +327,55 @@ pub fn chosen_output(graph: &CheckedGraph, settings: &Settings) -> Option<String
         .map(|o| o.name.clone())
 }
 
+/// The loaded graph compiled for `outputs`, each an output or a named node.
+fn probe_tape(loaded: &Loaded, outputs: Vec<String>) -> Option<Tape> {
+    let options = CompileOptions {
+        outputs,
+        spacing: None,
+    };
+    compile(&loaded.graph.with_node_probes(), &options).ok()
+}
+
+/// Runs `run` over the points in blocks of `block` (checking `cancel` before each), copying
+/// each block's planar result into `values` (planar over all points) when given; `None` when
+/// cancelled.
+fn in_blocks(
+    tape: &Tape,
+    points: &[Vec<f64>; 3],
+    block: usize,
+    cancel: &Cancel,
+    mut values: Option<&mut [f32]>,
+    mut run: impl FnMut([&[f64]; 3], &mut [f32]),
+) -> Option<()> {
+    let channels = tape.channels();
+    let count = points[0].len();
+    let mut out = vec![0.0f32; channels * block];
+    let mut start = 0;
+    while start < count {
+        if cancel.is_cancelled() {
+            return None;
+        }
+        let end = (start + block).min(count);
+        let len = end - start;
+        let out = &mut out[..channels * len];
+        run(
+            [
+                &points[0][start..end],
+                &points[1][start..end],
+                &points[2][start..end],
+            ],
+            out,
+        );
+        if let Some(values) = values.as_deref_mut() {
+            for c in 0..channels {
+                values[c * count + start..c * count + end].copy_from_slice(&out[c * len..][..len]);
+            }
+        }
+        start = end;
+    }
+    Some(())
+}
+
 /// Evaluates output or node `name` over an n×n image of the slice window, in blocks; `None`
 /// when cancelled.
 pub fn slice(
@@ -336,36 +385,19 @@ pub fn slice(
     n: u32,
     cancel: &Cancel,
 ) -> Option<Plane> {
-    let probes = loaded.graph.with_node_probes();
-    let tape = compile(
-        &probes,
-        &CompileOptions {
-            outputs: vec![name.to_string()],
-            spacing: None,
-        },
-    )
-    .ok()?;
+    let tape = probe_tape(loaded, vec![name.to_string()])?;
     let ty = tape.outputs()[0].ty;
-    let [x, y, z] = slice_points(w, n);
-    let count = x.len();
-    let channels = ty.channels();
-    let mut values = vec![0.0f32; channels * count];
+    let points = slice_points(w, n);
+    let mut values = vec![0.0f32; tape.channels() * points[0].len()];
     let mut ws = Workspace::<f32>::new();
-    let mut out = vec![0.0f32; channels * BLOCK];
-    let mut start = 0;
-    while start < count {
-        if cancel.is_cancelled() {
-            return None;
-        }
-        let end = (start + BLOCK).min(count);
-        let len = end - start;
-        let out = &mut out[..channels * len];
-        tape.eval_batch(&mut ws, &x[start..end], &y[start..end], &z[start..end], out);
-        for c in 0..channels {
-            values[c * count + start..c * count + end].copy_from_slice(&out[c * len..][..len]);
-        }
-        start = end;
-    }
+    in_blocks(
+        &tape,
+        &points,
+        BLOCK,
+        cancel,
+        Some(&mut values),
+        |[x, y, z], out| tape.eval_batch(&mut ws, x, y, z, out),
+    )?;
     Some(Plane {
         ty,
         side: n,
@@ -421,24 +453,15 @@ pub fn thumbnails(
     if names.is_empty() {
         return Some(Vec::new());
     }
-    let probes = graph.with_node_probes();
-    let tape = compile(
-        &probes,
-        &CompileOptions {
-            outputs: names.clone(),
-            spacing: None,
-        },
-    )
-    .ok()?;
+    let tape = probe_tape(loaded, names)?;
     let channels = tape.channels();
     let fits = ((MAX_THUMB_VALUES / channels.max(1)) as f64).sqrt() as u32;
     let n = n.min(fits.max(8));
-    let [x, y, z] = slice_points(w, n);
-    let count = x.len();
+    let points = slice_points(w, n);
+    let count = points[0].len();
     let mut values = vec![0.0f32; channels * count];
     let mut ws = Workspace::<f32>::new();
     let block = (BLOCK / channels.max(1)).clamp(256, BLOCK);
-    let mut out = vec![0.0f32; channels * block];
     let overhead = clock_overhead();
     let instrs = tape.instructions().len();
     let mut best = vec![Duration::MAX; instrs];
@@ -446,25 +469,11 @@ pub fn thumbnails(
     for pass in 0..5 {
         let mut times = vec![Duration::ZERO; instrs];
         let mut calls = 0u32;
-        let mut start = 0;
-        while start < count {
-            if cancel.is_cancelled() {
-                return None;
-            }
-            let end = (start + block).min(count);
-            let len = end - start;
-            let out = &mut out[..channels * len];
-            let points = [&x[start..end], &y[start..end], &z[start..end]];
-            tape.eval_batch_timed(&mut ws, points, out, &mut times);
-            calls += len.div_ceil(crate::LANES) as u32;
-            if pass == 0 {
-                for c in 0..channels {
-                    values[c * count + start..c * count + end]
-                        .copy_from_slice(&out[c * len..][..len]);
-                }
-            }
-            start = end;
-        }
+        let keep = (pass == 0).then_some(values.as_mut_slice());
+        in_blocks(&tape, &points, block, cancel, keep, |p, out| {
+            tape.eval_batch_timed(&mut ws, p, out, &mut times);
+            calls += p[0].len().div_ceil(crate::LANES) as u32;
+        })?;
         for (b, t) in best.iter_mut().zip(&times) {
             *b = (*b).min(t.saturating_sub(overhead * calls));
         }

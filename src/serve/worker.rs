@@ -176,7 +176,7 @@ impl Worker {
                 Some(t) => t.graph.clone(),
                 None => {
                     self.watch(files);
-                    return self.scene_only(generation, since, scene, &settings, cancel);
+                    return self.scene_only(generation, since, scene, cancel);
                 }
             },
             (None, None) => {
@@ -241,16 +241,7 @@ impl Worker {
         cancel: &Cancel,
     ) -> Result<(), Stop> {
         let settings = lock(&self.shared.settings).clone();
-        self.preview(
-            generation,
-            since,
-            scene,
-            super::protocol::DRAFT_SIZE.min(settings.preview_size),
-            1,
-            "draft",
-            output,
-            cancel,
-        )?;
+        self.draft(generation, since, scene, output, cancel)?;
         self.status(generation, true, "slice", since, Some("save_to_draft_ms"));
         if let Some(name) = output {
             let w = &settings.slice;
@@ -290,17 +281,7 @@ impl Worker {
             }),
         );
         self.status(generation, true, "rendering", since, None);
-        let samples = scene.samples().unwrap_or(crate::render::DEFAULT_SAMPLES);
-        self.preview(
-            generation,
-            since,
-            scene,
-            settings.preview_size,
-            samples,
-            "full",
-            output,
-            cancel,
-        )?;
+        self.full(generation, since, scene, output, cancel)?;
         self.status(generation, true, "ready", since, Some("save_to_full_ms"));
         Ok(())
     }
@@ -311,28 +292,44 @@ impl Worker {
         generation: u64,
         since: Instant,
         scene: &crate::render::Scene,
-        settings: &super::protocol::Settings,
         cancel: &Cancel,
     ) -> Result<(), Stop> {
-        self.preview(
-            generation,
-            since,
-            scene,
-            super::protocol::DRAFT_SIZE,
-            1,
-            "draft",
-            None,
-            cancel,
-        )?;
+        self.draft(generation, since, scene, None, cancel)?;
+        self.full(generation, since, scene, None, cancel)
+    }
+
+    /// The first pixels: a small preview at one sample per pixel.
+    fn draft(
+        &mut self,
+        generation: u64,
+        since: Instant,
+        scene: &crate::render::Scene,
+        output: Option<&str>,
+        cancel: &Cancel,
+    ) -> Result<(), Stop> {
+        let size = lock(&self.shared.settings).preview_size;
+        let image = (super::protocol::DRAFT_SIZE.min(size), 1);
+        self.preview(generation, since, scene, image, "draft", output, cancel)
+    }
+
+    /// The full preview: the settings' size at the scene's samples per pixel.
+    fn full(
+        &mut self,
+        generation: u64,
+        since: Instant,
+        scene: &crate::render::Scene,
+        output: Option<&str>,
+        cancel: &Cancel,
+    ) -> Result<(), Stop> {
+        let size = lock(&self.shared.settings).preview_size;
         let samples = scene.samples().unwrap_or(crate::render::DEFAULT_SAMPLES);
         self.preview(
             generation,
             since,
             scene,
-            settings.preview_size,
-            samples,
+            (size, samples),
             "full",
-            None,
+            output,
             cancel,
         )
     }
@@ -343,8 +340,7 @@ impl Worker {
         generation: u64,
         since: Instant,
         scene: &crate::render::Scene,
-        size: u32,
-        samples: u32,
+        (size, samples): (u32, u32),
         stage: &str,
         output: Option<&str>,
         cancel: &Cancel,

@@ -182,3 +182,31 @@ pub fn expected_volume(tape: &Tape, grid: &texgraph::bake::Grid) -> Vec<Vec<f32>
     }
     values
 }
+
+/// `texgraph serve` tests: a server on a free localhost port.
+pub fn serve(input: &std::path::Path) -> texgraph::serve::Server {
+    texgraph::serve::start(texgraph::serve::ServeOptions {
+        input: input.to_path_buf(),
+        host: "127.0.0.1".parse().unwrap(),
+        port: 0,
+    })
+    .expect("the server starts")
+}
+
+/// The seed 003 marble.
+pub const MARBLE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/graphs/seed003_marble.ron");
+
+/// A copy of the seed 003 marble in a fresh folder.
+pub fn marble_copy() -> (tempfile::TempDir, std::path::PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("marble.ron");
+    std::fs::copy(MARBLE, &path).unwrap();
+    (dir, path)
+}
+
+/// Saves `text` the way many editors do: a new file renamed over the old one.
+pub fn save_by_rename(path: &std::path::Path, text: &str) {
+    let temp = path.with_extension("ron.tmp~");
+    std::fs::write(&temp, text).unwrap();
+    std::fs::rename(&temp, path).unwrap();
+}
