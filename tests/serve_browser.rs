@@ -2,7 +2,8 @@
 //! (chromedriver, the `fantoccini` client) against a server started in-process. The page
 //! draws its preview, slice and node thumbnails; a slider re-renders the preview; a broken
 //! save shows its diagnostic at its line and a fix clears it; a save of an imported file
-//! re-renders the importing graph (docs/serve.md).
+//! re-renders the importing graph; hovering the slice shows every output there, the wheel zooms
+//! the slice window about the cursor and clicking a node makes it the output (docs/serve.md).
 //!
 //! Without `/usr/bin/chromium` and `/usr/bin/chromedriver` (Debian packages `chromium`,
 //! `chromium-driver`) every test says SKIPPED and passes, unless `TEXGRAPH_REQUIRE_BROWSER=1`
@@ -624,6 +625,121 @@ Graph(
         .await;
     let after = browser.preview_src().await;
     assert_ne!(before, after, "the preview changed");
+    browser.close().await;
+    server.stop();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn hovering_zooming_and_clicking_a_node_drive_the_server() {
+    if !browser_installed("hovering_zooming_and_clicking_a_node_drive_the_server") {
+        return;
+    }
+    let (_dir, path) = marble_copy();
+    let server = serve(&path);
+    let browser = Browser::open(&server).await;
+    browser
+        .wait_for("the first full preview", |s| drawn(s, &MARBLE_NODES))
+        .await;
+    // The mouse over the slice's centre: the values of every output there.
+    let hover = r#"
+        const img = document.querySelector('#slice'), r = img.getBoundingClientRect();
+        const at = { clientX: r.left + r.width / 2, clientY: r.top + r.height / 2, bubbles: true };
+        document.querySelector('#slice-view').dispatchEvent(new MouseEvent('mousemove', at));
+        return true;"#;
+    browser.run(hover, vec![]).await;
+    let deadline = Instant::now() + WAIT;
+    let text = loop {
+        let text = browser
+            .run(
+                "return document.querySelector('#hover').textContent;",
+                vec![],
+            )
+            .await;
+        let text = text.as_str().unwrap_or("").to_string();
+        if text.contains("vein:") || Instant::now() > deadline {
+            break text;
+        }
+        tokio::time::sleep(POLL).await;
+    };
+    // The point under the cursor: the slice's centre (to a pixel) at its depth, z = 0.5.
+    let point: Vec<f64> = text
+        .lines()
+        .next()
+        .unwrap_or("")
+        .trim_matches(|c| c == '(' || c == ')')
+        .split(", ")
+        .filter_map(|v| v.parse().ok())
+        .collect();
+    assert_eq!(point.len(), 3, "{text}");
+    assert!(
+        (point[0] - 0.5).abs() < 0.01 && (point[1] - 0.5).abs() < 0.01,
+        "{text}"
+    );
+    assert_eq!(point[2], 0.5, "{text}");
+    assert!(text.contains("colour:") && text.contains("vein:"), "{text}");
+    // Three wheel steps about the centre narrow the window by 1.1^3, kept centred.
+    let wheel = r#"
+        const img = document.querySelector('#slice'), r = img.getBoundingClientRect();
+        for (let i = 0; i < 3; i++) {
+            document.querySelector('#slice-view').dispatchEvent(new WheelEvent('wheel', {
+                deltaY: -100, clientX: r.left + r.width / 2, clientY: r.top + r.height / 2,
+                bubbles: true, cancelable: true }));
+        }
+        return true;"#;
+    browser.run(wheel, vec![]).await;
+    let deadline = Instant::now() + WAIT;
+    loop {
+        let state = api_state(&server);
+        let width = state["settings"]["slice"]["width"].as_f64().unwrap();
+        // Throttled: the first step goes at once, the last one 30 ms later.
+        if (width - 1.1f64.powi(-3)).abs() < 1e-9 {
+            let center = &state["settings"]["slice"]["center"];
+            assert!((center[0].as_f64().unwrap() - 0.5).abs() < 0.01, "{center}");
+            assert!((center[1].as_f64().unwrap() - 0.5).abs() < 0.01, "{center}");
+            break;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "the wheel did not zoom: {}",
+            state["settings"]
+        );
+        tokio::time::sleep(POLL).await;
+    }
+    // Clicking a node makes it the preview's output.
+    browser
+        .run(
+            "document.querySelector('.node[data-name=\"fractal\"]').click(); return true;",
+            vec![],
+        )
+        .await;
+    let deadline = Instant::now() + WAIT;
+    loop {
+        let state = api_state(&server);
+        if state["preview"]["output"] == "fractal" && state["preview"]["stage"] == "full" {
+            break;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "the click did not select the node: {}",
+            state["settings"]
+        );
+        tokio::time::sleep(POLL).await;
+    }
+    // ... and the page marks it.
+    let deadline = Instant::now() + WAIT;
+    let selected = loop {
+        let selected = browser
+            .run(
+                "return [...document.querySelectorAll('.node.selected')].map(n => n.dataset.name);",
+                vec![],
+            )
+            .await;
+        if selected == json!(["fractal"]) || Instant::now() > deadline {
+            break selected;
+        }
+        tokio::time::sleep(POLL).await;
+    };
+    assert_eq!(selected, json!(["fractal"]));
     browser.close().await;
     server.stop();
 }
