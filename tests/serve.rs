@@ -778,3 +778,39 @@ async fn a_named_node_becomes_the_preview_and_slice_output() {
     })
     .await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_graph_of_a_thousand_nodes_is_listed_whole_and_thumbnailed_in_part() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("chain.ron");
+    let n = 1000;
+    let mut nodes = String::from("\"n0\": Noise(input: Position, basis: Perlin),\n");
+    for i in 1..n {
+        nodes += &format!("\"n{i}\": Add(\"n{}\", 0.001),\n", i - 1);
+    }
+    std::fs::write(
+        &path,
+        format!(
+            "Graph(nodes: {{\n{nodes}}}, outputs: {{ \"out\": \"n{}\" }})",
+            n - 1
+        ),
+    )
+    .unwrap();
+    let server = serve(&path);
+    let mut tab = Tab::open(&server).await;
+    tab.until("ready", |t| t.settled()).await;
+    let graph = tab.get("graph");
+    assert_eq!(graph["nodes"].as_array().unwrap().len(), n);
+    assert_eq!(
+        graph["nodes"][n - 1]["instructions"]
+            .as_array()
+            .unwrap()
+            .len(),
+        1
+    );
+    let thumbs = tab.get("nodes");
+    assert_eq!(
+        thumbs["nodes"].as_array().unwrap().len(),
+        texgraph::serve::session::MAX_PROBED_NODES
+    );
+}

@@ -14,6 +14,7 @@ use crate::render::{self, Cancel, PreviewDefaults, RenderError, RenderOptions};
 use crate::tape::Tape;
 use crate::Workspace;
 use base64::Engine as _;
+use rustc_hash::FxHashMap as HashMap;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -24,7 +25,7 @@ pub const MAX_PROBED_NODES: usize = 256;
 
 /// Most values (f32) one thumbnail pass holds: nodes × channels × side²; a larger request is
 /// served at a smaller side (64 MiB, whatever the graph and the requested size).
-const MAX_THUMB_VALUES: usize = 1 << 24;
+pub const MAX_THUMB_VALUES: usize = 1 << 24;
 
 /// Points evaluated per block of a slice or thumbnail pass (cancellation is checked between
 /// blocks).
@@ -183,25 +184,25 @@ pub fn graph_parts(loaded: &Loaded) -> Value {
         .iter()
         .map(|o| json!({"name": o.name, "type": type_name(graph.nodes()[o.node as usize].ty)}))
         .collect();
+    // Each node's instructions and kind, grouped once (a graph may have thousands of nodes).
     let probes = graph.with_node_probes();
     let tape = compile(&probes, &CompileOptions::default()).ok();
+    let mut lines: HashMap<&str, Vec<String>> = HashMap::default();
+    for (origin, line) in tape.iter().flat_map(|t| t.instruction_lines()) {
+        lines.entry(origin).or_default().push(line);
+    }
+    let kinds: HashMap<&str, &str> = loaded
+        .kinds
+        .iter()
+        .map(|(n, k)| (n.as_str(), k.as_str()))
+        .collect();
     let nodes: Vec<Value> = graph
         .named_nodes()
         .map(|(name, id)| {
-            let kind = loaded
-                .kinds
-                .iter()
-                .find(|(n, _)| n == name)
-                .map_or("", |(_, k)| k.as_str());
-            let instructions: Vec<String> = tape
-                .iter()
-                .flat_map(|t| t.instruction_lines())
-                .filter(|(origin, _)| *origin == name)
-                .map(|(_, line)| line)
-                .collect();
             json!({
-                "name": name, "kind": kind, "type": type_name(graph.nodes()[id as usize].ty),
-                "instructions": instructions,
+                "name": name, "kind": kinds.get(name).copied().unwrap_or(""),
+                "type": type_name(graph.nodes()[id as usize].ty),
+                "instructions": lines.get(name).map_or(&[][..], Vec::as_slice),
             })
         })
         .collect();
