@@ -666,6 +666,15 @@ async fn the_report_answers_the_asking_tab_only() {
     asking.until("ready", |t| t.ready()).await;
     other.until("ready", |t| t.ready()).await;
     asking.send(json!({"type": "report"})).await;
+    // A second report while the first runs is refused (each takes every core for seconds).
+    other.send(json!({"type": "report"})).await;
+    other
+        .until("the refusal", |t| t.reply("error").is_some())
+        .await;
+    assert!(other.reply("error").unwrap()["message"]
+        .as_str()
+        .unwrap()
+        .contains("already running"));
     asking
         .until("the report", |t| t.reply("report").is_some())
         .await;

@@ -290,9 +290,27 @@ fn request(shared: &Arc<Shared>, text: &str, reply: &tokio::sync::mpsc::Sender<S
                 let _ = reply.try_send(error("report", "no graph has checked yet"));
                 return;
             };
-            reply_with(reply, move || match session::report(&loaded) {
-                Ok(message) => message.to_string(),
-                Err(e) => error("report", e),
+            // One report at a time for the whole server: each takes seconds of every core.
+            if shared
+                .reporting
+                .swap(true, std::sync::atomic::Ordering::AcqRel)
+            {
+                let _ = reply.try_send(error(
+                    "report",
+                    "a report is already running; try again when it is done",
+                ));
+                return;
+            }
+            let shared = shared.clone();
+            reply_with(reply, move || {
+                let answer = match session::report(&loaded) {
+                    Ok(message) => message.to_string(),
+                    Err(e) => error("report", e),
+                };
+                shared
+                    .reporting
+                    .store(false, std::sync::atomic::Ordering::Release);
+                answer
             });
         }
         Request::Write {} => write_back(shared, loaded, reply),

@@ -116,6 +116,8 @@ pub(crate) struct Shared {
     pub kicks: std::sync::mpsc::Sender<Kick>,
     pub state: tokio::sync::watch::Sender<Published>,
     pub loaded: Mutex<Option<Arc<session::Loaded>>>,
+    /// A `report` request is running (one at a time).
+    pub reporting: std::sync::atomic::AtomicBool,
     pub counters: Mutex<Counters>,
 }
 
@@ -284,6 +286,7 @@ pub fn start(options: ServeOptions) -> Result<Server, ServeError> {
         kicks,
         state: tokio::sync::watch::Sender::new(Published::default()),
         loaded: Mutex::new(None),
+        reporting: std::sync::atomic::AtomicBool::new(false),
         counters: Mutex::new(Counters::default()),
     });
     shared.publish(

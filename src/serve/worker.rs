@@ -112,11 +112,8 @@ impl Worker {
     }
 
     /// Watches the folders of `files` (not watched yet) and makes them the relevant set.
-    fn watch(&mut self, mut files: Vec<PathBuf>) {
+    fn watch(&mut self, files: Vec<PathBuf>) {
         use notify::{RecursiveMode, Watcher};
-        if self.shared.mode == Mode::Folder {
-            files.push(self.shared.input.join(".texgraph-folder"));
-        }
         let list = crate::render::watch_list(&files);
         for (dir, _) in &list {
             if !self.watched_dirs.contains(dir)
