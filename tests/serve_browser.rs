@@ -324,6 +324,21 @@ impl Browser {
     }
 }
 
+/// Polls `probe` every [`POLL`] until it answers `Some` (returned), or panics after [`WAIT`].
+async fn poll<T>(what: &str, mut probe: impl AsyncFnMut() -> Option<T>) -> T {
+    let deadline = Instant::now() + WAIT;
+    loop {
+        if let Some(found) = probe().await {
+            return found;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "timed out after {WAIT:?} waiting for {what}"
+        );
+        tokio::time::sleep(POLL).await;
+    }
+}
+
 fn image_loaded(image: &Value, size: u64) -> bool {
     image["complete"] == true && image["png"] == true && image["w"] == size && image["h"] == size
 }
@@ -647,8 +662,7 @@ async fn hovering_zooming_and_clicking_a_node_drive_the_server() {
         document.querySelector('#slice-view').dispatchEvent(new MouseEvent('mousemove', at));
         return true;"#;
     browser.run(hover, vec![]).await;
-    let deadline = Instant::now() + WAIT;
-    let text = loop {
+    let text = poll("the hover values", async || {
         let text = browser
             .run(
                 "return document.querySelector('#hover').textContent;",
@@ -656,11 +670,9 @@ async fn hovering_zooming_and_clicking_a_node_drive_the_server() {
             )
             .await;
         let text = text.as_str().unwrap_or("").to_string();
-        if text.contains("vein:") || Instant::now() > deadline {
-            break text;
-        }
-        tokio::time::sleep(POLL).await;
-    };
+        text.contains("vein:").then_some(text)
+    })
+    .await;
     // The point under the cursor: the slice's centre (to a pixel) at its depth, z = 0.5.
     let point: Vec<f64> = text
         .lines()
@@ -687,59 +699,38 @@ async fn hovering_zooming_and_clicking_a_node_drive_the_server() {
         }
         return true;"#;
     browser.run(wheel, vec![]).await;
-    let deadline = Instant::now() + WAIT;
-    loop {
-        let state = api_state(&server);
-        let width = state["settings"]["slice"]["width"].as_f64().unwrap();
-        // Throttled: the first step goes at once, the last one 30 ms later.
-        if (width - 1.1f64.powi(-3)).abs() < 1e-9 {
-            let center = &state["settings"]["slice"]["center"];
-            assert!((center[0].as_f64().unwrap() - 0.5).abs() < 0.01, "{center}");
-            assert!((center[1].as_f64().unwrap() - 0.5).abs() < 0.01, "{center}");
-            break;
-        }
-        assert!(
-            Instant::now() < deadline,
-            "the wheel did not zoom: {}",
-            state["settings"]
-        );
-        tokio::time::sleep(POLL).await;
-    }
-    // Clicking a node makes it the preview's output.
+    // Throttled: the first step goes at once, the last one 30 ms later.
+    let window = poll("the wheel's zoom", async || {
+        let window = api_state(&server)["settings"]["slice"].clone();
+        ((window["width"].as_f64().unwrap() - 1.1f64.powi(-3)).abs() < 1e-9).then_some(window)
+    })
+    .await;
+    let center = &window["center"];
+    assert!((center[0].as_f64().unwrap() - 0.5).abs() < 0.01, "{center}");
+    assert!((center[1].as_f64().unwrap() - 0.5).abs() < 0.01, "{center}");
+    // Clicking a node makes it the preview's output ...
     browser
         .run(
             "document.querySelector('.node[data-name=\"fractal\"]').click(); return true;",
             vec![],
         )
         .await;
-    let deadline = Instant::now() + WAIT;
-    loop {
-        let state = api_state(&server);
-        if state["preview"]["output"] == "fractal" && state["preview"]["stage"] == "full" {
-            break;
-        }
-        assert!(
-            Instant::now() < deadline,
-            "the click did not select the node: {}",
-            state["settings"]
-        );
-        tokio::time::sleep(POLL).await;
-    }
+    poll("the node previewed", async || {
+        let preview = api_state(&server)["preview"].clone();
+        (preview["output"] == "fractal" && preview["stage"] == "full").then_some(())
+    })
+    .await;
     // ... and the page marks it.
-    let deadline = Instant::now() + WAIT;
-    let selected = loop {
+    poll("the node marked selected", async || {
         let selected = browser
             .run(
                 "return [...document.querySelectorAll('.node.selected')].map(n => n.dataset.name);",
                 vec![],
             )
             .await;
-        if selected == json!(["fractal"]) || Instant::now() > deadline {
-            break selected;
-        }
-        tokio::time::sleep(POLL).await;
-    };
-    assert_eq!(selected, json!(["fractal"]));
+        (selected == json!(["fractal"])).then_some(())
+    })
+    .await;
     browser.close().await;
     server.stop();
 }

@@ -43,6 +43,7 @@ pub(super) fn spawn(
                 watched,
                 watched_dirs: Vec::new(),
                 last_good: None,
+                latency: [None; 2],
             };
             worker.run(kicks);
         })
@@ -57,6 +58,15 @@ struct Worker {
     /// The last good graph's `params`, `outputs`, `nodes` and `imports` (kept on the page,
     /// marked stale, while the file is broken).
     last_good: Option<Value>,
+    /// The last generation's save-to-draft and save-to-full times (ms), shown in `status`.
+    latency: [Option<f64>; 2],
+}
+
+/// Which latency a status message records.
+#[derive(Clone, Copy)]
+enum Mark {
+    Draft = 0,
+    Full = 1,
 }
 
 /// Why a generation stopped early.
@@ -130,21 +140,26 @@ impl Worker {
         }
     }
 
-    fn status(&self, generation: u64, busy: bool, stage: &str, since: Instant, key: Option<&str>) {
-        let counters = *lock(&self.shared.counters);
-        let mut message = match self.shared.state.borrow().messages.get("status") {
-            Some((_, text)) => serde_json::from_str(text).unwrap_or(json!({})),
-            None => json!({"save_to_draft_ms": null, "save_to_full_ms": null}),
-        };
-        if let Some(key) = key {
-            message[key] = json!(since.elapsed().as_secs_f64() * 1e3);
+    fn status(
+        &mut self,
+        generation: u64,
+        busy: bool,
+        stage: &str,
+        since: Instant,
+        mark: Option<Mark>,
+    ) {
+        if let Some(mark) = mark {
+            self.latency[mark as usize] = Some(since.elapsed().as_secs_f64() * 1e3);
         }
-        message["type"] = json!("status");
-        message["generation"] = json!(generation);
-        message["busy"] = json!(busy);
-        message["stage"] = json!(stage);
-        message["counters"] = json!(counters);
-        self.shared.publish("status", message);
+        let counters = *lock(&self.shared.counters);
+        let [draft, full] = self.latency;
+        self.shared.publish(
+            "status",
+            json!({
+                "type": "status", "generation": generation, "busy": busy, "stage": stage,
+                "counters": counters, "save_to_draft_ms": draft, "save_to_full_ms": full,
+            }),
+        );
     }
 
     /// One generation: everything the page shows, in the order the author wants it.
@@ -239,7 +254,7 @@ impl Worker {
     ) -> Result<(), Stop> {
         let settings = lock(&self.shared.settings).clone();
         self.draft(generation, since, scene, output, cancel)?;
-        self.status(generation, true, "slice", since, Some("save_to_draft_ms"));
+        self.status(generation, true, "slice", since, Some(Mark::Draft));
         if let Some(name) = output {
             let w = &settings.slice;
             let plane = session::slice(loaded, name, w, settings.slice_size, cancel)
@@ -279,7 +294,7 @@ impl Worker {
         );
         self.status(generation, true, "rendering", since, None);
         self.full(generation, since, scene, output, cancel)?;
-        self.status(generation, true, "ready", since, Some("save_to_full_ms"));
+        self.status(generation, true, "ready", since, Some(Mark::Full));
         Ok(())
     }
 

@@ -83,13 +83,7 @@ pub fn node_kinds(text: &str) -> Vec<(String, String)> {
 /// A number as written back: the shortest text that reads back as the same f64, with a decimal
 /// point kept for whole numbers (`2.0`, not `2`) so the value still reads as a float.
 pub fn number_text(v: f64) -> String {
-    let text = format!("{v:?}");
-    if v.is_finite() {
-        text
-    } else {
-        // Never reached for params (the page refuses non-finite values); a clear marker.
-        format!("{v}")
-    }
+    format!("{v:?}")
 }
 
 /// `text` with each param in `values` that it writes replaced by its new number; only the
