@@ -9,6 +9,9 @@
 //! `eval/fbm8`.
 //! `eval/gradient`: `Gradient` of the 8-octave Perlin fbm against the fbm alone and against
 //! central differences written as a graph, on the same slab.
+//! `eval/seed003_marble/far`: the same marble on the same slab moved to x = 1e6, compiled for
+//! that extent (its coordinate chain in f64), beside `far_plain_f32` (the plain tape there) and
+//! `texgraph_batch_f32_extent` (compiled for the slab's own extent: the plain tape).
 //! `compile/N`: parse + check + compile of a generated graph of N nodes (inline nodes included).
 //!
 //! Run: `cargo bench --bench eval` (add `-- eval/` or `-- compile/` to pick a group).
@@ -35,6 +38,11 @@ fn points() -> (Vec<f64>, Vec<f64>, Vec<f64>) {
 }
 
 fn marble_tape() -> Tape {
+    marble_tape_for(None)
+}
+
+/// The seed 003 marble compiled for `extent` (precision chosen per instruction).
+fn marble_tape_for(extent: Option<texgraph::Extent>) -> Tape {
     let text =
         std::fs::read_to_string("graphs/seed003_marble.ron").expect("run from the crate root");
     let options = CheckOptions {
@@ -50,6 +58,7 @@ fn marble_tape() -> Tape {
         &graph,
         &CompileOptions {
             outputs: vec!["vein".into()],
+            extent,
             ..Default::default()
         },
     )
@@ -581,6 +590,38 @@ fn eval_benches(c: &mut Criterion) {
             black_box(&out);
         })
     });
+    // Precision per instruction: compiled for the slab's own extent (nothing needs f64: the
+    // same tape), and the same slab moved to x = 1e6 with the plain tape (wrong in f32) and
+    // with the tape compiled for that extent (the coordinate chain in f64).
+    let near = marble_tape_for(Some(texgraph::Extent::new([0.0; 3], [8.0; 3])));
+    assert_eq!(
+        near.to_string(),
+        tape.to_string(),
+        "[0, 8]³ needs no promotion"
+    );
+    let far_x: Vec<f64> = x.iter().map(|v| v + 1e6).collect();
+    let far = marble_tape_for(Some(texgraph::Extent::new(
+        [1e6, 0.0, 0.0],
+        [1e6 + 8.0, 8.0, 8.0],
+    )));
+    assert!(
+        far.wide_instructions() > 0,
+        "the far marble promotes its coordinate chain"
+    );
+    for (name, tape, xs) in [
+        ("texgraph_batch_f32_extent", &near, &x),
+        ("far_plain_f32", &tape, &far_x),
+        ("far", &far, &far_x),
+    ] {
+        group.bench_function(name, |b| {
+            let mut ws = Workspace::<f32>::new();
+            let mut out = vec![0f32; n];
+            b.iter(|| {
+                tape.eval_batch(&mut ws, xs, &y, &z, &mut out);
+                black_box(&out);
+            })
+        });
+    }
     group.finish();
 }
 

@@ -10,7 +10,7 @@
 use crate::diagnostic::{Diagnostic, DiagnosticClass, Diagnostics};
 use crate::graph::{CheckedGraph, NodeId, Op, TableKey, Type};
 use crate::ops;
-use crate::tape::{Instr, Slot, Tape, TapeOutput, TapeStats};
+use crate::tape::{Instr, Slot, Tape, TapeOutput, TapeStats, Wide};
 use smallvec::SmallVec;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -25,6 +25,13 @@ pub struct CompileOptions {
     /// render's pixel footprint). Fbm/turbulence octaves above the Nyquist limit of this spacing
     /// are left out (see `lod.rs`). `None`: every octave is kept.
     pub spacing: Option<f64>,
+    /// The region the tape will be evaluated over (`Position`'s values). With one, precision is
+    /// chosen per instruction (`precision.rs`): scalars whose f32 error would push an output
+    /// past `max_error` run in f64. `None`: every scalar in the lane type (the plain tape).
+    pub extent: Option<crate::precision::Extent>,
+    /// The error target of that choice, absolute; `None` is
+    /// [`crate::precision::DEFAULT_MAX_ERROR`] (1e-4).
+    pub max_error: Option<f64>,
 }
 
 static NEXT_TAPE_ID: AtomicU64 = AtomicU64::new(1);
@@ -36,45 +43,77 @@ static NEXT_TAPE_ID: AtomicU64 = AtomicU64::new(1);
 pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, Diagnostics> {
     let selected = select_outputs(graph, options)?;
     let live = reachable(graph, selected.iter().map(|o| o.node));
-    let last_use = last_uses(graph, &live, &selected);
     let live_nodes = live.iter().filter(|&&l| l).count();
+    let mut plan = options.extent.map(|extent| {
+        let outputs: Vec<(String, NodeId)> =
+            selected.iter().map(|o| (o.name.clone(), o.node)).collect();
+        let max_error = options
+            .max_error
+            .unwrap_or(crate::precision::DEFAULT_MAX_ERROR);
+        crate::precision::plan(graph, &live, &outputs, extent, max_error)
+    });
+    if let Some(plan) = plan.as_mut().filter(|p| p.needs_confirming()) {
+        let plain = compile(
+            graph,
+            &CompileOptions {
+                extent: None,
+                ..options.clone()
+            },
+        )?;
+        plan.keep_plain(crate::precision::sampled_error(&plain, &plan.extent));
+    }
+    let no_wide = vec![false; graph.nodes.len()];
+    let wide = plan.as_ref().map_or(&no_wide, |p| &p.wide);
+    let uses = Uses::new(graph, &live, &selected, wide);
     let mut emitter = Emitter {
         instrs: Vec::with_capacity(live_nodes),
         origins: Vec::with_capacity(live_nodes),
         ..Emitter::default()
     };
     let mut stretches: Option<Vec<Option<f64>>> = None;
-    // The slot of each live node, indexed by node id (only live ones are ever read).
-    let mut slot_of: Vec<Slot> = vec![0; graph.nodes.len()];
+    // The slots of each live node, indexed by node id (only live ones are ever read): its
+    // lane-type scalar or vec3 slot, and its f64 slot where it has one.
+    let mut slots = Slots {
+        narrow: vec![0; graph.nodes.len()],
+        wide: vec![0; graph.nodes.len()],
+    };
     for (id, node) in graph.nodes.iter().enumerate() {
         if !live[id] {
             continue;
         }
-        match &node.op {
-            Op::ConstScalar(v) => {
-                slot_of[id] = emitter.scalars.pin();
-                emitter.scalar_constants.push((slot_of[id], *v));
-                continue;
-            }
-            Op::ConstVec3(v) => {
-                slot_of[id] = emitter.vec3s.pin();
-                emitter.vec3_constants.push((slot_of[id], *v));
-                continue;
-            }
-            _ => {}
+        if emitter.constant(node, id, &uses, &mut slots) {
+            continue;
         }
-        // Allocate the destination before freeing dead arguments, so an instruction never
-        // writes a slot it reads (the interpreter relies on it).
-        let dst = if node.ty == Type::Vec3 {
-            emitter.vec3s.alloc()
+        let instr = if wide[id] {
+            // Splat and Combine read f64 scalars but write a vec3 slot.
+            let dst = if node.ty == Type::Vec3 {
+                slots.narrow[id] = emitter.vec3s.alloc();
+                slots.narrow[id]
+            } else {
+                slots.wide[id] = emitter.wides.alloc();
+                slots.wide[id]
+            };
+            if let Some(plan) = &plan {
+                emitter
+                    .reasons
+                    .push((emitter.instrs.len(), plan.reason(id as NodeId)));
+            }
+            lower_wide(graph, id, dst, &slots, &mut emitter.axes)
         } else {
-            emitter.scalars.alloc()
+            // Allocate the destination before freeing dead arguments, so an instruction never
+            // writes a slot it reads (the interpreter relies on it).
+            let dst = if node.ty == Type::Vec3 {
+                emitter.vec3s.alloc()
+            } else {
+                emitter.scalars.alloc()
+            };
+            slots.narrow[id] = dst;
+            emitter.lower(graph, id, dst, &slots.narrow, options, &mut stretches)
         };
-        let instr = emitter.lower(graph, id, dst, &slot_of, options, &mut stretches);
         emitter.instrs.push(instr);
         emitter.origins.push(node.origin.node.clone());
-        slot_of[id] = dst;
-        emitter.free_dead_arguments(graph, id, &last_use, &slot_of);
+        emitter.convert(node, id, &uses, &mut slots);
+        emitter.free_dead(graph, id, &uses, &slots);
     }
     let mut outputs = Vec::with_capacity(selected.len());
     let mut first_channel = 0;
@@ -83,7 +122,7 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
         outputs.push(TapeOutput {
             name: output.name.clone(),
             ty,
-            slot: slot_of[output.node as usize],
+            slot: slots.narrow[output.node as usize],
             first_channel,
         });
         first_channel += ty.channels();
@@ -104,7 +143,127 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
         live_nodes,
         pruned_nodes: graph_nodes.saturating_sub(live_nodes),
     };
-    Ok(emitter.finish(outputs, stats))
+    let mut tape = emitter.finish(outputs, stats);
+    tape.precision = plan.map(std::sync::Arc::new);
+    Ok(tape)
+}
+
+/// Where each live node's value is read from, per representation: the lane-type slot
+/// (`narrow`: instructions in the lane type, outputs) and the f64 slot (`wide`: promoted
+/// instructions), with the last instruction (node id) reading each. A plain tape has no wide
+/// uses, and its narrow last uses are the classic last uses.
+struct Uses {
+    narrow_last: Vec<usize>,
+    wide_last: Vec<usize>,
+    has_narrow: Vec<bool>,
+    has_wide: Vec<bool>,
+    wide_node: Vec<bool>,
+}
+
+impl Uses {
+    fn new(
+        graph: &CheckedGraph,
+        live: &[bool],
+        selected: &[&crate::graph::Output],
+        wide: &[bool],
+    ) -> Uses {
+        let n = graph.nodes.len();
+        let mut u = Uses {
+            narrow_last: vec![0; n],
+            wide_last: vec![0; n],
+            has_narrow: vec![false; n],
+            has_wide: vec![false; n],
+            wide_node: wide.to_vec(),
+        };
+        for (id, node) in graph.nodes.iter().enumerate() {
+            if !live[id] {
+                continue;
+            }
+            for &arg in &node.args {
+                let a = arg as usize;
+                // Vec3 values have one representation, the vec3 slot ("narrow" here).
+                if wide[id] && graph.nodes[a].ty == Type::Scalar {
+                    u.has_wide[a] = true;
+                    u.wide_last[a] = u.wide_last[a].max(id);
+                } else {
+                    u.has_narrow[a] = true;
+                    u.narrow_last[a] = u.narrow_last[a].max(id);
+                }
+            }
+        }
+        for output in selected {
+            let o = output.node as usize;
+            u.has_narrow[o] = true;
+            u.narrow_last[o] = usize::MAX;
+        }
+        u
+    }
+}
+
+/// The slots of every node, per representation.
+struct Slots {
+    narrow: Vec<Slot>,
+    wide: Vec<Slot>,
+}
+
+/// The promoted instruction of live node `id` (an operation `precision::rules::promotable`
+/// accepts), writing wide slot `dst`: scalar arguments from their wide slots.
+fn lower_wide(
+    graph: &CheckedGraph,
+    id: usize,
+    dst: Slot,
+    slots: &Slots,
+    axes: &mut Vec<[f64; 3]>,
+) -> Instr {
+    let node = &graph.nodes[id];
+    let d = |i: usize| slots.wide[node.args[i] as usize];
+    let v = |i: usize| slots.narrow[node.args[i] as usize];
+    Instr::Wide(match node.op {
+        Op::Component(axis) => Wide::Component {
+            dst,
+            src: v(0),
+            axis,
+        },
+        Op::Unary(op) => Wide::Unary { op, dst, src: d(0) },
+        Op::Binary(op) => Wide::Binary {
+            op,
+            dst,
+            a: d(0),
+            b: d(1),
+        },
+        Op::Ternary(op) => Wide::Ternary {
+            op,
+            dst,
+            a: d(0),
+            b: d(1),
+            c: d(2),
+        },
+        Op::Dot => Wide::Dot {
+            dst,
+            a: v(0),
+            b: v(1),
+        },
+        Op::Length => Wide::Length { dst, src: v(0) },
+        Op::Splat => Wide::Splat { dst, src: d(0) },
+        Op::Combine => Wide::Combine {
+            dst,
+            x: d(0),
+            y: d(1),
+            z: d(2),
+        },
+        // Promoted only with a varying angle (`precision::Facts::choose`).
+        Op::Rotate { axis } => {
+            axes.push(axis);
+            Wide::Rotate {
+                dst,
+                src: v(0),
+                degrees: d(1),
+                axis: (axes.len() - 1) as u32,
+            }
+        }
+        // `promotable` admits nothing else; a wide dst stays unused and harmless.
+        _ => Wide::Widen { dst, src: 0 },
+    })
 }
 
 /// The outputs to compile: all, in file order, or the named ones in the order asked (each
@@ -160,27 +319,6 @@ fn reachable(graph: &CheckedGraph, roots: impl Iterator<Item = NodeId>) -> Vec<b
     reached
 }
 
-/// The last user of each live node (instruction order is node id order); outputs live to the
-/// end.
-fn last_uses(
-    graph: &CheckedGraph,
-    live: &[bool],
-    selected: &[&crate::graph::Output],
-) -> Vec<usize> {
-    let mut last_use: Vec<usize> = vec![0; graph.nodes.len()];
-    for (id, node) in graph.nodes.iter().enumerate() {
-        if live[id] {
-            for &arg in &node.args {
-                last_use[arg as usize] = last_use[arg as usize].max(id);
-            }
-        }
-    }
-    for output in selected {
-        last_use[output.node as usize] = usize::MAX;
-    }
-    last_use
-}
-
 fn unreachable_const() -> Instr {
     // Constants are handled (and `continue`d) before this match; kept panic-free regardless.
     Instr::Position { dst: 0 }
@@ -222,6 +360,9 @@ struct Emitter {
     origins: Vec<std::sync::Arc<str>>,
     scalars: SlotFile,
     vec3s: SlotFile,
+    wides: SlotFile,
+    wide_constants: Vec<(Slot, f64)>,
+    reasons: Vec<(usize, String)>,
     scalar_constants: Vec<(Slot, f64)>,
     vec3_constants: Vec<(Slot, [f64; 3])>,
     tables: Vec<(TableKey, std::sync::Arc<crate::noise::NoiseTable>)>,
@@ -411,25 +552,90 @@ impl Emitter {
         }
     }
 
-    /// Gives back the slots of node `id`'s arguments whose last use is `id` (each once, even if
-    /// used twice here); constants keep their pinned slots.
-    fn free_dead_arguments(
+    /// Pins the slots of a constant (a lane-type slot where a lane-type instruction or an output
+    /// reads it, an f64 slot where a promoted one does); false for any other node.
+    fn constant(
         &mut self,
-        graph: &CheckedGraph,
+        node: &crate::graph::Node,
         id: usize,
-        last_use: &[usize],
-        slot_of: &[Slot],
-    ) {
+        uses: &Uses,
+        slots: &mut Slots,
+    ) -> bool {
+        match node.op {
+            Op::ConstScalar(v) => {
+                if uses.has_narrow[id] || !uses.has_wide[id] {
+                    slots.narrow[id] = self.scalars.pin();
+                    self.scalar_constants.push((slots.narrow[id], v));
+                }
+                if uses.has_wide[id] {
+                    slots.wide[id] = self.wides.pin();
+                    self.wide_constants.push((slots.wide[id], v));
+                }
+                true
+            }
+            Op::ConstVec3(v) => {
+                slots.narrow[id] = self.vec3s.pin();
+                self.vec3_constants.push((slots.narrow[id], v));
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// After node `id`'s instruction: the other representation of a scalar that has readers of
+    /// both kinds (a promoted value read by a lane-type instruction or an output is rounded
+    /// once; a lane-type value read by a promoted instruction is widened exactly).
+    fn convert(&mut self, node: &crate::graph::Node, id: usize, uses: &Uses, slots: &mut Slots) {
+        if node.ty != Type::Scalar {
+            return;
+        }
+        let instr = if uses.wide_node[id] && uses.has_narrow[id] {
+            slots.narrow[id] = self.scalars.alloc();
+            Wide::Narrow {
+                dst: slots.narrow[id],
+                src: slots.wide[id],
+            }
+        } else if !uses.wide_node[id] && uses.has_wide[id] {
+            slots.wide[id] = self.wides.alloc();
+            Wide::Widen {
+                dst: slots.wide[id],
+                src: slots.narrow[id],
+            }
+        } else {
+            return;
+        };
+        self.instrs.push(Instr::Wide(instr));
+        self.origins.push(node.origin.node.clone());
+    }
+
+    /// Gives back every slot whose last reader is node `id`: its arguments' (each once, even
+    /// if used twice here; constants keep their pinned slots), and its own representation
+    /// that nothing reads but the conversion just emitted.
+    fn free_dead(&mut self, graph: &CheckedGraph, id: usize, uses: &Uses, slots: &Slots) {
         let mut freed: SmallVec<[NodeId; 3]> = SmallVec::new();
         for &a in &graph.nodes[id].args {
             let node = &graph.nodes[a as usize];
             let pinned = matches!(node.op, Op::ConstScalar(_) | Op::ConstVec3(_));
-            if !pinned && last_use[a as usize] == id && !freed.contains(&a) {
-                freed.push(a);
+            if pinned || freed.contains(&a) {
+                continue;
+            }
+            freed.push(a);
+            let a = a as usize;
+            if uses.has_narrow[a] && uses.narrow_last[a] == id {
                 match node.ty {
-                    Type::Vec3 => self.vec3s.free(slot_of[a as usize]),
-                    Type::Scalar => self.scalars.free(slot_of[a as usize]),
+                    Type::Vec3 => self.vec3s.free(slots.narrow[a]),
+                    Type::Scalar => self.scalars.free(slots.narrow[a]),
                 }
+            }
+            if uses.has_wide[a] && uses.wide_last[a] == id {
+                self.wides.free(slots.wide[a]);
+            }
+        }
+        if graph.nodes[id].ty == Type::Scalar {
+            if uses.wide_node[id] && !uses.has_wide[id] {
+                self.wides.free(slots.wide[id]);
+            } else if !uses.wide_node[id] && !uses.has_narrow[id] && uses.has_wide[id] {
+                self.scalars.free(slots.narrow[id]);
             }
         }
     }
@@ -454,6 +660,10 @@ impl Emitter {
             curves: self.curves,
             origins: self.origins,
             stats,
+            wide_slots: self.wides.count,
+            wide_constants: self.wide_constants,
+            precision: None,
+            reasons: self.reasons,
         }
     }
 

@@ -12,7 +12,7 @@
 use crate::noise;
 use crate::ops::{self, BinaryOp, TernaryOp, UnaryOp};
 use crate::real::Real;
-use crate::tape::{Instr, Tape};
+use crate::tape::{Instr, Tape, Wide};
 use std::mem::take;
 
 /// Points per chunk. 256 lanes keep a typical tape's live slots (a few KiB each) in L1/L2.
@@ -25,6 +25,8 @@ pub struct Workspace<S: Real> {
     scalars: Vec<Vec<S>>,
     /// Each vec3 slot holds three planes of LANES f64: x, then y, then z.
     vec3s: Vec<Vec<f64>>,
+    /// f64 scalar slots of promoted instructions (`Instr::Wide`), whatever `S` is.
+    wides: Vec<Vec<f64>>,
 }
 
 impl<S: Real> Workspace<S> {
@@ -33,6 +35,7 @@ impl<S: Real> Workspace<S> {
             bound_to: 0,
             scalars: Vec::new(),
             vec3s: Vec::new(),
+            wides: Vec::new(),
         }
     }
 
@@ -47,6 +50,10 @@ impl<S: Real> Workspace<S> {
         self.vec3s = (0..tape.vec3_slots).map(|_| vec![0.0; 3 * LANES]).collect();
         for &(slot, v) in &tape.scalar_constants {
             self.scalars[slot as usize].fill(S::from_f64(v));
+        }
+        self.wides = (0..tape.wide_slots).map(|_| vec![0.0; LANES]).collect();
+        for &(slot, v) in &tape.wide_constants {
+            self.wides[slot as usize].fill(v);
         }
         for &(slot, v) in &tape.vec3_constants {
             let planes = &mut self.vec3s[slot as usize];
@@ -330,6 +337,7 @@ impl Tape {
                 Instr::Hermite { .. } | Instr::Ramp { .. } | Instr::Curve { .. } => {
                     self.splines(instr, ws, n)
                 }
+                Instr::Wide(w) => wide(w, ws, n, &self.axes),
             }
         }
     }
@@ -521,6 +529,96 @@ impl Tape {
                 ws.scalars[dst as usize] = out;
             }
             _ => unreachable!("run_chunk dispatches only splines instructions here"),
+        }
+    }
+}
+
+/// A promoted instruction: the same per-lane operations as the plain ones, on f64 lanes.
+#[inline(always)]
+fn wide<S: Real>(w: Wide, ws: &mut Workspace<S>, n: usize, axes: &[[f64; 3]]) {
+    match w {
+        Wide::Rotate {
+            dst,
+            src,
+            degrees,
+            axis,
+        } => {
+            let axis = axes[axis as usize];
+            let mut out = take(&mut ws.vec3s[dst as usize]);
+            let a = &ws.vec3s[src as usize];
+            let d = &ws.wides[degrees as usize];
+            for i in 0..n {
+                let m = ops::rotation_matrix(axis, d[i]);
+                let p = ops::apply_matrix(&m, [a[i], a[LANES + i], a[2 * LANES + i]]);
+                out[i] = p[0];
+                out[LANES + i] = p[1];
+                out[2 * LANES + i] = p[2];
+            }
+            ws.vec3s[dst as usize] = out;
+        }
+        Wide::Component { dst, src, axis } => {
+            let c = axis as usize % 3;
+            let src = &ws.vec3s[src as usize][c * LANES..c * LANES + n];
+            ws.wides[dst as usize][..n].copy_from_slice(src);
+        }
+        Wide::Unary { op, dst, src } => {
+            let mut out = take(&mut ws.wides[dst as usize]);
+            unary_lanes(op, &mut out[..n], &ws.wides[src as usize][..n]);
+            ws.wides[dst as usize] = out;
+        }
+        Wide::Binary { op, dst, a, b } => {
+            let mut out = take(&mut ws.wides[dst as usize]);
+            let d = &ws.wides;
+            binary_lanes(op, &mut out[..n], &d[a as usize][..n], &d[b as usize][..n]);
+            ws.wides[dst as usize] = out;
+        }
+        Wide::Ternary { op, dst, a, b, c } => {
+            let mut out = take(&mut ws.wides[dst as usize]);
+            let d = &ws.wides;
+            let (a, b, c) = (
+                &d[a as usize][..n],
+                &d[b as usize][..n],
+                &d[c as usize][..n],
+            );
+            ternary_lanes(op, &mut out[..n], a, b, c);
+            ws.wides[dst as usize] = out;
+        }
+        Wide::Dot { dst, a, b } => {
+            let (a, b) = (&ws.vec3s[a as usize], &ws.vec3s[b as usize]);
+            for (i, o) in ws.wides[dst as usize][..n].iter_mut().enumerate() {
+                let lane = |v: &[f64]| [v[i], v[LANES + i], v[2 * LANES + i]];
+                *o = ops::dot(lane(a), lane(b));
+            }
+        }
+        Wide::Length { dst, src } => {
+            let a = &ws.vec3s[src as usize];
+            for (i, o) in ws.wides[dst as usize][..n].iter_mut().enumerate() {
+                *o = ops::length([a[i], a[LANES + i], a[2 * LANES + i]]);
+            }
+        }
+        Wide::Splat { dst, src } => {
+            let s = &ws.wides[src as usize][..n];
+            for plane in ws.vec3s[dst as usize].chunks_exact_mut(LANES) {
+                plane[..n].copy_from_slice(s);
+            }
+        }
+        Wide::Combine { dst, x, y, z } => {
+            let out = &mut ws.vec3s[dst as usize];
+            for (plane, src) in out.chunks_exact_mut(LANES).zip([x, y, z]) {
+                plane[..n].copy_from_slice(&ws.wides[src as usize][..n]);
+            }
+        }
+        Wide::Widen { dst, src } => {
+            let s = &ws.scalars[src as usize][..n];
+            for (o, v) in ws.wides[dst as usize][..n].iter_mut().zip(s) {
+                *o = v.to_f64();
+            }
+        }
+        Wide::Narrow { dst, src } => {
+            let d = &ws.wides[src as usize][..n];
+            for (o, v) in ws.scalars[dst as usize][..n].iter_mut().zip(d) {
+                *o = S::from_f64(*v);
+            }
         }
     }
 }

@@ -250,6 +250,7 @@ pub fn accuracy_report(
         &CompileOptions {
             outputs: names.clone(),
             spacing: None,
+            ..Default::default()
         },
     )?;
     // Bake once per resolution with every requested output.
@@ -276,6 +277,7 @@ pub fn accuracy_report(
         let single = CompileOptions {
             outputs: vec![name.clone()],
             spacing: None,
+            ..Default::default()
         };
         let tape = compile(graph, &single)?;
         let reference = batch::<f64>(&tape, &planes);
@@ -373,6 +375,7 @@ fn lod_strategies(
             &CompileOptions {
                 outputs: vec![name.to_string()],
                 spacing: Some(spacing),
+                ..Default::default()
             },
         )?;
         let kept: Vec<String> = lod
@@ -683,7 +686,45 @@ for |p| ≤ 1e4 and within 1e-4, seam-free, up to |p| = 2^31 — met with a wide
 computed exactly (`tests/accuracy.rs` and `tests/properties.rs` enforce it). Nodes that carry a
 coordinate through **scalar f32 arithmetic** (`Mul("period", "v.x")`) lose what f32 cannot hold:
 about |v|·6e-8 absolute; the survey names each such node and the magnitude where its error
-passes 1e-4, and why.
+passes 1e-4, and why. The survey's second table is the answer: every output and node again,
+each magnitude compiled for its own extent with precision chosen per instruction (below);
+outputs are marked `*`.
+
+## Precision chosen per instruction
+
+Given the region a tape will be evaluated over — a bake's region, `eval`'s point or
+`--extent X0,Y0,Z0:X1,Y1,Z1`, `check --extent`, `CompileOptions::extent` — the compiler
+(`src/precision/`) bounds every node's value over it (interval arithmetic from the extent), bounds
+each node's partial derivatives there, and from the outputs backwards each node's
+*sensitivity*: how far an error in its value can move the outputs. An f32 scalar adds
+`k·|value|·2^-24` of its own (k = 0 for exact operations, 1 for one rounding, 2 for libm
+functions, 8–32 for noise interiors); a scalar run in f64 computes what the reference computes
+and adds nothing, except where its value is handed to an f32 reader, which rounds it once.
+Instructions are promoted to f64 (the tape's `d` slots; `check --tape` gives each one's
+magnitude and what f32 would have added) until every output's bound is within `--max-error`
+(default 1e-4). Positions, lattice cells and noise interiors stay as they are; the fbm of a far
+marble stays f32, its `v.x → phase → sin` chain runs in f64.
+
+- **Nothing changes where nothing needs it.** When the bound with every scalar in f32 is within
+  the target, the tape is the plain one, instruction for instruction. The bound is a worst case
+  (it multiplies the steepest slope of every node on a path); where it exceeds the target by
+  less than 10× on a bounded extent, the plain tape is measured on 4096 points of the extent
+  and kept when its error there is below a quarter of the target (`check` prints the
+  measurement).
+- **The edge rule.** Discontinuous operations (Floor, Fract, Mod, Step, Select, white noise and
+  cell values, constant-interpolated ramps) are flat between their jumps; an error in their
+  input instead *moves a jump*. The analysis keeps every such movement within the target in the
+  input's own units, so the contract for an output is: within `max_error` of f64, or at a point
+  within that distance of one of its jumps. The stability survey measures accordingly: the
+  promoted error at a point is the smallest difference from the reference at the point and at
+  points 1e-6 away along each axis.
+- **What cannot be.** `check --extent` and `report --stability` name the node and the reason:
+  an output whose own value is too large for f32 (`evaluate in f64`), a node with no f64 form on
+  the fast path (noise interiors, splines) feeding a steep chain, an operation without a bounded
+  slope over the extent (a division by a range containing 0, `atan2` at its origin), or f64
+  itself (`Sin(Mul(1e12, "v.x"))` at |p| = 1e6: the reference is meaningless there too).
+- **Bit-identity.** Point and batch evaluation stay bit-identical with promoted instructions;
+  on the f64 path a promoted tape computes exactly what the plain tape computes.
 
 ## Defined behaviour in stiff and extreme cases
 

@@ -26,6 +26,21 @@ pub struct StabilityRow {
     pub continuity: Option<f64>,
     pub non_finite_f64: u64,
     pub non_finite_f32: u64,
+    /// Whether the node is one of the graph's outputs (the others are named intermediate nodes,
+    /// probed as if they were outputs).
+    pub output: bool,
+    /// Largest |f32 − f64| of the tape compiled for this magnitude's extent (precision chosen
+    /// per instruction, `precision.rs`).
+    pub max_promoted_error: f64,
+    /// The compiler's bound on that error, and why it may exceed the target where it does.
+    pub promoted_bound: f64,
+    pub shortfall: Option<String>,
+}
+
+/// Half the side of the box every probe point at magnitude `m` lies in.
+fn extent_at(magnitude: f64) -> crate::Extent {
+    let h = magnitude + 16.0;
+    crate::Extent::new([-h; 3], [h; 3])
 }
 
 /// The probe points at one magnitude: along each axis and sign, a scatter, lattice points and
@@ -61,25 +76,40 @@ fn probe_pairs(magnitude: f64) -> Vec<([f64; 3], [f64; 3])> {
     pairs
 }
 
-/// Surveys every named node of `graph`.
-pub fn stability_report(graph: &CheckedGraph) -> Result<Vec<StabilityRow>, Diagnostics> {
-    let probe = graph.with_node_outputs();
+/// Surveys every output and named node of `graph`: the plain f32 tape, and the tape compiled
+/// for each magnitude's extent with precision chosen for `max_error`.
+pub fn stability_report(
+    graph: &CheckedGraph,
+    max_error: f64,
+) -> Result<Vec<StabilityRow>, Diagnostics> {
+    let probe = graph.with_node_probes();
     let tape = compile(&probe, &CompileOptions::default())?;
     let stretches = crate::lod::stretches(&probe);
     let mut rows = Vec::new();
     for &magnitude in &MAGNITUDES {
+        let promoted = compile(
+            &probe,
+            &CompileOptions {
+                extent: Some(extent_at(magnitude)),
+                max_error: Some(max_error),
+                ..Default::default()
+            },
+        )?;
         let pairs = probe_pairs(magnitude);
         let points: Vec<[f64; 3]> = pairs.iter().flat_map(|(p, q)| [*p, *q]).collect();
-        let x: Vec<f64> = points.iter().map(|p| p[0]).collect();
-        let y: Vec<f64> = points.iter().map(|p| p[1]).collect();
-        let z: Vec<f64> = points.iter().map(|p| p[2]).collect();
+        let [x, y, z] = [0, 1, 2].map(|c| points.iter().map(|p| p[c]).collect::<Vec<f64>>());
         let n = points.len();
         let mut v64 = vec![0f64; tape.channels() * n];
         let mut v32 = vec![0f32; tape.channels() * n];
+        let mut p32 = vec![0f32; tape.channels() * n];
         tape.eval_batch(&mut Workspace::new(), &x, &y, &z, &mut v64);
         tape.eval_batch(&mut Workspace::new(), &x, &y, &z, &mut v32);
-        for (output, graph_output) in tape.outputs.iter().zip(&probe.outputs) {
+        promoted.eval_batch(&mut Workspace::new(), &x, &y, &z, &mut p32);
+        let nearby = nearby_references(&tape, [&x, &y, &z]);
+        let plan = promoted.precision();
+        for (i, (output, graph_output)) in tape.outputs.iter().zip(&probe.outputs).enumerate() {
             let lipschitz = stretches[graph_output.node as usize];
+            let bound = plan.and_then(|p| p.outputs.get(i));
             let mut row = StabilityRow {
                 node: output.name.clone(),
                 magnitude,
@@ -88,40 +118,99 @@ pub fn stability_report(graph: &CheckedGraph) -> Result<Vec<StabilityRow>, Diagn
                 continuity: lipschitz.map(|_| 0.0),
                 non_finite_f64: 0,
                 non_finite_f32: 0,
+                output: i < graph.outputs.len(),
+                max_promoted_error: 0.0,
+                promoted_bound: bound.map_or(f64::INFINITY, |b| b.promoted),
+                shortfall: bound.and_then(|b| b.shortfall.clone()),
             };
             for c in output.first_channel..output.first_channel + output.ty.channels() {
+                let channel = |v: &[f32]| v[c * n..(c + 1) * n].to_vec();
                 let a = &v64[c * n..(c + 1) * n];
-                let b = &v32[c * n..(c + 1) * n];
-                for (r, s) in a.iter().zip(b) {
-                    let s = *s as f64;
-                    row.non_finite_f64 += u64::from(!r.is_finite());
-                    row.non_finite_f32 += u64::from(!s.is_finite());
-                    if r.is_finite() {
-                        row.max_abs_value = row.max_abs_value.max(r.abs());
-                    }
-                    if r.is_finite() && s.is_finite() {
-                        row.max_f32_error = row.max_f32_error.max((r - s).abs());
-                    }
-                }
+                let (b, promoted) = (channel(&v32), channel(&p32));
+                let near: Vec<&[f64]> = nearby.iter().map(|v| &v[c * n..(c + 1) * n]).collect();
+                survey_channel(&mut row, a, &b, &promoted, &near);
                 if let (Some(l), Some(ratio)) = (lipschitz, row.continuity.as_mut()) {
-                    let allowed = (l * STEP).max(f64::MIN_POSITIVE);
-                    for pair in 0..pairs.len() {
-                        let (i, j) = (2 * pair, 2 * pair + 1);
-                        for d in [(a[i] - a[j]).abs(), (b[i] as f64 - b[j] as f64).abs()] {
-                            if d.is_finite() {
-                                // f32 values carry rounding of their own size: allow it.
-                                let slack =
-                                    2.0 * f32::EPSILON as f64 * b[i].abs().max(b[j].abs()) as f64;
-                                *ratio = ratio.max((d - slack).max(0.0) / allowed);
-                            }
-                        }
-                    }
+                    *ratio = ratio.max(continuity(l, pairs.len(), a, &b));
                 }
             }
             rows.push(row);
         }
     }
     Ok(rows)
+}
+
+/// How far from a probe point the f64 reference is also consulted for the promoted error:
+/// the edge rule (docs/accuracy.md) lets a discontinuity move by rounding-sized amounts.
+pub const EDGE_TOLERANCE: f64 = 1e-6;
+
+/// The f64 reference at every probe point moved by ±[`EDGE_TOLERANCE`] along each axis.
+fn nearby_references(tape: &crate::Tape, points: [&[f64]; 3]) -> Vec<Vec<f64>> {
+    let n = points[0].len();
+    let mut out = Vec::with_capacity(6);
+    for axis in 0..3 {
+        for sign in [-1.0, 1.0] {
+            let moved: Vec<Vec<f64>> = (0..3)
+                .map(|c| {
+                    let shift = if c == axis {
+                        sign * EDGE_TOLERANCE
+                    } else {
+                        0.0
+                    };
+                    points[c].iter().map(|v| v + shift).collect()
+                })
+                .collect();
+            let mut v = vec![0f64; tape.channels() * n];
+            tape.eval_batch(
+                &mut Workspace::new(),
+                &moved[0],
+                &moved[1],
+                &moved[2],
+                &mut v,
+            );
+            out.push(v);
+        }
+    }
+    out
+}
+
+/// Folds one channel's reference (`a`), plain f32 (`b`) and promoted f32 values into a row;
+/// the promoted error takes the nearest of the reference at the point and at `near`by points.
+fn survey_channel(row: &mut StabilityRow, a: &[f64], b: &[f32], promoted: &[f32], near: &[&[f64]]) {
+    for (i, ((r, s), p)) in a.iter().zip(b).zip(promoted).enumerate() {
+        let (s, p) = (*s as f64, *p as f64);
+        row.non_finite_f64 += u64::from(!r.is_finite());
+        row.non_finite_f32 += u64::from(!s.is_finite());
+        if r.is_finite() {
+            row.max_abs_value = row.max_abs_value.max(r.abs());
+        }
+        if r.is_finite() && s.is_finite() {
+            row.max_f32_error = row.max_f32_error.max((r - s).abs());
+        }
+        if r.is_finite() && p.is_finite() {
+            let nearest = near
+                .iter()
+                .map(|v| (v[i] - p).abs())
+                .fold((r - p).abs(), f64::min);
+            row.max_promoted_error = row.max_promoted_error.max(nearest);
+        }
+    }
+}
+
+/// The continuity ratio of one channel over its neighbouring pairs (f64 and f32 paths).
+fn continuity(lipschitz: f64, pairs: usize, a: &[f64], b: &[f32]) -> f64 {
+    let allowed = (lipschitz * STEP).max(f64::MIN_POSITIVE);
+    let mut ratio = 0.0f64;
+    for pair in 0..pairs {
+        let (i, j) = (2 * pair, 2 * pair + 1);
+        for d in [(a[i] - a[j]).abs(), (b[i] as f64 - b[j] as f64).abs()] {
+            if d.is_finite() {
+                // f32 values carry rounding of their own size: allow it.
+                let slack = 2.0 * f32::EPSILON as f64 * b[i].abs().max(b[j].abs()) as f64;
+                ratio = ratio.max((d - slack).max(0.0) / allowed);
+            }
+        }
+    }
+    ratio
 }
 
 fn magnitude_label(m: f64) -> String {
@@ -164,6 +253,19 @@ pub fn stability_text(rows: &[StabilityRow]) -> String {
             .collect();
         out.push_str(&format!("  {node:<width$}{cells}\n"));
     }
+    out.push_str("the same, compiled for each magnitude's extent (precision chosen per instruction; * marks the graph's outputs)\n");
+    for node in &nodes {
+        let is_output = rows.iter().any(|r| r.node == *node && r.output);
+        let cells: String = MAGNITUDES
+            .iter()
+            .map(|m| match find(node, *m) {
+                Some(r) => format!(" {:>10.1e}", r.max_promoted_error),
+                None => format!(" {:>10}", "-"),
+            })
+            .collect();
+        let mark = if is_output { "*" } else { " " };
+        out.push_str(&format!("{mark} {node:<width$}{cells}\n"));
+    }
     out.push_str(&format!("continuity: max |f(p + δ) - f(p)| / (Lipschitz · δ), δ = {STEP}; ≤ 1 means no seam (- : no Lipschitz bound known)\n"));
     for node in &nodes {
         let cells: String = MAGNITUDES
@@ -177,6 +279,20 @@ pub fn stability_text(rows: &[StabilityRow]) -> String {
     }
     let mut notes = Vec::new();
     for node in &nodes {
+        let short = MAGNITUDES
+            .iter()
+            .filter_map(|m| find(node, *m))
+            .find(|r| r.output && r.max_promoted_error > 1e-4);
+        if let Some(r) = short {
+            notes.push(format!(
+                "  {node}: output still off by {:.1e} at |p| = {} when compiled for it: {}",
+                r.max_promoted_error,
+                magnitude_label(r.magnitude),
+                r.shortfall
+                    .as_deref()
+                    .unwrap_or("(no reason found: a bound is wrong)")
+            ));
+        }
         if let Some(first) = MAGNITUDES
             .iter()
             .filter_map(|m| find(node, *m))

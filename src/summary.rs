@@ -51,5 +51,45 @@ pub fn check_summary(graph: &CheckedGraph, tape: &Tape) -> String {
             );
         }
     }
+    if let Some(plan) = tape.precision() {
+        precision_summary(&mut s, plan, tape);
+    }
     s
+}
+
+/// The precision plan's lines: the extent, what was promoted, each output's bounds, and what
+/// cannot meet the target and why.
+fn precision_summary(s: &mut String, plan: &crate::precision::Plan, tape: &Tape) {
+    let _ = writeln!(
+        s,
+        "  precision: extent {}, max error {:e}; {} of {} instructions in f64",
+        plan.extent,
+        plan.max_error,
+        tape.wide_instructions(),
+        tape.instrs.len()
+    );
+    if let Some(sampled) = plan.sampled {
+        let _ = writeln!(
+            s,
+            "  precision: the bound was within {}x of the target; f32 measured on {} points of the extent: {:.2e}{}",
+            crate::precision::CONFIRM_FACTOR,
+            crate::precision::SAMPLES,
+            sampled,
+            if tape.wide_instructions() == 0 { " (plain tape kept)" } else { "" }
+        );
+    }
+    for o in &plan.outputs {
+        let _ = writeln!(
+            s,
+            "  output \"{}\": error bound {:.2e} (all f32: {:.2e}; f64 itself: {:.2e})",
+            o.output, o.promoted, o.plain_f32, o.f64_floor
+        );
+        if let Some(why) = &o.shortfall {
+            let _ = writeln!(
+                s,
+                "  warning: output \"{}\" may miss {:e}: {why}",
+                o.output, plan.max_error
+            );
+        }
+    }
 }

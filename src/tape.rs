@@ -159,6 +159,77 @@ pub enum Instr {
         src: Slot,
         curve: u32,
     },
+    /// An instruction on the f64 ("wide") scalar slots: the scalars precision analysis promoted
+    /// (`precision.rs`). On the f64 path it computes exactly what the plain instruction would.
+    Wide(Wide),
+}
+
+/// Instructions whose scalar operands live in the wide slots (`d` in the disassembly): f64 lanes
+/// whatever the evaluation's lane type. Vec3 operands are the usual vec3 slots.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Wide {
+    /// d = v.axis, unrounded.
+    Component {
+        dst: Slot,
+        src: Slot,
+        axis: u8,
+    },
+    Unary {
+        op: UnaryOp,
+        dst: Slot,
+        src: Slot,
+    },
+    Binary {
+        op: BinaryOp,
+        dst: Slot,
+        a: Slot,
+        b: Slot,
+    },
+    Ternary {
+        op: TernaryOp,
+        dst: Slot,
+        a: Slot,
+        b: Slot,
+        c: Slot,
+    },
+    Dot {
+        dst: Slot,
+        a: Slot,
+        b: Slot,
+    },
+    Length {
+        dst: Slot,
+        src: Slot,
+    },
+    /// v = (d, d, d).
+    Splat {
+        dst: Slot,
+        src: Slot,
+    },
+    /// v = (dx, dy, dz).
+    Combine {
+        dst: Slot,
+        x: Slot,
+        y: Slot,
+        z: Slot,
+    },
+    /// v = rotation of v(src) about `axes[axis]` by d(degrees), per lane.
+    Rotate {
+        dst: Slot,
+        src: Slot,
+        degrees: Slot,
+        axis: u32,
+    },
+    /// d = a lane-type scalar, exactly.
+    Widen {
+        dst: Slot,
+        src: Slot,
+    },
+    /// A lane-type scalar = d, rounded (a no-op copy on the f64 path).
+    Narrow {
+        dst: Slot,
+        src: Slot,
+    },
 }
 
 /// Where an output's value lives at the end of the tape.
@@ -205,6 +276,13 @@ pub struct Tape {
     /// For each instruction, the graph node id it was written in (disassembly comments).
     pub(crate) origins: Vec<std::sync::Arc<str>>,
     pub(crate) stats: TapeStats,
+    /// f64 scalar slots (promoted instructions) and their constants.
+    pub(crate) wide_slots: usize,
+    pub(crate) wide_constants: Vec<(Slot, f64)>,
+    /// The precision plan it was compiled with (an extent was given), and for each promoted
+    /// instruction why (instruction index, reason).
+    pub(crate) precision: Option<Arc<crate::precision::Plan>>,
+    pub(crate) reasons: Vec<(usize, String)>,
 }
 
 /// A tape is built only by [`crate::compile()`]: its fields are private to the crate, so no caller
@@ -236,13 +314,27 @@ impl Tape {
         &self.stats
     }
 
+    /// The precision plan (when compiled for an extent): the error bound of each output and
+    /// which instructions run in f64.
+    pub fn precision(&self) -> Option<&crate::precision::Plan> {
+        self.precision.as_deref()
+    }
+
+    /// Instructions that run in f64 on the fast path (promoted ones and their conversions).
+    pub fn wide_instructions(&self) -> usize {
+        self.instrs
+            .iter()
+            .filter(|i| matches!(i, Instr::Wide(_)))
+            .count()
+    }
+
     /// A fingerprint of what the tape computes (FNV-1a 64 over its instructions, constants,
     /// outputs and tables' keys, not over its process-local id): equal tapes compiled in
     /// different processes, or by different runs of one build, have equal fingerprints. A bake
     /// records it (zarr attributes, shard manifests) to tell a resumable store from a stale one.
     pub fn fingerprint(&self) -> u64 {
         let text = format!(
-            "{:?}|{}|{}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}",
+            "{:?}|{}|{}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{:?}{}",
             self.instrs,
             self.scalar_slots,
             self.vec3_slots,
@@ -257,6 +349,12 @@ impl Tape {
             self.hermites,
             self.ramps,
             self.curves,
+            // Only a tape with wide slots hashes them: a plain tape keeps its old fingerprint.
+            if self.wide_slots > 0 {
+                format!("|{}|{:?}", self.wide_slots, self.wide_constants)
+            } else {
+                String::new()
+            },
         );
         text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
             (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
@@ -483,7 +581,31 @@ impl Tape {
                     points.join(", ")
                 )
             }
+            Instr::Wide(w) => wide_text(w),
         }
+    }
+}
+
+fn wide_text(w: &Wide) -> String {
+    match *w {
+        Wide::Component { dst, src, axis } => {
+            format!("d{dst} = v{src}.{}", ["x", "y", "z"][axis as usize % 3])
+        }
+        Wide::Unary { op, dst, src } => format!("d{dst} = {op} d{src}"),
+        Wide::Binary { op, dst, a, b } => format!("d{dst} = {op} d{a}, d{b}"),
+        Wide::Ternary { op, dst, a, b, c } => format!("d{dst} = {op} d{a}, d{b}, d{c}"),
+        Wide::Dot { dst, a, b } => format!("d{dst} = dot v{a}, v{b}"),
+        Wide::Length { dst, src } => format!("d{dst} = length v{src}"),
+        Wide::Splat { dst, src } => format!("v{dst} = splat d{src}"),
+        Wide::Combine { dst, x, y, z } => format!("v{dst} = combine d{x}, d{y}, d{z}"),
+        Wide::Rotate {
+            dst,
+            src,
+            degrees,
+            axis,
+        } => format!("v{dst} = rotate v{src} axis=#{axis} degrees=d{degrees}"),
+        Wide::Widen { dst, src } => format!("d{dst} = widen s{src}"),
+        Wide::Narrow { dst, src } => format!("s{dst} = narrow d{src}"),
     }
 }
 
@@ -504,9 +626,26 @@ impl fmt::Display for Tape {
         for (slot, v) in &self.vec3_constants {
             writeln!(f, "const v{slot} = {}", vec3_text(v))?;
         }
+        if self.wide_slots > 0 {
+            if let Some(plan) = &self.precision {
+                writeln!(
+                    f,
+                    "; precision: extent {}, max error {:e}: {} f64 slots",
+                    plan.extent, plan.max_error, self.wide_slots
+                )?;
+            }
+            for (slot, v) in &self.wide_constants {
+                writeln!(f, "const d{slot} = {v}")?;
+            }
+        }
+        let mut reasons = self.reasons.iter().peekable();
         for (i, (instr, origin)) in self.instrs.iter().zip(&self.origins).enumerate() {
             let text = self.instruction_text(instr);
-            writeln!(f, "{i:04}  {text:<48} ; {origin}")?;
+            write!(f, "{i:04}  {text:<48} ; {origin}")?;
+            if let Some((_, why)) = reasons.next_if(|(at, _)| *at == i) {
+                write!(f, "  {why}")?;
+            }
+            writeln!(f)?;
         }
         for output in &self.outputs {
             let prefix = if output.ty == Type::Scalar { "s" } else { "v" };

@@ -1118,3 +1118,73 @@ fn serve_prints_its_localhost_url() {
         "{line}"
     );
 }
+
+/// `--extent` and `--max-error`: the promoted tape is shown with its reasons, a far point is
+/// evaluated within the target of f64, and bad values are usage errors.
+#[test]
+fn precision_flags() {
+    let marble = "graphs/seed003_marble.ron";
+    let out = expect_code(
+        &[
+            "check",
+            "--tape",
+            "--extent=-1e6,-1e6,-1e6:1e6,1e6,1e6",
+            marble,
+        ],
+        0,
+    );
+    let text = stdout(&out);
+    assert!(text.contains("d1 = v0.x"), "{text}");
+    assert!(text.contains("f64: |value| <= 1.000e6"), "{text}");
+    assert!(text.contains("precision: extent -1000000,"), "{text}");
+    assert!(text.contains("output \"vein\": error bound"), "{text}");
+    let plain = stdout(&expect_code(&["check", "--tape", marble], 0));
+    assert!(
+        !plain.contains("precision") && !plain.contains(" d0"),
+        "{plain}"
+    );
+    // A loose target promotes nothing.
+    let loose = stdout(&expect_code(
+        &[
+            "check",
+            "--tape",
+            "--extent=0,0,0:1e3,1,1",
+            "--max-error",
+            "1",
+            marble,
+        ],
+        0,
+    ));
+    assert!(loose.contains("0 of 10 instructions in f64"), "{loose}");
+    // One far point: its own extent, within 1e-4 of the f64 path.
+    let value = |args: &[&str]| -> f64 {
+        let s = stdout(&expect_code(args, 0));
+        let line = s
+            .lines()
+            .find(|l| l.starts_with("vein "))
+            .expect("vein line");
+        line[5..].trim().parse().expect("number")
+    };
+    let far = [
+        "eval",
+        marble,
+        "1000000.3",
+        "-2000000.7",
+        "5.1",
+        "--output",
+        "vein",
+    ];
+    let fast = value(&far);
+    let mut reference = far.to_vec();
+    reference.push("--f64");
+    let exact = value(&reference);
+    assert!((fast - exact).abs() <= 1e-4, "{fast} vs {exact}");
+    for bad in [
+        vec!["check", "--extent", "1,1,1:0,0,0", marble],
+        vec!["check", "--extent", "0,0:1,1", marble],
+        vec!["check", "--max-error", "0", marble],
+        vec!["eval", "--max-error", "-1", marble, "0", "0", "0"],
+    ] {
+        expect_code(&bad, 2);
+    }
+}

@@ -6,7 +6,7 @@
 
 use proptest::prelude::*;
 use texgraph::nodes::Lowering;
-use texgraph::{check, compile, CheckOptions, CompileOptions, SourceFile, Workspace};
+use texgraph::{check, compile, CheckOptions, CompileOptions, Extent, SourceFile, Workspace};
 
 // The catalogue's kinds whose lowering is accepted: the generator iterates the table, so a new
 // math kind is generated without touching this file.
@@ -174,6 +174,31 @@ proptest! {
         .flatten()
         {
             prop_assert!(false, "{problem}\n{text}");
+        }
+        // Precision chosen for the points' extent and for every point: point = batch bit for
+        // bit, and the f64 path computes exactly what the plain tape does.
+        let [x, y, z] = [0, 1, 2].map(|c| points.iter().map(|p| p[c]).collect::<Vec<f64>>());
+        let extents = [Extent::around(&x, &y, &z), Some(Extent::unbounded())];
+        for extent in extents.into_iter().flatten() {
+            let options = CompileOptions { extent: Some(extent), ..Default::default() };
+            let promoted = compile(&graph, &options).expect("a checked graph compiles");
+            for problem in [
+                common::point_and_batch::<f32>(&promoted, &points, common::Agree::BitsOrNan).err(),
+                common::point_and_batch::<f64>(&promoted, &points, common::Agree::BitsOrNan).err(),
+            ]
+            .into_iter()
+            .flatten()
+            {
+                prop_assert!(false, "{problem}\n{text}\n{promoted}");
+            }
+            let n = x.len();
+            let mut plain = vec![0f64; tape.channels() * n];
+            let mut wide = vec![0f64; tape.channels() * n];
+            tape.eval_batch(&mut Workspace::new(), &x, &y, &z, &mut plain);
+            promoted.eval_batch(&mut Workspace::new(), &x, &y, &z, &mut wide);
+            for (a, b) in plain.iter().zip(&wide) {
+                prop_assert!(a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()), "f64 {a} vs {b}\n{text}\n{promoted}");
+            }
         }
     }
 

@@ -240,6 +240,7 @@ async fn every_node_param_and_image_is_sent() {
         &texgraph::CompileOptions {
             outputs: vec!["colour".into()],
             spacing: None,
+            ..Default::default()
         },
     )
     .unwrap();

@@ -78,9 +78,12 @@ pub fn graph_bytes(data: &[u8]) {
                 [t * 0.37 - 50.0, (t * 0.11).sin() * 7.0, -t * 0.029]
             }));
             for spacing in [None, Some(1.0 / 64.0)] {
+                // The level-of-detail run also chooses precision for every coordinate.
                 let options = CompileOptions {
                     outputs: Vec::new(),
                     spacing,
+                    extent: spacing.map(|_| texgraph::Extent::unbounded()),
+                    max_error: None,
                 };
                 let tape = compile(&graph, &options).expect("a checked graph compiles");
                 point_and_batch_agree::<f32>(&tape, &batch);
@@ -222,6 +225,8 @@ fn random_graph_agrees(u: &mut Unstructured) {
         let options = CompileOptions {
             outputs: Vec::new(),
             spacing,
+            extent: spacing.map(|_| texgraph::Extent::unbounded()),
+            max_error: None,
         };
         let tape = compile(&graph, &options).expect("a checked graph compiles");
         point_and_batch_agree::<f32>(&tape, &points);

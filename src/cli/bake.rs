@@ -294,6 +294,8 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
         size: args.size,
         region: args.region.unwrap_or_default(),
     };
+    // Precision per instruction for the region the voxel centres lie in.
+    compile_options.extent = Some(crate::Extent::new(grid.region.min, grid.region.max));
     if args.lod && compile_options.spacing.is_none() {
         let spacing = grid.spacing().into_iter().fold(f64::INFINITY, f64::min);
         compile_options.spacing = (spacing > 0.0 && spacing.is_finite()).then_some(spacing);

@@ -12,12 +12,17 @@ pub struct CheckArgs {
     /// Also print the tape disassembly.
     #[arg(long)]
     tape: bool,
+    /// Compile for this region (`X0,Y0,Z0:X1,Y1,Z1` or `unbounded`): precision is chosen per
+    /// instruction, and the summary gives each output's error bound.
+    #[arg(long, value_name = "X0,Y0,Z0:X1,Y1,Z1", value_parser = parse_extent, allow_hyphen_values = true)]
+    extent: Option<crate::Extent>,
     #[command(flatten)]
     graph: GraphOptions,
 }
 
 pub fn check(args: CheckArgs) -> Result<(), Failure> {
-    let (check_options, compile_options) = options(&args.graph);
+    let (check_options, mut compile_options) = options(&args.graph);
+    compile_options.extent = args.extent;
     let mut worst: Option<Failure> = None;
     for file in &args.files {
         match crate::load_tape(file, &check_options, &compile_options) {

@@ -21,6 +21,11 @@ pub struct EvalArgs {
     /// Evaluate in double precision (the reference path) instead of f32.
     #[arg(long = "f64")]
     double: bool,
+    /// The region the points lie in (`X0,Y0,Z0:X1,Y1,Z1` or `unbounded`): scalars whose f32
+    /// error there could exceed --max-error run in f64. Default: the point itself; with
+    /// --points, none (every scalar in f32).
+    #[arg(long, value_name = "X0,Y0,Z0:X1,Y1,Z1", value_parser = parse_extent, allow_hyphen_values = true)]
+    extent: Option<crate::Extent>,
     #[command(flatten)]
     graph: GraphOptions,
 }
@@ -37,7 +42,12 @@ pub fn eval(args: EvalArgs) -> Result<(), Failure> {
         eprintln!("error: give a point as three numbers X Y Z, or --points FILE");
         return Err(Failure::Usage);
     }
-    let (check_options, compile_options) = options(&args.graph);
+    let (check_options, mut compile_options) = options(&args.graph);
+    compile_options.extent = args.extent.or_else(|| {
+        let c = &args.coordinates;
+        (args.points.is_none() && c.len() == 3)
+            .then(|| crate::Extent::new([c[0], c[1], c[2]], [c[0], c[1], c[2]]))
+    });
     let (_, tape) =
         crate::load_tape(&args.file, &check_options, &compile_options).map_err(print_load_error)?;
     if args.double {

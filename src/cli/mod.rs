@@ -58,6 +58,29 @@ pub struct GraphOptions {
     /// Override a param of the graph (repeatable).
     #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
     sets: Vec<(String, f64)>,
+    /// Precision target: scalars whose f32 error could push an output further than this from
+    /// the f64 reference run in f64 (absolute; default 1e-4). Chosen per instruction from the
+    /// region evaluated over (a bake's region, `--extent`).
+    #[arg(long = "max-error", value_name = "E", value_parser = parse_max_error)]
+    max_error: Option<f64>,
+}
+
+pub fn parse_max_error(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(e) if e > 0.0 && e.is_finite() => Ok(e),
+        _ => Err(format!(
+            "the error target is a positive number, found `{text}`"
+        )),
+    }
+}
+
+/// `--extent X0,Y0,Z0:X1,Y1,Z1` (or `unbounded`): the region a tape is evaluated over.
+pub fn parse_extent(text: &str) -> Result<crate::Extent, String> {
+    let text = text.replace(MINUS, "-");
+    if text.trim() == "unbounded" {
+        return Ok(crate::Extent::unbounded());
+    }
+    crate::Extent::parse(&text)
 }
 
 /// Marks a negative number that clap would mistake for a flag (see `protect_negative_numbers`).
@@ -163,6 +186,8 @@ pub fn options(graph: &GraphOptions) -> (CheckOptions, CompileOptions) {
         CompileOptions {
             outputs: graph.outputs.clone(),
             spacing: graph.spacing,
+            extent: None,
+            max_error: graph.max_error,
         },
     )
 }

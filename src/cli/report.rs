@@ -47,6 +47,10 @@ pub struct ReportArgs {
     /// Override a param of the graph (repeatable).
     #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
     sets: Vec<(String, f64)>,
+    /// The precision target of the tapes compiled for each extent (stability survey); default
+    /// 1e-4.
+    #[arg(long = "max-error", value_name = "E", value_parser = parse_max_error)]
+    max_error: Option<f64>,
 }
 
 pub fn report_command(args: ReportArgs) -> Result<(), Failure> {
@@ -59,6 +63,9 @@ pub fn report_command(args: ReportArgs) -> Result<(), Failure> {
     let check_options = CheckOptions {
         overrides: args.sets.clone(),
     };
+    let max_error = args
+        .max_error
+        .unwrap_or(crate::precision::DEFAULT_MAX_ERROR);
     let mut worst: Option<Failure> = None;
     let mut json_rows: Vec<serde_json::Value> = Vec::new();
     if args.markdown {
@@ -109,7 +116,7 @@ pub fn report_command(args: ReportArgs) -> Result<(), Failure> {
             if args.markdown {
                 let rows = crate::report::accuracy_report(&graph, &args.outputs, &options)
                     .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
-                let stability = crate::stability::stability_report(&graph)
+                let stability = crate::stability::stability_report(&graph, max_error)
                     .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
                 format!(
                     "\n## `{}`\n\nTape length: {}.\n{}\nStability:\n\n```text\n{}```\n",
@@ -119,7 +126,7 @@ pub fn report_command(args: ReportArgs) -> Result<(), Failure> {
                     crate::stability::stability_text(&stability)
                 )
             } else if args.stability {
-                let rows = crate::stability::stability_report(&graph)
+                let rows = crate::stability::stability_report(&graph, max_error)
                     .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
                 if args.json {
                     json_rows.extend(rows.iter().map(
@@ -185,6 +192,7 @@ pub fn tape_lengths(graph: &crate::CheckedGraph) -> String {
             &CompileOptions {
                 outputs: vec![output.name.clone()],
                 spacing: None,
+                ..Default::default()
             },
         ) {
             parts.push(format!("{} {}", output.name, tape.instrs.len()));

@@ -700,13 +700,7 @@ impl NoiseTable {
     ///   x -> 1 - x and under axis swaps, and |∂F/∂x| <= 1 + fade'(x)). The 3.6e-3 to spare
     ///   covers the rounding of the f32 evaluation (~1e-6) many times over.
     pub fn range(&self) -> (f64, f64) {
-        match self.basis {
-            Basis::Perlin => (-PERLIN_RANGE, PERLIN_RANGE),
-            Basis::Gradient => (-GRADIENT_RANGE, GRADIENT_RANGE),
-            Basis::Value(_) | Basis::White => (0.0, 1.0),
-            Basis::Simplex => (-simplex::RANGE, simplex::RANGE),
-            Basis::Cellular(c) => c.range(),
-        }
+        self.basis.range()
     }
 
     /// An upper bound on the Lipschitz constant (max |gradient|) of [`NoiseTable::sample`] in
@@ -731,6 +725,17 @@ impl NoiseTable {
 }
 
 impl Basis {
+    /// The range of every table of this basis (see [`NoiseTable::range`]).
+    pub fn range(self) -> (f64, f64) {
+        match self {
+            Basis::Perlin => (-PERLIN_RANGE, PERLIN_RANGE),
+            Basis::Gradient => (-GRADIENT_RANGE, GRADIENT_RANGE),
+            Basis::Value(_) | Basis::White => (0.0, 1.0),
+            Basis::Simplex => (-simplex::RANGE, simplex::RANGE),
+            Basis::Cellular(c) => c.range(),
+        }
+    }
+
     /// An upper bound on the Lipschitz constant of the basis, the same for every seed; see
     /// [`NoiseTable::lipschitz`].
     pub fn lipschitz(self) -> f64 {

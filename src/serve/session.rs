@@ -333,6 +333,7 @@ fn probe_tape(loaded: &Loaded, outputs: Vec<String>) -> Option<Tape> {
     let options = CompileOptions {
         outputs,
         spacing: None,
+        ..Default::default()
     };
     compile(&loaded.graph.with_node_probes(), &options).ok()
 }

@@ -516,6 +516,7 @@ impl<'a> Resolver<'a> {
                 &CompileOptions {
                     outputs: outputs.clone(),
                     spacing: None,
+                    ..Default::default()
                 },
             )
             .map_err(|d| RenderError::Invalid(vec![d]))?;
