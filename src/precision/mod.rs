@@ -510,11 +510,9 @@ impl<'g> Facts<'g> {
         let narrow = vec![false; wide.len()];
         let promoted = self.bound(wide, &s, &outputs);
         let floor = self.f64_bound(&s);
-        // A finite f64 floor above the target is the real limit; an infinite one comes from an
-        // unbounded slope, which the promoted bound's reason names as well.
-        let shortfall = if floor.total > max && floor.total.is_finite() {
-            floor.why
-        } else if promoted.total > max {
+        // What the fast path still rounds is named first; where everything that matters runs
+        // in f64 and the reference itself cannot hold the target, that is the reason.
+        let shortfall = if promoted.total > max {
             promoted.why
         } else if floor.total > max {
             floor.why
