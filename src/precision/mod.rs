@@ -256,6 +256,26 @@ struct Facts<'g> {
     magnitude: Vec<f64>,
     partials: Vec<Partials>,
     edges: Vec<Partials>,
+    /// Per node: a bound ρ on its f32 error relative to its own value, pointwise, where its
+    /// whole chain keeps errors relative (products, sums of like-signed terms, square roots of
+    /// components of exact vec3 values); infinite elsewhere.
+    relative: Vec<f64>,
+    max_error: f64,
+}
+
+/// Sensitivities, and the error square roots pass on from inputs whose relative error they
+/// keep relative (`Facts::relative`): near 0 a square root's slope is unbounded, but an input
+/// off by ρ·x gives an output off by ρ/2·√x.
+struct Sens {
+    s: Vec<f64>,
+    inherited: Vec<f64>,
+}
+
+impl std::ops::Deref for Sens {
+    type Target = [f64];
+    fn deref(&self) -> &[f64] {
+        &self.s
+    }
 }
 
 /// Plans the precision of compiling `outputs` (name, node) of `graph` for `extent`.
@@ -266,7 +286,7 @@ pub(crate) fn plan(
     extent: Extent,
     max_error: f64,
 ) -> Plan {
-    let facts = Facts::new(graph, live, extent);
+    let facts = Facts::new(graph, live, extent, max_error);
     let all = facts.sensitivities(outputs.iter().map(|o| o.1));
     let narrow = vec![false; graph.nodes.len()];
     let mut wide = narrow.clone();
@@ -312,6 +332,7 @@ pub(crate) fn plan(
 }
 
 /// A bound and its largest term.
+#[derive(Default)]
 struct Bound {
     total: f64,
     top: f64,
@@ -331,7 +352,7 @@ impl Bound {
 }
 
 impl<'g> Facts<'g> {
-    fn new(graph: &'g CheckedGraph, live: &'g [bool], extent: Extent) -> Facts<'g> {
+    fn new(graph: &'g CheckedGraph, live: &'g [bool], extent: Extent, max_error: f64) -> Facts<'g> {
         let n = graph.nodes.len();
         let mut ranges: Vec<Range> = Vec::with_capacity(n);
         let mut partials: Vec<Partials> = Vec::with_capacity(n);
@@ -344,9 +365,20 @@ impl<'g> Facts<'g> {
             }
             let args: smallvec::SmallVec<[Range; 3]> =
                 node.args.iter().map(|&a| ranges[a as usize]).collect();
-            ranges.push(rules::range(&node.op, node.ty, &args, position));
+            let mut range = rules::range(&node.op, node.ty, &args, position);
+            if let (Op::Binary(crate::ops::BinaryOp::Mul), [a, b]) = (&node.op, &node.args[..]) {
+                if a == b {
+                    // x · x: interval arithmetic does not know both factors are one value.
+                    range = args[0].map(|i| {
+                        let m = i.least_magnitude();
+                        Interval::new(m * m, i.magnitude() * i.magnitude())
+                    });
+                }
+            }
+            ranges.push(range);
             partials.push(rules::partials(&node.op, &args));
         }
+        let relative = relative_errors(graph, live, &ranges);
         let magnitude = ranges.iter().map(rules::range_magnitude).collect();
         let edges = graph.nodes.iter().map(|n| rules::edges(&n.op)).collect();
         Facts {
@@ -355,6 +387,8 @@ impl<'g> Facts<'g> {
             magnitude,
             partials,
             edges,
+            relative,
+            max_error,
         }
     }
 
@@ -367,8 +401,14 @@ impl<'g> Facts<'g> {
 
     /// How much an error in each node's value can move the given outputs, and the jumps of
     /// the discontinuous nodes they depend on (the edge rule), summed.
-    fn sensitivities(&self, seeds: impl Iterator<Item = NodeId>) -> Vec<f64> {
+    ///
+    /// A square root whose inputs keep their error relative, and whose inherited error is then
+    /// far below the target, does not pass sensitivity on to its inputs: its inherited error
+    /// is counted instead (`Sens::inherited`). Where that error matters (a huge extent), the
+    /// inputs are sensitive as usual, so promoting them can help.
+    fn sensitivities(&self, seeds: impl Iterator<Item = NodeId>) -> Sens {
         let mut s = vec![0.0; self.graph.nodes.len()];
+        let mut inherited = vec![0.0; s.len()];
         let mut reached = vec![false; s.len()];
         for seed in seeds {
             s[seed as usize] += 1.0;
@@ -378,6 +418,43 @@ impl<'g> Facts<'g> {
             if !self.live[c] || !reached[c] {
                 continue;
             }
+            if matches!(self.graph.nodes[c].op, Op::Unary(crate::ops::UnaryOp::Sqrt)) {
+                let small = |t: f64| t.is_finite() && t <= self.max_error / 4.0;
+                // √(Σ xᵢ²) is a norm: 1-Lipschitz in each xᵢ; the squares and sums round
+                // relatively, one unit each, halved by the root.
+                let mut bases = Vec::new();
+                let arg = self.graph.nodes[c].args[0] as usize;
+                if self.sum_of_squares(arg, &mut bases, 0) {
+                    let units = bases.len() as f64 / 2.0 + 1.0;
+                    let term = scaled(units * F32_UNIT * self.magnitude[c], s[c]);
+                    if small(term) {
+                        inherited[c] = term;
+                        for x in bases {
+                            reached[x] = true;
+                            s[x] += s[c];
+                        }
+                        continue;
+                    }
+                }
+                let passed = (self.relative[c] - F32_UNIT).max(0.0) * self.magnitude[c];
+                let term = scaled(passed, s[c]);
+                if small(term) {
+                    inherited[c] = term;
+                    continue;
+                }
+            }
+            // atan2 of two relatively rounded values moves by at most half their relative
+            // errors' sum (in radians), however close to the origin.
+            if let (Op::Binary(crate::ops::BinaryOp::Atan2), [y, x]) =
+                (&self.graph.nodes[c].op, &self.graph.nodes[c].args[..])
+            {
+                let rho = (self.relative[*y as usize] + self.relative[*x as usize]) / 2.0;
+                let term = scaled(rho, s[c]);
+                if term.is_finite() && term <= self.max_error / 4.0 {
+                    inherited[c] = term;
+                    continue;
+                }
+            }
             for (i, &p) in self.graph.nodes[c].args.iter().enumerate() {
                 reached[p as usize] = true;
                 let l = self.partials[c].get(i).copied().unwrap_or(f64::INFINITY);
@@ -385,7 +462,25 @@ impl<'g> Facts<'g> {
                 s[p as usize] += scaled(l, s[c]) + edge;
             }
         }
-        s
+        Sens { s, inherited }
+    }
+
+    /// Whether node `n` is a sum of squares `x·x + y·y + …` (nested additions, at most 8
+    /// deep), collecting the bases.
+    fn sum_of_squares(&self, n: usize, bases: &mut Vec<usize>, depth: u32) -> bool {
+        use crate::ops::BinaryOp;
+        let node = &self.graph.nodes[n];
+        match (&node.op, &node.args[..]) {
+            (Op::Binary(BinaryOp::Mul), [a, b]) if a == b => {
+                bases.push(*a as usize);
+                true
+            }
+            (Op::Binary(BinaryOp::Add), [a, b]) if depth < 8 => {
+                self.sum_of_squares(*a as usize, bases, depth + 1)
+                    && self.sum_of_squares(*b as usize, bases, depth + 1)
+            }
+            _ => false,
+        }
     }
 
     /// What node `n` adds to the outputs if it runs in f32 (its own rounding).
@@ -438,16 +533,18 @@ impl<'g> Facts<'g> {
     }
 
     /// The bound on the outputs' error with `wide` promoted, sensitivities `s`.
-    fn bound(&self, wide: &[bool], s: &[f64], outputs: &[(String, NodeId)]) -> Bound {
-        let mut b = Bound {
-            total: 0.0,
-            top: 0.0,
-            why: None,
-        };
+    fn bound(&self, wide: &[bool], s: &Sens, outputs: &[(String, NodeId)]) -> Bound {
+        let mut b = Bound::default();
         for (n, node) in self.graph.nodes.iter().enumerate() {
             if !self.live[n] || s[n] == 0.0 {
                 continue;
             }
+            b.add(s.inherited[n], || {
+                format!(
+                    "{} inherits the relative f32 error of its inputs",
+                    self.describe(n)
+                )
+            });
             if !wide[n] {
                 b.add(self.own_cost(n, s), || {
                     self.with_slope(self.own_reason(n), n, s)
@@ -468,7 +565,7 @@ impl<'g> Facts<'g> {
                 b.add(term, || {
                     format!(
                         "output \"{name}\" is written in f32 and reaches |value| {:.3e}, which \
-                         f32 resolves only to {:.1e}: evaluate in f64 (--precision f64)",
+                         f32 resolves only to {:.1e}: evaluate in f64 (`--f64`)",
                         self.magnitude[n], term
                     )
                 });
@@ -479,11 +576,7 @@ impl<'g> Facts<'g> {
 
     /// The bound on the f64 reference's own error.
     fn f64_bound(&self, s: &[f64]) -> Bound {
-        let mut b = Bound {
-            total: 0.0,
-            top: 0.0,
-            why: None,
-        };
+        let mut b = Bound::default();
         for (n, node) in self.graph.nodes.iter().enumerate() {
             if !self.live[n] || s[n] == 0.0 {
                 continue;
@@ -583,6 +676,47 @@ impl<'g> Facts<'g> {
             self.magnitude[p]
         )
     }
+}
+
+/// Per node, the relative error bound ρ of the plain f32 tape where the chain keeps errors
+/// relative, infinite elsewhere (see `Facts::relative`).
+fn relative_errors(graph: &CheckedGraph, live: &[bool], ranges: &[Range]) -> Vec<f64> {
+    use crate::ops::{BinaryOp, UnaryOp};
+    let n = graph.nodes.len();
+    let mut rho = vec![f64::INFINITY; n];
+    // Vec3 values computed in f64 from positions and constants only: exact on both paths.
+    let mut exact = vec![false; n];
+    let same_sign = |a: &Range, b: &Range| {
+        (a[0].lo >= 0.0 && b[0].lo >= 0.0) || (a[0].hi <= 0.0 && b[0].hi <= 0.0)
+    };
+    for (id, node) in graph.nodes.iter().enumerate() {
+        if !live[id] {
+            continue;
+        }
+        let arg = |i: usize| node.args[i] as usize;
+        if node.ty == Type::Vec3 {
+            exact[id] = match node.op {
+                Op::Position | Op::ConstVec3(_) => true,
+                Op::Unary(_) | Op::Binary(_) | Op::Ternary(_) | Op::Cross | Op::Normalize => {
+                    node.args.iter().all(|&a| exact[a as usize])
+                }
+                _ => false,
+            };
+            continue;
+        }
+        rho[id] = match node.op {
+            Op::ConstScalar(_) => F32_UNIT,
+            Op::Component(_) if exact[arg(0)] => F32_UNIT,
+            Op::Unary(UnaryOp::Neg | UnaryOp::Abs) => rho[arg(0)],
+            Op::Unary(UnaryOp::Sqrt) if ranges[arg(0)][0].lo >= 0.0 => rho[arg(0)] / 2.0 + F32_UNIT,
+            Op::Binary(BinaryOp::Mul | BinaryOp::Div) => rho[arg(0)] + rho[arg(1)] + F32_UNIT,
+            Op::Binary(BinaryOp::Add) if same_sign(&ranges[arg(0)], &ranges[arg(1)]) => {
+                rho[arg(0)].max(rho[arg(1)]) + F32_UNIT
+            }
+            _ => f64::INFINITY,
+        };
+    }
+    rho
 }
 
 /// `a · b` where an exact zero stays zero even against an infinite factor.
