@@ -368,6 +368,7 @@ struct Emitter {
     tables: Vec<(TableKey, std::sync::Arc<crate::noise::NoiseTable>)>,
     octaves: Vec<crate::noise::Octaves>,
     octave_counts: Vec<(f64, f64)>,
+    lane_lods: Vec<Option<crate::lod::LaneLod>>,
     matrices: Vec<[[f64; 3]; 3]>,
     axes: Vec<[f64; 3]>,
     hermites: Vec<ops::Hermite>,
@@ -484,17 +485,10 @@ impl Emitter {
             },
             Op::Fractal(key, params) | Op::FractalGradient(key, params) => {
                 let table = self.table(*key);
+                let stretch = stretches.get_or_insert_with(|| crate::lod::stretches(graph))
+                    [node.args[0] as usize];
                 let lod = match options.spacing {
-                    Some(spacing) => {
-                        let stretches =
-                            stretches.get_or_insert_with(|| crate::lod::stretches(graph));
-                        crate::lod::fractal_lod(
-                            *key,
-                            params,
-                            stretches[node.args[0] as usize],
-                            spacing,
-                        )
-                    }
+                    Some(spacing) => crate::lod::fractal_lod(*key, params, stretch, spacing),
                     None => crate::lod::FractalLod {
                         octaves: params.octaves,
                         bias: 0.0,
@@ -506,6 +500,8 @@ impl Emitter {
                 };
                 self.octaves.push(kept.schedule());
                 self.octave_counts.push((params.octaves, lod.octaves));
+                self.lane_lods
+                    .push(crate::lod::LaneLod::new(*key, params, stretch, lod));
                 if let Op::FractalGradient(..) = node.op {
                     // The octaves left out add a constant on average: no slope.
                     return Instr::FractalGradient {
@@ -653,6 +649,7 @@ impl Emitter {
             tables: self.tables,
             octaves: self.octaves,
             octave_counts: self.octave_counts,
+            lane_lods: self.lane_lods,
             matrices: self.matrices,
             axes: self.axes,
             hermites: self.hermites,

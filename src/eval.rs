@@ -27,6 +27,9 @@ pub struct Workspace<S: Real> {
     vec3s: Vec<Vec<f64>>,
     /// f64 scalar slots of promoted instructions (`Instr::Wide`), whatever `S` is.
     wides: Vec<Vec<f64>>,
+    /// Level of detail per lane: the octaves each lane of a fractal keeps, and its bias.
+    kept: Vec<f64>,
+    bias: Vec<f64>,
 }
 
 impl<S: Real> Workspace<S> {
@@ -36,6 +39,8 @@ impl<S: Real> Workspace<S> {
             scalars: Vec::new(),
             vec3s: Vec::new(),
             wides: Vec::new(),
+            kept: Vec::new(),
+            bias: Vec::new(),
         }
     }
 
@@ -52,6 +57,8 @@ impl<S: Real> Workspace<S> {
             self.scalars[slot as usize].fill(S::from_f64(v));
         }
         self.wides = (0..tape.wide_slots).map(|_| vec![0.0; LANES]).collect();
+        self.kept = vec![0.0; LANES];
+        self.bias = vec![0.0; LANES];
         for &(slot, v) in &tape.wide_constants {
             self.wides[slot as usize].fill(v);
         }
@@ -83,7 +90,36 @@ impl Tape {
             "eval_point: output buffer has the wrong length"
         );
         workspace.bind(self);
-        self.run_chunk::<S, true>(workspace, &[point[0]], &[point[1]], &[point[2]]);
+        let [x, y, z] = [[point[0]], [point[1]], [point[2]]];
+        self.run_chunk::<S, true>(workspace, &x, &y, &z, None);
+        self.write_outputs::<S, true>(workspace, 1, 0, 1, out);
+    }
+
+    /// [`Tape::eval_point`] with level of detail at this point: every fbm, turbulence, billow
+    /// and ridged sum (and their gradients) keeps only the octaves whose world frequency a
+    /// sampling with spacing `spacing` (world units, e.g. a render hit's footprint in texture
+    /// space) resolves, the last one faded, the dropped octaves' mean added back — what a tape
+    /// compiled with `CompileOptions::spacing` does, at each point its own spacing. Never more
+    /// octaves than the tape keeps; a spacing that is not positive and finite drops nothing.
+    /// Bit for bit [`Tape::eval_batch_lod`]'s lane with that point and spacing.
+    ///
+    /// # Panics
+    /// If `out.len() != self.channels()`.
+    pub fn eval_point_lod<S: Real>(
+        &self,
+        workspace: &mut Workspace<S>,
+        point: [f64; 3],
+        spacing: f64,
+        out: &mut [S],
+    ) {
+        assert_eq!(
+            out.len(),
+            self.channels(),
+            "eval_point_lod: output buffer has the wrong length"
+        );
+        workspace.bind(self);
+        let [x, y, z] = [[point[0]], [point[1]], [point[2]]];
+        self.run_chunk::<S, true>(workspace, &x, &y, &z, Some(&[spacing]));
         self.write_outputs::<S, true>(workspace, 1, 0, 1, out);
     }
 
@@ -100,6 +136,41 @@ impl Tape {
         z: &[f64],
         out: &mut [S],
     ) {
+        self.batch(workspace, [x, y, z], None, out);
+    }
+
+    /// [`Tape::eval_batch`] with level of detail per point: point `i` keeps the octaves its own
+    /// sample spacing `spacing[i]` resolves (see [`Tape::eval_point_lod`]). One batch, one
+    /// tape: a chunk of points runs each fractal's octaves up to the most any of its points
+    /// keeps. Where every point has the same spacing, the result is bit for bit that of the
+    /// tape compiled for that spacing (`CompileOptions::spacing`).
+    ///
+    /// # Panics
+    /// If the coordinate or spacing slices differ in length or
+    /// `out.len() != self.channels() * x.len()`.
+    pub fn eval_batch_lod<S: Real>(
+        &self,
+        workspace: &mut Workspace<S>,
+        [x, y, z]: [&[f64]; 3],
+        spacing: &[f64],
+        out: &mut [S],
+    ) {
+        assert_eq!(
+            spacing.len(),
+            x.len(),
+            "eval_batch_lod: one spacing per point"
+        );
+        self.batch(workspace, [x, y, z], Some(spacing), out);
+    }
+
+    /// [`Tape::eval_batch`] and [`Tape::eval_batch_lod`]: the chunks.
+    fn batch<S: Real>(
+        &self,
+        workspace: &mut Workspace<S>,
+        [x, y, z]: [&[f64]; 3],
+        spacing: Option<&[f64]>,
+        out: &mut [S],
+    ) {
         let n = x.len();
         assert!(
             y.len() == n && z.len() == n,
@@ -114,7 +185,9 @@ impl Tape {
         let mut start = 0;
         while start < n {
             let end = (start + LANES).min(n);
-            self.run_chunk::<S, false>(workspace, &x[start..end], &y[start..end], &z[start..end]);
+            let (cx, cy, cz) = (&x[start..end], &y[start..end], &z[start..end]);
+            let lanes = spacing.map(|s| &s[start..end]);
+            self.run_chunk::<S, false>(workspace, cx, cy, cz, lanes);
             self.write_outputs::<S, false>(workspace, end - start, start, n, out);
             start = end;
         }
@@ -167,10 +240,11 @@ impl Tape {
         x: &[f64],
         y: &[f64],
         z: &[f64],
+        spacing: Option<&[f64]>,
     ) {
         let n = if ONE_LANE { 1 } else { x.len() };
         for instr in &self.instrs {
-            self.step::<S, ONE_LANE>(ws, instr, x, y, z, n);
+            self.step::<S, ONE_LANE>(ws, instr, [x, y, z], spacing, n);
         }
     }
 
@@ -200,7 +274,7 @@ impl Tape {
             let (cx, cy, cz) = (&x[start..end], &y[start..end], &z[start..end]);
             for (instr, time) in self.instrs.iter().zip(times.iter_mut()) {
                 let began = std::time::Instant::now();
-                self.step::<S, false>(workspace, instr, cx, cy, cz, lanes);
+                self.step::<S, false>(workspace, instr, [cx, cy, cz], None, lanes);
                 *time += began.elapsed();
             }
             self.write_outputs::<S, false>(workspace, lanes, start, n, out);
@@ -209,15 +283,14 @@ impl Tape {
     }
 
     /// Runs one instruction over `n` lanes (the body of [`Tape::run_chunk`]'s loop).
+    /// `spacing`: level of detail per lane ([`Tape::eval_batch_lod`]).
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
     fn step<S: Real, const ONE_LANE: bool>(
         &self,
         ws: &mut Workspace<S>,
         instr: &Instr,
-        x: &[f64],
-        y: &[f64],
-        z: &[f64],
+        [x, y, z]: [&[f64]; 3],
+        spacing: Option<&[f64]>,
         n: usize,
     ) {
         {
@@ -333,7 +406,7 @@ impl Tape {
                 Instr::Noise { .. }
                 | Instr::Fractal { .. }
                 | Instr::NoiseGradient { .. }
-                | Instr::FractalGradient { .. } => self.noise(instr, ws, n),
+                | Instr::FractalGradient { .. } => self.noise(instr, ws, spacing, n),
                 Instr::Hermite { .. } | Instr::Ramp { .. } | Instr::Curve { .. } => {
                     self.splines(instr, ws, n)
                 }
@@ -421,7 +494,13 @@ impl Tape {
 
     /// Noise samples and fractal sums, through the tables' batch kernels.
     #[inline(always)]
-    fn noise<S: Real>(&self, instr: &Instr, ws: &mut Workspace<S>, n: usize) {
+    fn noise<S: Real>(
+        &self,
+        instr: &Instr,
+        ws: &mut Workspace<S>,
+        spacing: Option<&[f64]>,
+        n: usize,
+    ) {
         match *instr {
             Instr::Noise { dst, src, table } => {
                 let a = &ws.vec3s[src as usize];
@@ -442,19 +521,32 @@ impl Tape {
                 bias,
             } => {
                 let a = &ws.vec3s[src as usize];
+                let (x, y, z) = (&a[..n], &a[LANES..LANES + n], &a[2 * LANES..2 * LANES + n]);
                 let table = &self.tables[table as usize].1;
-                noise::fractal_styled_batch(
-                    table,
-                    &self.octaves[octaves as usize],
-                    style,
-                    &a[..n],
-                    &a[LANES..LANES + n],
-                    &a[2 * LANES..2 * LANES + n],
-                    &mut ws.scalars[dst as usize][..n],
-                );
+                let schedule = &self.octaves[octaves as usize];
+                let out = &mut ws.scalars[dst as usize][..n];
+                if let Some(lod) = self.lanes_dropping(octaves, spacing, &mut ws.kept[..n]) {
+                    let kept = &ws.kept[..n];
+                    let lanes = noise::LaneOctaves {
+                        powers: lod.powers(),
+                        kept,
+                    };
+                    noise::fractal_styled_batch_lanes(table, schedule, lanes, style, x, y, z, out);
+                    lod.biases(kept, &mut ws.bias);
+                    for (v, &bias) in out.iter_mut().zip(&ws.bias[..n]) {
+                        // As the plain path: a zero bias adds nothing (not even to a -0).
+                        *v = if bias != 0.0 {
+                            *v + S::from_f64(bias)
+                        } else {
+                            *v
+                        };
+                    }
+                    return;
+                }
+                noise::fractal_styled_batch(table, schedule, style, x, y, z, out);
                 if bias != 0.0 {
                     let bias = S::from_f64(bias);
-                    for v in &mut ws.scalars[dst as usize][..n] {
+                    for v in out {
                         *v = *v + bias;
                     }
                 }
@@ -481,21 +573,51 @@ impl Tape {
             } => {
                 let mut out = take(&mut ws.vec3s[dst as usize]);
                 let a = &ws.vec3s[src as usize];
+                let (x, y, z) = (&a[..n], &a[LANES..LANES + n], &a[2 * LANES..2 * LANES + n]);
                 let (gx, rest) = out.split_at_mut(LANES);
                 let (gy, gz) = rest.split_at_mut(LANES);
-                noise::fractal_styled_grad_batch::<S>(
-                    &self.tables[table as usize].1,
-                    &self.octaves[octaves as usize],
-                    style,
-                    &a[..n],
-                    &a[LANES..LANES + n],
-                    &a[2 * LANES..2 * LANES + n],
-                    [&mut gx[..n], &mut gy[..n], &mut gz[..n]],
-                );
+                let g = [&mut gx[..n], &mut gy[..n], &mut gz[..n]];
+                let table = &self.tables[table as usize].1;
+                let schedule = &self.octaves[octaves as usize];
+                // The dropped octaves' mean is a constant: it adds no slope.
+                match self.lanes_dropping(octaves, spacing, &mut ws.kept[..n]) {
+                    Some(lod) => {
+                        let lanes = noise::LaneOctaves {
+                            powers: lod.powers(),
+                            kept: &ws.kept[..n],
+                        };
+                        noise::fractal_styled_grad_batch_lanes::<S>(
+                            table, schedule, lanes, style, x, y, z, g,
+                        )
+                    }
+                    None => {
+                        noise::fractal_styled_grad_batch::<S>(table, schedule, style, x, y, z, g)
+                    }
+                }
                 ws.vec3s[dst as usize] = out;
             }
             _ => unreachable!("run_chunk dispatches only noise instructions here"),
         }
+    }
+
+    /// With level of detail per lane: each lane's kept octaves of schedule `octaves` into
+    /// `kept`, and the schedule's [`LaneLod`](crate::lod::LaneLod) when some lane drops an octave
+    /// the schedule has (else the plain kernels run, whose bits are the same for lanes that drop
+    /// nothing).
+    #[inline(always)]
+    fn lanes_dropping(
+        &self,
+        octaves: u32,
+        spacing: Option<&[f64]>,
+        kept: &mut [f64],
+    ) -> Option<&crate::lod::LaneLod> {
+        let lod = self.lane_lods[octaves as usize].as_ref()?;
+        let mut drops = false;
+        for (k, &h) in kept.iter_mut().zip(spacing?) {
+            *k = lod.kept(h);
+            drops |= lod.drops(*k);
+        }
+        drops.then_some(lod)
     }
 
     /// Splines: Hermite, colour ramps and curves.

@@ -198,40 +198,190 @@ pub fn fractal_lod(
         octaves: params.octaves,
         bias: 0.0,
     };
-    let Some(stretch) = stretch else {
+    let Some(stretch) = stretch.filter(|&s| resolvable(params, s)) else {
         return unchanged;
     };
-    if !(spacing > 0.0 && spacing.is_finite()) || stretch <= 0.0 || params.lacunarity <= 1.0 {
-        return unchanged;
-    }
-    // Highest (continuous) octave index whose world frequency stays at or below Nyquist.
-    let nyquist = 0.5 / spacing;
-    let highest = (nyquist / stretch).ln() / params.lacunarity.ln();
-    let kept = (highest - params.first_octave as f64 + 1.0).clamp(0.0, params.octaves);
+    let kept = kept_octaves(params, params.lacunarity.ln(), stretch, spacing);
     if kept >= params.octaves {
         return unchanged;
     }
-    // The dropped share of each octave's amplitude, times the basis' mean (or mean magnitude).
+    FractalLod {
+        octaves: kept,
+        bias: dropped_bias(
+            params,
+            expected_signal(key, params.style),
+            kept,
+            &gain_powers(params),
+        ),
+    }
+}
+
+/// `gain^i` of each octave written (`i` from the first octave), by `f64::powi` at run time: the
+/// factors [`dropped_bias`] weighs each dropped share by.
+fn gain_powers(params: &FractalParams) -> Vec<f64> {
+    let count = params.octaves.ceil() as u32;
+    (0..count)
+        .map(|n| params.gain.powi(params.first_octave as i32 + n as i32))
+        .collect()
+}
+
+/// Whether level of detail can drop octaves of a fractal whose input has stretch `stretch`:
+/// a positive, finite stretch and octaves that grow in frequency.
+fn resolvable(params: &FractalParams, stretch: f64) -> bool {
+    stretch > 0.0 && stretch.is_finite() && params.lacunarity > 1.0
+}
+
+/// The octaves (continuous: the last one faded) whose world frequency stays at or below the
+/// Nyquist limit of `spacing`; all of them for a spacing that is not positive and finite.
+/// The one formula of per-compile and per-lane level of detail (so the two agree bit for bit).
+/// `ln_lacunarity` is `params.lacunarity.ln()` (a per-lane caller computes it once).
+#[inline]
+fn kept_octaves(params: &FractalParams, ln_lacunarity: f64, stretch: f64, spacing: f64) -> f64 {
+    if !(spacing > 0.0 && spacing.is_finite()) {
+        return params.octaves;
+    }
+    // Highest (continuous) octave index whose world frequency stays at or below Nyquist.
+    let nyquist = 0.5 / spacing;
+    let highest = (nyquist / stretch).ln() / ln_lacunarity;
+    (highest - params.first_octave as f64 + 1.0).clamp(0.0, params.octaves)
+}
+
+/// A spacing below which [`kept_octaves`] is at least `kept` by a wide margin (a millionth of
+/// an octave beyond any rounding of its logarithm): the spacing at which octave `kept` (counted
+/// from the first) reaches the Nyquist limit, 2^-20 smaller; 0 where none is meaningful.
+fn fine_spacing(params: &FractalParams, stretch: f64, kept: f64) -> f64 {
+    let exponent = kept + params.first_octave as f64 - 1.0;
+    let spacing = 0.5 / (stretch * params.lacunarity.powf(exponent)) * (-20f64).exp2();
+    if spacing.is_finite() && spacing > 0.0 {
+        spacing
+    } else {
+        0.0
+    }
+}
+
+/// What a fractal's octaves contribute on average, per unit of amplitude: the basis' mean for
+/// fbm, its mean magnitude for turbulence, and the shaped signal at the mean magnitude for
+/// billow and ridged.
+fn expected_signal(key: TableKey, style: Style) -> f64 {
     let (mean, mean_abs) = expectations(key);
-    // Ridged: the dropped octaves' signal (offset - |n|)^sharpness at the mean |n|, an estimate
-    // (the weights w <= 1 of those octaves are left out).
-    let expected = match params.style {
+    match style {
         Style::Fbm => mean,
         Style::Turbulence => mean_abs,
         Style::Billow => 2.0 * mean_abs - 1.0,
+        // Ridged: the dropped octaves' signal (offset - |n|)^sharpness at the mean |n|, an
+        // estimate (the weights w <= 1 of those octaves are left out).
         Style::Ridged { offset, sharpness } => (offset - mean_abs).max(0.0).powf(sharpness),
-    };
+    }
+}
+
+/// The constant standing in for the octaves beyond `kept`: each dropped share of an octave's
+/// amplitude times `expected` (`gains`: [`gain_powers`]).
+fn dropped_bias(params: &FractalParams, expected: f64, kept: f64, gains: &[f64]) -> f64 {
     let mut bias = 0.0;
-    let count = params.octaves.ceil() as u32;
-    for n in 0..count {
+    for (n, gain) in gains.iter().enumerate() {
         let weight_written = (params.octaves - n as f64).clamp(0.0, 1.0);
         let weight_kept = (kept - n as f64).clamp(0.0, 1.0);
-        let i = params.first_octave as i32 + n as i32;
-        bias += (weight_written - weight_kept) * params.gain.powi(i) * expected;
+        bias += (weight_written - weight_kept) * gain * expected;
     }
-    FractalLod {
-        octaves: kept,
-        bias,
+    bias
+}
+
+/// Level of detail per lane for one fractal instruction (a render's hits each have their own
+/// footprint): the octaves a lane keeps at its own spacing and the bias for the rest, by the
+/// same formulas as [`fractal_lod`], so a batch whose lanes share one spacing gives the bits of
+/// a tape compiled for that spacing. Never more octaves than the tape's schedule already keeps.
+#[derive(Debug)]
+pub struct LaneLod {
+    key: TableKey,
+    params: FractalParams,
+    stretch: f64,
+    /// The octaves the tape's schedule keeps (its own level of detail) and its bias.
+    kept: f64,
+    bias: f64,
+    /// `gain^i` of each octave of the schedule, unfaded.
+    powers: Vec<f64>,
+    /// [`gain_powers`] of the octaves written.
+    gains: Vec<f64>,
+    /// `params.lacunarity.ln()`.
+    ln_lacunarity: f64,
+    /// Below this spacing a lane keeps every octave of the schedule (see [`LaneLod::kept`]).
+    fine: f64,
+    /// [`expected_signal`], computed the first time a lane drops an octave.
+    expected: OnceLock<f64>,
+}
+
+impl LaneLod {
+    /// `None` where per-lane level of detail can drop nothing (the input's stretch is unknown,
+    /// zero or infinite; the octaves do not grow in frequency).
+    pub(crate) fn new(
+        key: TableKey,
+        params: &FractalParams,
+        stretch: Option<f64>,
+        compiled: FractalLod,
+    ) -> Option<LaneLod> {
+        let stretch = stretch.filter(|&s| resolvable(params, s))?;
+        let powers = crate::noise::Octaves::new(
+            compiled.octaves.ceil(),
+            params.lacunarity,
+            params.gain,
+            params.first_octave,
+        )
+        .amplitudes;
+        Some(LaneLod {
+            key,
+            params: *params,
+            stretch,
+            kept: compiled.octaves,
+            bias: compiled.bias,
+            powers,
+            gains: gain_powers(params),
+            ln_lacunarity: params.lacunarity.ln(),
+            fine: fine_spacing(params, stretch, compiled.octaves),
+            expected: OnceLock::new(),
+        })
+    }
+
+    /// The octaves a lane at sample spacing `spacing` keeps (continuous).
+    #[inline]
+    pub(crate) fn kept(&self, spacing: f64) -> f64 {
+        // A spacing well below the one at which the schedule's last octave starts to fade keeps
+        // the whole schedule whatever the rounding of the logarithm: no logarithm needed.
+        if spacing > 0.0 && spacing < self.fine {
+            return self.kept;
+        }
+        kept_octaves(&self.params, self.ln_lacunarity, self.stretch, spacing).min(self.kept)
+    }
+
+    /// Whether a lane keeping `kept` octaves drops one the schedule has.
+    #[inline]
+    pub(crate) fn drops(&self, kept: f64) -> bool {
+        kept < self.kept
+    }
+
+    /// Per lane, the bias of a lane keeping `kept[i]` octaves into `bias[i]` (the schedule's
+    /// own where it drops none): [`dropped_bias`]'s arithmetic, lanes inside the octave loop
+    /// so it vectorises.
+    pub(crate) fn biases(&self, kept: &[f64], bias: &mut [f64]) {
+        let expected = *self
+            .expected
+            .get_or_init(|| expected_signal(self.key, self.params.style));
+        let bias = &mut bias[..kept.len()];
+        bias.fill(0.0);
+        for (n, gain) in self.gains.iter().enumerate() {
+            let weight_written = (self.params.octaves - n as f64).clamp(0.0, 1.0);
+            for (b, &k) in bias.iter_mut().zip(kept) {
+                let weight_kept = (k - n as f64).clamp(0.0, 1.0);
+                *b += (weight_written - weight_kept) * gain * expected;
+            }
+        }
+        for (b, &k) in bias.iter_mut().zip(kept) {
+            *b = if self.drops(k) { *b } else { self.bias };
+        }
+    }
+
+    /// `gain^i` of each octave of the schedule, unfaded.
+    pub(crate) fn powers(&self) -> &[f64] {
+        &self.powers
     }
 }
 

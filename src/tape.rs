@@ -268,6 +268,9 @@ pub struct Tape {
     pub(crate) octaves: Vec<Octaves>,
     /// For each octave schedule: the octaves written and those kept by level of detail.
     pub(crate) octave_counts: Vec<(f64, f64)>,
+    /// For each octave schedule: level of detail per lane (`Tape::eval_batch_lod`), where the
+    /// fractal's input stretch is known.
+    pub(crate) lane_lods: Vec<Option<crate::lod::LaneLod>>,
     pub(crate) matrices: Vec<[[f64; 3]; 3]>,
     pub(crate) axes: Vec<[f64; 3]>,
     pub(crate) hermites: Vec<Hermite>,

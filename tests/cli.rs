@@ -1066,6 +1066,47 @@ fn render_reports_bad_input_with_the_documented_exit_codes() {
     assert_eq!(code(&output), 2);
 }
 
+/// `--no-lod` and `--lod-bias B` (issue 18): both render; they do not go together, a bias is a
+/// finite number of octaves within ±16, and neither applies to the timing table.
+#[test]
+fn render_level_of_detail_flags() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("x.png");
+    let out = out.to_str().expect("utf-8");
+    let base = [
+        "render",
+        "graphs/seed000_turbulence.ron",
+        "-q",
+        "--size",
+        "24,16",
+        "-o",
+        out,
+    ];
+    for extra in [
+        &["--no-lod"][..],
+        &["--lod-bias", "1.5"],
+        &["--lod-bias=-2"],
+        &[],
+    ] {
+        let args: Vec<&str> = base.iter().chain(extra).copied().collect();
+        let output = run(&args);
+        assert_eq!(code(&output), 0, "{}", show(&args, &output));
+    }
+    for extra in [
+        &["--no-lod", "--lod-bias", "1"][..],
+        &["--lod-bias", "17"],
+        &["--lod-bias", "nan"],
+        &["--lod-bias", "soft"],
+    ] {
+        let args: Vec<&str> = base.iter().chain(extra).copied().collect();
+        let output = run(&args);
+        assert_eq!(code(&output), 2, "{}", show(&args, &output));
+    }
+    let output = run(&["render", "--timing-table", "--no-lod"]);
+    assert_eq!(code(&output), 2, "{}", stderr(&output));
+    assert!(stderr(&output).contains("--no-lod"), "{}", stderr(&output));
+}
+
 #[test]
 fn render_prints_the_seed_003_timing_table() {
     let output = run(&["render", "--timing-table", "-q", "--threads", "2"]);

@@ -7,7 +7,8 @@
 use std::path::{Path, PathBuf};
 use texgraph::render::{
     self, load_input, load_scene, render, timing_table, InputKind, PreviewDefaults, PreviewObject,
-    Previewer, RenderError, RenderOptions, RenderedImage, Scene, SceneDesc, Space, TimingOptions,
+    Previewer, RenderError, RenderLod, RenderOptions, RenderedImage, Scene, SceneDesc, Space,
+    TimingOptions,
 };
 
 const MARBLE: &str = "graphs/seed003_marble.ron";
@@ -15,6 +16,8 @@ const MARBLE: &str = "graphs/seed003_marble.ron";
 mod common;
 use common::blessing;
 
+/// Small renders without level of detail: the goldens pin the shading and the textures at
+/// every octave (level of detail per pixel has its own tests below).
 fn small(samples: u32) -> RenderOptions {
     RenderOptions {
         size: Some((64, 48)),
@@ -22,6 +25,7 @@ fn small(samples: u32) -> RenderOptions {
         threads: None,
         progress: false,
         cancel: None,
+        lod: RenderLod::Off,
     }
 }
 
@@ -220,26 +224,36 @@ fn images_do_not_depend_on_the_thread_count() {
         &marble_defaults(PreviewObject::Teapot, Space::World),
     )
     .unwrap();
-    let mut images = Vec::new();
-    for threads in [1, 2, 3, 8] {
-        let options = RenderOptions {
-            size: Some((53, 37)), // tiles of every shape
-            samples: Some(3),
-            threads: Some(threads),
-            progress: false,
-            cancel: None,
-        };
-        let (image, stats) = render(&scene, &options).unwrap();
-        assert_eq!(stats.threads, threads);
-        images.push((image, stats.counters));
+    // With and without level of detail per pixel.
+    let mut first: Vec<(RenderedImage, render::Counters)> = Vec::new();
+    for lod in [RenderLod::Off, RenderLod::default()] {
+        let mut images = Vec::new();
+        for threads in [1, 2, 3, 8] {
+            let options = RenderOptions {
+                size: Some((53, 37)), // tiles of every shape
+                samples: Some(3),
+                threads: Some(threads),
+                progress: false,
+                cancel: None,
+                lod,
+            };
+            let (image, stats) = render(&scene, &options).unwrap();
+            assert_eq!(stats.threads, threads);
+            images.push((image, stats.counters));
+        }
+        for other in &images[1..] {
+            assert!(
+                images[0].0 == other.0,
+                "pixels differ between thread counts ({lod:?})"
+            );
+            assert_eq!(images[0].1, other.1);
+        }
+        first.push(images.swap_remove(0));
     }
-    for other in &images[1..] {
-        assert!(
-            images[0].0 == other.0,
-            "pixels differ between thread counts"
-        );
-        assert_eq!(images[0].1, other.1);
-    }
+    assert!(
+        first[0].0 != first[1].0,
+        "level of detail changes this render"
+    );
 }
 
 #[test]
@@ -818,13 +832,7 @@ fn gallery() {
         std::env::var("TEXGRAPH_GALLERY").unwrap_or_else(|_| "target/render-gallery".into()),
     );
     std::fs::create_dir_all(&dir).unwrap();
-    let options = RenderOptions {
-        size: None,
-        samples: None,
-        threads: None,
-        progress: false,
-        cancel: None,
-    };
+    let options = RenderOptions::default();
     for entry in std::fs::read_dir("graphs/scenes").unwrap() {
         let path = entry.unwrap().path();
         if path.extension().is_some_and(|e| e == "ron") {
@@ -952,9 +960,7 @@ fn docs_scenes_md_examples_load_and_render() {
     let options = RenderOptions {
         size: Some((16, 12)),
         samples: Some(1),
-        threads: None,
-        progress: false,
-        cancel: None,
+        ..Default::default()
     };
     let (mut scenes, mut previews, mut invalid) = (0, 0, 0);
     let mut failures = String::new();
@@ -1254,12 +1260,12 @@ fn bump_plane(graphs: &[(&str, String)], bump: &str, object_transform: &str) -> 
     let path = dir.path().join("scene.ron");
     std::fs::write(&path, scene).unwrap();
     let scene = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    // Every octave: the expected shading below is computed from the height at full detail.
     let options = RenderOptions {
         size: Some(BUMP_SIZE),
         samples: Some(1),
-        threads: None,
-        progress: false,
-        cancel: None,
+        lod: RenderLod::Off,
+        ..Default::default()
     };
     render(&scene, &options).unwrap().0
 }
@@ -1765,4 +1771,77 @@ fn watch_follows_the_files_a_graph_imports() {
     .unwrap();
     previewer.reload().expect("renders again");
     assert_ne!(previewer.image(), Some(&red));
+}
+
+/// Level of detail per pixel (issue 18): on the horizon scene at one sample per pixel, the
+/// render with it is closer to a many-sample reference without it than the render without it
+/// (the fine octaves alias into noise where a pixel covers metres; level of detail puts their
+/// mean there instead).
+#[test]
+fn level_of_detail_brings_the_horizon_closer_to_its_reference() {
+    let scene =
+        load_scene(Path::new("graphs/scenes/horizon.ron")).unwrap_or_else(|e| panic!("{e}"));
+    let comparison = render::lod_figures::LodComparison {
+        size: (120, 68),
+        reference_samples: 64,
+        runs: 1,
+        threads: None,
+        bias: 0.0,
+    };
+    let figures = render::lod_figures::compare_lod(&scene, &comparison).unwrap();
+    assert!(
+        figures.rms_lod <= 0.7 * figures.rms_plain,
+        "RMS error with LOD {} vs without {}",
+        figures.rms_lod,
+        figures.rms_plain
+    );
+    // The bias moves the trade-off: far finer footprints bring the aliasing back.
+    let sharp = render::lod_figures::compare_lod(
+        &scene,
+        &render::lod_figures::LodComparison {
+            bias: -RenderLod::MAX_BIAS,
+            ..comparison
+        },
+    )
+    .unwrap();
+    assert!(sharp.rms_lod > figures.rms_lod, "{sharp:?} vs {figures:?}");
+}
+
+/// Where every pixel resolves every octave (a 2-octave marble on the preview's plane, seen at
+/// a steep angle, no silhouette), level of detail changes nothing, bit for bit; the bias is
+/// checked.
+#[test]
+fn level_of_detail_keeps_every_octave_a_pixel_resolves() {
+    let defaults = PreviewDefaults {
+        object: PreviewObject::Plane,
+        overrides: vec![("octaves".into(), 2.0)],
+        ..PreviewDefaults::default()
+    };
+    let scene = Scene::from_graph_default(Path::new(MARBLE), &defaults).unwrap();
+    let (plain, _) = render(&scene, &small(1)).unwrap();
+    let with = RenderOptions {
+        lod: RenderLod::default(),
+        ..small(1)
+    };
+    let (lod, _) = render(&scene, &with).unwrap();
+    assert!(
+        plain == lod,
+        "max difference {}",
+        max_difference(&plain, &lod)
+    );
+    // Eight octaves blur: the sphere's pixels cover the finest ones.
+    let defaults = PreviewDefaults {
+        overrides: vec![("octaves".into(), 8.0)],
+        ..PreviewDefaults::default()
+    };
+    let scene = Scene::from_graph_default(Path::new(MARBLE), &defaults).unwrap();
+    assert!(render(&scene, &small(1)).unwrap().0 != render(&scene, &with).unwrap().0);
+    for bias in [f64::NAN, 16.5, -1e9] {
+        let options = RenderOptions {
+            lod: RenderLod::On { bias },
+            ..small(1)
+        };
+        let error = render(&scene, &options).expect_err("refused");
+        assert_eq!(error.exit_code(), 2, "{error}");
+    }
 }

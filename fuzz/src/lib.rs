@@ -134,8 +134,8 @@ pub fn scene_bytes(data: &[u8]) {
                 size: Some((8, 6)),
                 samples: Some(1),
                 threads: Some(1),
-                progress: false,
-                cancel: None,
+                // Level of detail per pixel (the default) sees every hostile scene too.
+                ..Default::default()
             };
             // Errors (a mesh that cannot be read, say) are fine; panics are not.
             let _ = render(&scene, &options);

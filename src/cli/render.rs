@@ -45,6 +45,14 @@ pub struct RenderArgs {
     /// Graph files only: override a param (repeatable).
     #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
     sets: Vec<(String, f64)>,
+    /// Evaluate every octave at every pixel (no level of detail per pixel): the preview then
+    /// aliases where a pixel covers more than the finest octave (toward the horizon).
+    #[arg(long = "no-lod")]
+    no_lod: bool,
+    /// Shift level of detail by B octaves: positive drops octaves sooner (softer, faster),
+    /// negative keeps finer ones (sharper, may alias); within ±16 [default: 0].
+    #[arg(long = "lod-bias", value_name = "B", conflicts_with = "no_lod", value_parser = parse_lod_bias)]
+    lod_bias: Option<f64>,
     /// No progress bar.
     #[arg(long, short)]
     quiet: bool,
@@ -75,6 +83,17 @@ pub fn parse_strength(text: &str) -> Result<f64, String> {
     }
 }
 
+/// A level-of-detail bias: a finite number of octaves within ±16.
+pub fn parse_lod_bias(text: &str) -> Result<f64, String> {
+    let max = crate::render::RenderLod::MAX_BIAS;
+    match text.replace(MINUS, "-").trim().parse::<f64>() {
+        Ok(b) if b.abs() <= max => Ok(b),
+        _ => Err(format!(
+            "the bias is a number of octaves within ±{max}, found `{text}`"
+        )),
+    }
+}
+
 /// The input of render and watch must be a file; watch says so at once instead of waiting for a
 /// file that is missing (render reports the read error itself).
 pub fn check_render_input(file: &Path, watch: bool) -> Result<(), String> {
@@ -89,7 +108,7 @@ pub fn check_render_input(file: &Path, watch: bool) -> Result<(), String> {
 }
 
 pub fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
-    use crate::render::{self, PreviewBump, PreviewDefaults, Previewer, RenderOptions};
+    use crate::render::{self, PreviewBump, PreviewDefaults, Previewer, RenderLod, RenderOptions};
     let failure = |e: &render::RenderError| {
         eprint!("{}", e.render(colour()));
         Failure::from_exit_code(e.exit_code())
@@ -103,8 +122,19 @@ pub fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
             .map(|t| if t == 0 { 0 } else { threads_or_warn(t) }),
         progress: !args.quiet,
         cancel: None,
+        lod: if args.no_lod {
+            RenderLod::Off
+        } else {
+            RenderLod::On {
+                bias: args.lod_bias.unwrap_or(0.0),
+            }
+        },
     };
     if args.timing_table {
+        if args.no_lod || args.lod_bias.is_some() {
+            eprintln!("error: --no-lod and --lod-bias do not apply to --timing-table, which renders every octave as seed 003's renderer did");
+            return Err(Failure::Usage);
+        }
         if args.bump.is_some() {
             eprintln!("error: --bump does not apply to --timing-table, which renders seed 003's marble sphere as it is");
             return Err(Failure::Usage);

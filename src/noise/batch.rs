@@ -48,6 +48,7 @@
 use multiversion::multiversion;
 use multiversion::target::target_cfg_f;
 
+use super::fractal::LaneOctaves;
 use super::lattice::TWO52;
 use super::{canonical_nan, LatticeKernel, NoiseKernel};
 use crate::real::Real;
@@ -567,6 +568,90 @@ fn fractal_lanes<S: Real, K: LatticeKernel, const TURB: bool>(
             *o = canonical_nan(*o);
         }
     }
+}
+}
+
+/// [`fractal`] with level of detail per lane: lane i sums the octaves `lanes` keeps for it,
+/// bit for bit the per-point fractal of the schedule `Octaves::new(lanes.kept[i], ...)`.
+#[inline]
+pub(super) fn fractal_lod<S: Real, K: LatticeKernel, const TURB: bool>(
+    k: &K,
+    freqs: &[f64],
+    lanes: LaneOctaves,
+    p: [&[f64]; 3],
+    out: &mut [S],
+) {
+    if out.len() < SMALL || !fractal_lod_lanes::<S, K, TURB>(k, freqs, lanes, p, out) {
+        let [x, y, z] = p;
+        for (i, o) in out.iter_mut().enumerate() {
+            let mut sum = S::ZERO;
+            for (octave, &f) in freqs.iter().enumerate() {
+                let Some(a) = lanes.amplitude(octave, i) else {
+                    break;
+                };
+                let n: S = k.eval([x[i] * f, y[i] * f, z[i] * f]);
+                sum = accumulate::<S, true, TURB>(sum, S::from_f64(a), n);
+            }
+            *o = canonical_nan(sum);
+        }
+    }
+}
+
+simd_targets! {
+/// [`fractal_lod`]'s chunk loop, as [`fractal_lanes`] but each octave's noise lands in a
+/// chunk array and is added per lane with the lane's own amplitude (a lane that dropped the
+/// octave is left alone); a chunk runs the octaves up to the most one of its lanes keeps.
+/// False (nothing written) on a CPU without SSE4.1.
+fn fractal_lod_lanes<S: Real, K: LatticeKernel, const TURB: bool>(
+    k: &K,
+    freqs: &[f64],
+    lanes: LaneOctaves,
+    [x, y, z]: [&[f64]; 3],
+    out: &mut [S],
+) -> bool {
+    if !target_cfg_f!(target_feature = "sse4.1") {
+        return false;
+    }
+    let shuffle = target_cfg_f!(target_feature = "avx512vbmi") && !table_reads_forced();
+    const WIDE: bool = !target_cfg_f!(target_feature = "avx512bw"); // see `sample_lanes`
+    let mut lattice = Lattice::<S>::new();
+    let (mut n, mut amps) = ([S::ZERO; CHUNK], [S::ZERO; CHUNK]);
+    let mut start = 0;
+    while start < out.len() {
+        let m = CHUNK.min(out.len() - start);
+        let (px, py, pz) = (&x[start..start + m], &y[start..start + m], &z[start..start + m]);
+        let octaves = lanes.most(start..start + m, freqs.len());
+        let fast = fits([px, py, pz], max_abs(&freqs[..octaves]));
+        let sum = &mut out[start..start + m];
+        sum.fill(S::ZERO);
+        for (octave, &f) in freqs[..octaves].iter().enumerate() {
+            lattice.fill::<true>(fast, f, [px, py, pz]);
+            if shuffle {
+                // SAFETY: as in `sample_lanes`.
+                unsafe { lattice.shuffle_hashes(k, m) };
+                lattice.noise_hashed::<K, false, false, WIDE>(k, S::ONE, &mut n[..m]);
+            } else {
+                lattice.noise::<K, false, false, WIDE>(k, S::ONE, &mut n[..m]);
+            }
+            // Branch-free, so it vectorises: each lane's amplitude (`LaneOctaves::amplitude`'s
+            // arithmetic, 0 once dropped), then a select keeps a dropped lane's sum as it is.
+            let (power, k) = (lanes.powers[octave], octave as f64);
+            let kept = &lanes.kept[start..start + m];
+            for (a, &q) in amps[..m].iter_mut().zip(kept) {
+                let partial = power * (q - q.floor());
+                *a = S::from_f64(if k + 1.0 <= q { power } else { partial });
+            }
+            for (i, o) in sum.iter_mut().enumerate() {
+                let added = accumulate::<S, true, TURB>(*o, amps[i], n[i]);
+                *o = if k < kept[i] { added } else { *o };
+            }
+        }
+        for o in sum.iter_mut() {
+            *o = canonical_nan(*o);
+        }
+        start += m;
+    }
+    true
 }
 }
 

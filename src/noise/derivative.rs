@@ -63,7 +63,7 @@
 //! are held to the same bits by the tests (`derivative_tests.rs`), which also hold the f64
 //! gradients to central differences of the f64 value functions.
 
-use super::fractal::{Octaves, Style};
+use super::fractal::{Amps, LaneOctaves, Octaves, Style};
 use super::{
     canonical_nan, check_lengths, Basis, CellularKernel, GradientKernel, Interpolation,
     NoiseKernel, NoiseTable, Period, PerlinKernel, SimplexKernel, ValueKernel, WhiteKernel,
@@ -246,6 +246,31 @@ pub fn fractal_styled_grad_batch<S: Real>(
     }
 }
 
+/// [`fractal_styled_grad_batch`] with level of detail per lane (see
+/// [`fractal_styled_batch_lanes`](super::fractal_styled_batch_lanes)): lane i's gradient is
+/// that of the sum of the octaves `lanes` keeps for it, bit for bit
+/// [`fractal_styled_grad`] with the schedule `Octaves::new(lanes.kept[i], ...)`.
+#[allow(clippy::too_many_arguments)]
+pub fn fractal_styled_grad_batch_lanes<S: Real>(
+    table: &NoiseTable,
+    octaves: &Octaves,
+    lanes: LaneOctaves,
+    style: Style,
+    x: &[f64],
+    y: &[f64],
+    z: &[f64],
+    out: [&mut [f64]; 3],
+) {
+    check_grad_lengths(x, y, z, &out);
+    assert_eq!(lanes.kept.len(), x.len(), "one kept count per lane");
+    let (f, periods) = (
+        &octaves.frequencies[..],
+        OctavePeriods::of(table, octaves, style),
+    );
+    let amps = Amps::Lanes(lanes);
+    with_kernel!(table, k => octaves_grad_amps::<S, _>(&k, f, amps, periods, style, [x, y, z], out))
+}
+
 /// The octave loop of the batch gradient sums without a fused kernel: per chunk of lanes and
 /// octave, the points scaled by the frequency in f64, one batch gradient of the basis (plain or
 /// at the octave's period; values too unless the style is Fbm), then [`GradShaper::add`] per
@@ -259,6 +284,20 @@ pub(super) fn octaves_grad<S: Real, K: NoiseKernel>(
     p: [&[f64]; 3],
     out: [&mut [f64]; 3],
 ) {
+    octaves_grad_amps::<S, K>(k, freqs, Amps::Shared(amps), periods, style, p, out);
+}
+
+/// [`octaves_grad`] with the amplitudes shared or per lane (a lane's dropped octaves leave its
+/// sum alone; a chunk runs only the octaves one of its lanes keeps).
+fn octaves_grad_amps<S: Real, K: NoiseKernel>(
+    k: &K,
+    freqs: &[f64],
+    amps: Amps,
+    periods: OctavePeriods,
+    style: Style,
+    p: [&[f64]; 3],
+    out: [&mut [f64]; 3],
+) {
     if style == Style::Fbm {
         octaves_grad_with::<S, K, false>(k, freqs, amps, periods, style, p, out);
     } else {
@@ -266,11 +305,11 @@ pub(super) fn octaves_grad<S: Real, K: NoiseKernel>(
     }
 }
 
-/// [`octaves_grad`]; `VALUE`: whether the style reads the octave values.
+/// [`octaves_grad_amps`]; `VALUE`: whether the style reads the octave values.
 fn octaves_grad_with<S: Real, K: NoiseKernel, const VALUE: bool>(
     k: &K,
     freqs: &[f64],
-    amps: &[f64],
+    amps: Amps,
     periods: OctavePeriods,
     style: Style,
     [x, y, z]: [&[f64]; 3],
@@ -285,7 +324,10 @@ fn octaves_grad_with<S: Real, K: NoiseKernel, const VALUE: bool>(
     while start < x.len() {
         let m = CHUNK.min(x.len() - start);
         shapers[..m].fill(GradShaper::START);
-        for (octave, (&f, &a)) in freqs.iter().zip(amps).enumerate() {
+        for (octave, &f) in freqs[..amps.octaves(start, m, freqs.len())]
+            .iter()
+            .enumerate()
+        {
             for (plane, src) in scaled.iter_mut().zip([x, y, z]) {
                 for (s, &v) in plane[..m].iter_mut().zip(&src[start..start + m]) {
                     *s = v * f;
@@ -299,19 +341,11 @@ fn octaves_grad_with<S: Real, K: NoiseKernel, const VALUE: bool>(
                 &mut n[..m],
                 [&mut gx[..m], &mut gy[..m], &mut gz[..m]],
             );
-            // One loop per style, each with its style a constant (straight-line lane code).
-            let lanes = shapers[..m].iter_mut().zip(&n[..m]).enumerate();
-            let at = |i: usize| [g[0][i], g[1][i], g[2][i]];
-            match style {
-                Style::Fbm => lanes.for_each(|(i, (s, &v))| s.add(Style::Fbm, v, at(i), a, f)),
-                Style::Turbulence => {
-                    lanes.for_each(|(i, (s, &v))| s.add(Style::Turbulence, v, at(i), a, f))
-                }
-                Style::Billow => {
-                    lanes.for_each(|(i, (s, &v))| s.add(Style::Billow, v, at(i), a, f))
-                }
-                ridged @ Style::Ridged { .. } => {
-                    lanes.for_each(|(i, (s, &v))| s.add(ridged, v, at(i), a, f))
+            let (shapers, n) = (&mut shapers[..m], &n[..m]);
+            match amps {
+                Amps::Shared(a) => shape_grad_lanes(style, shapers, n, &g, f, |_| Some(a[octave])),
+                Amps::Lanes(l) => {
+                    shape_grad_lanes(style, shapers, n, &g, f, |i| l.amplitude(octave, start + i))
                 }
             }
         }
@@ -321,6 +355,34 @@ fn octaves_grad_with<S: Real, K: NoiseKernel, const VALUE: bool>(
             }
         }
         start += m;
+    }
+}
+
+/// Per lane of a chunk, [`GradShaper::add`] of octave value `n[i]` and gradient `g[·][i]` at
+/// frequency `f` with the lane's amplitude `amp(i)` (`None`: dropped, the lane is left alone).
+/// One loop per style, each with its style a constant (straight-line lane code).
+#[inline(always)]
+fn shape_grad_lanes<S: Real>(
+    style: Style,
+    shapers: &mut [GradShaper<S>],
+    n: &[S],
+    g: &[[S; CHUNK]; 3],
+    f: f64,
+    amp: impl Fn(usize) -> Option<f64>,
+) {
+    let lanes = shapers.iter_mut().zip(n).enumerate();
+    let add = |style: Style| {
+        move |(i, (s, &v)): (usize, (&mut GradShaper<S>, &S))| {
+            if let Some(a) = amp(i) {
+                s.add(style, v, [g[0][i], g[1][i], g[2][i]], a, f)
+            }
+        }
+    };
+    match style {
+        Style::Fbm => lanes.for_each(add(Style::Fbm)),
+        Style::Turbulence => lanes.for_each(add(Style::Turbulence)),
+        Style::Billow => lanes.for_each(add(Style::Billow)),
+        ridged @ Style::Ridged { .. } => lanes.for_each(add(ridged)),
     }
 }
 

@@ -257,7 +257,7 @@ pub fn fractal_styled_batch<S: Real>(
     }
     octaves_outside(
         &octaves.frequencies,
-        &octaves.amplitudes,
+        Amps::Shared(&octaves.amplitudes),
         style,
         [x, y, z],
         out,
@@ -268,13 +268,96 @@ pub fn fractal_styled_batch<S: Real>(
     );
 }
 
-/// The octave loop of the batch fractal sums that have no fused kernel: per chunk of 64 lanes
-/// and octave k, the points scaled by `freqs[k]` in f64, one `sample(k, scaled, n)` (a basis'
-/// batch kernel, plain or tiled), then [`Shaper::add`] per lane with `amps[k]`: each lane sees
-/// the point function's operations in its order, so the sums are its bits.
+/// Per-lane level of detail of a fractal sum: lane i keeps `kept[i]` octaves (continuous, the
+/// last one faded), octave k weighted `powers[k]` unfaded — for each lane, exactly the
+/// amplitudes of [`Octaves::new`]`(kept[i], ...)`. `kept` is as long as the batch.
+#[derive(Clone, Copy, Debug)]
+pub struct LaneOctaves<'a> {
+    pub powers: &'a [f64],
+    pub kept: &'a [f64],
+}
+
+impl LaneOctaves<'_> {
+    /// Octave `k`'s amplitude at lane `i`, `None` once the lane has dropped it: the arithmetic
+    /// of [`Octaves::new`] (`gain^i`, times the fraction for the last, partial octave).
+    /// (`batch::fractal_lod_lanes` has a branch-free copy of this arithmetic.)
+    #[inline(always)]
+    pub(super) fn amplitude(&self, k: usize, i: usize) -> Option<f64> {
+        let kept = self.kept[i];
+        let whole = kept.floor();
+        let full = whole as usize;
+        if k < full {
+            Some(self.powers[k])
+        } else if k == full && kept > whole {
+            Some(self.powers[k] * (kept - whole))
+        } else {
+            None
+        }
+    }
+
+    /// The octaves any of lanes `range` keeps (at most `limit`).
+    #[inline]
+    pub(super) fn most(&self, range: std::ops::Range<usize>, limit: usize) -> usize {
+        let most = self.kept[range]
+            .iter()
+            .fold(0.0f64, |m, &k| m.max(k.ceil()));
+        (most as usize).min(limit).min(self.powers.len())
+    }
+}
+
+/// The amplitudes of a fractal sum: one per octave for every lane (the schedule's), or per lane.
+#[derive(Clone, Copy)]
+pub(super) enum Amps<'a> {
+    Shared(&'a [f64]),
+    Lanes(LaneOctaves<'a>),
+}
+
+impl Amps<'_> {
+    /// The octaves lanes `start..start + m` need.
+    #[inline(always)]
+    pub(super) fn octaves(&self, start: usize, m: usize, freqs: usize) -> usize {
+        match self {
+            Amps::Shared(a) => a.len().min(freqs),
+            Amps::Lanes(l) => l.most(start..start + m, freqs),
+        }
+    }
+}
+
+/// Per lane of a chunk, [`Shaper::add`] of octave value `n[i]` with the lane's amplitude `amp(i)`
+/// (`None`: the lane has dropped the octave, the sum is left alone). One loop per style, each
+/// with its style a constant, so each is straight-line lane code that vectorises.
+#[inline(always)]
+fn shape_lanes<S: Real>(
+    style: Style,
+    shapers: &mut [Shaper<S>],
+    n: &[S],
+    amp: impl Fn(usize) -> Option<f64>,
+) {
+    let lanes = shapers.iter_mut().zip(n).enumerate();
+    let add = |style: Style| {
+        move |(i, (s, &v)): (usize, (&mut Shaper<S>, &S))| {
+            if let Some(a) = amp(i) {
+                s.add(style, v, a)
+            }
+        }
+    };
+    match style {
+        Style::Fbm => lanes.for_each(add(Style::Fbm)),
+        Style::Turbulence => lanes.for_each(add(Style::Turbulence)),
+        Style::Billow => lanes.for_each(add(Style::Billow)),
+        ridged @ Style::Ridged { .. } => lanes.for_each(add(ridged)),
+    }
+}
+
+/// The octave loop of the batch fractal sums that have no fused kernel (and of per-lane level
+/// of detail): per chunk of 64 lanes and octave k, the points scaled by `freqs[k]` in f64, one
+/// `sample(k, scaled, n)` (a basis' batch kernel, plain or tiled), then [`Shaper::add`] per lane
+/// with its amplitude: each lane sees the point function's operations in its order, so the
+/// sums are its bits. With per-lane amplitudes a chunk runs only the octaves one of its lanes
+/// keeps.
 pub(super) fn octaves_outside<S: Real>(
     freqs: &[f64],
-    amps: &[f64],
+    amps: Amps,
     style: Style,
     [x, y, z]: [&[f64]; 3],
     out: &mut [S],
@@ -287,7 +370,10 @@ pub(super) fn octaves_outside<S: Real>(
         let mut shapers = [Shaper::<S>::START; CHUNK];
         let mut scaled = [[0.0f64; CHUNK]; 3];
         let mut n = [S::ZERO; CHUNK];
-        for (k, (&f, &a)) in freqs.iter().zip(amps).enumerate() {
+        for (k, &f) in freqs[..amps.octaves(start, m, freqs.len())]
+            .iter()
+            .enumerate()
+        {
             for (plane, src) in scaled.iter_mut().zip([x, y, z]) {
                 for i in 0..m {
                     plane[i] = src[start + i] * f;
@@ -295,14 +381,10 @@ pub(super) fn octaves_outside<S: Real>(
             }
             let [sx, sy, sz] = &scaled;
             sample(k, [&sx[..m], &sy[..m], &sz[..m]], &mut n[..m]);
-            // One loop per style, each with its style a constant (so each is straight-line
-            // lane code that vectorises).
-            let lanes = shapers[..m].iter_mut().zip(&n[..m]);
-            match style {
-                Style::Fbm => lanes.for_each(|(s, &v)| s.add(Style::Fbm, v, a)),
-                Style::Turbulence => lanes.for_each(|(s, &v)| s.add(Style::Turbulence, v, a)),
-                Style::Billow => lanes.for_each(|(s, &v)| s.add(Style::Billow, v, a)),
-                ridged @ Style::Ridged { .. } => lanes.for_each(|(s, &v)| s.add(ridged, v, a)),
+            let (shapers, n) = (&mut shapers[..m], &n[..m]);
+            match amps {
+                Amps::Shared(a) => shape_lanes(style, shapers, n, |_| Some(a[k])),
+                Amps::Lanes(l) => shape_lanes(style, shapers, n, |i| l.amplitude(k, start + i)),
             }
         }
         for (o, shaper) in out[start..start + m].iter_mut().zip(&shapers[..m]) {
@@ -310,4 +392,45 @@ pub(super) fn octaves_outside<S: Real>(
         }
         start += m;
     }
+}
+
+/// [`fractal_styled_batch`] with level of detail per lane: lane i sums the octaves of
+/// `octaves`' schedule that `lanes` keeps for it. Per lane bit-identical to
+/// [`fractal_styled`] with the schedule `Octaves::new(lanes.kept[i], ...)` (its frequencies and
+/// periods are the schedule's: an octave's frequency does not depend on how many are kept).
+#[allow(clippy::too_many_arguments)]
+pub fn fractal_styled_batch_lanes<S: Real>(
+    table: &NoiseTable,
+    octaves: &Octaves,
+    lanes: LaneOctaves,
+    style: Style,
+    x: &[f64],
+    y: &[f64],
+    z: &[f64],
+    out: &mut [S],
+) {
+    super::check_lengths(x, y, z, out.len());
+    assert_eq!(lanes.kept.len(), out.len(), "one kept count per lane");
+    let f = &octaves.frequencies[..];
+    // As `fractal_batch`: untiled Fbm and Turbulence sample the basis' kernel itself.
+    match (style, &octaves.periods) {
+        (Style::Fbm, None) => {
+            return with_kernel!(table, k => k.fractal_batch_lanes::<S, false>(f, lanes, x, y, z, out))
+        }
+        (Style::Turbulence, None) => {
+            return with_kernel!(table, k => k.fractal_batch_lanes::<S, true>(f, lanes, x, y, z, out))
+        }
+        _ => {}
+    }
+    octaves_outside(
+        &octaves.frequencies,
+        Amps::Lanes(lanes),
+        style,
+        [x, y, z],
+        out,
+        |k, [sx, sy, sz], n| match &octaves.periods {
+            Some(periods) => table.sample_batch_at_period(periods[k], sx, sy, sz, n),
+            None => table.sample_batch(sx, sy, sz, n),
+        },
+    );
 }

@@ -83,7 +83,7 @@ pub(crate) trait NoiseKernel {
     ) {
         fractal::octaves_outside(
             freqs,
-            amps,
+            fractal::Amps::Shared(amps),
             fractal::turbulence_style(TURB),
             [x, y, z],
             out,
@@ -109,6 +109,30 @@ pub(crate) trait NoiseKernel {
             return reference_fractal::<S, TURB>(|p| self.sample(p), freqs, amps, x, y, z, out);
         }
         let style = fractal::turbulence_style(TURB);
+        fractal::octaves_outside(
+            freqs,
+            fractal::Amps::Shared(amps),
+            style,
+            [x, y, z],
+            out,
+            |_, [sx, sy, sz], n| self.sample_batch(sx, sy, sz, n),
+        );
+    }
+
+    /// [`NoiseKernel::fractal_batch`] with level of detail per lane: lane i sums the octaves
+    /// `lanes` keeps for it (see [`fractal_styled_batch_lanes`]), bit for bit.
+    #[allow(clippy::too_many_arguments)]
+    fn fractal_batch_lanes<S: Real, const TURB: bool>(
+        &self,
+        freqs: &[f64],
+        lanes: LaneOctaves,
+        x: &[f64],
+        y: &[f64],
+        z: &[f64],
+        out: &mut [S],
+    ) {
+        let style = fractal::turbulence_style(TURB);
+        let amps = fractal::Amps::Lanes(lanes);
         fractal::octaves_outside(freqs, amps, style, [x, y, z], out, |_, [sx, sy, sz], n| {
             self.sample_batch(sx, sy, sz, n)
         });
@@ -263,6 +287,20 @@ impl<K: LatticeKernel> NoiseKernel for K {
         out: &mut [S],
     ) {
         batch::fractal::<S, K, TURB>(self, freqs, amps, x, y, z, out);
+    }
+
+    /// The SIMD lane kernel (`batch::fractal_lod`).
+    #[inline]
+    fn fractal_batch_lanes<S: Real, const TURB: bool>(
+        &self,
+        freqs: &[f64],
+        lanes: LaneOctaves,
+        x: &[f64],
+        y: &[f64],
+        z: &[f64],
+        out: &mut [S],
+    ) {
+        batch::fractal_lod::<S, K, TURB>(self, freqs, lanes, [x, y, z], out);
     }
 
     /// The lattice step and hashes as `sample`, then [`LatticeKernel::interior_grad`].
@@ -455,8 +493,13 @@ mod value;
 #[allow(unsafe_code)]
 mod vbmi;
 
-pub use derivative::{fractal_styled_grad, fractal_styled_grad_batch};
-pub use fractal::{fractal, fractal_batch, fractal_styled, fractal_styled_batch, Octaves, Style};
+pub use derivative::{
+    fractal_styled_grad, fractal_styled_grad_batch, fractal_styled_grad_batch_lanes,
+};
+pub use fractal::{
+    fractal, fractal_batch, fractal_styled, fractal_styled_batch, fractal_styled_batch_lanes,
+    LaneOctaves, Octaves, Style,
+};
 
 use crate::real::Real;
 

@@ -74,6 +74,7 @@
 //!   `Scale(s)` or `Scale((x, y, z))`, applied in order (the first one first).
 
 pub mod geometry;
+pub mod lod_figures;
 pub mod scene;
 pub mod shade;
 pub mod teapot;
@@ -143,6 +144,41 @@ pub struct RenderOptions {
     /// Stop early (at the next tile) when this says so: the render then fails with
     /// [`RenderError::Cancelled`] (`texgraph serve` drops work a newer edit made stale).
     pub cancel: Option<Cancel>,
+    /// Level of detail per pixel (on by default; `render --no-lod` turns it off).
+    pub lod: RenderLod,
+}
+
+/// Level of detail per pixel: each texture point keeps only the fractal octaves its own
+/// footprint resolves ([`Tape::eval_batch_lod`](crate::Tape::eval_batch_lod)). The footprint
+/// of a sample is its pixel's cone at the hit (ray differentials: distance and incidence)
+/// carried into texture space through the object's and the texture's transforms, divided by
+/// the square root of the samples per pixel (each sample covers that share of its pixel).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RenderLod {
+    /// Every octave at every pixel.
+    Off,
+    /// Footprints scaled by `2^bias`: a positive bias blurs (drops octaves sooner), a negative
+    /// one keeps finer detail (`render --lod-bias`).
+    On { bias: f64 },
+}
+
+impl Default for RenderLod {
+    fn default() -> RenderLod {
+        RenderLod::On { bias: 0.0 }
+    }
+}
+
+impl RenderLod {
+    /// The most `--lod-bias` may shift footprints, in octaves either way.
+    pub const MAX_BIAS: f64 = 16.0;
+
+    /// The factor from a pixel's footprint to one sample's spacing, `None` when off.
+    fn spacing_factor(self, samples: u32) -> Option<f64> {
+        match self {
+            RenderLod::Off => None,
+            RenderLod::On { bias } => Some(bias.exp2() / f64::from(samples).sqrt()),
+        }
+    }
 }
 
 /// A cancellation check: cancelled once a shared counter has moved past the value it had when
@@ -354,11 +390,23 @@ pub fn render(
         .or(scene.samples())
         .unwrap_or(DEFAULT_SAMPLES);
     check_samples(samples).map_err(RenderError::Options)?;
+    if let RenderLod::On { bias } = options.lod {
+        if bias.is_nan() || bias.abs() > RenderLod::MAX_BIAS {
+            return Err(RenderError::Options(format!(
+                "level-of-detail bias {bias}: it must be within ±{}",
+                RenderLod::MAX_BIAS
+            )));
+        }
+    }
     let cancel = options.cancel.as_ref();
-    let run = || {
-        render_in_pool(scene, (width, height), samples, options.progress, cancel)
-            .ok_or(RenderError::Cancelled)
+    let frame = shade::Frame {
+        width,
+        height,
+        samples,
+        lod: options.lod.spacing_factor(samples),
     };
+    let run =
+        || render_in_pool(scene, frame, options.progress, cancel).ok_or(RenderError::Cancelled);
     match options.threads {
         Some(threads) => {
             if threads == 0 {
@@ -379,11 +427,11 @@ pub fn render(
 
 fn render_in_pool(
     scene: &Scene,
-    (width, height): (u32, u32),
-    samples: u32,
+    frame: shade::Frame,
     progress: bool,
     cancel: Option<&Cancel>,
 ) -> Option<(RenderedImage, RenderStats)> {
+    let (width, height, samples) = (frame.width, frame.height, frame.samples);
     let started = Instant::now();
     let tiles = shade::tiles(width, height);
     let bar = (progress && std::io::stderr().is_terminal()).then(|| {
@@ -411,9 +459,7 @@ fn render_in_pool(
                     scene,
                     scratch,
                     *tile,
-                    width,
-                    height,
-                    samples,
+                    frame,
                     &mut pixels,
                     &mut texture_time,
                 );
@@ -895,6 +941,8 @@ pub fn timing_table(graph: &Path, options: &TimingOptions) -> Result<TimingTable
             threads: options.threads,
             progress: false,
             cancel: None,
+            // Seed 003's renderer evaluates every octave: so does its timing table.
+            lod: RenderLod::Off,
         };
         let mut best: Option<RenderStats> = None;
         for _ in 0..options.repeats.max(1) {

@@ -38,6 +38,16 @@ impl Counters {
     }
 }
 
+/// What every tile of a render shares: the image size, the samples per pixel, and the factor
+/// from a pixel's footprint to one sample's spacing for level of detail (`None`: off).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Frame {
+    pub width: u32,
+    pub height: u32,
+    pub samples: u32,
+    pub lod: Option<f64>,
+}
+
 /// A tile: its first pixel and size.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Tile {
@@ -89,6 +99,9 @@ struct Hit {
     geometric: Vec3,
     /// Unit vector towards the eye.
     view: Vec3,
+    /// How the hit point moves in world space from one pixel to the next, across and down
+    /// (ray differentials: Igehy 1999, on the hit's tangent plane).
+    dp: [Vec3; 2],
 }
 
 /// SplitMix64 finaliser: a well-mixed 64-bit hash.
@@ -164,22 +177,27 @@ fn occluded(objects: &[Object], origin: Vec3, direction: Vec3, t_max: f32) -> bo
 
 /// Renders one tile: `out` receives its pixels row by row (linear RGB); the time spent
 /// evaluating textures is added to `texture_time`.
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn render_tile(
     scene: &Scene,
     scratch: &mut Scratch,
     tile: Tile,
-    width: u32,
-    height: u32,
-    samples: u32,
+    frame: Frame,
     out: &mut Vec<Vec3>,
     texture_time: &mut std::time::Duration,
 ) -> Counters {
+    let samples = frame.samples;
     let mut counters = Counters::default();
     let n_samples = (tile.w * tile.h * samples) as usize;
-    let hits = primary_hits(scene, tile, width, height, samples, &mut counters);
+    let hits = primary_hits(scene, tile, frame, &mut counters);
     counters.hits = hits.len() as u64;
-    let textures = evaluate_textures(scene, scratch, &hits, &mut counters, texture_time);
+    let textures = evaluate_textures(
+        scene,
+        scratch,
+        &hits,
+        frame.lod,
+        &mut counters,
+        texture_time,
+    );
 
     // Pass 3: shade.
     let mut sample_colours = vec![scene.background; n_samples];
@@ -244,16 +262,20 @@ pub(crate) fn render_tile(
 }
 
 /// Pass 1: a tile's primary rays and the nearest hit of each (misses are left out).
-fn primary_hits(
-    scene: &Scene,
-    tile: Tile,
-    width: u32,
-    height: u32,
-    samples: u32,
-    counters: &mut Counters,
-) -> Vec<Hit> {
+fn primary_hits(scene: &Scene, tile: Tile, frame: Frame, counters: &mut Counters) -> Vec<Hit> {
+    let Frame {
+        width,
+        height,
+        samples,
+        ..
+    } = frame;
     let cam = &scene.camera;
     let aspect = width as f32 / height as f32;
+    // How the unnormalised ray direction changes from one pixel to the next.
+    let step = [
+        cam.right * (2.0 / width as f32 * cam.tan_half * aspect),
+        cam.up * (-2.0 / height as f32 * cam.tan_half),
+    ];
     let n_samples = (tile.w * tile.h * samples) as usize;
     let mut hits: Vec<Hit> = Vec::with_capacity(n_samples);
     for py in 0..tile.h {
@@ -263,10 +285,10 @@ fn primary_hits(
                 let (ox, oy) = sample_offset(x, y, s, samples);
                 let ndc_x = ((x as f32 + ox) / width as f32) * 2.0 - 1.0;
                 let ndc_y = 1.0 - ((y as f32 + oy) / height as f32) * 2.0;
-                let direction = (cam.forward
+                let unnormalised = cam.forward
                     + cam.right * (ndc_x * cam.tan_half * aspect)
-                    + cam.up * (ndc_y * cam.tan_half))
-                    .normalize();
+                    + cam.up * (ndc_y * cam.tan_half);
+                let direction = unnormalised.normalize();
                 let ray = Ray {
                     origin: cam.position,
                     direction,
@@ -299,12 +321,46 @@ fn primary_hits(
                     normal,
                     geometric,
                     view: -direction,
+                    dp: step.map(|s| hit_differential(s, unnormalised, t, geometric)),
                 });
             }
         }
     }
 
     hits
+}
+
+/// How a hit at distance `t` along the unit direction `d = D / |D|` moves on its tangent plane
+/// (normal `n`) when the unnormalised direction `D` changes by `dd` (Igehy 1999, "Tracing ray
+/// differentials"): the direction's change `(dD - d (d · dD)) / |D|`, carried to the plane,
+/// `t (d' - d (d' · n) / (d · n))`. Infinite at grazing incidence.
+fn hit_differential(dd: Vec3, unnormalised: Vec3, t: f32, n: Vec3) -> Vec3 {
+    let length = unnormalised.length();
+    let d = unnormalised / length;
+    let turn = (dd - d * d.dot(dd)) / length;
+    let along = turn.dot(n) / d.dot(n);
+    if !along.is_finite() {
+        return Vec3::INFINITY;
+    }
+    t * (turn - d * along)
+}
+
+/// The sample spacing in texture space of a hit for `group`: the longer of its two pixel
+/// differentials through the linear parts of the object's (in object space) and the texture's
+/// transforms, times `factor`; the largest finite spacing where it is not finite (grazing
+/// incidence: every octave it can drop is dropped).
+fn texture_spacing(hit: &Hit, group: &EvalGroup, object: &Object, factor: f64) -> f64 {
+    let to_texture = match group.space {
+        Space::Object => group.transform.matrix3 * object.to_local.matrix3,
+        Space::World => group.transform.matrix3,
+    };
+    let across = hit.dp.map(|v| f64::from((to_texture * v).length()));
+    let spacing = across[0].max(across[1]) * factor;
+    if spacing.is_nan() || spacing == f64::INFINITY {
+        f64::MAX
+    } else {
+        spacing
+    }
 }
 
 /// The texture values of a tile's hits: per evaluation group, one batch of all its points.
@@ -343,6 +399,7 @@ fn evaluate_textures(
     scene: &Scene,
     scratch: &mut Scratch,
     hits: &[Hit],
+    lod: Option<f64>,
     counters: &mut Counters,
     texture_time: &mut std::time::Duration,
 ) -> TextureValues {
@@ -350,6 +407,7 @@ fn evaluate_textures(
     let mut xs: Vec<Vec<f64>> = vec![Vec::new(); groups.len()];
     let mut ys: Vec<Vec<f64>> = vec![Vec::new(); groups.len()];
     let mut zs: Vec<Vec<f64>> = vec![Vec::new(); groups.len()];
+    let mut spacings: Vec<Vec<f64>> = vec![Vec::new(); groups.len()];
     let mut slot_base: Vec<u32> = Vec::with_capacity(hits.len());
     let mut slots: Vec<u32> = Vec::new();
     for hit in hits {
@@ -367,6 +425,9 @@ fn evaluate_textures(
             xs[g].push(p.x as f64);
             ys[g].push(p.y as f64);
             zs[g].push(p.z as f64);
+            if let Some(factor) = lod {
+                spacings[g].push(texture_spacing(hit, group, object, factor));
+            }
         }
     }
     let mut values: Vec<Vec<f32>> = Vec::with_capacity(groups.len());
@@ -376,13 +437,16 @@ fn evaluate_textures(
         let texture = &scene.textures()[group.texture];
         let mut out = vec![0.0f32; texture.tape.channels() * n];
         if n > 0 {
-            texture.tape.eval_batch(
-                &mut scratch.workspaces[group.texture],
-                &xs[g],
-                &ys[g],
-                &zs[g],
-                &mut out,
-            );
+            let workspace = &mut scratch.workspaces[group.texture];
+            let points = [&xs[g][..], &ys[g], &zs[g]];
+            match lod {
+                Some(_) => texture
+                    .tape
+                    .eval_batch_lod(workspace, points, &spacings[g], &mut out),
+                None => texture
+                    .tape
+                    .eval_batch(workspace, points[0], points[1], points[2], &mut out),
+            }
             counters.texture_points += n as u64;
         }
         values.push(out);
@@ -475,6 +539,44 @@ fn shade(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The differential of a hit on a plane is the first-order distance to where the next
+    /// pixel's ray meets the plane: checked against intersecting both rays outright, in f64,
+    /// head-on and at grazing angles, for either pixel axis.
+    #[test]
+    fn hit_differentials_match_the_next_pixels_hit() {
+        let plane_hit = |o: [f64; 3], d: [f64; 3]| {
+            let t = -o[1] / d[1]; // the plane y = 0
+            [o[0] + t * d[0], 0.0, o[2] + t * d[2]]
+        };
+        let eye = Vec3::new(0.3, 1.7, 0.2);
+        let n = Vec3::Y;
+        for (forward, step) in [
+            (Vec3::new(0.0, -1.0, 0.0), Vec3::new(1e-3, 0.0, 0.0)),
+            (Vec3::new(0.0, -1.0, -1.0), Vec3::new(0.0, 1e-3, -1e-3)),
+            (Vec3::new(0.2, -0.1, -1.0), Vec3::new(0.0, -1e-3, 0.0)),
+            (Vec3::new(0.5, -0.05, -1.0), Vec3::new(7e-4, 0.0, 3e-4)),
+        ] {
+            let d = forward.normalize();
+            let t = -eye.y / d.y;
+            let dp = hit_differential(step, forward, t, n);
+            let f64s = |v: Vec3| [f64::from(v.x), f64::from(v.y), f64::from(v.z)];
+            let (o, a, b) = (f64s(eye), f64s(forward), f64s(forward + step));
+            let here = plane_hit(o, a);
+            let next = plane_hit(o, b);
+            let moved = [0, 1, 2].map(|c| next[c] - here[c]);
+            for c in 0..3 {
+                let tolerance = 0.02 * f64s(dp).iter().map(|v| v.abs()).fold(0.0, f64::max);
+                assert!(
+                    (f64::from(dp[c]) - moved[c]).abs() <= tolerance,
+                    "{forward:?} step {step:?}: differential {dp:?}, next pixel's hit moved {moved:?}"
+                );
+            }
+        }
+        // Grazing: the footprint is unbounded, never NaN.
+        let dp = hit_differential(Vec3::new(0.0, 1e-3, 0.0), Vec3::new(0.0, 0.0, -1.0), 5.0, n);
+        assert!(dp.length() == f32::INFINITY, "{dp:?}");
+    }
 
     #[test]
     fn samples_are_stratified_and_fixed() {

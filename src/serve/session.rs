@@ -584,6 +584,8 @@ pub fn preview(
         threads: None,
         progress: false,
         cancel: Some(cancel.clone()),
+        // Per-pixel level of detail: the preview does not alias toward its horizon.
+        lod: render::RenderLod::default(),
     };
     let began = Instant::now();
     let (image, _) = render::render(scene, &options)?;

@@ -1,0 +1,100 @@
+//! How much level of detail per pixel buys a render: the same scene at one sample per pixel
+//! with and without it, against a many-sample render without it (the pixel's true average,
+//! up to the reference's own noise), in RMS error and in texture time. `examples/horizon_lod.rs`
+//! prints these figures for `graphs/scenes/horizon.ron`; `tests/render.rs` pins that level of
+//! detail brings a render closer to its reference.
+
+use super::{render, RenderError, RenderLod, RenderOptions, RenderedImage, Scene};
+
+/// What to render.
+#[derive(Clone, Debug)]
+pub struct LodComparison {
+    pub size: (u32, u32),
+    /// Samples per pixel of the reference (without level of detail).
+    pub reference_samples: u32,
+    /// Renders of each one-sample image; the texture time quoted is their median.
+    pub runs: usize,
+    pub threads: Option<usize>,
+    /// The level-of-detail bias of the one-sample render with level of detail.
+    pub bias: f64,
+}
+
+/// The figures: RMS error of each one-sample render against the reference (linear RGB, every
+/// channel of every pixel), and the median texture time of each (CPU seconds).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LodFigures {
+    pub rms_lod: f64,
+    pub rms_plain: f64,
+    pub texture_seconds_lod: f64,
+    pub texture_seconds_plain: f64,
+    pub reference_seconds: f64,
+}
+
+impl LodFigures {
+    /// RMS error with level of detail over that without.
+    pub fn error_ratio(&self) -> f64 {
+        self.rms_lod / self.rms_plain
+    }
+
+    /// Texture time with level of detail over that without.
+    pub fn time_ratio(&self) -> f64 {
+        self.texture_seconds_lod / self.texture_seconds_plain
+    }
+}
+
+/// Renders the reference and both one-sample images (alternately, `runs` times each).
+pub fn compare_lod(scene: &Scene, comparison: &LodComparison) -> Result<LodFigures, RenderError> {
+    let options = |samples: u32, lod: RenderLod| RenderOptions {
+        size: Some(comparison.size),
+        samples: Some(samples),
+        threads: comparison.threads,
+        lod,
+        ..Default::default()
+    };
+    let (reference, stats) = render(
+        scene,
+        &options(comparison.reference_samples, RenderLod::Off),
+    )?;
+    let lod = RenderLod::On {
+        bias: comparison.bias,
+    };
+    let (mut lod_times, mut plain_times) = (Vec::new(), Vec::new());
+    let (mut rms_lod, mut rms_plain) = (0.0, 0.0);
+    for _ in 0..comparison.runs.max(1) {
+        let (image, s) = render(scene, &options(1, lod))?;
+        rms_lod = rms(&image, &reference);
+        lod_times.push(s.texture_seconds);
+        let (image, s) = render(scene, &options(1, RenderLod::Off))?;
+        rms_plain = rms(&image, &reference);
+        plain_times.push(s.texture_seconds);
+    }
+    Ok(LodFigures {
+        rms_lod,
+        rms_plain,
+        texture_seconds_lod: median(&mut lod_times),
+        texture_seconds_plain: median(&mut plain_times),
+        reference_seconds: stats.seconds,
+    })
+}
+
+/// Root-mean-square difference of two images of one size, over every channel of every pixel
+/// (linear RGB).
+pub fn rms(a: &RenderedImage, b: &RenderedImage) -> f64 {
+    assert_eq!(
+        (a.width, a.height),
+        (b.width, b.height),
+        "images of one size"
+    );
+    let sum: f64 = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(p, q)| (0..3).map(move |c| f64::from(p[c] - q[c]).powi(2)))
+        .sum();
+    (sum / (3 * a.pixels.len()).max(1) as f64).sqrt()
+}
+
+fn median(values: &mut [f64]) -> f64 {
+    values.sort_by(f64::total_cmp);
+    values.get(values.len() / 2).copied().unwrap_or(0.0)
+}
