@@ -14,6 +14,8 @@
 //! `texgraph_batch_f32_extent` (compiled for the slab's own extent: the plain tape).
 //! `compile/N`: parse + check + compile of a generated graph of N nodes (inline nodes included).
 //!
+//! `eval/seed003_marble/texgraph_batch_lod_f32_{fine,receding}`: `Tape::eval_batch_lod` with
+//! every point finer than the finest octave, and with spacings receding along each row.
 //! Run: `cargo bench --bench eval` (add `-- eval/` or `-- compile/` to pick a group).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
@@ -590,6 +592,27 @@ fn eval_benches(c: &mut Criterion) {
             black_box(&out);
         })
     });
+    // Level of detail per point: every point finer than the finest octave (nothing dropped:
+    // the cost of asking), and spacings growing along each row from 1/4096 to 1/4 (the
+    // footprints of a floor receding from the camera).
+    let fine = vec![1e-6; n];
+    let receding: Vec<f64> = (0..n)
+        .map(|i| (i % 128) as f64 / 127.0)
+        .map(|t| (4096f64).powf(-1.0 + t) * 0.25)
+        .collect();
+    for (name, spacing) in [
+        ("texgraph_batch_lod_f32_fine", &fine),
+        ("texgraph_batch_lod_f32_receding", &receding),
+    ] {
+        group.bench_function(name, |b| {
+            let mut ws = Workspace::<f32>::new();
+            let mut out = vec![0f32; n];
+            b.iter(|| {
+                tape.eval_batch_lod(&mut ws, [&x, &y, &z], spacing, &mut out);
+                black_box(&out);
+            })
+        });
+    }
     // Precision per instruction: compiled for the slab's own extent (nothing needs f64: the
     // same tape), and the same slab moved to x = 1e6 with the plain tape (wrong in f32) and
     // with the tape compiled for that extent (the coordinate chain in f64).

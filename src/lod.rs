@@ -246,12 +246,13 @@ fn kept_octaves(params: &FractalParams, ln_lacunarity: f64, stretch: f64, spacin
     (highest - params.first_octave as f64 + 1.0).clamp(0.0, params.octaves)
 }
 
-/// A spacing below which [`kept_octaves`] is at least `kept` by a wide margin (a millionth of
-/// an octave beyond any rounding of its logarithm): the spacing at which octave `kept` (counted
-/// from the first) reaches the Nyquist limit, 2^-20 smaller; 0 where none is meaningful.
+/// A spacing below which [`kept_octaves`] is at least `kept` by a wide margin (1 / log2 of the
+/// lacunarity octaves, far beyond any rounding of its logarithm): half the spacing at which
+/// octave `kept` (counted from the first) reaches the Nyquist limit; 0 where none is
+/// meaningful.
 fn fine_spacing(params: &FractalParams, stretch: f64, kept: f64) -> f64 {
     let exponent = kept + params.first_octave as f64 - 1.0;
-    let spacing = 0.5 / (stretch * params.lacunarity.powf(exponent)) * (-20f64).exp2();
+    let spacing = 0.25 / (stretch * params.lacunarity.powf(exponent));
     if spacing.is_finite() && spacing > 0.0 {
         spacing
     } else {

@@ -615,7 +615,8 @@ fn fractal_lod_lanes<S: Real, K: LatticeKernel, const TURB: bool>(
     let shuffle = target_cfg_f!(target_feature = "avx512vbmi") && !table_reads_forced();
     const WIDE: bool = !target_cfg_f!(target_feature = "avx512bw"); // see `sample_lanes`
     let mut lattice = Lattice::<S>::new();
-    let (mut n, mut amps) = ([S::ZERO; CHUNK], [S::ZERO; CHUNK]);
+    let (mut n, mut partial) = ([S::ZERO; CHUNK], [S::ZERO; CHUNK]);
+    let (mut whole, mut ends) = ([0u32; CHUNK], [0u32; CHUNK]);
     let mut start = 0;
     while start < out.len() {
         let m = CHUNK.min(out.len() - start);
@@ -624,6 +625,20 @@ fn fractal_lod_lanes<S: Real, K: LatticeKernel, const TURB: bool>(
         let fast = fits([px, py, pz], max_abs(&freqs[..octaves]));
         let sum = &mut out[start..start + m];
         sum.fill(S::ZERO);
+        // Per lane, `LaneOctaves::amplitude`'s arithmetic once: its whole octaves, the
+        // amplitude of its faded one, and the octave it stops before.
+        for (i, &q) in lanes.kept[start..start + m].iter().enumerate() {
+            let full = q.floor();
+            whole[i] = full as u32;
+            let fades = q > full;
+            let power = lanes.powers[(full as usize).min(lanes.powers.len().saturating_sub(1))];
+            partial[i] = if fades {
+                S::from_f64(power * (q - full))
+            } else {
+                S::ZERO
+            };
+            ends[i] = whole[i] + u32::from(fades);
+        }
         for (octave, &f) in freqs[..octaves].iter().enumerate() {
             lattice.fill::<true>(fast, f, [px, py, pz]);
             if shuffle {
@@ -633,17 +648,14 @@ fn fractal_lod_lanes<S: Real, K: LatticeKernel, const TURB: bool>(
             } else {
                 lattice.noise::<K, false, false, WIDE>(k, S::ONE, &mut n[..m]);
             }
-            // Branch-free, so it vectorises: each lane's amplitude (`LaneOctaves::amplitude`'s
-            // arithmetic, 0 once dropped), then a select keeps a dropped lane's sum as it is.
-            let (power, k) = (lanes.powers[octave], octave as f64);
-            let kept = &lanes.kept[start..start + m];
-            for (a, &q) in amps[..m].iter_mut().zip(kept) {
-                let partial = power * (q - q.floor());
-                *a = S::from_f64(if k + 1.0 <= q { power } else { partial });
-            }
+            // Branch-free, so it vectorises: the octave's own amplitude below a lane's whole
+            // octaves, its partial one at the faded octave, and a select keeps the sum of a lane
+            // that dropped the octave as it is.
+            let (a, k) = (S::from_f64(lanes.powers[octave]), octave as u32);
             for (i, o) in sum.iter_mut().enumerate() {
-                let added = accumulate::<S, true, TURB>(*o, amps[i], n[i]);
-                *o = if k < kept[i] { added } else { *o };
+                let amp = if k < whole[i] { a } else { partial[i] };
+                let added = accumulate::<S, true, TURB>(*o, amp, n[i]);
+                *o = if k < ends[i] { added } else { *o };
             }
         }
         for o in sum.iter_mut() {

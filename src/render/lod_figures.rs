@@ -27,6 +27,9 @@ pub struct LodFigures {
     pub rms_plain: f64,
     pub texture_seconds_lod: f64,
     pub texture_seconds_plain: f64,
+    /// The median over the runs of each pair's texture-time ratio (with over without): robust
+    /// to a machine whose speed drifts between runs.
+    pub pair_time_ratio: f64,
     pub reference_seconds: f64,
 }
 
@@ -36,7 +39,7 @@ impl LodFigures {
         self.rms_lod / self.rms_plain
     }
 
-    /// Texture time with level of detail over that without.
+    /// Texture time with level of detail over that without (median over median).
     pub fn time_ratio(&self) -> f64 {
         self.texture_seconds_lod / self.texture_seconds_plain
     }
@@ -68,9 +71,15 @@ pub fn compare_lod(scene: &Scene, comparison: &LodComparison) -> Result<LodFigur
         rms_plain = rms(&image, &reference);
         plain_times.push(s.texture_seconds);
     }
+    let mut ratios: Vec<f64> = lod_times
+        .iter()
+        .zip(&plain_times)
+        .map(|(a, b)| a / b)
+        .collect();
     Ok(LodFigures {
         rms_lod,
         rms_plain,
+        pair_time_ratio: median(&mut ratios),
         texture_seconds_lod: median(&mut lod_times),
         texture_seconds_plain: median(&mut plain_times),
         reference_seconds: stats.seconds,
