@@ -3,26 +3,12 @@
 //! per-compile level of detail (`CompileOptions::spacing`) bit for bit, lane by lane, and to
 //! point = batch with mixed spacings, promoted precision and hostile inputs.
 
-use std::path::PathBuf;
 use texgraph::{
     compile, CheckOptions, CheckedGraph, CompileOptions, Extent, Real, Tape, Workspace,
 };
 
 mod common;
-
-fn graph_files() -> Vec<PathBuf> {
-    let mut files = Vec::new();
-    for dir in ["graphs", "graphs/library"] {
-        for entry in std::fs::read_dir(common::crate_root().join(dir)).expect("graphs folder") {
-            let path = entry.expect("entry").path();
-            if path.extension().is_some_and(|e| e == "ron") {
-                files.push(path);
-            }
-        }
-    }
-    files.sort();
-    files
-}
+use common::graph_files;
 
 /// Every graph file, and beside each graph with a scalar output the same graph with that
 /// output's gradient added (a bump's height: the `FractalGradient` instructions).

@@ -1,25 +1,11 @@
 //! Precision chosen per instruction (issue 18): the compiler promotes to f64 exactly the
 //! scalars whose f32 error would push an output past the target over the extent compiled for.
 
-use std::path::PathBuf;
 use texgraph::stability::{stability_report, MAGNITUDES};
 use texgraph::{check, compile, CheckOptions, CompileOptions, Extent, SourceFile, Tape, Workspace};
 
 mod common;
-
-fn graph_files() -> Vec<PathBuf> {
-    let mut files = Vec::new();
-    for dir in ["graphs", "graphs/library"] {
-        for entry in std::fs::read_dir(common::crate_root().join(dir)).expect("graphs folder") {
-            let path = entry.expect("entry").path();
-            if path.extension().is_some_and(|e| e == "ron") {
-                files.push(path);
-            }
-        }
-    }
-    files.sort();
-    files
-}
+use common::graph_files;
 
 fn load(path: &std::path::Path) -> texgraph::CheckedGraph {
     texgraph::load_graph(path, &CheckOptions::default()).expect("valid graph")

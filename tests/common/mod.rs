@@ -141,6 +141,22 @@ pub fn crate_root() -> &'static std::path::Path {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// Every graph file of `graphs/` and `graphs/library/`, sorted, as paths under
+/// [`crate_root`].
+pub fn graph_files() -> Vec<std::path::PathBuf> {
+    let mut files = Vec::new();
+    for dir in ["graphs", "graphs/library"] {
+        for entry in std::fs::read_dir(crate_root().join(dir)).expect("graphs folder") {
+            let path = entry.expect("entry").path();
+            if path.extension().is_some_and(|e| e == "ron") {
+                files.push(path);
+            }
+        }
+    }
+    files.sort();
+    files
+}
+
 /// A graph file of the crate with param overrides: its tape and its params after them.
 pub fn load_graph_file(path: &str, overrides: &[(&str, f64)]) -> (Tape, Vec<(String, f64)>) {
     let check = texgraph::CheckOptions {
