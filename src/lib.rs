@@ -40,6 +40,7 @@ pub mod compile;
 pub(crate) mod derive;
 pub mod diagnostic;
 pub mod eval;
+pub mod gpu;
 pub mod graph;
 pub mod limits;
 pub mod load;

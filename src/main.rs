@@ -76,6 +76,11 @@ enum Command {
     /// http://127.0.0.1:7878/ by default (localhost only unless --host); its WebSocket protocol is
     /// documented in docs/serve.md.
     Serve(cli::serve::ServeArgs),
+    /// List the graphics adapters the GPU path can use (Vulkan, Metal, DX12), one per line.
+    ///
+    /// A software Vulkan driver (Mesa's lavapipe) is listed as a CPU adapter. Exit code 0, also
+    /// when none is found (the line then says why).
+    Devices(cli::devices::DevicesArgs),
 }
 
 #[derive(Args)]
@@ -141,6 +146,7 @@ fn main() -> ExitCode {
         Command::Render(args) => cli::render::render_command(args, false),
         Command::Watch(args) => cli::render::render_command(args, true),
         Command::Serve(args) => cli::serve::serve(args),
+        Command::Devices(args) => cli::devices::devices(args),
         Command::Nodes(args) => {
             let text = if args.markdown {
                 texgraph::nodes::catalogue_markdown()

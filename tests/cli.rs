@@ -1121,6 +1121,37 @@ fn render_prints_the_seed_003_timing_table() {
     }
 }
 
+/// `texgraph devices` (issue 19): one line per adapter, or a line saying why there is none;
+/// exit code 0 either way. Where CI installed Mesa's lavapipe (`TEXGRAPH_REQUIRE_GPU_ADAPTER`),
+/// an adapter must be found; elsewhere finding none prints a visible SKIPPED line.
+#[test]
+fn devices_lists_the_adapters_or_says_why_there_are_none() {
+    let output = run(&["devices"]);
+    assert_eq!(code(&output), 0, "{}", show(&["devices"], &output));
+    let text = stdout(&output);
+    let listed: Vec<&str> = text
+        .lines()
+        .filter(|l| l.starts_with(char::is_numeric))
+        .collect();
+    for (i, line) in listed.iter().enumerate() {
+        assert!(line.starts_with(&format!("{i}: ")), "{text}");
+        assert!(
+            line.contains("Vulkan") || line.contains("Metal") || line.contains("Dx12"),
+            "{text}"
+        );
+    }
+    if listed.is_empty() {
+        assert!(text.starts_with("no GPU adapter"), "{text}");
+        assert!(
+            std::env::var_os("TEXGRAPH_REQUIRE_GPU_ADAPTER").is_none(),
+            "TEXGRAPH_REQUIRE_GPU_ADAPTER is set but no adapter was found:\n{text}"
+        );
+        eprintln!(
+            "SKIPPED: no GPU adapter here (install mesa-vulkan-drivers for lavapipe): {text}"
+        );
+    }
+}
+
 #[test]
 fn serve_refuses_a_missing_input_and_a_taken_port() {
     let output = run(&["serve", "no/such/graph.ron", "--port", "0"]);

@@ -4,6 +4,7 @@
 
 pub mod bake;
 pub mod check;
+pub mod devices;
 pub mod eval;
 pub mod render;
 pub mod report;
