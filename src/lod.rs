@@ -279,12 +279,19 @@ fn expected_signal(key: TableKey, style: Style) -> f64 {
 /// amplitude times `expected` (`gains`: [`gain_powers`]).
 fn dropped_bias(params: &FractalParams, expected: f64, kept: f64, gains: &[f64]) -> f64 {
     let mut bias = 0.0;
-    for (n, gain) in gains.iter().enumerate() {
-        let weight_written = (params.octaves - n as f64).clamp(0.0, 1.0);
-        let weight_kept = (kept - n as f64).clamp(0.0, 1.0);
-        bias += (weight_written - weight_kept) * gain * expected;
+    for (n, &gain) in gains.iter().enumerate() {
+        bias += dropped_share(params, n, kept, gain, expected);
     }
     bias
+}
+
+/// Octave `n`'s term of [`dropped_bias`]: the share of its written weight that `kept` drops,
+/// times its gain and `expected`.
+#[inline(always)]
+fn dropped_share(params: &FractalParams, n: usize, kept: f64, gain: f64, expected: f64) -> f64 {
+    let weight_written = (params.octaves - n as f64).clamp(0.0, 1.0);
+    let weight_kept = (kept - n as f64).clamp(0.0, 1.0);
+    (weight_written - weight_kept) * gain * expected
 }
 
 /// Level of detail per lane for one fractal instruction (a render's hits each have their own
@@ -360,19 +367,17 @@ impl LaneLod {
     }
 
     /// Per lane, the bias of a lane keeping `kept[i]` octaves into `bias[i]` (the schedule's
-    /// own where it drops none): [`dropped_bias`]'s arithmetic, lanes inside the octave loop
-    /// so it vectorises.
+    /// own where it drops none): [`dropped_bias`]'s sum, lanes inside the octave loop so it
+    /// vectorises.
     pub(crate) fn biases(&self, kept: &[f64], bias: &mut [f64]) {
         let expected = *self
             .expected
             .get_or_init(|| expected_signal(self.key, self.params.style));
         let bias = &mut bias[..kept.len()];
         bias.fill(0.0);
-        for (n, gain) in self.gains.iter().enumerate() {
-            let weight_written = (self.params.octaves - n as f64).clamp(0.0, 1.0);
+        for (n, &gain) in self.gains.iter().enumerate() {
             for (b, &k) in bias.iter_mut().zip(kept) {
-                let weight_kept = (k - n as f64).clamp(0.0, 1.0);
-                *b += (weight_written - weight_kept) * gain * expected;
+                *b += dropped_share(&self.params, n, k, gain, expected);
             }
         }
         for (b, &k) in bias.iter_mut().zip(kept) {
