@@ -599,10 +599,10 @@ Graph(
     let imported = dir.path().join("marble.ron");
     let text = std::fs::read_to_string(&imported).unwrap();
     save(&imported, &marble_with_period(&text, 3.5));
+    // Settled in the new generation: its full preview, not the last one of the old generation
+    // (which is still the newest preview when the new graph message arrives).
     tab.until("the import's change rendered", |t| {
-        t.ready()
-            && t.get("graph")["generation"] != generation
-            && t.get("preview")["stage"] == "full"
+        t.settled() && t.get("graph")["generation"] != generation
     })
     .await;
     assert_ne!(tab.get("preview")["png"], preview);
