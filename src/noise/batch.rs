@@ -625,19 +625,12 @@ fn fractal_lod_lanes<S: Real, K: LatticeKernel, const TURB: bool>(
         let fast = fits([px, py, pz], max_abs(&freqs[..octaves]));
         let sum = &mut out[start..start + m];
         sum.fill(S::ZERO);
-        // Per lane, `LaneOctaves::amplitude`'s arithmetic once: its whole octaves, the
-        // amplitude of its faded one, and the octave it stops before.
-        for (i, &q) in lanes.kept[start..start + m].iter().enumerate() {
-            let full = q.floor();
-            whole[i] = full as u32;
-            let fades = q > full;
-            let power = lanes.powers[(full as usize).min(lanes.powers.len().saturating_sub(1))];
-            partial[i] = if fades {
-                S::from_f64(power * (q - full))
-            } else {
-                S::ZERO
-            };
-            ends[i] = whole[i] + u32::from(fades);
+        // Per lane once: its whole octaves, the amplitude of its faded one, and the octave it
+        // stops before (as 32-bit lanes, so the loop below vectorises beside f32 sums).
+        for i in 0..m {
+            let lane = lanes.lane(start + i);
+            (whole[i], ends[i]) = (lane.whole as u32, lane.ends as u32);
+            partial[i] = S::from_f64(lane.partial);
         }
         for (octave, &f) in freqs[..octaves].iter().enumerate() {
             lattice.fill::<true>(fast, f, [px, py, pz]);

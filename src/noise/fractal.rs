@@ -278,18 +278,33 @@ pub struct LaneOctaves<'a> {
 }
 
 impl LaneOctaves<'_> {
-    /// Octave `k`'s amplitude at lane `i`, `None` once the lane has dropped it: the arithmetic
-    /// of [`Octaves::new`] (`gain^i`, times the fraction for the last, partial octave).
-    /// (`batch::fractal_lod_lanes` has a branch-free copy of this arithmetic.)
+    /// Lane `i`'s octaves: the arithmetic of [`Octaves::new`] (`gain^k` below its whole
+    /// octaves, times the fraction for the last, partial one), once per lane.
     #[inline(always)]
-    pub(super) fn amplitude(&self, k: usize, i: usize) -> Option<f64> {
+    pub(super) fn lane(&self, i: usize) -> LaneWeights {
         let kept = self.kept[i];
         let whole = kept.floor();
         let full = whole as usize;
-        if k < full {
+        let fades = kept > whole;
+        LaneWeights {
+            whole: full,
+            ends: full + usize::from(fades),
+            partial: if fades {
+                self.powers[full] * (kept - whole)
+            } else {
+                0.0
+            },
+        }
+    }
+
+    /// Octave `k`'s amplitude at lane `i`, `None` once the lane has dropped it.
+    #[inline(always)]
+    pub(super) fn amplitude(&self, k: usize, i: usize) -> Option<f64> {
+        let lane = self.lane(i);
+        if k < lane.whole {
             Some(self.powers[k])
-        } else if k == full && kept > whole {
-            Some(self.powers[k] * (kept - whole))
+        } else if k < lane.ends {
+            Some(lane.partial)
         } else {
             None
         }
@@ -303,6 +318,15 @@ impl LaneOctaves<'_> {
             .fold(0.0f64, |m, &k| m.max(k.ceil()));
         (most as usize).min(limit).min(self.powers.len())
     }
+}
+
+/// One lane's octaves ([`LaneOctaves::lane`]): octaves below `whole` at full amplitude, octave
+/// `whole` at `partial` when `ends` is one more, none from `ends` on.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct LaneWeights {
+    pub(super) whole: usize,
+    pub(super) ends: usize,
+    pub(super) partial: f64,
 }
 
 /// The amplitudes of a fractal sum: one per octave for every lane (the schedule's), or per lane.
