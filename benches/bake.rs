@@ -49,6 +49,7 @@ fn benches(c: &mut Criterion) {
             threads,
             precision: Precision::F32,
             cancel: None,
+            device: Default::default(),
         };
         group.bench_function(format!("marble_128/threads_{threads}"), |b| {
             b.iter(|| bake_into(&tape, &options, &mut Discard, &mut |_| {}).expect("bakes"))
@@ -63,6 +64,7 @@ fn benches(c: &mut Criterion) {
                 threads: 2,
                 precision: Precision::F32,
                 cancel: None,
+                device: Default::default(),
             };
             options.force = true;
             bake_files(&tape, &options, &mut |_| {}).expect("bakes")
@@ -93,6 +95,7 @@ fn threads(c: &mut Criterion, tape: &texgraph::Tape) {
                 threads,
                 precision: Precision::F32,
                 cancel: None,
+                device: Default::default(),
             };
             group.bench_function(format!("{name}_256/threads_{threads}"), |b| {
                 b.iter(|| bake_files(tape, &options, &mut |_| {}).expect("bakes"))

@@ -228,6 +228,37 @@ proptest! {
     }
 }
 
+#[cfg(feature = "gpu")]
+proptest! {
+    // Each case compiles a shader (a second or so on lavapipe): fewer cases than the CPU tests.
+    #![proptest_config(ProptestConfig { cases: 24, max_shrink_iters: 20, ..ProptestConfig::default() })]
+
+    /// Random graphs on the GPU against the f64 reference, within the contract of
+    /// `common::gpu_contract` (tapes compiled for the points' extent, as bakes are).
+    #[test]
+    fn random_graphs_meet_the_gpu_contract(
+        a in scalar(3),
+        b in vec3(3),
+        k in -10.0f64..10.0,
+        points in prop::collection::vec([coordinate(), coordinate(), coordinate()], 1..64),
+    ) {
+        if !common::gpu_available("random_graphs_meet_the_gpu_contract") {
+            return Ok(());
+        }
+        let text = graph_text(&a, &b, k);
+        let Ok(graph) = check(SourceFile::new("random.ron", text.clone()), &CheckOptions::default()) else {
+            return Ok(()); // the CPU test above holds the checker to account
+        };
+        let [x, y, z] = [0, 1, 2].map(|c| points.iter().map(|p| p[c]).collect::<Vec<f64>>());
+        let options = CompileOptions { extent: Extent::around(&x, &y, &z), ..Default::default() };
+        let tape = compile(&graph, &options).expect("a checked graph compiles");
+        let gpu = texgraph::gpu::GpuEvaluator::new(&tape);
+        prop_assert!(gpu.is_ok(), "{:?}\n{text}", gpu.err());
+        let result = common::gpu_contract(&tape, &gpu.unwrap(), &points);
+        prop_assert!(result.is_ok(), "{}\n{text}\n{tape}", result.unwrap_err());
+    }
+}
+
 mod common;
 
 /// The generator reaches every node kind of the catalogue: a kind added without a generator

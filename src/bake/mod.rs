@@ -116,6 +116,11 @@ pub struct BakeOptions {
     pub precision: Precision,
     /// Set from another thread (Ctrl-C) to stop between windows with [`BakeError::Cancelled`].
     pub cancel: Option<Arc<AtomicBool>>,
+    /// Where the windows are evaluated: `Device::Gpu` makes and reads them back on the GPU
+    /// (the tape's evaluator from `gpu::evaluator_for`, f32 precision only); the sinks,
+    /// statistics and streaming are the same. `Auto` is the CPU here (the command line
+    /// resolves it, saying which).
+    pub device: crate::gpu::Device,
 }
 
 impl Default for BakeOptions {
@@ -125,6 +130,7 @@ impl Default for BakeOptions {
             threads: 0,
             precision: Precision::F32,
             cancel: None,
+            device: crate::gpu::Device::Cpu,
         }
     }
 }
@@ -647,6 +653,17 @@ fn bake_with<S: Real>(
 ) -> Result<Vec<OutputStats>, BakeError> {
     let grid = &options.grid;
     let channels = tape.channels();
+    let gpu = match options.device {
+        crate::gpu::Device::Gpu if S::NAME == "f64" => {
+            return Err(BakeError::Refused(
+                "the GPU evaluates the f32 path; an f64 bake (--double) runs on the CPU".into(),
+            ))
+        }
+        crate::gpu::Device::Gpu => {
+            Some(crate::gpu::evaluator_for(tape).map_err(|e| BakeError::Refused(e.to_string()))?)
+        }
+        _ => None,
+    };
     let mut stats: Vec<ChannelStats> = vec![ChannelStats::default(); channels];
     let Some(layout) = Layout::new(grid, channels, pool.current_num_threads()) else {
         return Ok(collect_stats(tape, &stats));
@@ -691,8 +708,11 @@ fn bake_with<S: Real>(
             let mut buffer = spare
                 .take()
                 .unwrap_or_else(|| vec![0f32; layout.per_window * plan.block()]);
-            let segment_stats =
-                evaluate_window::<S>(tape, plan, pool, first, &mut buffer[..count * plan.block()]);
+            let data = &mut buffer[..count * plan.block()];
+            let segment_stats = match &gpu {
+                Some(gpu) => gpu_window(gpu, plan, pool, first, data)?,
+                None => evaluate_window::<S>(tape, plan, pool, first, data),
+            };
             for part in &segment_stats {
                 for (total, part) in stats.iter_mut().zip(part) {
                     total.merge(part);
@@ -808,6 +828,36 @@ fn evaluate_window<S: Real>(
             )
             .collect()
     })
+}
+
+/// [`evaluate_window`] on the GPU: the window made and read back by `gpu`, then each segment's
+/// channel statistics (in parallel, as the CPU path gathers them).
+fn gpu_window(
+    gpu: &crate::gpu::GpuEvaluator,
+    plan: &Plan<'_>,
+    pool: &rayon::ThreadPool,
+    first: u64,
+    data: &mut [f32],
+) -> Result<Vec<Vec<ChannelStats>>, BakeError> {
+    let (grid, layout, channels) = (plan.grid, &plan.layout, plan.channels);
+    gpu.bake_window(grid, layout, first, data)
+        .map_err(|e| BakeError::Refused(e.to_string()))?;
+    let seg_len = layout.segment_len;
+    Ok(pool.install(|| {
+        data.par_chunks(plan.block())
+            .enumerate()
+            .map(|(s, block)| {
+                let n = layout.segment(grid, first + s as u64).len;
+                let mut seg_stats = vec![ChannelStats::default(); channels];
+                for (c, stat) in seg_stats.iter_mut().enumerate() {
+                    for &v in &block[c * seg_len..c * seg_len + n] {
+                        stat.add(v);
+                    }
+                }
+                seg_stats
+            })
+            .collect()
+    }))
 }
 
 fn collect_stats(tape: &Tape, stats: &[ChannelStats]) -> Vec<OutputStats> {

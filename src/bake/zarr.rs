@@ -1266,6 +1266,30 @@ fn eval_shard<S: Real>(
             slices[z].push(view);
         }
     }
+    // --device gpu: each slice's rows in one GPU batch (the tape's cached evaluator); where the
+    // GPU fails, the slice is evaluated on the CPU (said on stderr).
+    let gpu = match options.bake.device {
+        crate::gpu::Device::Gpu if S::NAME == "f32" => crate::gpu::evaluator_for(tape).ok(),
+        _ => None,
+    };
+    let rows = (ry.end - ry.start) as usize;
+    let gpu_slice = |kz: usize| -> Option<Vec<f32>> {
+        let gpu = gpu.as_ref()?;
+        let n = rows * width;
+        let px: Vec<f64> = (0..rows).flat_map(|_| xs.iter().copied()).collect();
+        let py: Vec<f64> = (ry.start..ry.end)
+            .flat_map(|j| std::iter::repeat_n(grid.centre(1, j as usize), width))
+            .collect();
+        let pz = vec![grid.centre(2, kz); n];
+        let mut out = vec![0f32; channels * n];
+        match gpu.eval_batch(&px, &py, &pz, &mut out) {
+            Ok(()) => Some(out),
+            Err(e) => {
+                eprintln!("texgraph: {e}; slice {kz} evaluated on the CPU");
+                None
+            }
+        }
+    };
     let per_slice: Vec<Vec<ChannelStats>> = pool.install(|| {
         slices
             .into_par_iter()
@@ -1283,9 +1307,23 @@ fn eval_shard<S: Real>(
                     let kz = rz.start as usize + z;
                     let mut stats = vec![ChannelStats::default(); channels];
                     zs.fill(grid.centre(2, kz));
+                    let on_gpu = gpu_slice(kz);
                     for (jy, j) in (ry.start..ry.end).enumerate() {
                         ys.fill(grid.centre(1, j as usize));
-                        tape.eval_batch(workspace, &xs, ys, zs, out);
+                        match &on_gpu {
+                            Some(values) => {
+                                let n = rows * width;
+                                for c in 0..channels {
+                                    let row = &values[c * n + jy * width..][..width];
+                                    for (o, &v) in
+                                        out[c * width..(c + 1) * width].iter_mut().zip(row)
+                                    {
+                                        *o = S::from_f64(f64::from(v));
+                                    }
+                                }
+                            }
+                            None => tape.eval_batch(workspace, &xs, ys, zs, out),
+                        }
                         for (a, view) in arrays.iter().zip(views.iter_mut()) {
                             let c = a.ty.channels();
                             interleaved.clear();

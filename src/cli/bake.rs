@@ -90,6 +90,11 @@ pub struct BakeArgs {
     /// Evaluate with the f64 reference path (values still stored as f32 or less).
     #[arg(long = "f64")]
     double: bool,
+    /// Where the voxels are evaluated: cpu, gpu (the tape compiled to a compute shader; every
+    /// format and option as on the CPU; an error when no GPU is usable), or auto (the GPU when
+    /// one is usable, else the CPU, saying which on stderr).
+    #[arg(long, value_enum, default_value_t)]
+    device: crate::gpu::Device,
     /// Prefiltered mip levels down to 1 voxel, each baked from the graph at its own voxel
     /// centres with footprint level of detail for its spacing: KTX2 stores them in its file,
     /// zarr as OME-Zarr multiscales (a group per output, an array per level), PNG, EXR and raw
@@ -282,6 +287,7 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
         (args.files.clone(), part)
     };
     let threads = threads_or_warn(args.threads);
+    let device = resolve_device(args.device, args.double)?;
     let cancel = Arc::new(AtomicBool::new(false));
     {
         // Ctrl-C stops between windows; temporary files are removed and nothing is renamed
@@ -323,6 +329,7 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
                 Precision::F32
             },
             cancel: Some(cancel.clone()),
+            device: device_for(device, file, &tape),
         };
         let mut options = file_options(&args, file, &graph.params, bake);
         options.zarr.part = shard_part;
@@ -610,4 +617,65 @@ pub fn bake_report(
         report.voxels, report.seconds
     ));
     text
+}
+
+/// `--device`: `auto` resolved to the GPU or the CPU (said on stderr), `gpu` checked once
+/// before the first graph (no usable GPU, or with `--f64`: a usage error).
+fn resolve_device(
+    requested: crate::gpu::Device,
+    double: bool,
+) -> Result<crate::gpu::Device, Failure> {
+    use crate::gpu::Device;
+    match requested {
+        Device::Cpu => Ok(Device::Cpu),
+        Device::Gpu if double => {
+            eprintln!("error: --device gpu evaluates the f32 path; an --f64 bake runs on the CPU (--device cpu)");
+            Err(Failure::Usage)
+        }
+        Device::Gpu => match crate::gpu::usable() {
+            Ok(name) => {
+                eprintln!("texgraph: evaluating on the GPU ({name})");
+                Ok(Device::Gpu)
+            }
+            Err(e) => {
+                eprintln!("error: --device gpu: {e}");
+                Err(Failure::Usage)
+            }
+        },
+        Device::Auto if double => {
+            eprintln!(
+                "texgraph: --device auto: evaluating on the CPU (an --f64 bake runs on the CPU)"
+            );
+            Ok(Device::Cpu)
+        }
+        Device::Auto => match crate::gpu::usable() {
+            Ok(name) => {
+                eprintln!("texgraph: --device auto: evaluating on the GPU ({name})");
+                Ok(Device::Gpu)
+            }
+            Err(e) => {
+                eprintln!("texgraph: --device auto: evaluating on the CPU ({e})");
+                Ok(Device::Cpu)
+            }
+        },
+    }
+}
+
+/// The start-up check of one graph on the GPU: its shader compiled (and cached for the bake);
+/// a graph the GPU cannot run is baked on the CPU, with the reason on stderr.
+fn device_for(
+    device: crate::gpu::Device,
+    file: &std::path::Path,
+    tape: &crate::Tape,
+) -> crate::gpu::Device {
+    if device != crate::gpu::Device::Gpu {
+        return crate::gpu::Device::Cpu;
+    }
+    match crate::gpu::evaluator_for(tape) {
+        Ok(_) => crate::gpu::Device::Gpu,
+        Err(e) => {
+            eprintln!("warning: {}: {e}; baking it on the CPU", file.display());
+            crate::gpu::Device::Cpu
+        }
+    }
 }

@@ -2,6 +2,97 @@
 //! (Vulkan, Metal, DX12). `texgraph devices` lists them. Built without the `gpu` cargo feature,
 //! or on a machine without a driver, the list is empty — a software Vulkan driver such as
 //! Mesa's lavapipe (Debian `mesa-vulkan-drivers`) counts as an adapter of kind "CPU".
+//!
+//! A tape runs on the GPU as WGSL generated from it (`codegen.rs`, over the library in
+//! `wgsl/`), compiled once per tape by [`GpuEvaluator::new`]; `eval_batch` evaluates position
+//! buffers, `bake_window` a bake's windows with the positions made on the GPU.
+
+pub mod codegen;
+#[cfg(feature = "gpu")]
+mod evaluator;
+#[cfg(feature = "gpu")]
+pub use evaluator::GpuEvaluator;
+#[cfg(not(feature = "gpu"))]
+mod stub;
+#[cfg(not(feature = "gpu"))]
+pub use stub::GpuEvaluator;
+
+/// Why the GPU path cannot run (the caller falls back to the CPU or reports it).
+#[derive(Clone, Debug, thiserror::Error)]
+pub enum GpuError {
+    /// No usable adapter (or a build without the `gpu` feature).
+    #[error("no usable GPU: {0}")]
+    NoAdapter(String),
+    /// The generated shader did not validate or compile (a texgraph bug: please report it).
+    #[error("the GPU shader does not compile: {0}")]
+    Shader(String),
+    /// Something the GPU path does not run.
+    #[error("the GPU path does not run {0}")]
+    Unsupported(String),
+    /// The device failed during an evaluation.
+    #[error("GPU error: {0}")]
+    Device(String),
+}
+
+/// The GPU evaluator of `tape`, compiled once per tape fingerprint in this process (a bake of
+/// many windows, mip levels and repeated bakes of one graph share it).
+pub fn evaluator_for(tape: &crate::Tape) -> Result<std::sync::Arc<GpuEvaluator>, GpuError> {
+    use std::collections::HashMap;
+    use std::sync::{Arc, Mutex, OnceLock};
+    static CACHE: OnceLock<Mutex<HashMap<u64, Arc<GpuEvaluator>>>> = OnceLock::new();
+    let cache = CACHE.get_or_init(Default::default);
+    let key = tape.fingerprint();
+    if let Some(found) = cache.lock().unwrap_or_else(|e| e.into_inner()).get(&key) {
+        return Ok(found.clone());
+    }
+    let made = Arc::new(GpuEvaluator::new(tape)?);
+    let mut cache = cache.lock().unwrap_or_else(|e| e.into_inner());
+    // A few tapes at most live in one process; keep the cache from growing without bound
+    // (`serve` recompiles on every edit).
+    if cache.len() >= 32 {
+        cache.clear();
+    }
+    cache.insert(key, made.clone());
+    Ok(made)
+}
+
+/// The adapter the GPU path runs on (its name), or why there is none usable.
+pub fn usable() -> Result<String, GpuError> {
+    #[cfg(feature = "gpu")]
+    {
+        evaluator::context().map(|c| c.info.name.trim().to_string())
+    }
+    #[cfg(not(feature = "gpu"))]
+    {
+        GpuEvaluator::new_unavailable()
+    }
+}
+
+/// Where an evaluation runs (`--device`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Device {
+    /// The CPU (the default).
+    #[default]
+    Cpu,
+    /// The GPU; an error when none is usable.
+    Gpu,
+    /// The GPU when one is usable, else the CPU (which one is said on stderr).
+    Auto,
+}
+
+/// Validates WGSL with naga (what wgpu itself runs before compiling), with 64-bit floats
+/// allowed: the errors located in the source.
+#[cfg(feature = "gpu")]
+pub fn validate(source: &str) -> Result<(), String> {
+    let module = naga::front::wgsl::parse_str(source).map_err(|e| e.emit_to_string(source))?;
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::FLOAT64,
+    )
+    .validate(&module)
+    .map(|_| ())
+    .map_err(|e| e.emit_to_string(source))
+}
 
 /// One adapter as `texgraph devices` prints it.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -571,6 +571,19 @@ impl std::fmt::Debug for NoiseTable {
 }
 
 impl NoiseTable {
+    /// The tables as the GPU path reads them (`gpu/wgsl/common.wgsl`): 2304 32-bit words, the
+    /// doubled permutation (512), the Gradient unit vectors (256 × 3, f32 bits), the values
+    /// (256, f32 bits), the Cellular feature points (3 planes of 256, f32 bits).
+    #[cfg_attr(not(feature = "gpu"), allow(dead_code))]
+    pub(crate) fn gpu_words(&self) -> Vec<u32> {
+        let mut words = Vec::with_capacity(2304);
+        words.extend(self.perm.iter().map(|&p| u32::from(p)));
+        words.extend(self.grads.iter().flatten().map(|g| g.to_bits()));
+        words.extend(self.values.iter().map(|v| v.to_bits()));
+        words.extend(self.features.iter().flatten().map(|f| f.to_bits()));
+        words
+    }
+
     /// Builds the tables of `basis` for `seed`: deterministic forever (see `rng.rs`).
     ///
     /// The permutation is the identity shuffled by Fisher–Yates from SplitMix64 seeded with

@@ -1,0 +1,88 @@
+//! GPU benchmarks (issue 19): `gpu/marble_512` (the seed 003 marble with 8 octaves over a 512³
+//! grid, results kept on the GPU, and again read back) and `gpu/bake_1024` (the command-line
+//! bake of a 1024³ raw file, end to end). Without an adapter they print why and measure
+//! nothing. `TEXGRAPH_GPU_BENCH_SIZE=N` shrinks both grids to N³ (for a software adapter such
+//! as lavapipe, where 512³ takes minutes per sample); the benchmark names keep the full sizes
+//! only when the sizes are the full ones.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use std::time::Duration;
+use texgraph::bake::Grid;
+
+fn size(full: usize) -> usize {
+    std::env::var("TEXGRAPH_GPU_BENCH_SIZE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(full)
+}
+
+fn marble() -> texgraph::Tape {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let check = texgraph::CheckOptions {
+        overrides: vec![("octaves".into(), 8.0)],
+    };
+    texgraph::load_tape(
+        &root.join("graphs/seed003_marble.ron"),
+        &check,
+        &texgraph::CompileOptions::default(),
+    )
+    .expect("the seed 003 marble")
+    .1
+}
+
+fn bench_gpu(c: &mut Criterion) {
+    let adapter = match texgraph::gpu::usable() {
+        Ok(name) => name,
+        Err(e) => {
+            eprintln!("SKIPPED gpu benches: {e}");
+            return;
+        }
+    };
+    eprintln!("gpu benches on {adapter}");
+    let tape = marble();
+    let gpu = texgraph::gpu::evaluator_for(&tape).expect("the marble compiles on the GPU");
+    let n = size(512);
+    let grid = Grid::cube(n);
+    let mut group = c.benchmark_group("gpu");
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(20));
+    group.bench_function(format!("marble_{n}/kernel"), |b| {
+        b.iter(|| gpu.eval_grid(&grid, true).expect("evaluates"))
+    });
+    group.bench_function(format!("marble_{n}/read_back"), |b| {
+        b.iter(|| gpu.eval_grid(&grid, false).expect("evaluates"))
+    });
+    let n = size(1024);
+    let out = std::env::temp_dir().join(format!("texgraph-gpu-bench-{}", std::process::id()));
+    let exe = env!("CARGO_BIN_EXE_texgraph");
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let graph = root.join("graphs/seed003_marble.ron");
+    group.bench_function(format!("bake_{n}"), |b| {
+        b.iter(|| {
+            let status = std::process::Command::new(exe)
+                .args([
+                    "bake",
+                    "--device",
+                    "gpu",
+                    "--format",
+                    "raw",
+                    "--raw-type",
+                    "f32",
+                ])
+                .arg("--size")
+                .arg(n.to_string())
+                .args(["--set", "octaves=8", "--force", "-q", "--out"])
+                .arg(&out)
+                .arg(&graph)
+                .status()
+                .expect("runs texgraph");
+            assert!(status.success());
+        })
+    });
+    group.finish();
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+criterion_group!(benches, bench_gpu);
+criterion_main!(benches);

@@ -1,0 +1,556 @@
+//! WGSL generated from a tape: one straight-line function per tape (`fn tape(p) -> Channels`),
+//! every slot a local variable, every constant a literal, every fractal's octave loop unrolled
+//! with its frequencies, amplitudes and periods written in, so the shader compiler sees exactly
+//! the arithmetic of this graph. The per-lane operations and the noise bases are the WGSL
+//! library in `wgsl/` (one definition each, mirroring `ops.rs` and `noise/`); the entry points
+//! `bake` (positions from the grid, written in the bake's window layout) and `points`
+//! (positions from a buffer, written channel-planar as `Tape::eval_batch`) wrap the function.
+//!
+//! Precision: scalar slots are f32 (the CPU's fast path), vec3 slots and promoted ("wide")
+//! scalars f64, as on the CPU, so positions and lattice cells are exact; see `wgsl/math.wgsl`
+//! for the transcendentals.
+
+use crate::graph::TableKey;
+use crate::noise::{Basis, CellularValue, Interpolation, Metric, Octaves, Style};
+use crate::ops::{BinaryOp, Spline, SplineInterpolation, TernaryOp, UnaryOp};
+use crate::tape::{Instr, Tape, Wide};
+use std::fmt::Write;
+
+/// The WGSL library, in the order the generated shader concatenates it.
+pub const LIBRARY: [(&str, &str); 6] = [
+    ("common.wgsl", include_str!("wgsl/common.wgsl")),
+    ("math.wgsl", include_str!("wgsl/math.wgsl")),
+    ("lattice.wgsl", include_str!("wgsl/lattice.wgsl")),
+    ("lattice_grad.wgsl", include_str!("wgsl/lattice_grad.wgsl")),
+    ("simplex.wgsl", include_str!("wgsl/simplex.wgsl")),
+    ("cellular.wgsl", include_str!("wgsl/cellular.wgsl")),
+];
+
+/// The entry points and bindings every generated shader ends with (`wgsl/entry.wgsl`).
+const ENTRY: &str = include_str!("wgsl/entry.wgsl");
+
+/// Words of one noise table in the tables buffer (`T_WORDS` in common.wgsl).
+pub const TABLE_WORDS: usize = 2304;
+
+/// A tape's shader: its WGSL source and the channels each point produces.
+#[derive(Clone, Debug)]
+pub struct Shader {
+    pub source: String,
+    pub channels: usize,
+}
+
+/// The WGSL of `tape`: the library, the tape's function and the entry points.
+pub fn generate(tape: &Tape) -> Shader {
+    let mut source = String::new();
+    for (_, text) in LIBRARY {
+        source.push_str(text);
+        source.push('\n');
+    }
+    let mut splines = String::new();
+    for (k, ramp) in tape.ramps.iter().enumerate() {
+        spline_function(&mut splines, &format!("ramp{k}"), ramp);
+    }
+    for (k, curve) in tape.curves.iter().enumerate() {
+        spline_function(&mut splines, &format!("curve{k}"), curve);
+    }
+    source.push_str(&splines);
+    let channels = tape.channels();
+    let _ = writeln!(source, "const CHANNELS: u32 = {}u;", channels.max(1));
+    let _ = writeln!(
+        source,
+        "struct Channels {{\n    c: array<f32, {}>,\n}}\n",
+        channels.max(1)
+    );
+    source.push_str(&tape_function(tape));
+    source.push_str(ENTRY);
+    Shader { source, channels }
+}
+
+/// `fn tape(p: vec3<f64>) -> Channels`: the instructions in order over local slot variables.
+fn tape_function(tape: &Tape) -> String {
+    let mut body = String::new();
+    let w = &mut body;
+    let _ = writeln!(w, "fn tape(p: vec3<f64>) -> Channels {{");
+    for k in 0..tape.scalar_slots {
+        let _ = writeln!(w, "    var s{k}: f32 = 0.0;");
+    }
+    for k in 0..tape.vec3_slots {
+        let _ = writeln!(w, "    var v{k}: vec3<f64> = vec3<f64>(0.0lf);");
+    }
+    for k in 0..tape.wide_slots {
+        let _ = writeln!(w, "    var d{k}: f64 = 0.0lf;");
+    }
+    for &(slot, value) in &tape.scalar_constants {
+        let _ = writeln!(w, "    s{slot} = {};", f32_literal(value as f32));
+    }
+    for &(slot, value) in &tape.vec3_constants {
+        let _ = writeln!(w, "    v{slot} = {};", vec3_literal(value));
+    }
+    for &(slot, value) in &tape.wide_constants {
+        let _ = writeln!(w, "    d{slot} = {};", f64_literal(value));
+    }
+    for instr in &tape.instrs {
+        let line = instruction(tape, instr);
+        let _ = writeln!(w, "    {line}");
+    }
+    let _ = writeln!(w, "    var r: Channels;");
+    for o in &tape.outputs {
+        let c = o.first_channel;
+        if o.ty.channels() == 1 {
+            let _ = writeln!(w, "    r.c[{c}] = s{};", o.slot);
+        } else {
+            for (i, axis) in ["x", "y", "z"].iter().enumerate() {
+                let _ = writeln!(w, "    r.c[{}] = f32(v{}.{axis});", c + i, o.slot);
+            }
+        }
+    }
+    let _ = writeln!(w, "    return r;\n}}\n");
+    body
+}
+
+/// One instruction as WGSL statements.
+fn instruction(tape: &Tape, instr: &Instr) -> String {
+    match *instr {
+        Instr::Position { dst } => format!("v{dst} = p;"),
+        Instr::Splat { dst, src } => format!("v{dst} = vec3<f64>(f64(s{src}));"),
+        Instr::Combine { dst, x, y, z } => {
+            format!("v{dst} = vec3<f64>(f64(s{x}), f64(s{y}), f64(s{z}));")
+        }
+        Instr::Component { dst, src, axis } => {
+            format!("s{dst} = f32(v{src}.{});", axis_name(axis))
+        }
+        Instr::UnaryScalar { op, dst, src } => {
+            format!("s{dst} = {};", unary_f32(op, &format!("s{src}")))
+        }
+        Instr::UnaryVec3 { op, dst, src } => {
+            format!(
+                "v{dst} = {};",
+                per_component(|c| unary_f64(op, &format!("v{src}.{c}")))
+            )
+        }
+        Instr::BinaryScalar { op, dst, a, b } => {
+            format!(
+                "s{dst} = {};",
+                binary("s_", op, &format!("s{a}"), &format!("s{b}"))
+            )
+        }
+        Instr::BinaryVec3 { op, dst, a, b } => format!(
+            "v{dst} = {};",
+            per_component(|c| binary("d_", op, &format!("v{a}.{c}"), &format!("v{b}.{c}")))
+        ),
+        Instr::TernaryScalar { op, dst, a, b, c } => {
+            format!("s{dst} = s_{}(s{a}, s{b}, s{c});", ternary_name(op))
+        }
+        Instr::TernaryVec3 { op, dst, a, b, c } => format!(
+            "v{dst} = {};",
+            per_component(|k| format!("d_{}(v{a}.{k}, v{b}.{k}, v{c}.{k})", ternary_name(op)))
+        ),
+        Instr::Dot { dst, a, b } => format!("s{dst} = f32(v_dot(v{a}, v{b}));"),
+        Instr::Length { dst, src } => format!("s{dst} = f32(v_length(v{src}));"),
+        Instr::Cross { dst, a, b } => format!("v{dst} = v_cross(v{a}, v{b});"),
+        Instr::Normalize { dst, src } => format!("v{dst} = v_normalize(v{src});"),
+        Instr::RotateConst { dst, src, matrix } => {
+            let m = tape.matrices[matrix as usize];
+            format!(
+                "v{dst} = v_matrix({}, {}, {}, v{src});",
+                vec3_literal(m[0]),
+                vec3_literal(m[1]),
+                vec3_literal(m[2])
+            )
+        }
+        Instr::RotateVarying {
+            dst,
+            src,
+            degrees,
+            axis,
+        } => format!(
+            "v{dst} = v_rotate({}, f64(s{degrees}), v{src});",
+            vec3_literal(tape.axes[axis as usize])
+        ),
+        Instr::Noise { dst, src, table } => {
+            let key = &tape.tables[table as usize].0;
+            format!(
+                "s{dst} = {};",
+                sample_call(table, key, key.period, &format!("v{src}"), false)
+            )
+        }
+        Instr::NoiseGradient { dst, src, table } => {
+            let key = &tape.tables[table as usize].0;
+            let call = sample_call(table, key, key.period, &format!("v{src}"), true);
+            format!("v{dst} = vec3<f64>(({call}).xyz);")
+        }
+        Instr::Fractal {
+            dst,
+            src,
+            table,
+            octaves,
+            style,
+            bias,
+        } => fractal(tape, dst, src, table, octaves, style, bias),
+        Instr::FractalGradient {
+            dst,
+            src,
+            table,
+            octaves,
+            style,
+        } => fractal_gradient(tape, dst, src, table, octaves, style),
+        Instr::Hermite { dst, src, spline } => {
+            let h = tape.hermites[spline as usize];
+            format!(
+                "s{dst} = s_hermite(s{src}, {}, {}, {}, {});",
+                f32_literal(h.p0 as f32),
+                f32_literal(h.p1 as f32),
+                f32_literal(h.m0 as f32),
+                f32_literal(h.m1 as f32)
+            )
+        }
+        Instr::Ramp { dst, src, ramp } => format!("v{dst} = ramp{ramp}(f64(s{src}));"),
+        Instr::Curve { dst, src, curve } => format!("s{dst} = f32(curve{curve}(f64(s{src})));"),
+        Instr::Wide(w) => wide(tape, w),
+    }
+}
+
+/// A promoted instruction: the f64 (`d_`) forms over the wide slots.
+fn wide(tape: &Tape, w: Wide) -> String {
+    match w {
+        Wide::Component { dst, src, axis } => format!("d{dst} = v{src}.{};", axis_name(axis)),
+        Wide::Unary { op, dst, src } => format!("d{dst} = {};", unary_f64(op, &format!("d{src}"))),
+        Wide::Binary { op, dst, a, b } => {
+            format!(
+                "d{dst} = {};",
+                binary("d_", op, &format!("d{a}"), &format!("d{b}"))
+            )
+        }
+        Wide::Ternary { op, dst, a, b, c } => {
+            format!("d{dst} = d_{}(d{a}, d{b}, d{c});", ternary_name(op))
+        }
+        Wide::Dot { dst, a, b } => format!("d{dst} = v_dot(v{a}, v{b});"),
+        Wide::Length { dst, src } => format!("d{dst} = v_length(v{src});"),
+        Wide::Splat { dst, src } => format!("v{dst} = vec3<f64>(d{src});"),
+        Wide::Combine { dst, x, y, z } => format!("v{dst} = vec3<f64>(d{x}, d{y}, d{z});"),
+        Wide::Rotate {
+            dst,
+            src,
+            degrees,
+            axis,
+        } => format!(
+            "v{dst} = v_rotate({}, d{degrees}, v{src});",
+            vec3_literal(tape.axes[axis as usize])
+        ),
+        Wide::Widen { dst, src } => format!("d{dst} = f64(s{src});"),
+        Wide::Narrow { dst, src } => format!("s{dst} = f32(d{src});"),
+    }
+}
+
+/// The octave loop of a fractal sum, unrolled: each octave's point `p · f` in f64, its sample
+/// (at its own period when tiled), the style's accumulation in f32 (`noise/fractal.rs`
+/// `Shaper::add`), NaN made canonical, then the level-of-detail bias.
+fn fractal(
+    tape: &Tape,
+    dst: u32,
+    src: u32,
+    table: u32,
+    octaves: u32,
+    style: Style,
+    bias: f64,
+) -> String {
+    let key = &tape.tables[table as usize].0;
+    let schedule = &tape.octaves[octaves as usize];
+    let mut w = String::from("{\n        var sum: f32 = 0.0;\n        var weight: f32 = 1.0;\n");
+    for k in 0..schedule.frequencies.len() {
+        let (point, period) = octave_point(schedule, k, src);
+        let n = sample_call(table, key, period, &point, false);
+        let a = f32_literal(schedule.amplitudes[k] as f32);
+        let _ = writeln!(w, "        let n{k} = {n};");
+        let _ = match style {
+            Style::Fbm => writeln!(w, "        sum = sum + {a} * n{k};"),
+            Style::Turbulence => writeln!(w, "        sum = sum + {a} * abs(n{k});"),
+            Style::Billow => writeln!(w, "        sum = sum + {a} * (2.0 * abs(n{k}) - 1.0);"),
+            Style::Ridged { offset, sharpness } => writeln!(
+                w,
+                "        let r{k} = s_pow(s_max({} - abs(n{k}), 0.0), {}) * weight;\n        \
+                 sum = sum + {a} * r{k};\n        weight = s_min(s_max(2.0 * r{k}, 0.0), 1.0);",
+                f32_literal(offset as f32),
+                f32_literal(sharpness as f32)
+            ),
+        };
+    }
+    let _ = writeln!(w, "        if (is_nan(sum)) {{ sum = nan_f32(); }}");
+    if bias != 0.0 {
+        let _ = writeln!(w, "        sum = sum + {};", f32_literal(bias as f32));
+    }
+    let _ = write!(w, "        s{dst} = sum;\n        _ = weight;\n    }}");
+    w
+}
+
+/// The gradient of a fractal sum, unrolled as [`fractal`] (`wgsl/lattice_grad.wgsl`'s
+/// `GradShaper`, mirroring `noise/derivative.rs`).
+fn fractal_gradient(
+    tape: &Tape,
+    dst: u32,
+    src: u32,
+    table: u32,
+    octaves: u32,
+    style: Style,
+) -> String {
+    let key = &tape.tables[table as usize].0;
+    let schedule = &tape.octaves[octaves as usize];
+    let (code, offset, sharpness) = match style {
+        Style::Fbm => (0, 0.0, 0.0),
+        Style::Turbulence => (1, 0.0, 0.0),
+        Style::Billow => (2, 0.0, 0.0),
+        Style::Ridged { offset, sharpness } => (3, offset, sharpness),
+    };
+    let mut w = String::from("{\n        var g = gshaper_start();\n");
+    for k in 0..schedule.frequencies.len() {
+        let (point, period) = octave_point(schedule, k, src);
+        let call = sample_call(table, key, period, &point, true);
+        let _ = writeln!(
+            w,
+            "        let n{k} = {call};\n        g = gshaper_add_f64(g, {code}u, n{k}.w, n{k}.xyz, {}, {}, {}, {});",
+            f64_literal(schedule.amplitudes[k]),
+            f64_literal(schedule.frequencies[k]),
+            f32_literal(offset as f32),
+            f32_literal(sharpness as f32)
+        );
+    }
+    let _ = write!(
+        w,
+        "        v{dst} = vec3<f64>(gshaper_gradient(g));\n    }}"
+    );
+    w
+}
+
+/// Octave `k`'s point (`v{src} * f` in f64) and period.
+fn octave_point(schedule: &Octaves, k: usize, src: u32) -> (String, Option<[u64; 3]>) {
+    let f = schedule.frequencies[k];
+    let period = schedule.periods.as_ref().map(|p| p[k]);
+    (format!("v{src} * {}", f64_literal(f)), period)
+}
+
+/// The call of a basis' sample (`*_sample`) or gradient (`*_grad`, a vec4: gradient, value),
+/// tiled when there is a period.
+fn sample_call(
+    table: u32,
+    key: &TableKey,
+    period: Option<[u64; 3]>,
+    point: &str,
+    gradient: bool,
+) -> String {
+    let name = match key.basis {
+        Basis::Perlin => "perlin",
+        Basis::Gradient => "gradient",
+        Basis::Value(Interpolation::Linear) => "value_linear",
+        Basis::Value(Interpolation::Smooth) => "value_smooth",
+        Basis::Simplex => "simplex",
+        Basis::White => "white",
+        Basis::Cellular(_) => "cellular",
+    };
+    let kind = if gradient { "grad" } else { "sample" };
+    let offset = table as usize * TABLE_WORDS;
+    let mut args = format!("{offset}u, {point}");
+    let mut suffix = "";
+    if let Some(period) = period {
+        suffix = "_periodic";
+        // Periods beyond 2^52 are no periods for f64 coordinates (noise/period.rs): 0 = none.
+        let axis = |p: u64| {
+            if p == 0 || p > 1 << 52 {
+                "0.0lf".to_string()
+            } else {
+                f64_literal(p as f64)
+            }
+        };
+        let _ = write!(
+            args,
+            ", vec3<f64>({}, {}, {})",
+            axis(period[0]),
+            axis(period[1]),
+            axis(period[2])
+        );
+    }
+    if let Basis::Cellular(c) = key.basis {
+        let metric = match c.metric {
+            Metric::Euclidean => 0,
+            Metric::Manhattan => 1,
+            Metric::Chebyshev => 2,
+        };
+        let value = match c.value {
+            CellularValue::F1 => 0,
+            CellularValue::F2 => 1,
+            CellularValue::F2MinusF1 => 2,
+            CellularValue::CellValue => 3,
+            CellularValue::Edge => 4,
+        };
+        let _ = write!(
+            args,
+            ", {metric}u, {value}u, {}",
+            f32_literal(c.jitter() as f32)
+        );
+    }
+    format!("{name}_{kind}{suffix}({args})")
+}
+
+/// A spline (colour ramp: vec3, curve: scalar) as a WGSL function of an f64 input, evaluated
+/// in f64 as `ops::Spline::eval`: segments tested from the last knot down, so where knots
+/// coincide the later value wins.
+fn spline_function<const N: usize>(w: &mut String, name: &str, spline: &Spline<N>) {
+    let ty = if N == 3 { "vec3<f64>" } else { "f64" };
+    let value = |v: &[f64; N]| {
+        if N == 3 {
+            vec3_literal([v[0], v[1], v[2]])
+        } else {
+            f64_literal(v[0])
+        }
+    };
+    let zero = if N == 3 { "vec3<f64>(0.0lf)" } else { "0.0lf" };
+    let nan = if N == 3 {
+        "vec3<f64>(nan_d())"
+    } else {
+        "nan_d()"
+    };
+    let (knots, values) = (spline.knots(), spline.values());
+    let _ = writeln!(w, "fn {name}(t: f64) -> {ty} {{");
+    let _ = writeln!(w, "    if (is_nan_d(t)) {{ return {nan}; }}");
+    let (Some(&first), Some(&last)) = (knots.first(), knots.last()) else {
+        let _ = writeln!(w, "    return {nan};\n}}\n");
+        return;
+    };
+    let slope = spline.is_slope();
+    if slope {
+        let _ = writeln!(
+            w,
+            "    if (!(t >= {} && t < {})) {{ return {zero}; }}",
+            f64_literal(first),
+            f64_literal(last)
+        );
+    }
+    let _ = writeln!(
+        w,
+        "    let c = min(max(t, {}), {});",
+        f64_literal(first),
+        f64_literal(last)
+    );
+    let _ = writeln!(
+        w,
+        "    if (c >= {}) {{ return {}; }}",
+        f64_literal(last),
+        if slope {
+            zero.to_string()
+        } else {
+            value(&values[values.len() - 1])
+        }
+    );
+    for i in (0..knots.len() - 1).rev() {
+        let inverse = if knots[i + 1] > knots[i] {
+            1.0 / (knots[i + 1] - knots[i])
+        } else {
+            0.0
+        };
+        let (a, b) = (value(&values[i]), value(&values[i + 1]));
+        let (k, inv) = (f64_literal(knots[i]), f64_literal(inverse));
+        let _ = writeln!(w, "    if (c >= {k}) {{");
+        let _ = writeln!(w, "        var u = (c - {k}) * {inv};");
+        let interpolation = spline.interpolation();
+        let _ = match (slope, interpolation) {
+            (_, SplineInterpolation::Constant) if slope => writeln!(w, "        return {zero};"),
+            (_, SplineInterpolation::Constant) => writeln!(w, "        return {a};"),
+            (true, SplineInterpolation::Linear) => {
+                writeln!(w, "        return ({b} - {a}) * {inv};")
+            }
+            (true, SplineInterpolation::Smooth) => writeln!(
+                w,
+                "        return 6.0lf * u * (1.0lf - u) * ({b} - {a}) * {inv};"
+            ),
+            (false, SplineInterpolation::Linear) => {
+                writeln!(w, "        return {a} + u * ({b} - {a});")
+            }
+            (false, SplineInterpolation::Smooth) => writeln!(
+                w,
+                "        u = u * u * (3.0lf - 2.0lf * u);\n        return {a} + u * ({b} - {a});"
+            ),
+        };
+        let _ = writeln!(w, "    }}");
+    }
+    let _ = writeln!(w, "    return {};\n}}\n", value(&values[0]));
+}
+
+fn axis_name(axis: u8) -> &'static str {
+    ["x", "y", "z"][axis as usize % 3]
+}
+
+fn per_component(f: impl Fn(&str) -> String) -> String {
+    format!("vec3<f64>({}, {}, {})", f("x"), f("y"), f("z"))
+}
+
+fn unary_f32(op: UnaryOp, x: &str) -> String {
+    match op {
+        UnaryOp::Abs => format!("abs({x})"),
+        UnaryOp::Neg => format!("-({x})"),
+        UnaryOp::Floor => format!("floor({x})"),
+        UnaryOp::Trunc => format!("trunc({x})"),
+        _ => format!("s_{}({x})", op.name()),
+    }
+}
+
+fn unary_f64(op: UnaryOp, x: &str) -> String {
+    match op {
+        UnaryOp::Abs => format!("abs({x})"),
+        UnaryOp::Neg => format!("-({x})"),
+        UnaryOp::Floor => format!("floor({x})"),
+        _ => format!("d_{}({x})", op.name()),
+    }
+}
+
+/// `prefix` is `s_` (f32) or `d_` (f64).
+fn binary(prefix: &str, op: BinaryOp, a: &str, b: &str) -> String {
+    match op {
+        BinaryOp::Add => format!("({a} + {b})"),
+        BinaryOp::Sub => format!("({a} - {b})"),
+        BinaryOp::Mul => format!("({a} * {b})"),
+        BinaryOp::Div => format!("({a} / {b})"),
+        _ => format!("{prefix}{}({a}, {b})", op.name()),
+    }
+}
+
+fn ternary_name(op: TernaryOp) -> &'static str {
+    op.name()
+}
+
+/// An f32 constant, exactly (its bits where a decimal literal cannot be written).
+pub(crate) fn f32_literal(v: f32) -> String {
+    if v.is_finite() && (v == 0.0 || v.abs() >= f32::MIN_POSITIVE) && v.to_bits() >> 31 == 0 {
+        format!("{v:e}f")
+    } else {
+        format!("bitcast<f32>({:#010x}u)", v.to_bits())
+    }
+}
+
+/// An f64 constant, exactly: the shortest decimal that reads back to it; non-finite and
+/// subnormal values through the f32 NaN / infinity helpers or a product of exact factors.
+pub(crate) fn f64_literal(v: f64) -> String {
+    if v.is_nan() {
+        "nan_d()".into()
+    } else if v.is_infinite() {
+        if v > 0.0 {
+            "f64(inf_f32())".into()
+        } else {
+            "(-f64(inf_f32()))".into()
+        }
+    } else if v != 0.0 && v.abs() < f64::MIN_POSITIVE {
+        // Subnormal: (v · 2^600) · 2^-600, exact.
+        format!("ldexp({:e}lf, -600)", v * 2f64.powi(600))
+    } else if v.to_bits() >> 63 == 1 {
+        format!("(-{:e}lf)", -v)
+    } else {
+        format!("{v:e}lf")
+    }
+}
+
+fn vec3_literal(v: [f64; 3]) -> String {
+    format!(
+        "vec3<f64>({}, {}, {})",
+        f64_literal(v[0]),
+        f64_literal(v[1]),
+        f64_literal(v[2])
+    )
+}

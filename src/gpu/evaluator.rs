@@ -1,0 +1,451 @@
+//! [`GpuEvaluator`]: a tape's generated shader (`codegen.rs`) compiled once on the process's
+//! GPU device, evaluating position buffers (`eval_batch`) or a bake's windows straight from the
+//! grid (`bake_window`: positions made on the GPU, no upload).
+
+use super::codegen::{self, TABLE_WORDS};
+use super::GpuError;
+use crate::tape::Tape;
+use std::sync::{Arc, Mutex, OnceLock};
+use wgpu::util::DeviceExt;
+
+/// The process's GPU device: the first adapter with 64-bit floats, preferring a discrete GPU,
+/// then an integrated, a virtual one, then a software driver (lavapipe).
+pub(super) struct Context {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    pub(super) info: wgpu::AdapterInfo,
+    /// The largest storage buffer one binding may hold.
+    max_binding: u64,
+    /// The most workgroups one dispatch dimension may have.
+    max_groups: u32,
+}
+
+static CONTEXT: OnceLock<Result<Arc<Context>, String>> = OnceLock::new();
+
+pub(super) fn context() -> Result<Arc<Context>, GpuError> {
+    CONTEXT
+        .get_or_init(|| open().map(Arc::new))
+        .clone()
+        .map_err(GpuError::NoAdapter)
+}
+
+fn open() -> Result<Context, String> {
+    let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle();
+    descriptor.backends = wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12;
+    let descriptor = descriptor.with_env();
+    let backends = descriptor.backends;
+    let instance = wgpu::Instance::new(descriptor);
+    let adapters = pollster::block_on(instance.enumerate_adapters(backends));
+    if adapters.is_empty() {
+        return Err(
+            "no graphics adapter found (no Vulkan, Metal or DX12 driver; on Debian, \
+                    `apt-get install mesa-vulkan-drivers` gives the software one)"
+                .into(),
+        );
+    }
+    let rank = |info: &wgpu::AdapterInfo| match info.device_type {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Other => 3,
+        wgpu::DeviceType::Cpu => 4,
+    };
+    let mut usable: Vec<_> = adapters
+        .into_iter()
+        .filter(|a| a.features().contains(wgpu::Features::SHADER_F64))
+        .collect();
+    usable.sort_by_key(|a| rank(&a.get_info()));
+    let Some(adapter) = usable.into_iter().next() else {
+        return Err(
+            "no adapter has 64-bit floats in shaders (SHADER_F64), which the GPU path \
+                    uses for positions and lattice cells"
+                .into(),
+        );
+    };
+    let info = adapter.get_info();
+    let limits = adapter.limits();
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("texgraph"),
+        required_features: wgpu::Features::SHADER_F64,
+        required_limits: limits.clone(),
+        ..Default::default()
+    }))
+    .map_err(|e| format!("{}: cannot open the device: {e}", info.name))?;
+    // Errors are caught per operation by error scopes; an uncaught one is reported, not fatal.
+    device.on_uncaptured_error(Arc::new(|e| eprintln!("texgraph: GPU error: {e}")));
+    let max_binding = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
+    Ok(Context {
+        device,
+        queue,
+        info,
+        max_binding,
+        max_groups: limits.max_compute_workgroups_per_dimension,
+    })
+}
+
+/// Threads per workgroup (`GROUP` in `wgsl/entry.wgsl`).
+const GROUP: u64 = 64;
+
+/// The uniform block of `wgsl/entry.wgsl` (`Dispatch`).
+#[derive(Clone, Copy, Default)]
+struct Dispatch {
+    first_segment: u32,
+    segments: u32,
+    segment_len: u32,
+    per_row: u32,
+    nx: u32,
+    ny: u32,
+    count: u32,
+}
+
+impl Dispatch {
+    fn bytes(&self) -> Vec<u8> {
+        [
+            self.first_segment,
+            self.segments,
+            self.segment_len,
+            self.per_row,
+            self.nx,
+            self.ny,
+            self.count,
+            0,
+        ]
+        .iter()
+        .flat_map(|w| w.to_le_bytes())
+        .collect()
+    }
+}
+
+/// A tape compiled for the GPU: its pipelines (`bake` and `points` entry points) and its noise
+/// tables uploaded once. `Send + Sync`; calls are serialised on the device's queue.
+pub struct GpuEvaluator {
+    context: Arc<Context>,
+    layout: wgpu::BindGroupLayout,
+    bake: wgpu::ComputePipeline,
+    points: wgpu::ComputePipeline,
+    tables: wgpu::Buffer,
+    channels: usize,
+    /// One evaluation at a time per evaluator (buffers are made per call).
+    busy: Mutex<()>,
+}
+
+impl std::fmt::Debug for GpuEvaluator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuEvaluator")
+            .field("adapter", &self.context.info.name)
+            .field("channels", &self.channels)
+            .finish_non_exhaustive()
+    }
+}
+
+impl GpuEvaluator {
+    /// Generates and compiles `tape`'s shader on the process's GPU device. Fails when no
+    /// adapter is usable or the shader does not compile (never panics).
+    pub fn new(tape: &Tape) -> Result<GpuEvaluator, GpuError> {
+        let context = context()?;
+        let shader = codegen::generate(tape);
+        super::validate(&shader.source).map_err(GpuError::Shader)?;
+        let device = &context.device;
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("texgraph tape"),
+            source: wgpu::ShaderSource::Wgsl(shader.source.as_str().into()),
+        });
+        let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let read = wgpu::BufferBindingType::Storage { read_only: true };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("texgraph"),
+            entries: &[
+                entry(0, read),
+                entry(1, read),
+                entry(2, wgpu::BufferBindingType::Uniform),
+                entry(3, wgpu::BufferBindingType::Storage { read_only: false }),
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("texgraph"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = |entry_point: &str| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry_point),
+                layout: Some(&pipeline_layout),
+                module: &module,
+                entry_point: Some(entry_point),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let (bake, points) = (pipeline("bake"), pipeline("points"));
+        let mut words: Vec<u32> = Vec::with_capacity(tape.tables.len().max(1) * TABLE_WORDS);
+        for (_, table) in &tape.tables {
+            words.extend(table.gpu_words());
+        }
+        words.resize(words.len().max(TABLE_WORDS), 0);
+        let tables = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("noise tables"),
+            contents: &words
+                .iter()
+                .flat_map(|w| w.to_le_bytes())
+                .collect::<Vec<u8>>(),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        if let Some(error) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Shader(error.to_string()));
+        }
+        Ok(GpuEvaluator {
+            context,
+            layout,
+            bake,
+            points,
+            tables,
+            channels: shader.channels,
+            busy: Mutex::new(()),
+        })
+    }
+
+    /// The adapter it runs on (`NVIDIA H100 80GB HBM3`, `llvmpipe (LLVM 15.0.7, 256 bits)`).
+    pub fn adapter(&self) -> String {
+        self.context.info.name.trim().to_string()
+    }
+
+    /// Output channels per point (as `Tape::channels`).
+    pub fn channels(&self) -> usize {
+        self.channels
+    }
+
+    /// The tape at the points (`x[i]`, `y[i]`, `z[i]`): channel `c` of point `i` into
+    /// `out[c * n + i]`, as [`Tape::eval_batch`] lays it out. Panics if the slices' lengths
+    /// differ (a caller bug).
+    pub fn eval_batch(
+        &self,
+        x: &[f64],
+        y: &[f64],
+        z: &[f64],
+        out: &mut [f32],
+    ) -> Result<(), GpuError> {
+        let n = x.len();
+        assert!(y.len() == n && z.len() == n && out.len() == n * self.channels);
+        if n == 0 || self.channels == 0 {
+            return Ok(());
+        }
+        // Points per dispatch: the inputs (24 bytes each) and results fit one binding each.
+        let per = (self.context.max_binding / (24 + 4 * self.channels as u64)).clamp(1, 1 << 22);
+        let mut part = vec![0f32; (per as usize).min(n) * self.channels];
+        let mut start = 0;
+        while start < n {
+            let m = (n - start).min(per as usize);
+            let mut inputs = Vec::with_capacity(3 * m);
+            for plane in [x, y, z] {
+                inputs.extend_from_slice(&plane[start..start + m]);
+            }
+            let dispatch = Dispatch {
+                count: m as u32,
+                ..Dispatch::default()
+            };
+            let part = &mut part[..m * self.channels];
+            self.run(&self.points, &inputs, dispatch, m as u64, part, true)?;
+            for c in 0..self.channels {
+                out[c * n + start..c * n + start + m].copy_from_slice(&part[c * m..(c + 1) * m]);
+            }
+            start += m;
+        }
+        Ok(())
+    }
+
+    /// The bake window of `segments` segments from `first` (layout `bake::Window`): the
+    /// voxel centres of `grid` made on the GPU, the results read back into `data`
+    /// (`segments × channels × layout.segment_len` values).
+    pub fn bake_window(
+        &self,
+        grid: &crate::bake::Grid,
+        layout: &crate::bake::Layout,
+        first: u64,
+        data: &mut [f32],
+    ) -> Result<(), GpuError> {
+        self.window(grid, layout, first, data, true)
+    }
+
+    /// [`GpuEvaluator::bake_window`], reading the results back only with `read_back`.
+    fn window(
+        &self,
+        grid: &crate::bake::Grid,
+        layout: &crate::bake::Layout,
+        first: u64,
+        data: &mut [f32],
+        read_back: bool,
+    ) -> Result<(), GpuError> {
+        let block = self.channels * layout.segment_len;
+        let segments = data.len() / block.max(1);
+        let too_big = |v: u64| u32::try_from(v).is_err();
+        if too_big(first + segments as u64) || too_big(grid.size[0] as u64) {
+            return Err(GpuError::Unsupported(
+                "a grid of more than 2^32 rows of segments".into(),
+            ));
+        }
+        // Segments per dispatch: the results fit one binding.
+        let per = (self.context.max_binding / (4 * block as u64)).max(1) as usize;
+        let mut inputs = Vec::with_capacity(9);
+        inputs.extend_from_slice(&grid.region.min);
+        inputs.extend((0..3).map(|a| grid.region.max[a] - grid.region.min[a]));
+        inputs.extend(grid.size.iter().map(|&n| n as f64));
+        for (k, chunk) in data.chunks_mut(per * block).enumerate() {
+            let count = chunk.len() / block;
+            let dispatch = Dispatch {
+                first_segment: (first + (k * per) as u64) as u32,
+                segments: count as u32,
+                segment_len: layout.segment_len as u32,
+                per_row: layout.per_row as u32,
+                nx: grid.size[0] as u32,
+                ny: grid.size[1] as u32,
+                count: 0,
+            };
+            let threads = (count * layout.segment_len) as u64;
+            self.run(&self.bake, &inputs, dispatch, threads, chunk, read_back)?;
+        }
+        Ok(())
+    }
+
+    /// The whole grid evaluated on the GPU in windows of `window` segments (the bake's layout
+    /// for `threads` threads), each read back into one reused buffer, or with `keep` left on
+    /// the GPU (the results buffer is written and nothing is copied back: the kernel's own
+    /// speed, benches `gpu/marble_512`).
+    pub fn eval_grid(&self, grid: &crate::bake::Grid, keep: bool) -> Result<(), GpuError> {
+        let Some(layout) = crate::bake::Layout::new(grid, self.channels.max(1), 1) else {
+            return Ok(());
+        };
+        let block = self.channels * layout.segment_len;
+        let per = (self.context.max_binding / (4 * block as u64)).max(1);
+        let mut buffer = vec![0f32; (per.min(layout.total) as usize) * block];
+        let mut first = 0u64;
+        while first < layout.total {
+            let count = (layout.total - first).min(per) as usize;
+            let data = &mut buffer[..count * block];
+            self.window(grid, &layout, first, data, !keep)?;
+            first += count as u64;
+        }
+        Ok(())
+    }
+
+    /// One dispatch of `threads` threads of `pipeline` over `inputs`, its results read back
+    /// into `out` (whose length is the results buffer's) with `read_back`, else only waited for.
+    fn run(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        inputs: &[f64],
+        dispatch: Dispatch,
+        threads: u64,
+        out: &mut [f32],
+        read_back: bool,
+    ) -> Result<(), GpuError> {
+        let _busy = self.busy.lock().unwrap_or_else(|e| e.into_inner());
+        let device = &self.context.device;
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let bytes = |v: &[f64]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+        let inputs = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("inputs"),
+            contents: &bytes(inputs),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("dispatch"),
+            contents: &dispatch.bytes(),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let size = (out.len() * 4) as u64;
+        let results = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("results"),
+            size,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("read-back"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("texgraph"),
+            layout: &self.layout,
+            entries: &[
+                binding(0, &self.tables),
+                binding(1, &inputs),
+                binding(2, &uniform),
+                binding(3, &results),
+            ],
+        });
+        let groups = threads.div_ceil(GROUP);
+        let max = u64::from(self.context.max_groups);
+        let (gx, gy) = (groups.min(max), groups.div_ceil(max));
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &bind, &[]);
+            pass.dispatch_workgroups(gx as u32, gy as u32, 1);
+        }
+        if read_back {
+            encoder.copy_buffer_to_buffer(&results, 0, &readback, 0, size);
+        }
+        self.context.queue.submit([encoder.finish()]);
+        if let Some(error) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Device(error.to_string()));
+        }
+        if !read_back {
+            return device
+                .poll(wgpu::PollType::wait_indefinitely())
+                .map(|_| ())
+                .map_err(|e| GpuError::Device(e.to_string()));
+        }
+        copy_back(device, &readback, out)
+    }
+}
+
+fn binding(index: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding: index,
+        resource: buffer.as_entire_binding(),
+    }
+}
+
+/// Maps `buffer` (after the queue's work) and copies it into `out`.
+fn copy_back(
+    device: &wgpu::Device,
+    buffer: &wgpu::Buffer,
+    out: &mut [f32],
+) -> Result<(), GpuError> {
+    let slice = buffer.slice(..);
+    let (tx, rx) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| GpuError::Device(e.to_string()))?;
+    rx.recv()
+        .map_err(|e| GpuError::Device(e.to_string()))?
+        .map_err(|e| GpuError::Device(e.to_string()))?;
+    {
+        let view = slice
+            .get_mapped_range()
+            .map_err(|e| GpuError::Device(e.to_string()))?;
+        for (o, b) in out.iter_mut().zip(view.chunks_exact(4)) {
+            *o = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+        }
+    }
+    buffer.unmap();
+    Ok(())
+}

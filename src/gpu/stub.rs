@@ -1,0 +1,57 @@
+//! [`GpuEvaluator`] in a build without the `gpu` feature: it cannot be made (`new` says why),
+//! so every caller takes its CPU path.
+
+use super::GpuError;
+use crate::tape::Tape;
+
+/// Never constructed without the `gpu` feature.
+#[derive(Debug)]
+pub struct GpuEvaluator {
+    never: std::convert::Infallible,
+}
+
+impl GpuEvaluator {
+    pub fn new(_tape: &Tape) -> Result<GpuEvaluator, GpuError> {
+        Err(GpuError::NoAdapter(
+            "this texgraph was built without the `gpu` cargo feature".into(),
+        ))
+    }
+
+    pub(super) fn new_unavailable() -> Result<String, GpuError> {
+        Err(GpuError::NoAdapter(
+            "this texgraph was built without the `gpu` cargo feature".into(),
+        ))
+    }
+
+    pub fn adapter(&self) -> String {
+        match self.never {}
+    }
+
+    pub fn channels(&self) -> usize {
+        match self.never {}
+    }
+
+    pub fn eval_batch(
+        &self,
+        _x: &[f64],
+        _y: &[f64],
+        _z: &[f64],
+        _out: &mut [f32],
+    ) -> Result<(), GpuError> {
+        match self.never {}
+    }
+
+    pub fn eval_grid(&self, _grid: &crate::bake::Grid, _keep: bool) -> Result<(), GpuError> {
+        match self.never {}
+    }
+
+    pub fn bake_window(
+        &self,
+        _grid: &crate::bake::Grid,
+        _layout: &crate::bake::Layout,
+        _first: u64,
+        _data: &mut [f32],
+    ) -> Result<(), GpuError> {
+        match self.never {}
+    }
+}
