@@ -389,6 +389,37 @@ impl LaneLod {
     pub(crate) fn powers(&self) -> &[f64] {
         &self.powers
     }
+
+    /// The numbers the GPU path writes into its shader to run [`LaneLod::kept`] and
+    /// [`LaneLod::biases`] per thread (`gpu/codegen.rs`): the same formulas, in WGSL.
+    pub(crate) fn terms(&self) -> LaneLodTerms<'_> {
+        LaneLodTerms {
+            octaves: self.params.octaves,
+            first_octave: self.params.first_octave,
+            stretch: self.stretch,
+            ln_lacunarity: self.ln_lacunarity,
+            kept: self.kept,
+            fine: self.fine,
+            powers: &self.powers,
+            gains: &self.gains,
+            expected: *self
+                .expected
+                .get_or_init(|| expected_signal(self.key, self.params.style)),
+        }
+    }
+}
+
+/// [`LaneLod`]'s numbers (see [`LaneLod::terms`]).
+pub(crate) struct LaneLodTerms<'a> {
+    pub octaves: f64,
+    pub first_octave: u32,
+    pub stretch: f64,
+    pub ln_lacunarity: f64,
+    pub kept: f64,
+    pub fine: f64,
+    pub powers: &'a [f64],
+    pub gains: &'a [f64],
+    pub expected: f64,
 }
 
 /// E[noise] and E[|noise|] of a basis, once per table: the mean exactly, the mean magnitude

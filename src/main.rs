@@ -53,8 +53,8 @@ enum Command {
     Verify(cli::verify::VerifyArgs),
     /// Measure error against run time: every evaluation strategy against the f64 reference.
     ///
-    /// For each output: the f64 reference, f32 per point and per batch, f32 with footprint level
-    /// of detail at spacings 1/64, 1/128, 1/256, and baked volumes at 64³, 128³, 256³ sampled back
+    /// For each output: the f64 reference, f32 per point and per batch, the GPU (when one is
+    /// usable), f32 with footprint level of detail at spacings 1/64, 1/128, 1/256, and baked volumes at 64³, 128³, 256³ sampled back
     /// trilinearly — time per million points (median of --runs), speed-up, max abs and RMS error,
     /// PSNR, non-finite count, memory. --stability instead surveys every node at coordinates
     /// ±1 … ±2^31 (f32 error, continuity, non-finite values).

@@ -290,6 +290,7 @@ pub fn accuracy_report(
             .position(|o| &o.name == name)
             .unwrap_or(0);
         let mut measured = direct_strategies(&tape, &points, &planes, options.runs);
+        measured.extend(gpu_strategy(&tape, &planes, options.runs));
         measured.extend(lod_strategies(graph, name, &planes, options)?);
         measured.extend(baked_strategies(
             &volumes,
@@ -359,6 +360,35 @@ fn direct_strategies(
         measure("f32 per point", &|| per_point::<f32>(tape, points)),
         measure("f32 batch", &|| batch::<f32>(tape, planes)),
     ]
+}
+
+/// The tape on the GPU (`gpu::GpuEvaluator`: uploads, one dispatch, read-back), when one is
+/// usable; the row names the adapter. Without one there is no row (said once on stderr).
+fn gpu_strategy(tape: &Tape, planes: &Planes, runs: usize) -> Option<Measured> {
+    let gpu = match crate::gpu::evaluator_for(tape) {
+        Ok(gpu) => gpu,
+        Err(e) => {
+            static SAID: std::sync::Once = std::sync::Once::new();
+            SAID.call_once(|| eprintln!("texgraph report: no gpu row: {e}"));
+            return None;
+        }
+    };
+    let run = || -> Option<Vec<f64>> {
+        let mut out = vec![0f32; tape.channels() * planes.x.len()];
+        gpu.eval_batch(&planes.x, &planes.y, &planes.z, &mut out)
+            .ok()?;
+        Some(out.into_iter().map(f64::from).collect())
+    };
+    let values = run()?;
+    Some(Measured {
+        strategy: format!("gpu ({})", gpu.adapter()),
+        time: median_time(runs, || {
+            std::hint::black_box(run());
+        }),
+        values,
+        memory: None,
+        tape_length: Some(tape.instrs.len()),
+    })
 }
 
 /// The output compiled with level of detail at each requested spacing, evaluated as f32 batches.

@@ -156,3 +156,171 @@ fn every_generated_shader_validates() {
         }
     }
 }
+
+/// Level of detail per point on the GPU: at spacings from fine to coarse, fractals keep the
+/// octaves the CPU's `eval_batch_lod` keeps (its f64 reference within the contract).
+#[test]
+fn level_of_detail_per_point_matches_the_cpu() {
+    if !common::gpu_available("level_of_detail_per_point_matches_the_cpu") {
+        return;
+    }
+    for name in [
+        "graphs/seed000_turbulence.ron",
+        "graphs/seed003_marble.ron",
+        "graphs/ridged_rock.ron",
+        "graphs/library/clouds.ron",
+    ] {
+        let set = points(600, 0.5, 0.5, 4);
+        let tape = compile_for(&common::crate_root().join(name), &set);
+        // Spacings 1/4096 … 1/2, and a few without a footprint (0: every octave).
+        let spacing: Vec<f64> = (0..set.len())
+            .map(|i| {
+                if i % 50 == 0 {
+                    0.0
+                } else {
+                    2f64.powf(-1.0 - 11.0 * (i as f64 / set.len() as f64))
+                }
+            })
+            .collect();
+        let gpu = GpuEvaluator::new(&tape).expect("compiles on the GPU");
+        let figures = common::gpu_contract_lod(&tape, &gpu, &set, Some(&spacing))
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        eprintln!("{name} with level of detail: {figures:.1?}");
+    }
+}
+
+/// `render --device gpu` draws what the CPU draws (a scene with level of detail per pixel and
+/// a bump-mapped one): every byte of the 8-bit image within 1.
+#[test]
+fn gpu_renders_match_cpu_renders() {
+    if !common::gpu_available("gpu_renders_match_cpu_renders") {
+        return;
+    }
+    use texgraph::render::{load_scene, render, RenderOptions};
+    for name in [
+        "graphs/scenes/horizon.ron",
+        "graphs/scenes/bump_gallery.ron",
+    ] {
+        let scene = load_scene(&common::crate_root().join(name)).expect("scene");
+        let image = |device| {
+            let options = RenderOptions {
+                size: Some((64, 36)),
+                samples: Some(1),
+                device,
+                ..Default::default()
+            };
+            render(&scene, &options).expect("renders").0.to_rgb8()
+        };
+        let (cpu, gpu) = (image(Device::Cpu), image(Device::Gpu));
+        let worst = cpu
+            .as_raw()
+            .iter()
+            .zip(gpu.as_raw())
+            .map(|(a, b)| a.abs_diff(*b))
+            .max();
+        assert!(worst <= Some(1), "{name}: images differ by {worst:?}");
+    }
+}
+
+/// The command line: `bake --device gpu` writes the files `--device cpu` writes (raw f32
+/// within the contract, the sidecar the same), `--device auto` says which device it chose,
+/// `--device gpu` with `--f64` is a usage error, `report` has a gpu row.
+#[test]
+fn the_command_line_runs_on_the_gpu() {
+    if !common::gpu_available("the_command_line_runs_on_the_gpu") {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temporary folder");
+    let bake = |device: &str, out: &std::path::Path| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_texgraph"))
+            .current_dir(common::crate_root())
+            .args([
+                "bake",
+                "graphs/seed004_marble.ron",
+                "--size",
+                "19,7,5",
+                "--format",
+                "raw",
+            ])
+            .args(["--raw-type", "f32", "--device", device, "--out"])
+            .arg(out)
+            .output()
+            .expect("runs")
+    };
+    let (cpu_dir, gpu_dir, auto_dir) = (
+        dir.path().join("c"),
+        dir.path().join("g"),
+        dir.path().join("a"),
+    );
+    for d in [&cpu_dir, &gpu_dir, &auto_dir] {
+        std::fs::create_dir(d).unwrap();
+    }
+    assert!(bake("cpu", &cpu_dir).status.success());
+    let gpu = bake("gpu", &gpu_dir);
+    assert!(
+        gpu.status.success(),
+        "{}",
+        String::from_utf8_lossy(&gpu.stderr)
+    );
+    assert!(String::from_utf8_lossy(&gpu.stderr).contains("evaluating on the GPU"));
+    let auto = bake("auto", &auto_dir);
+    let said = String::from_utf8_lossy(&auto.stderr);
+    assert!(
+        auto.status.success() && said.contains("--device auto: evaluating on the GPU"),
+        "{said}"
+    );
+    for entry in std::fs::read_dir(&cpu_dir).unwrap() {
+        let name = entry.unwrap().file_name();
+        let (a, b) = (
+            std::fs::read(cpu_dir.join(&name)).unwrap(),
+            std::fs::read(gpu_dir.join(&name)).unwrap(),
+        );
+        if name.to_string_lossy().ends_with(".raw") {
+            let floats = |v: &[u8]| {
+                v.chunks_exact(4)
+                    .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+                    .collect::<Vec<f32>>()
+            };
+            let worst = floats(&a)
+                .iter()
+                .zip(floats(&b))
+                .map(|(x, y)| (x - y).abs())
+                .fold(0f32, f32::max);
+            assert!(a.len() == b.len() && worst <= 2e-5, "{name:?}: {worst}");
+        }
+    }
+    let double = std::process::Command::new(env!("CARGO_BIN_EXE_texgraph"))
+        .current_dir(common::crate_root())
+        .args([
+            "bake",
+            "graphs/seed004_marble.ron",
+            "--f64",
+            "--device",
+            "gpu",
+            "--out",
+        ])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert_eq!(double.status.code(), Some(2));
+    // `report`'s gpu row (the library call: the command line adds baked volumes up to 256³,
+    // minutes in a debug build), its error as the f32 path's.
+    let graph = texgraph::load_graph(
+        &common::crate_root().join("graphs/seed002_noise.ron"),
+        &CheckOptions::default(),
+    )
+    .unwrap();
+    let options = texgraph::report::ReportOptions {
+        points: 2000,
+        runs: 1,
+        bake_sizes: vec![],
+        lod_spacings: vec![],
+        ..Default::default()
+    };
+    let rows = texgraph::report::accuracy_report(&graph, &[], &options).unwrap();
+    let row = rows
+        .iter()
+        .find(|r| r.strategy.starts_with("gpu ("))
+        .expect("a gpu row");
+    assert!(row.max_abs_error <= 2e-5, "{}", row.max_abs_error);
+}

@@ -192,3 +192,45 @@ pub fn options(graph: &GraphOptions) -> (CheckOptions, CompileOptions) {
         },
     )
 }
+
+/// `--device`: `auto` resolved to the GPU or the CPU (said on stderr), `gpu` checked once
+/// before the first graph (no usable GPU, or with `--f64`: a usage error).
+pub(crate) fn resolve_device(
+    requested: crate::gpu::Device,
+    double: bool,
+) -> Result<crate::gpu::Device, Failure> {
+    use crate::gpu::Device;
+    match requested {
+        Device::Cpu => Ok(Device::Cpu),
+        Device::Gpu if double => {
+            eprintln!("error: --device gpu evaluates the f32 path; an --f64 bake runs on the CPU (--device cpu)");
+            Err(Failure::Usage)
+        }
+        Device::Gpu => match crate::gpu::usable() {
+            Ok(name) => {
+                eprintln!("texgraph: evaluating on the GPU ({name})");
+                Ok(Device::Gpu)
+            }
+            Err(e) => {
+                eprintln!("error: --device gpu: {e}");
+                Err(Failure::Usage)
+            }
+        },
+        Device::Auto if double => {
+            eprintln!(
+                "texgraph: --device auto: evaluating on the CPU (an --f64 bake runs on the CPU)"
+            );
+            Ok(Device::Cpu)
+        }
+        Device::Auto => match crate::gpu::usable() {
+            Ok(name) => {
+                eprintln!("texgraph: --device auto: evaluating on the GPU ({name})");
+                Ok(Device::Gpu)
+            }
+            Err(e) => {
+                eprintln!("texgraph: --device auto: evaluating on the CPU ({e})");
+                Ok(Device::Cpu)
+            }
+        },
+    }
+}

@@ -53,6 +53,12 @@ pub struct RenderArgs {
     /// negative keeps finer ones (sharper, may alias); within ±16 [default: 0].
     #[arg(long = "lod-bias", value_name = "B", conflicts_with = "no_lod", value_parser = parse_lod_bias)]
     lod_bias: Option<f64>,
+    /// Where the textures are evaluated: cpu, gpu (each texture's tape as a compute shader,
+    /// level of detail per pixel included; an error when no GPU is usable), or auto (the GPU
+    /// when one is usable, else the CPU, saying which on stderr). The timing table always
+    /// runs on the CPU.
+    #[arg(long, value_enum, default_value_t)]
+    device: crate::gpu::Device,
     /// No progress bar.
     #[arg(long, short)]
     quiet: bool,
@@ -129,6 +135,7 @@ pub fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
                 bias: args.lod_bias.unwrap_or(0.0),
             }
         },
+        device: super::resolve_device(args.device, false)?,
     };
     if args.timing_table {
         if args.no_lod || args.lod_bias.is_some() {

@@ -1,4 +1,5 @@
-//! WGSL generated from a tape: one straight-line function per tape (`fn tape(p) -> Channels`),
+//! WGSL generated from a tape: one straight-line function per tape (`fn tape(p, h) -> Channels`:
+//! the point and its sample spacing, for level of detail per point; 0 for none),
 //! every slot a local variable, every constant a literal, every fractal's octave loop unrolled
 //! with its frequencies, amplitudes and periods written in, so the shader compiler sees exactly
 //! the arithmetic of this graph. The per-lane operations and the noise bases are the WGSL
@@ -70,7 +71,7 @@ pub fn generate(tape: &Tape) -> Shader {
 fn tape_function(tape: &Tape) -> String {
     let mut body = String::new();
     let w = &mut body;
-    let _ = writeln!(w, "fn tape(p: vec3<f64>) -> Channels {{");
+    let _ = writeln!(w, "fn tape(p: vec3<f64>, h: f64) -> Channels {{");
     for k in 0..tape.scalar_slots {
         let _ = writeln!(w, "    var s{k}: f32 = 0.0;");
     }
@@ -244,7 +245,9 @@ fn wide(tape: &Tape, w: Wide) -> String {
 
 /// The octave loop of a fractal sum, unrolled: each octave's point `p · f` in f64, its sample
 /// (at its own period when tiled), the style's accumulation in f32 (`noise/fractal.rs`
-/// `Shaper::add`), NaN made canonical, then the level-of-detail bias.
+/// `Shaper::add`), NaN made canonical, then the level-of-detail bias. Where the tape has a
+/// `LaneLod` for the schedule, the octaves and bias follow the point's spacing `h`
+/// ([`lane_lod`]); without a spacing they are the schedule's.
 fn fractal(
     tape: &Tape,
     dst: u32,
@@ -257,34 +260,118 @@ fn fractal(
     let key = &tape.tables[table as usize].0;
     let schedule = &tape.octaves[octaves as usize];
     let mut w = String::from("{\n        var sum: f32 = 0.0;\n        var weight: f32 = 1.0;\n");
+    let lod = lane_lod(tape, octaves, &mut w);
     for k in 0..schedule.frequencies.len() {
         let (point, period) = octave_point(schedule, k, src);
         let n = sample_call(table, key, period, &point, false);
-        let a = f32_literal(schedule.amplitudes[k] as f32);
-        let _ = writeln!(w, "        let n{k} = {n};");
+        // The amplitude rounded to f32 (`S::from_f64`): a literal, or per point.
+        let a = match lod {
+            Some(_) => format!("f32({})", octave_amplitude(schedule, k, lod.as_ref())),
+            None => f32_literal(schedule.amplitudes[k] as f32),
+        };
+        let _ = writeln!(w, "        if ({} < kept) {{", f64_literal(k as f64));
+        let _ = writeln!(w, "        let a{k} = {a};\n        let n{k} = {n};");
         let _ = match style {
-            Style::Fbm => writeln!(w, "        sum = sum + {a} * n{k};"),
-            Style::Turbulence => writeln!(w, "        sum = sum + {a} * abs(n{k});"),
-            Style::Billow => writeln!(w, "        sum = sum + {a} * (2.0 * abs(n{k}) - 1.0);"),
+            Style::Fbm => writeln!(w, "        sum = sum + a{k} * n{k};"),
+            Style::Turbulence => writeln!(w, "        sum = sum + a{k} * abs(n{k});"),
+            Style::Billow => writeln!(w, "        sum = sum + a{k} * (2.0 * abs(n{k}) - 1.0);"),
             Style::Ridged { offset, sharpness } => writeln!(
                 w,
                 "        let r{k} = s_pow(s_max({} - abs(n{k}), 0.0), {}) * weight;\n        \
-                 sum = sum + {a} * r{k};\n        weight = s_min(s_max(2.0 * r{k}, 0.0), 1.0);",
+                 sum = sum + a{k} * r{k};\n        weight = s_min(s_max(2.0 * r{k}, 0.0), 1.0);",
                 f32_literal(offset as f32),
                 f32_literal(sharpness as f32)
             ),
         };
+        let _ = writeln!(w, "        }}");
     }
     let _ = writeln!(w, "        if (is_nan(sum)) {{ sum = nan_f32(); }}");
-    if bias != 0.0 {
-        let _ = writeln!(w, "        sum = sum + {};", f32_literal(bias as f32));
+    match lod {
+        Some(terms) => {
+            // lod.rs `LaneLod::biases`: the dropped octaves' mean where the point drops one,
+            // else the schedule's own bias.
+            let _ = writeln!(w, "        var bias = {};", f64_literal(bias));
+            let _ = writeln!(
+                w,
+                "        if (kept < {}) {{\n            bias = 0.0lf;",
+                f64_literal(terms.kept)
+            );
+            for (n, &gain) in terms.gains.iter().enumerate() {
+                let _ = writeln!(
+                    w,
+                    "            bias = bias + lod_share({}, {}, kept, {}, {});",
+                    f64_literal(terms.octaves),
+                    f64_literal(n as f64),
+                    f64_literal(gain),
+                    f64_literal(terms.expected)
+                );
+            }
+            let _ = writeln!(w, "        }}");
+            let _ = writeln!(w, "        if (bias != 0.0lf) {{ sum = sum + f32(bias); }}");
+        }
+        None if bias != 0.0 => {
+            let _ = writeln!(w, "        sum = sum + {};", f32_literal(bias as f32));
+        }
+        None => {}
     }
     let _ = write!(w, "        s{dst} = sum;\n        _ = weight;\n    }}");
     w
 }
 
+/// Declares `kept` (f64): the octaves the point keeps. With the schedule's `LaneLod`, from the
+/// spacing `h` (`lod_kept`, the formulas of lod.rs); else all of the schedule's.
+fn lane_lod<'t>(
+    tape: &'t Tape,
+    octaves: u32,
+    w: &mut String,
+) -> Option<crate::lod::LaneLodTerms<'t>> {
+    let schedule = &tape.octaves[octaves as usize];
+    match &tape.lane_lods[octaves as usize] {
+        Some(lod) => {
+            let terms = lod.terms();
+            let _ = writeln!(
+                w,
+                "        let kept = lod_kept(h, {}, {}, {}, {}, {}, {});",
+                f64_literal(terms.fine),
+                f64_literal(terms.kept),
+                f64_literal(terms.octaves),
+                f64_literal(terms.first_octave as f64),
+                f64_literal(terms.stretch),
+                f64_literal(terms.ln_lacunarity)
+            );
+            Some(terms)
+        }
+        None => {
+            let _ = writeln!(
+                w,
+                "        let kept = {};",
+                f64_literal(schedule.len() as f64)
+            );
+            None
+        }
+    }
+}
+
+/// Octave `k`'s amplitude (f64 WGSL): the schedule's, or with level of detail per point its
+/// unfaded power faded by the point's `kept` (`lod_amplitude`, `LaneOctaves::lane`: the
+/// schedule's own amplitude where `kept` is the schedule's).
+fn octave_amplitude(
+    schedule: &Octaves,
+    k: usize,
+    lod: Option<&crate::lod::LaneLodTerms>,
+) -> String {
+    match lod {
+        Some(terms) => format!(
+            "lod_amplitude(kept, {}, {})",
+            f64_literal(terms.powers[k]),
+            f64_literal(k as f64)
+        ),
+        None => f64_literal(schedule.amplitudes[k]),
+    }
+}
+
 /// The gradient of a fractal sum, unrolled as [`fractal`] (`wgsl/lattice_grad.wgsl`'s
-/// `GradShaper`, mirroring `noise/derivative.rs`).
+/// `GradShaper`, mirroring `noise/derivative.rs`); the dropped octaves' mean adds no slope.
 fn fractal_gradient(
     tape: &Tape,
     dst: u32,
@@ -302,13 +389,15 @@ fn fractal_gradient(
         Style::Ridged { offset, sharpness } => (3, offset, sharpness),
     };
     let mut w = String::from("{\n        var g = gshaper_start();\n");
+    let lod = lane_lod(tape, octaves, &mut w);
     for k in 0..schedule.frequencies.len() {
         let (point, period) = octave_point(schedule, k, src);
         let call = sample_call(table, key, period, &point, true);
         let _ = writeln!(
             w,
-            "        let n{k} = {call};\n        g = gshaper_add_f64(g, {code}u, n{k}.w, n{k}.xyz, {}, {}, {}, {});",
-            f64_literal(schedule.amplitudes[k]),
+            "        if ({} < kept) {{\n        let n{k} = {call};\n        g = gshaper_add_f64(g, {code}u, n{k}.w, n{k}.xyz, {}, {}, {}, {});\n        }}",
+            f64_literal(k as f64),
+            octave_amplitude(schedule, k, lod.as_ref()),
             f64_literal(schedule.frequencies[k]),
             f32_literal(offset as f32),
             f32_literal(sharpness as f32)
@@ -553,4 +642,54 @@ fn vec3_literal(v: [f64; 3]) -> String {
         f64_literal(v[1]),
         f64_literal(v[2])
     )
+}
+
+#[cfg(all(test, feature = "gpu"))]
+mod tests {
+    use super::*;
+
+    /// The hand-written WGSL validates with naga on its own (the library and the entry points
+    /// over the smallest `tape` function), and so does the shader generated for a graph that
+    /// reaches every basis, tiling, both gradients, every fractal style, splines, rotations
+    /// and promoted (f64) instructions.
+    #[test]
+    fn the_wgsl_library_and_a_generated_shader_validate() {
+        let mut source: String = LIBRARY
+            .iter()
+            .map(|(_, text)| format!("{text}\n"))
+            .collect();
+        source.push_str(
+            "const CHANNELS: u32 = 1u;\nstruct Channels {\n    c: array<f32, 1>,\n}\n\
+             fn tape(p: vec3<f64>, h: f64) -> Channels {\n    var r: Channels;\n    \
+             r.c[0] = f32(p.x + h);\n    return r;\n}\n",
+        );
+        source.push_str(ENTRY);
+        crate::gpu::validate(&source).unwrap_or_else(|e| panic!("{e}"));
+
+        let text = r#"Graph(nodes: {
+            "p": Position,
+            "q": Rotate(input: Scale(input: "p", by: 3.0), axis: (1, 2, 3), degrees: Mul("p.x", 40.0)),
+            "a": Fbm(input: "q", basis: Simplex, octaves: 4.5, period: (6, 6, 6)),
+            "b": Turbulence(input: "p", basis: Value(Smooth), octaves: 3),
+            "c": Noise(input: "q", basis: Cellular(jitter: 0.8, metric: Manhattan, value: F2MinusF1)),
+            "d": Ridged(input: "p", basis: Gradient, octaves: 5, offset: 1.0, sharpness: 2.0),
+            "e": Add(Sin(Mul("p.x", 1e5)), WhiteNoise(input: "p")),
+            "g": Gradient(of: Add("a", "d")),
+            "r": ColorRamp(input: Add("a", "b"), stops: [(0.0, (0, 0, 0)), (0.5, (1, 0.5, 0)), (1.0, (1, 1, 1))]),
+        }, outputs: { "a": "a", "b": "b", "c": "c", "d": "d", "e": "e", "g": "g", "r": "r" })"#;
+        let graph = crate::check(
+            crate::SourceFile::new("every.ron", text),
+            &crate::CheckOptions::default(),
+        )
+        .unwrap_or_else(|e| panic!("{}", e.render_plain()));
+        let options = crate::CompileOptions {
+            extent: Some(crate::Extent::new([-1e6; 3], [1e6; 3])),
+            ..Default::default()
+        };
+        let tape = crate::compile(&graph, &options).expect("compiles");
+        assert!(tape.wide_instructions() > 0, "{tape}");
+        let shader = generate(&tape);
+        crate::gpu::validate(&shader.source).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(shader.channels, tape.channels());
+    }
 }

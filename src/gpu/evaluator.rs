@@ -98,6 +98,7 @@ struct Dispatch {
     nx: u32,
     ny: u32,
     count: u32,
+    spacing: u32,
 }
 
 impl Dispatch {
@@ -110,7 +111,7 @@ impl Dispatch {
             self.nx,
             self.ny,
             self.count,
-            0,
+            self.spacing,
         ]
         .iter()
         .flat_map(|w| w.to_le_bytes())
@@ -236,23 +237,46 @@ impl GpuEvaluator {
         z: &[f64],
         out: &mut [f32],
     ) -> Result<(), GpuError> {
+        self.eval_points([x, y, z], None, out)
+    }
+
+    /// [`GpuEvaluator::eval_batch`] with level of detail per point, as
+    /// [`Tape::eval_batch_lod`]: each fractal keeps the octaves point `i`'s sample spacing
+    /// `spacing[i]` resolves.
+    pub fn eval_batch_lod(
+        &self,
+        points: [&[f64]; 3],
+        spacing: &[f64],
+        out: &mut [f32],
+    ) -> Result<(), GpuError> {
+        self.eval_points(points, Some(spacing), out)
+    }
+
+    fn eval_points(
+        &self,
+        [x, y, z]: [&[f64]; 3],
+        spacing: Option<&[f64]>,
+        out: &mut [f32],
+    ) -> Result<(), GpuError> {
         let n = x.len();
         assert!(y.len() == n && z.len() == n && out.len() == n * self.channels);
+        assert!(spacing.is_none_or(|h| h.len() == n));
         if n == 0 || self.channels == 0 {
             return Ok(());
         }
-        // Points per dispatch: the inputs (24 bytes each) and results fit one binding each.
-        let per = (self.context.max_binding / (24 + 4 * self.channels as u64)).clamp(1, 1 << 22);
+        // Points per dispatch: the inputs (32 bytes each) and results fit one binding each.
+        let per = (self.context.max_binding / (32 + 4 * self.channels as u64)).clamp(1, 1 << 22);
         let mut part = vec![0f32; (per as usize).min(n) * self.channels];
         let mut start = 0;
         while start < n {
             let m = (n - start).min(per as usize);
-            let mut inputs = Vec::with_capacity(3 * m);
-            for plane in [x, y, z] {
+            let mut inputs = Vec::with_capacity(4 * m);
+            for plane in [Some(x), Some(y), Some(z), spacing].into_iter().flatten() {
                 inputs.extend_from_slice(&plane[start..start + m]);
             }
             let dispatch = Dispatch {
                 count: m as u32,
+                spacing: u32::from(spacing.is_some()),
                 ..Dispatch::default()
             };
             let part = &mut part[..m * self.channels];
@@ -311,6 +335,7 @@ impl GpuEvaluator {
                 nx: grid.size[0] as u32,
                 ny: grid.size[1] as u32,
                 count: 0,
+                spacing: 0,
             };
             let threads = (count * layout.segment_len) as u64;
             self.run(&self.bake, &inputs, dispatch, threads, chunk, read_back)?;

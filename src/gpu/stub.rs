@@ -41,6 +41,15 @@ impl GpuEvaluator {
         match self.never {}
     }
 
+    pub fn eval_batch_lod(
+        &self,
+        _points: [&[f64]; 3],
+        _spacing: &[f64],
+        _out: &mut [f32],
+    ) -> Result<(), GpuError> {
+        match self.never {}
+    }
+
     pub fn eval_grid(&self, _grid: &crate::bake::Grid, _keep: bool) -> Result<(), GpuError> {
         match self.never {}
     }

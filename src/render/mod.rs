@@ -146,6 +146,11 @@ pub struct RenderOptions {
     pub cancel: Option<Cancel>,
     /// Level of detail per pixel (on by default; `render --no-lod` turns it off).
     pub lod: RenderLod,
+    /// Where the textures are evaluated (`render --device`): `Gpu` runs each texture's tape
+    /// on the GPU (one batch per tile, level of detail per point included); a texture the GPU
+    /// cannot run stays on the CPU, said on stderr. `Auto` is the CPU here (the command line
+    /// resolves it).
+    pub device: crate::gpu::Device,
 }
 
 /// Level of detail per pixel: each texture point keeps only the fractal octaves its own
@@ -405,8 +410,10 @@ pub fn render(
         samples,
         lod: options.lod.spacing_factor(samples),
     };
-    let run =
-        || render_in_pool(scene, frame, options.progress, cancel).ok_or(RenderError::Cancelled);
+    let gpus = gpu_textures(scene, options.device);
+    let run = || {
+        render_in_pool(scene, frame, options.progress, cancel, &gpus).ok_or(RenderError::Cancelled)
+    };
     match options.threads {
         Some(threads) => {
             if threads == 0 {
@@ -425,11 +432,37 @@ pub fn render(
     }
 }
 
+/// Per texture, its GPU evaluator with `Device::Gpu` (the start-up check: a texture whose tape
+/// the GPU cannot run is evaluated on the CPU, with the reason on stderr).
+fn gpu_textures(
+    scene: &Scene,
+    device: crate::gpu::Device,
+) -> Vec<Option<std::sync::Arc<crate::gpu::GpuEvaluator>>> {
+    scene
+        .textures()
+        .iter()
+        .map(|texture| {
+            if device != crate::gpu::Device::Gpu {
+                return None;
+            }
+            crate::gpu::evaluator_for(&texture.tape)
+                .map_err(|e| {
+                    eprintln!(
+                        "warning: {}: {e}; this texture is evaluated on the CPU",
+                        texture.graph.display()
+                    )
+                })
+                .ok()
+        })
+        .collect()
+}
+
 fn render_in_pool(
     scene: &Scene,
     frame: shade::Frame,
     progress: bool,
     cancel: Option<&Cancel>,
+    gpus: &[Option<std::sync::Arc<crate::gpu::GpuEvaluator>>],
 ) -> Option<(RenderedImage, RenderStats)> {
     let (width, height, samples) = (frame.width, frame.height, frame.samples);
     let started = Instant::now();
@@ -448,7 +481,7 @@ fn render_in_pool(
     let results: Vec<(Vec<Vec3>, Counters, Duration)> = tiles
         .par_iter()
         .map_init(
-            || shade::Scratch::new(scene),
+            || shade::Scratch::new(scene, gpus),
             |scratch, tile| {
                 let mut pixels = Vec::new();
                 if cancel.is_some_and(Cancel::is_cancelled) {
@@ -943,6 +976,7 @@ pub fn timing_table(graph: &Path, options: &TimingOptions) -> Result<TimingTable
             cancel: None,
             // Seed 003's renderer evaluates every octave: so does its timing table.
             lod: RenderLod::Off,
+            device: crate::gpu::Device::Cpu,
         };
         let mut best: Option<RenderStats> = None;
         for _ in 0..options.repeats.max(1) {

@@ -75,12 +75,18 @@ pub(crate) fn tiles(width: u32, height: u32) -> Vec<Tile> {
 /// Per-thread scratch: one workspace per compiled texture (so no re-binding between tapes).
 pub(crate) struct Scratch {
     workspaces: Vec<Workspace<f32>>,
+    /// Per texture, its GPU evaluator when the render runs it on the GPU.
+    gpus: Vec<Option<std::sync::Arc<crate::gpu::GpuEvaluator>>>,
 }
 
 impl Scratch {
-    pub(crate) fn new(scene: &Scene) -> Scratch {
+    pub(crate) fn new(
+        scene: &Scene,
+        gpus: &[Option<std::sync::Arc<crate::gpu::GpuEvaluator>>],
+    ) -> Scratch {
         Scratch {
             workspaces: scene.textures().iter().map(|_| Workspace::new()).collect(),
+            gpus: gpus.to_vec(),
         }
     }
 }
@@ -394,6 +400,14 @@ impl TextureValues {
     }
 }
 
+/// A GPU evaluation failed: said once per process; the batch is evaluated on the CPU.
+fn gpu_failed(error: crate::gpu::GpuError) {
+    static SAID: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+    if !SAID.swap(true, std::sync::atomic::Ordering::Relaxed) {
+        eprintln!("warning: {error}; textures are evaluated on the CPU where it fails");
+    }
+}
+
 /// Pass 2: texture points per evaluation group, one batch each.
 fn evaluate_textures(
     scene: &Scene,
@@ -436,9 +450,21 @@ fn evaluate_textures(
         let n = xs[g].len();
         let texture = &scene.textures()[group.texture];
         let mut out = vec![0.0f32; texture.tape.channels() * n];
-        if n > 0 {
+        let points = [&xs[g][..], &ys[g], &zs[g]];
+        let on_gpu = match &scratch.gpus[group.texture] {
+            Some(gpu) if n > 0 => {
+                let result = match lod {
+                    Some(_) => gpu.eval_batch_lod(points, &spacings[g], &mut out),
+                    None => gpu.eval_batch(points[0], points[1], points[2], &mut out),
+                };
+                result.map_err(gpu_failed).is_ok()
+            }
+            _ => false,
+        };
+        if n > 0 && on_gpu {
+            counters.texture_points += n as u64;
+        } else if n > 0 {
             let workspace = &mut scratch.workspaces[group.texture];
-            let points = [&xs[g][..], &ys[g], &zs[g]];
             match lod {
                 Some(_) => texture
                     .tape

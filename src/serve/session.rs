@@ -586,6 +586,7 @@ pub fn preview(
         cancel: Some(cancel.clone()),
         // Per-pixel level of detail: the preview does not alias toward its horizon.
         lod: render::RenderLod::default(),
+        device: crate::gpu::Device::Cpu,
     };
     let began = Instant::now();
     let (image, _) = render::render(scene, &options)?;

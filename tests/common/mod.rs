@@ -256,16 +256,36 @@ pub fn gpu_contract(
     gpu: &texgraph::gpu::GpuEvaluator,
     points: &[[f64; 3]],
 ) -> Result<Vec<(f64, f64)>, String> {
+    gpu_contract_lod(tape, gpu, points, None)
+}
+
+/// [`gpu_contract`] with level of detail per point (`Tape::eval_batch_lod` on the CPU,
+/// `GpuEvaluator::eval_batch_lod` on the GPU) where `spacing` is given.
+pub fn gpu_contract_lod(
+    tape: &Tape,
+    gpu: &texgraph::gpu::GpuEvaluator,
+    points: &[[f64; 3]],
+    spacing: Option<&[f64]>,
+) -> Result<Vec<(f64, f64)>, String> {
     let n = points.len();
     let [x, y, z] = [0, 1, 2].map(|c| points.iter().map(|p| p[c]).collect::<Vec<f64>>());
     let channels = tape.channels();
     let mut reference = vec![0f64; channels * n];
-    tape.eval_batch(&mut Workspace::new(), &x, &y, &z, &mut reference);
     let mut cpu = vec![0f32; channels * n];
-    tape.eval_batch(&mut Workspace::new(), &x, &y, &z, &mut cpu);
     let mut on_gpu = vec![0f32; channels * n];
-    gpu.eval_batch(&x, &y, &z, &mut on_gpu)
-        .map_err(|e| e.to_string())?;
+    match spacing {
+        Some(h) => {
+            tape.eval_batch_lod(&mut Workspace::new(), [&x, &y, &z], h, &mut reference);
+            tape.eval_batch_lod(&mut Workspace::new(), [&x, &y, &z], h, &mut cpu);
+            gpu.eval_batch_lod([&x, &y, &z], h, &mut on_gpu)
+        }
+        None => {
+            tape.eval_batch(&mut Workspace::new(), &x, &y, &z, &mut reference);
+            tape.eval_batch(&mut Workspace::new(), &x, &y, &z, &mut cpu);
+            gpu.eval_batch(&x, &y, &z, &mut on_gpu)
+        }
+    }
+    .map_err(|e| e.to_string())?;
     let error = |v: f32, r: f64| -> f64 {
         match (v.is_nan(), r.is_nan()) {
             (true, true) => 0.0,

@@ -15,7 +15,9 @@ struct Dispatch {
     nx: u32,
     ny: u32,
     count: u32,
-    pad: u32,
+    // points: 1 when `inputs` holds a fourth plane, each point's sample spacing (level of
+    // detail per point); 0: none.
+    spacing: u32,
 }
 @group(0) @binding(2) var<uniform> dispatch: Dispatch;
 
@@ -49,7 +51,7 @@ fn bake(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) groups: v
         return;
     }
     let p = vec3<f64>(centre(0u, x), centre(1u, row % dispatch.ny), centre(2u, row / dispatch.ny));
-    let r = tape(p);
+    let r = tape(p, 0.0lf);
     for (var c = 0u; c < CHANNELS; c = c + 1u) {
         results[(s * CHANNELS + c) * dispatch.segment_len + i] = r.c[c];
     }
@@ -63,7 +65,11 @@ fn points(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) groups:
     if (g >= n) {
         return;
     }
-    let r = tape(vec3<f64>(inputs[g], inputs[n + g], inputs[2u * n + g]));
+    var h = 0.0lf;
+    if (dispatch.spacing != 0u) {
+        h = inputs[3u * n + g];
+    }
+    let r = tape(vec3<f64>(inputs[g], inputs[n + g], inputs[2u * n + g]), h);
     for (var c = 0u; c < CHANNELS; c = c + 1u) {
         results[c * n + g] = r.c[c];
     }

@@ -543,3 +543,32 @@ fn s_hermite(x: f32, p0: f32, p1: f32, m0: f32, m1: f32) -> f32 {
     let h11 = t3 - t2;
     return h00 * p0 + h10 * m0 + h01 * p1 + h11 * m1;
 }
+
+// ---- Level of detail per point (lod.rs `LaneLod`) ----
+// The octaves a point at sample spacing h keeps (continuous), never more than the schedule's
+// `kept`: all of them for h <= 0 (no footprint: a bake, whose tape is already compiled for
+// its spacing) or below `fine`; else the octaves whose frequency stays at or below Nyquist.
+fn lod_kept(h: f64, fine: f64, kept: f64, octaves: f64, first: f64, stretch: f64, ln_lacunarity: f64) -> f64 {
+    if (!(h > 0.0lf) || d_is_inf(h) || h < fine) {
+        return kept;
+    }
+    let highest = d_ln_finite((0.5lf / h) / stretch) / ln_lacunarity;
+    return min(d_clamp(highest - first + 1.0lf, 0.0lf, octaves), kept);
+}
+
+// Octave k's amplitude at `kept` octaves (`LaneOctaves::lane`): its full power below the whole
+// octaves, the faded share for the partial one (callers skip k >= kept).
+fn lod_amplitude(kept: f64, power: f64, k: f64) -> f64 {
+    let whole = floor(kept);
+    if (k < whole) {
+        return power;
+    }
+    return power * (kept - whole);
+}
+
+// Octave n's share of the dropped octaves' mean (lod.rs `dropped_share`).
+fn lod_share(octaves: f64, n: f64, kept: f64, gain: f64, expected: f64) -> f64 {
+    let written = d_clamp(octaves - n, 0.0lf, 1.0lf);
+    let held = d_clamp(kept - n, 0.0lf, 1.0lf);
+    return (written - held) * gain * expected;
+}
