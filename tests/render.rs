@@ -26,6 +26,7 @@ fn small(samples: u32) -> RenderOptions {
         progress: false,
         cancel: None,
         lod: RenderLod::Off,
+        device: Default::default(),
     }
 }
 
@@ -236,6 +237,7 @@ fn images_do_not_depend_on_the_thread_count() {
                 progress: false,
                 cancel: None,
                 lod,
+                device: Default::default(),
             };
             let (image, stats) = render(&scene, &options).unwrap();
             assert_eq!(stats.threads, threads);
