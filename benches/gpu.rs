@@ -75,6 +75,8 @@ fn bench_gpu(c: &mut Criterion) {
                 .args(["--set", "octaves=8", "--force", "-q", "--out"])
                 .arg(&out)
                 .arg(&graph)
+                .stdout(std::process::Stdio::null())
+                .stderr(std::process::Stdio::null())
                 .status()
                 .expect("runs texgraph");
             assert!(status.success());

@@ -35,6 +35,10 @@ pub struct StabilityRow {
     /// The compiler's bound on that error, and why it may exceed the target where it does.
     pub promoted_bound: f64,
     pub shortfall: Option<String>,
+    /// Largest |GPU − f64| of that same tape on the GPU (`gpu::GpuEvaluator`, where one is
+    /// usable), measured as the promoted error is.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_gpu_error: Option<f64>,
 }
 
 /// Half the side of the box every probe point at magnitude `m` lies in.
@@ -82,6 +86,23 @@ pub fn stability_report(
     graph: &CheckedGraph,
     max_error: f64,
 ) -> Result<Vec<StabilityRow>, Diagnostics> {
+    survey(graph, max_error, false)
+}
+
+/// [`stability_report`] with the GPU as well: each magnitude's tape also on the GPU
+/// (`max_gpu_error`), where one is usable (`texgraph report --stability`).
+pub fn stability_report_with_gpu(
+    graph: &CheckedGraph,
+    max_error: f64,
+) -> Result<Vec<StabilityRow>, Diagnostics> {
+    survey(graph, max_error, true)
+}
+
+fn survey(
+    graph: &CheckedGraph,
+    max_error: f64,
+    gpu: bool,
+) -> Result<Vec<StabilityRow>, Diagnostics> {
     let probe = graph.with_node_probes();
     let tape = compile(&probe, &CompileOptions::default())?;
     let stretches = crate::lod::stretches(&probe);
@@ -105,6 +126,7 @@ pub fn stability_report(
         tape.eval_batch(&mut Workspace::new(), &x, &y, &z, &mut v64);
         tape.eval_batch(&mut Workspace::new(), &x, &y, &z, &mut v32);
         promoted.eval_batch(&mut Workspace::new(), &x, &y, &z, &mut p32);
+        let on_gpu = gpu.then(|| gpu_values(&promoted, [&x, &y, &z])).flatten();
         let nearby = nearby_references(&tape, [&x, &y, &z]);
         let plan = promoted.precision();
         for (i, (output, graph_output)) in tape.outputs.iter().zip(&probe.outputs).enumerate() {
@@ -122,6 +144,7 @@ pub fn stability_report(
                 max_promoted_error: 0.0,
                 promoted_bound: bound.map_or(f64::INFINITY, |b| b.promoted),
                 shortfall: bound.and_then(|b| b.shortfall.clone()),
+                max_gpu_error: on_gpu.as_ref().map(|_| 0.0),
             };
             for c in output.first_channel..output.first_channel + output.ty.channels() {
                 let channel = |v: &[f32]| v[c * n..(c + 1) * n].to_vec();
@@ -129,6 +152,9 @@ pub fn stability_report(
                 let (b, promoted) = (channel(&v32), channel(&p32));
                 let near: Vec<&[f64]> = nearby.iter().map(|v| &v[c * n..(c + 1) * n]).collect();
                 survey_channel(&mut row, a, &b, &promoted, &near);
+                if let (Some(values), Some(worst)) = (&on_gpu, row.max_gpu_error.as_mut()) {
+                    *worst = worst.max(nearest_error(a, &values[c * n..(c + 1) * n], &near));
+                }
                 if let (Some(l), Some(ratio)) = (lipschitz, row.continuity.as_mut()) {
                     *ratio = ratio.max(continuity(l, pairs.len(), a, &b));
                 }
@@ -171,6 +197,31 @@ fn nearby_references(tape: &crate::Tape, points: [&[f64]; 3]) -> Vec<Vec<f64>> {
         }
     }
     out
+}
+
+/// `tape` on the GPU at the points, where a GPU is usable (else `None`: no GPU column).
+fn gpu_values(tape: &crate::Tape, [x, y, z]: [&[f64]; 3]) -> Option<Vec<f32>> {
+    let gpu = crate::gpu::evaluator_for(tape).ok()?;
+    let mut out = vec![0f32; tape.channels() * x.len()];
+    gpu.eval_batch(x, y, z, &mut out).ok()?;
+    Some(out)
+}
+
+/// The largest difference of `values` from the reference `a` where both are finite, each
+/// against the nearest of the reference at the point and at the `near`by points.
+fn nearest_error(a: &[f64], values: &[f32], near: &[&[f64]]) -> f64 {
+    let mut worst = 0f64;
+    for (i, (r, v)) in a.iter().zip(values).enumerate() {
+        let v = f64::from(*v);
+        if r.is_finite() && v.is_finite() {
+            let nearest = near
+                .iter()
+                .map(|n| (n[i] - v).abs())
+                .fold((r - v).abs(), f64::min);
+            worst = worst.max(nearest);
+        }
+    }
+    worst
 }
 
 /// Folds one channel's reference (`a`), plain f32 (`b`) and promoted f32 values into a row;
@@ -265,6 +316,21 @@ pub fn stability_text(rows: &[StabilityRow]) -> String {
             .collect();
         let mark = if is_output { "*" } else { " " };
         out.push_str(&format!("{mark} {node:<width$}{cells}\n"));
+    }
+    if rows.iter().any(|r| r.max_gpu_error.is_some()) {
+        out.push_str("the same tapes on the GPU (max |GPU - f64|)\n");
+        for node in &nodes {
+            let is_output = rows.iter().any(|r| r.node == *node && r.output);
+            let cells: String = MAGNITUDES
+                .iter()
+                .map(|m| match find(node, *m).and_then(|r| r.max_gpu_error) {
+                    Some(e) => format!(" {e:>10.1e}"),
+                    None => format!(" {:>10}", "-"),
+                })
+                .collect();
+            let mark = if is_output { "*" } else { " " };
+            out.push_str(&format!("{mark} {node:<width$}{cells}\n"));
+        }
     }
     out.push_str(&format!("continuity: max |f(p + δ) - f(p)| / (Lipschitz · δ), δ = {STEP}; ≤ 1 means no seam (- : no Lipschitz bound known)\n"));
     for node in &nodes {

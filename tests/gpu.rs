@@ -11,6 +11,15 @@ use texgraph::bake::{bake_volume, BakeOptions, Grid, Region};
 use texgraph::gpu::{Device, GpuEvaluator};
 use texgraph::{CheckOptions, CompileOptions, Extent};
 
+/// Per channel "GPU error / CPU f32 error", for the test's log.
+fn figures_text(figures: &[(f64, f64)]) -> String {
+    figures
+        .iter()
+        .map(|(g, c)| format!("{g:.1e}/{c:.1e}"))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
 /// `n` points, each coordinate `centre + uniform(-r, r)` (a fixed LCG: reproducible).
 fn points(n: usize, centre: f64, r: f64, seed: u64) -> Vec<[f64; 3]> {
     let mut state = seed;
@@ -50,7 +59,7 @@ fn every_graph_meets_the_gpu_contract() {
         let tape = compile_for(&path, &set);
         let gpu = GpuEvaluator::new(&tape).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         match common::gpu_contract(&tape, &gpu, &set) {
-            Ok(figures) => eprintln!("{}: {figures:.1?}", path.display()),
+            Ok(figures) => eprintln!("{}: {}", path.display(), figures_text(&figures)),
             Err(e) => failures.push(format!("{}: {e}", path.display())),
         }
     }
@@ -78,7 +87,7 @@ fn huge_coordinates_keep_their_lattice_cells() {
             let gpu = GpuEvaluator::new(&tape).expect("compiles on the GPU");
             let figures = common::gpu_contract(&tape, &gpu, &set)
                 .unwrap_or_else(|e| panic!("{name} near {centre}: {e}"));
-            eprintln!("{name} near {centre}: {figures:.1?}");
+            eprintln!("{name} near {centre}: {}", figures_text(&figures));
         }
     }
 }
@@ -185,7 +194,7 @@ fn level_of_detail_per_point_matches_the_cpu() {
         let gpu = GpuEvaluator::new(&tape).expect("compiles on the GPU");
         let figures = common::gpu_contract_lod(&tape, &gpu, &set, Some(&spacing))
             .unwrap_or_else(|e| panic!("{name}: {e}"));
-        eprintln!("{name} with level of detail: {figures:.1?}");
+        eprintln!("{name} with level of detail: {}", figures_text(&figures));
     }
 }
 
@@ -323,4 +332,36 @@ fn the_command_line_runs_on_the_gpu() {
         .find(|r| r.strategy.starts_with("gpu ("))
         .expect("a gpu row");
     assert!(row.max_abs_error <= 2e-5, "{}", row.max_abs_error);
+}
+
+/// The stability survey covers the GPU (`report --stability`): at every magnitude up to 2^31,
+/// each output's tape compiled for that magnitude runs on the GPU within the contract of the
+/// promoted f32 tape's own error.
+#[test]
+fn the_stability_survey_covers_the_gpu() {
+    if !common::gpu_available("the_stability_survey_covers_the_gpu") {
+        return;
+    }
+    for name in [
+        "graphs/seed003_marble.ron",
+        "graphs/cells.ron",
+        "graphs/seed004_rings.ron",
+    ] {
+        let graph =
+            texgraph::load_graph(&common::crate_root().join(name), &CheckOptions::default())
+                .unwrap();
+        let rows = texgraph::stability::stability_report_with_gpu(&graph, 1e-4).unwrap();
+        for row in rows.iter().filter(|r| r.output) {
+            let gpu = row.max_gpu_error.expect("a GPU column");
+            let tolerance = 2e-5 * row.max_abs_value.max(1.0) + 4.0 * row.max_promoted_error;
+            assert!(
+                gpu <= tolerance,
+                "{name} {} at {:e}: GPU {gpu:e}, promoted f32 {:e}",
+                row.node,
+                row.magnitude,
+                row.max_promoted_error
+            );
+        }
+        eprintln!("{}", texgraph::stability::stability_text(&rows));
+    }
 }

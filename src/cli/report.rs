@@ -116,7 +116,7 @@ pub fn report_command(args: ReportArgs) -> Result<(), Failure> {
             if args.markdown {
                 let rows = crate::report::accuracy_report(&graph, &args.outputs, &options)
                     .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
-                let stability = crate::stability::stability_report(&graph, max_error)
+                let stability = crate::stability::stability_report_with_gpu(&graph, max_error)
                     .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
                 format!(
                     "\n## `{}`\n\nTape length: {}.\n{}\nStability:\n\n```text\n{}```\n",
@@ -126,7 +126,7 @@ pub fn report_command(args: ReportArgs) -> Result<(), Failure> {
                     crate::stability::stability_text(&stability)
                 )
             } else if args.stability {
-                let rows = crate::stability::stability_report(&graph, max_error)
+                let rows = crate::stability::stability_report_with_gpu(&graph, max_error)
                     .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
                 if args.json {
                     json_rows.extend(rows.iter().map(
