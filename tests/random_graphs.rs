@@ -231,7 +231,7 @@ proptest! {
 #[cfg(feature = "gpu")]
 proptest! {
     // Each case compiles a shader (a second or so on lavapipe): fewer cases than the CPU tests.
-    #![proptest_config(ProptestConfig { cases: 16, max_shrink_iters: 20, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 10, max_shrink_iters: 20, ..ProptestConfig::default() })]
 
     /// Random graphs on the GPU against the f64 reference, within the contract of
     /// `common::gpu_contract` (tapes compiled for the points' extent, as bakes are).
