@@ -28,7 +28,7 @@ pub const LIBRARY: [(&str, &str); 6] = [
 ];
 
 /// The entry points and bindings every generated shader ends with (`wgsl/entry.wgsl`).
-const ENTRY: &str = include_str!("wgsl/entry.wgsl");
+pub(crate) const ENTRY: &str = include_str!("wgsl/entry.wgsl");
 
 /// Words of one noise table in the tables buffer (`T_WORDS` in common.wgsl).
 pub const TABLE_WORDS: usize = 2304;

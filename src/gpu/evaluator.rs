@@ -127,6 +127,8 @@ pub struct GpuEvaluator {
     bake: wgpu::ComputePipeline,
     points: wgpu::ComputePipeline,
     tables: wgpu::Buffer,
+    /// The interpreter's program and constants (bindings 4 and 5), for an interpreted tape.
+    program: Option<(wgpu::Buffer, wgpu::Buffer)>,
     channels: usize,
     /// One evaluation at a time per evaluator (buffers are made per call).
     busy: Mutex<()>,
@@ -145,8 +147,28 @@ impl GpuEvaluator {
     /// Generates and compiles `tape`'s shader on the process's GPU device. Fails when no
     /// adapter is usable or the shader does not compile (never panics).
     pub fn new(tape: &Tape) -> Result<GpuEvaluator, GpuError> {
+        GpuEvaluator::build(tape, codegen::generate(tape), None)
+    }
+
+    /// `tape` run by the WGSL tape interpreter (`gpu/interpreter.rs`) instead of its generated
+    /// shader: the alternative the GPU path was measured against (docs/performance.md, "GPU";
+    /// `examples/gpu_strategies.rs`). Without level of detail per point.
+    pub fn new_interpreted(tape: &Tape) -> Result<GpuEvaluator, GpuError> {
+        let interpreted = super::interpreter::generate(tape);
+        let shader = codegen::Shader {
+            source: interpreted.source,
+            channels: interpreted.channels,
+        };
+        let data = (interpreted.program, interpreted.constants);
+        GpuEvaluator::build(tape, shader, Some(data))
+    }
+
+    fn build(
+        tape: &Tape,
+        shader: codegen::Shader,
+        program: Option<(Vec<u32>, Vec<f64>)>,
+    ) -> Result<GpuEvaluator, GpuError> {
         let context = context()?;
-        let shader = codegen::generate(tape);
         super::validate(&shader.source).map_err(GpuError::Shader)?;
         let device = &context.device;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -165,14 +187,18 @@ impl GpuEvaluator {
             count: None,
         };
         let read = wgpu::BufferBindingType::Storage { read_only: true };
+        let mut entries = vec![
+            entry(0, read),
+            entry(1, read),
+            entry(2, wgpu::BufferBindingType::Uniform),
+            entry(3, wgpu::BufferBindingType::Storage { read_only: false }),
+        ];
+        if program.is_some() {
+            entries.extend([entry(4, read), entry(5, read)]);
+        }
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("texgraph"),
-            entries: &[
-                entry(0, read),
-                entry(1, read),
-                entry(2, wgpu::BufferBindingType::Uniform),
-                entry(3, wgpu::BufferBindingType::Storage { read_only: false }),
-            ],
+            entries: &entries,
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("texgraph"),
@@ -203,6 +229,25 @@ impl GpuEvaluator {
                 .collect::<Vec<u8>>(),
             usage: wgpu::BufferUsages::STORAGE,
         });
+        let bytes = |words: Vec<u8>, label| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: &words,
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+        };
+        let program = program.map(|(words, constants)| {
+            (
+                bytes(
+                    words.iter().flat_map(|w| w.to_le_bytes()).collect(),
+                    "program",
+                ),
+                bytes(
+                    constants.iter().flat_map(|c| c.to_le_bytes()).collect(),
+                    "constants",
+                ),
+            )
+        });
         if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Shader(error.to_string()));
         }
@@ -212,6 +257,7 @@ impl GpuEvaluator {
             bake,
             points,
             tables,
+            program,
             channels: shader.channels,
             busy: Mutex::new(()),
         })
@@ -402,15 +448,19 @@ impl GpuEvaluator {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let mut entries = vec![
+            binding(0, &self.tables),
+            binding(1, &inputs),
+            binding(2, &uniform),
+            binding(3, &results),
+        ];
+        if let Some((program, constants)) = &self.program {
+            entries.extend([binding(4, program), binding(5, constants)]);
+        }
         let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("texgraph"),
             layout: &self.layout,
-            entries: &[
-                binding(0, &self.tables),
-                binding(1, &inputs),
-                binding(2, &uniform),
-                binding(3, &results),
-            ],
+            entries: &entries,
         });
         let groups = threads.div_ceil(GROUP);
         let max = u64::from(self.context.max_groups);

@@ -10,6 +10,7 @@
 pub mod codegen;
 #[cfg(feature = "gpu")]
 mod evaluator;
+pub mod interpreter;
 #[cfg(feature = "gpu")]
 pub use evaluator::GpuEvaluator;
 #[cfg(not(feature = "gpu"))]
