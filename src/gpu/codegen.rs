@@ -382,12 +382,7 @@ fn fractal_gradient(
 ) -> String {
     let key = &tape.tables[table as usize].0;
     let schedule = &tape.octaves[octaves as usize];
-    let (code, offset, sharpness) = match style {
-        Style::Fbm => (0, 0.0, 0.0),
-        Style::Turbulence => (1, 0.0, 0.0),
-        Style::Billow => (2, 0.0, 0.0),
-        Style::Ridged { offset, sharpness } => (3, offset, sharpness),
-    };
+    let (code, offset, sharpness) = style_code(style);
     let mut w = String::from("{\n        var g = gshaper_start();\n");
     let lod = lane_lod(tape, octaves, &mut w);
     for k in 0..schedule.frequencies.len() {
@@ -408,6 +403,35 @@ fn fractal_gradient(
         "        v{dst} = vec3<f64>(gshaper_gradient(g));\n    }}"
     );
     w
+}
+
+/// A fractal style's code in the WGSL library (`gshaper_add`'s `style`, the interpreter's
+/// `sub`) and, for Ridged, its offset and sharpness (0 otherwise).
+pub(crate) fn style_code(style: Style) -> (u32, f64, f64) {
+    match style {
+        Style::Fbm => (0, 0.0, 0.0),
+        Style::Turbulence => (1, 0.0, 0.0),
+        Style::Billow => (2, 0.0, 0.0),
+        Style::Ridged { offset, sharpness } => (3, offset, sharpness),
+    }
+}
+
+/// A cellular basis' metric and value codes (`CELL_METRIC_*`, `CELL_VALUE_*` in
+/// `wgsl/cellular.wgsl`).
+pub(crate) fn cellular_codes(c: &crate::noise::Cellular) -> (u32, u32) {
+    let metric = match c.metric {
+        Metric::Euclidean => 0,
+        Metric::Manhattan => 1,
+        Metric::Chebyshev => 2,
+    };
+    let value = match c.value {
+        CellularValue::F1 => 0,
+        CellularValue::F2 => 1,
+        CellularValue::F2MinusF1 => 2,
+        CellularValue::CellValue => 3,
+        CellularValue::Edge => 4,
+    };
+    (metric, value)
 }
 
 /// Octave `k`'s point (`v{src} * f` in f64) and period.
@@ -458,18 +482,7 @@ fn sample_call(
         );
     }
     if let Basis::Cellular(c) = key.basis {
-        let metric = match c.metric {
-            Metric::Euclidean => 0,
-            Metric::Manhattan => 1,
-            Metric::Chebyshev => 2,
-        };
-        let value = match c.value {
-            CellularValue::F1 => 0,
-            CellularValue::F2 => 1,
-            CellularValue::F2MinusF1 => 2,
-            CellularValue::CellValue => 3,
-            CellularValue::Edge => 4,
-        };
+        let (metric, value) = cellular_codes(&c);
         let _ = write!(
             args,
             ", {metric}u, {value}u, {}",

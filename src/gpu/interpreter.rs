@@ -14,8 +14,7 @@
 //!   cellular jitter).
 //!
 //! Only `CHANNELS` and the slot files' array sizes depend on the tape (the sizes are the tape's
-//! slot counts rounded up to a power of two, at least 8, so similar tapes share one source;
-//! [`generate_with_capacity`] fixes them instead).
+//! slot counts rounded up to a power of two, at least 8, so similar tapes share one source).
 //!
 //! # Program layout (32-bit words)
 //!
@@ -59,7 +58,7 @@
 //! ```
 
 use super::codegen::{self, TABLE_WORDS};
-use crate::noise::{Basis, CellularValue, Interpolation, Metric, Style};
+use crate::noise::{Basis, Interpolation, Style};
 use crate::ops::{BinaryOp, Spline, SplineInterpolation, TernaryOp, UnaryOp};
 use crate::tape::{Instr, Tape, Wide};
 use std::fmt::Write;
@@ -139,20 +138,6 @@ pub fn generate(tape: &Tape) -> Interpreted {
         size(tape.vec3_slots),
         size(tape.wide_slots),
     )
-}
-
-/// [`generate`] with slot files of fixed sizes (one source for every tape that fits); `None`
-/// when the tape needs more slots than that.
-pub fn generate_with_capacity(
-    tape: &Tape,
-    scalars: usize,
-    vec3s: usize,
-    wides: usize,
-) -> Option<Interpreted> {
-    if tape.scalar_slots > scalars || tape.vec3_slots > vec3s || tape.wide_slots > wides {
-        return None;
-    }
-    Some(generate_sized(tape, scalars, vec3s, wides))
 }
 
 fn generate_sized(tape: &Tape, scalars: usize, vec3s: usize, wides: usize) -> Interpreted {
@@ -303,18 +288,7 @@ fn basis_code(basis: &Basis) -> (u32, u32, f64) {
         Basis::Simplex => (4, 0, 0.0),
         Basis::White => (5, 0, 0.0),
         Basis::Cellular(c) => {
-            let metric = match c.metric {
-                Metric::Euclidean => 0,
-                Metric::Manhattan => 1,
-                Metric::Chebyshev => 2,
-            };
-            let value = match c.value {
-                CellularValue::F1 => 0,
-                CellularValue::F2 => 1,
-                CellularValue::F2MinusF1 => 2,
-                CellularValue::CellValue => 3,
-                CellularValue::Edge => 4,
-            };
+            let (metric, value) = codegen::cellular_codes(c);
             (6, metric | value << 8, f32_value(c.jitter()))
         }
     }
@@ -322,12 +296,8 @@ fn basis_code(basis: &Basis) -> (u32, u32, f64) {
 
 /// (style code, offset, sharpness), the latter two rounded to f32.
 fn style_code(style: Style) -> (u32, f64, f64) {
-    match style {
-        Style::Fbm => (0, 0.0, 0.0),
-        Style::Turbulence => (1, 0.0, 0.0),
-        Style::Billow => (2, 0.0, 0.0),
-        Style::Ridged { offset, sharpness } => (3, f32_value(offset), f32_value(sharpness)),
-    }
+    let (code, offset, sharpness) = codegen::style_code(style);
+    (code, f32_value(offset), f32_value(sharpness))
 }
 
 /// The program and constants of `tape` (layout: the module's documentation).
