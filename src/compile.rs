@@ -8,8 +8,10 @@
 //! recurses.
 
 use crate::diagnostic::{Diagnostic, DiagnosticClass, Diagnostics};
+use crate::eval::Workspace;
 use crate::graph::{CheckedGraph, NodeId, Op, TableKey, Type};
 use crate::ops;
+use crate::precision::{Extent, SAMPLES};
 use crate::tape::{Instr, Slot, Tape, TapeOutput, TapeStats, Wide};
 use smallvec::SmallVec;
 use std::cmp::Reverse;
@@ -28,7 +30,7 @@ pub struct CompileOptions {
     /// The region the tape will be evaluated over (`Position`'s values). With one, precision is
     /// chosen per instruction (`precision.rs`): scalars whose f32 error would push an output
     /// past `max_error` run in f64. `None`: every scalar in the lane type (the plain tape).
-    pub extent: Option<crate::precision::Extent>,
+    pub extent: Option<Extent>,
     /// The error target of that choice, absolute; `None` is
     /// [`crate::precision::DEFAULT_MAX_ERROR`] (1e-4).
     pub max_error: Option<f64>,
@@ -60,7 +62,7 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
                 ..options.clone()
             },
         )?;
-        plan.keep_plain(crate::precision::sampled_error(&plain, &plan.extent));
+        plan.keep_plain(sampled_error(&plain, &plan.extent));
     }
     let no_wide = vec![false; graph.nodes.len()];
     let wide = plan.as_ref().map_or(&no_wide, |p| &p.wide);
@@ -146,6 +148,44 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
     let mut tape = emitter.finish(outputs, stats);
     tape.precision = plan.map(std::sync::Arc::new);
     Ok(tape)
+}
+
+/// The precision plan's confirmation: the largest |f32 − f64| of `tape` (compiled plain) on [`SAMPLES`] points spread over
+/// `extent` (one jittered point per cell of a 16³ lattice; fixed, so compiles are
+/// reproducible); non-finite disagreements count as infinite.
+fn sampled_error(tape: &Tape, extent: &Extent) -> f64 {
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = || {
+        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut planes: [Vec<f64>; 3] = Default::default();
+    for i in 0..SAMPLES {
+        let cell = [i % 16, (i / 16) % 16, i / 256];
+        for c in 0..3 {
+            let t = (cell[c] as f64 + next()) / 16.0;
+            planes[c].push(extent.min[c] + t * (extent.max[c] - extent.min[c]));
+        }
+    }
+    let channels = tape.channels();
+    let mut a = vec![0f32; channels * SAMPLES];
+    let mut b = vec![0f64; channels * SAMPLES];
+    let [x, y, z] = &planes;
+    tape.eval_batch(&mut Workspace::new(), x, y, z, &mut a);
+    tape.eval_batch(&mut Workspace::new(), x, y, z, &mut b);
+    a.iter().zip(&b).fold(0.0f64, |m, (s, r)| {
+        let d = (*s as f64 - r).abs();
+        if d.is_nan() && !(s.is_nan() && r.is_nan()) {
+            f64::INFINITY
+        } else if d.is_nan() {
+            m
+        } else {
+            m.max(d)
+        }
+    })
 }
 
 /// Where each live node's value is read from, per representation: the lane-type slot

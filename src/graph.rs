@@ -268,7 +268,7 @@ pub struct CheckedGraph {
     pub(crate) imports: Vec<std::path::PathBuf>,
 }
 
-/// A checked graph is built only by [`crate::check()`]; its fields are private to the crate and
+/// A checked graph is built only by [`crate::check::check()`]; its fields are private to the crate and
 /// read through these accessors.
 impl CheckedGraph {
     /// The file it was read from (name and text, for diagnostics).
@@ -353,33 +353,6 @@ impl CheckedGraph {
             }
         }
         graph
-    }
-
-    /// The same graph with one more output, `name`: the gradient (a vec3, `Gradient`) of the
-    /// scalar output `of`. For callers that need a surface's slope beside its value (the
-    /// renderer's bump mapping): the derivative nodes join the graph's own, deduplicated.
-    pub fn with_gradient_output(&self, of: &str, name: &str) -> Result<CheckedGraph, String> {
-        let output = self
-            .output(of)
-            .ok_or_else(|| format!("the graph has no output `{of}`"))?;
-        if self.nodes[output.node as usize].ty != Type::Scalar {
-            return Err(format!(
-                "output `{of}` is a vec3: a height must be a scalar"
-            ));
-        }
-        let mut builder = GraphBuilder::from_nodes(&self.nodes);
-        let origin = self.nodes[output.node as usize].origin.clone();
-        let gradient = crate::derive::gradient(&mut builder, output.node, &origin).map_err(|_| {
-            format!("output `{of}` uses a noise gradient: its gradient would need a second derivative of noise")
-        })?;
-        let mut graph = self.clone();
-        graph.nodes = builder.nodes;
-        graph.outputs.push(Output {
-            name: name.to_string(),
-            node: gradient,
-            span: output.span,
-        });
-        Ok(graph)
     }
 }
 

@@ -14,7 +14,11 @@
 //! Errors are over every voxel and channel of the output: RMS and largest absolute difference.
 
 use crate::bake::{mip_grid, mip_level_count, mip_spacing, Grid, Region};
-use crate::{compile, CheckedGraph, CompileOptions, Tape, Workspace};
+use crate::compile::compile;
+use crate::compile::CompileOptions;
+use crate::eval::Workspace;
+use crate::graph::CheckedGraph;
+use crate::tape::Tape;
 use rayon::prelude::*;
 
 /// Points per axis per level-0 voxel in the reference's box filter.
@@ -163,7 +167,7 @@ pub fn mip_report(
     graph: &CheckedGraph,
     n: usize,
     region: Region,
-) -> Result<Vec<MipRow>, crate::Diagnostics> {
+) -> Result<Vec<MipRow>, crate::diagnostic::Diagnostics> {
     let grid = Grid {
         size: [n.max(1); 3],
         region,
@@ -253,11 +257,11 @@ mod tests {
     /// up voxel for voxel.
     #[test]
     fn a_linear_field_has_no_mip_error() {
-        let source = crate::SourceFile::new(
+        let source = crate::diagnostic::SourceFile::new(
             "linear.ron",
             r#"Graph(nodes: { "p": Position }, outputs: { "x": Add(Mul("p.x", 2.0), "p.z") })"#,
         );
-        let graph = crate::check(source, &crate::CheckOptions::default()).unwrap();
+        let graph = crate::check::check(source, &crate::check::CheckOptions::default()).unwrap();
         let region = Region {
             min: [-1.0, 0.0, 0.5],
             max: [1.0, 2.0, 1.5],

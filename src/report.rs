@@ -8,9 +8,10 @@
 
 use crate::bake::{bake_volume, BakeOptions, Grid, Region, Volume};
 use crate::compile::{compile, CompileOptions};
+use crate::eval::Workspace;
 use crate::graph::CheckedGraph;
+use crate::real::Real;
 use crate::tape::Tape;
-use crate::{Real, Workspace};
 use std::time::Instant;
 
 /// Most random sample points (`--points`): the report keeps every strategy's values for every
@@ -230,7 +231,7 @@ pub fn accuracy_report(
     graph: &CheckedGraph,
     outputs: &[String],
     options: &ReportOptions,
-) -> Result<Vec<Row>, crate::Diagnostics> {
+) -> Result<Vec<Row>, crate::diagnostic::Diagnostics> {
     // The bounds hold for library callers too: points and runs are clamped to them.
     let options = &ReportOptions {
         points: options.points.min(MAX_POINTS),
@@ -397,7 +398,7 @@ fn lod_strategies(
     name: &str,
     planes: &Planes,
     options: &ReportOptions,
-) -> Result<Vec<Measured>, crate::Diagnostics> {
+) -> Result<Vec<Measured>, crate::diagnostic::Diagnostics> {
     let mut measured = Vec::new();
     for &spacing in &options.lod_spacings {
         let lod = compile(
@@ -713,7 +714,7 @@ differ by no more than the node's Lipschitz bound allows (ratio ≤ 1: no seam).
 Targets for **noise-valued** outputs (Noise, Fbm, Turbulence of a position): within 1e-5 of f64
 for |p| ≤ 1e4 and within 1e-4, seam-free, up to |p| = 2^31 — met with a wide margin (below
 1e-6 at every magnitude) because positions stay f64 on both paths and the lattice cell is
-computed exactly (`tests/accuracy.rs` and `tests/properties.rs` enforce it). Nodes that carry a
+computed exactly (`tests/it/accuracy.rs` and `tests/it/properties.rs` enforce it). Nodes that carry a
 coordinate through **scalar f32 arithmetic** (`Mul("period", "v.x")`) lose what f32 cannot hold:
 about |v|·6e-8 absolute; the survey names each such node and the magnitude where its error
 passes 1e-4, and why. The survey's second table is the answer: every output and node again,
@@ -758,7 +759,7 @@ marble stays f32, its `v.x → phase → sin` chain runs in f64.
 
 ## Defined behaviour in stiff and extreme cases
 
-Each row is asserted by `tests/accuracy.rs` (or the conformance suite).
+Each row is asserted by `tests/it/accuracy.rs` (or the conformance suite).
 
 | case | behaviour |
 |---|---|

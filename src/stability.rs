@@ -3,8 +3,9 @@
 //! at each magnitude.
 
 use crate::compile::{compile, CompileOptions};
+use crate::diagnostic::Diagnostics;
+use crate::eval::Workspace;
 use crate::graph::CheckedGraph;
-use crate::{Diagnostics, Workspace};
 
 /// Coordinate magnitudes probed, each with both signs along each axis.
 pub const MAGNITUDES: [f64; 6] = [1.0, 1e3, 1e4, 1e6, 1e8, 2147483648.0];
@@ -42,9 +43,9 @@ pub struct StabilityRow {
 }
 
 /// Half the side of the box every probe point at magnitude `m` lies in.
-fn extent_at(magnitude: f64) -> crate::Extent {
+fn extent_at(magnitude: f64) -> crate::precision::Extent {
     let h = magnitude + 16.0;
-    crate::Extent::new([-h; 3], [h; 3])
+    crate::precision::Extent::new([-h; 3], [h; 3])
 }
 
 /// The probe points at one magnitude: along each axis and sign, a scatter, lattice points and
@@ -170,7 +171,7 @@ fn survey(
 pub const EDGE_TOLERANCE: f64 = 1e-6;
 
 /// The f64 reference at every probe point moved by ±[`EDGE_TOLERANCE`] along each axis.
-fn nearby_references(tape: &crate::Tape, points: [&[f64]; 3]) -> Vec<Vec<f64>> {
+fn nearby_references(tape: &crate::tape::Tape, points: [&[f64]; 3]) -> Vec<Vec<f64>> {
     let n = points[0].len();
     let mut out = Vec::with_capacity(6);
     for axis in 0..3 {
@@ -200,7 +201,7 @@ fn nearby_references(tape: &crate::Tape, points: [&[f64]; 3]) -> Vec<Vec<f64>> {
 }
 
 /// `tape` on the GPU at the points, where a GPU is usable (else `None`: no GPU column).
-fn gpu_values(tape: &crate::Tape, [x, y, z]: [&[f64]; 3]) -> Option<Vec<f32>> {
+fn gpu_values(tape: &crate::tape::Tape, [x, y, z]: [&[f64]; 3]) -> Option<Vec<f32>> {
     let gpu = crate::gpu::evaluator_for(tape).ok()?;
     let mut out = vec![0f32; tape.channels() * x.len()];
     gpu.eval_batch(x, y, z, &mut out).ok()?;

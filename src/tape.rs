@@ -288,7 +288,7 @@ pub struct Tape {
     pub(crate) reasons: Vec<(usize, String)>,
 }
 
-/// A tape is built only by [`crate::compile()`]: its fields are private to the crate, so no caller
+/// A tape is built only by [`crate::compile::compile()`]: its fields are private to the crate, so no caller
 /// can assemble one the interpreter would read out of bounds. What a caller needs is read through
 /// these accessors.
 impl Tape {

@@ -15,11 +15,13 @@
 //! corner; texgraph's axes are right-handed with y up, so `KTXorientation` is `ruo` (s to the
 //! right, t up, r out of the screen).
 
+use super::engine::{BakeError, Sink, Window};
+use super::settings::Ktx2SampleType;
+use super::settings::ZSTD_LEVELS;
 use super::sinks::encode_u8;
-use super::{BakeError, Grid, Sink, Window};
 use crate::graph::Type;
+use crate::grid::Grid;
 use std::io::{self, Seek, SeekFrom, Write};
-use std::ops::RangeInclusive;
 use std::path::{Path, PathBuf};
 
 /// The file identifier, `«KTX 20»\r\n\x1A\n` (spec "identifier").
@@ -34,12 +36,6 @@ const LEVEL_INDEX_BYTES: u64 = 24;
 /// `supercompressionScheme` values (spec "supercompressionScheme").
 const SUPERCOMPRESSION_NONE: u32 = 0;
 const SUPERCOMPRESSION_ZSTD: u32 = 2;
-
-/// Zstandard levels `--zstd` accepts (those of the zstd library).
-pub const ZSTD_LEVELS: RangeInclusive<i32> = 1..=22;
-/// The level of a bare `--zstd`: the zstd library's own default, and KTX-Software's (`toktx
-/// --zcmp`). docs/baking.md has the measurements behind it.
-pub const DEFAULT_ZSTD_LEVEL: i32 = 3;
 
 /// `KTXorientation` for texgraph's axes: x to the right, y up, z out of the screen (right-handed).
 pub const ORIENTATION: &str = "ruo";
@@ -77,19 +73,6 @@ mod df {
     /// Words of the basic descriptor block before its samples, and per sample.
     pub const BLOCK_WORDS: u32 = 6;
     pub const SAMPLE_WORDS: u32 = 4;
-}
-
-/// What a KTX2 file stores per channel.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Ktx2SampleType {
-    /// 8-bit unsigned normalised: scalars `R8_UNORM`, colours `R8G8B8A8_SRGB` (or `_UNORM` with
-    /// the linear transfer), encoded as the PNG writer encodes them.
-    #[default]
-    U8,
-    /// 16-bit floats (`--half`): `R16_SFLOAT`, `R16G16B16A16_SFLOAT`.
-    F16,
-    /// 32-bit floats (`--float`): `R32_SFLOAT`, `R32G32B32A32_SFLOAT`.
-    F32,
 }
 
 /// The `vkFormat` of one output's file and how its texels are encoded.

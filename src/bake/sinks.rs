@@ -2,8 +2,9 @@
 //! per slice, or one atlas), raw (packed voxels). Each writes into a temporary file or folder;
 //! `files.rs` renames it into place when the bake completed.
 
-use super::{BakeError, Grid, Sink, Window};
+use super::engine::{BakeError, Sink, Window};
 use crate::graph::Type;
+use crate::grid::Grid;
 use rayon::prelude::*;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -241,7 +242,7 @@ impl PngAtlas {
         srgb: bool,
     ) -> Result<PngAtlas, BakeError> {
         let [nx, ny, nz] = grid.size;
-        let (columns, rows) = super::files::atlas_shape(nz as u64);
+        let (columns, rows) = super::settings::atlas_shape(nz as u64);
         let (columns, rows) = (columns as usize, rows as usize);
         let handle = file.try_clone().map_err(io(path))?;
         // Unbuffered: the png encoder writes whole compressed chunks, and a write error then
@@ -351,7 +352,7 @@ pub(super) struct Raw {
 }
 
 /// Most voxels a raw writer gathers and encodes at once (whole segments, which are at most
-/// [`super::SEGMENT_VOXELS`] ≤ this). It holds them twice, as f32 samples and as encoded bytes:
+/// [`crate::grid::SEGMENT_VOXELS`] ≤ this). It holds them twice, as f32 samples and as encoded bytes:
 /// at most 12 + 16 bytes a voxel, 7 MiB.
 const RAW_BATCH_VOXELS: usize = 1 << 18;
 /// Voxels per parallel encoding task.
@@ -467,7 +468,7 @@ impl Exr {
         file: std::fs::File,
         grid: &Grid,
         half: bool,
-        compression: super::ExrCompression,
+        compression: super::settings::ExrCompression,
         attributes: &[(&str, String)],
     ) -> Result<(), BakeError> {
         use exr::prelude::*;
@@ -487,10 +488,10 @@ impl Exr {
         let writer = std::io::BufWriter::new(file);
         let data = &self.data;
         let encoding = match compression {
-            super::ExrCompression::Zip => Encoding::SMALL_LOSSLESS,
-            super::ExrCompression::Piz => Encoding::SMALL_FAST_LOSSLESS,
-            super::ExrCompression::Rle => Encoding::FAST_LOSSLESS,
-            super::ExrCompression::None => Encoding::UNCOMPRESSED,
+            super::settings::ExrCompression::Zip => Encoding::SMALL_LOSSLESS,
+            super::settings::ExrCompression::Piz => Encoding::SMALL_FAST_LOSSLESS,
+            super::settings::ExrCompression::Rle => Encoding::FAST_LOSSLESS,
+            super::settings::ExrCompression::None => Encoding::UNCOMPRESSED,
         };
         // The four arms differ only in the channels' sample types, which exr encodes in the
         // channel set's type: one macro writes each.

@@ -3,9 +3,11 @@
 //! into place. An OpenVDB file is written from whole grids, so the volume is held in memory:
 //! `voxels × channels × 4` bytes, checked against the memory bound before the bake.
 
+use super::engine::BakeError;
+use super::settings::{BakeFileOptions, BakeReport, BakedFile};
 use super::vdb::{write_vdb, VdbGrid, VdbGridKind, MAX_AXIS_VOXELS};
-use super::{BakeError, BakeFileOptions, BakeReport, BakedFile, Grid};
 use crate::graph::Type;
+use crate::grid::Grid;
 use crate::output;
 use crate::tape::Tape;
 use std::path::Path;
@@ -31,7 +33,7 @@ pub(super) fn bake_vdb(
 ) -> Result<BakeReport, BakeError> {
     let grid = options.bake.grid;
     let started = std::time::Instant::now();
-    let volume = super::bake_volume_with_progress(tape, &options.bake, progress)?;
+    let volume = super::engine::bake_volume_with_progress(tape, &options.bake, progress)?;
     let voxels = grid.voxels().unwrap_or(u64::MAX);
     let spacing = grid.spacing();
     let origin = [0, 1, 2].map(|a| grid.centre(a, 0));
@@ -44,7 +46,7 @@ pub(super) fn bake_vdb(
                 ("texgraph.output".into(), o.name.clone()),
                 (
                     "texgraph.params".into(),
-                    super::files::params_json(&options.params),
+                    super::settings::params_json(&options.params),
                 ),
                 (
                     "texgraph.region".into(),

@@ -19,14 +19,19 @@
 //! two parts write the same key, and every voxel is evaluated by the same code from its global
 //! index: the store is bit-identical whatever the parts and the order they run or re-run in.
 
-use super::part::Part;
-use super::{collect_stats, encode_u8, Transfer};
-use super::{BakeError, BakeFileOptions, BakeReport, BakedFile, ChannelStats, Grid, Precision};
+pub use super::settings::{ZarrCompression, ZarrSettings, DEFAULT_CHUNK, DEFAULT_SHARD};
+
+use super::engine::collect_stats;
+use super::engine::{BakeError, ChannelStats, Precision};
+use super::settings::Transfer;
+use super::settings::{BakeFileOptions, BakeReport, BakedFile};
+use super::sinks::encode_u8;
+use crate::eval::Workspace;
 use crate::graph::Type;
+use crate::grid::Grid;
 use crate::output;
 use crate::real::Real;
 use crate::tape::Tape;
-use crate::Workspace;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
@@ -40,45 +45,8 @@ use zarrs::storage::{
     Bytes, OffsetBytesIterator, StorageError, StoreKey, StorePrefix, WritableStorageTraits,
 };
 
-/// Default voxels per inner chunk side (`--chunk`).
-pub const DEFAULT_CHUNK: u64 = 64;
-/// Default voxels per shard side (`--shard`).
-pub const DEFAULT_SHARD: u64 = 512;
 /// Suffix of a shard's manifest key.
 pub const MANIFEST_SUFFIX: &str = ".texgraph.json";
-
-/// How chunks are compressed inside a shard.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
-pub enum ZarrCompression {
-    /// Zstandard at the `--zstd=LEVEL` level (default 3).
-    #[default]
-    Zstd,
-    /// Blosc: LZ4 at level 5 with byte shuffle (bit shuffle for 8-bit samples).
-    Blosc,
-    /// No compression.
-    None,
-}
-
-/// The zarr-specific options of a bake.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct ZarrSettings {
-    pub chunk: u64,
-    pub shard: u64,
-    pub compression: ZarrCompression,
-    /// Which shards this process bakes.
-    pub part: Part,
-}
-
-impl Default for ZarrSettings {
-    fn default() -> Self {
-        ZarrSettings {
-            chunk: DEFAULT_CHUNK,
-            shard: DEFAULT_SHARD,
-            compression: ZarrCompression::Zstd,
-            part: Part::WHOLE,
-        }
-    }
-}
 
 /// The store a graph's bake writes: `--out` itself when it ends in `.zarr`, else `DIR/STEM.zarr`.
 pub fn store_path(options: &BakeFileOptions) -> Result<PathBuf, BakeError> {
@@ -289,9 +257,9 @@ struct OutputArray {
 /// The sample type `options` asks for.
 pub fn sample_type(options: &BakeFileOptions) -> ZarrSample {
     match options.ktx2_type {
-        super::Ktx2SampleType::U8 => ZarrSample::U8,
-        super::Ktx2SampleType::F16 => ZarrSample::F16,
-        super::Ktx2SampleType::F32 => ZarrSample::F32,
+        super::settings::Ktx2SampleType::U8 => ZarrSample::U8,
+        super::settings::Ktx2SampleType::F16 => ZarrSample::F16,
+        super::settings::Ktx2SampleType::F32 => ZarrSample::F32,
     }
 }
 
@@ -337,9 +305,9 @@ pub fn preflight(tape: &Tape, options: &BakeFileOptions) -> Result<(), BakeError
         return Err(BakeError::Refused(format!(
             "this bake{} would write about {} uncompressed ({owned} voxels × {} output(s)), more than the limit of {}; split it with --part I/N, or raise the limit (--allow-large)",
             if part.is_whole() { String::new() } else { format!(" (part {part})") },
-            super::human_bytes(estimate),
+            super::settings::human_bytes(estimate),
             tape.outputs.len(),
-            super::human_bytes(options.max_bytes)
+            super::settings::human_bytes(options.max_bytes)
         )));
     }
     let held = held_bytes(tape, options)?;
@@ -347,8 +315,8 @@ pub fn preflight(tape: &Tape, options: &BakeFileOptions) -> Result<(), BakeError
         return Err(BakeError::Refused(format!(
             "a zarr bake holds each output's shard in memory while it encodes it: shards of {:?} voxels (z, y, x) hold about {}, more than the limit of {}; use a smaller --shard, or pass --allow-large",
             sharding.shard,
-            super::human_bytes(held),
-            super::human_bytes(options.max_held_bytes)
+            super::settings::human_bytes(held),
+            super::settings::human_bytes(options.max_held_bytes)
         )));
     }
     Ok(())
@@ -374,11 +342,11 @@ fn texgraph_attributes(
     t.insert("graph".into(), graph_name.into());
     t.insert(
         "params".into(),
-        serde_json::Value::Object(super::files::params_map(&options.params)),
+        serde_json::Value::Object(super::settings::params_map(&options.params)),
     );
     t.insert(
         "overrides".into(),
-        serde_json::Value::Object(super::files::params_map(&options.overrides)),
+        serde_json::Value::Object(super::settings::params_map(&options.overrides)),
     );
     t.insert(
         "region".into(),
@@ -444,7 +412,7 @@ fn build_array(
     let compressor: Vec<Arc<dyn zarrs::array::codec::api::BytesToBytesCodecTraits>> =
         match options.zarr.compression {
             ZarrCompression::Zstd => vec![Arc::new(ZstdCodec::new(
-                options.zstd.unwrap_or(super::DEFAULT_ZSTD_LEVEL),
+                options.zstd.unwrap_or(super::settings::DEFAULT_ZSTD_LEVEL),
                 false,
             ))],
             ZarrCompression::Blosc => {
@@ -776,7 +744,7 @@ fn ome_attributes(
     }
     let datasets: Vec<serde_json::Value> = (0..levels)
         .map(|level| {
-            let g = super::files::mip_grid(grid, level as u32);
+            let g = super::settings::mip_grid(grid, level as u32);
             let s = g.spacing();
             let mut scale = vec![s[2], s[1], s[0]];
             let mut translation = vec![g.centre(2, 0), g.centre(1, 0), g.centre(0, 0)];
@@ -814,7 +782,7 @@ fn output_groups(
     for output in &tapes[0].outputs {
         let mut attributes = texgraph_attributes(options, tapes[0]);
         if let Some(serde_json::Value::Object(t)) = attributes.get_mut("texgraph") {
-            t.insert("mips".into(), super::files::MIPS_NOTE.into());
+            t.insert("mips".into(), super::settings::MIPS_NOTE.into());
             t.insert("output".into(), output.name.clone().into());
         }
         attributes.insert(
@@ -862,7 +830,7 @@ fn open_levels<'t>(
     let mut planned = Vec::new();
     for (level, tape) in tapes.iter().enumerate() {
         let mut level_options = options.clone();
-        level_options.bake.grid = super::files::mip_grid(&options.bake.grid, level as u32);
+        level_options.bake.grid = super::settings::mip_grid(&options.bake.grid, level as u32);
         let sharding = Sharding::new(
             &level_options.bake.grid,
             options.zarr.chunk,
@@ -945,7 +913,7 @@ pub fn bake_zarr_levels(
 ) -> Result<BakeReport, BakeError> {
     let store_dir = store_path(options)?;
     for level in 0..tapes.len() {
-        let grid = super::files::mip_grid(&options.bake.grid, level as u32);
+        let grid = super::settings::mip_grid(&options.bake.grid, level as u32);
         Sharding::new(&grid, options.zarr.chunk, options.zarr.shard)?;
     }
     check_store(&store_dir)?;
@@ -955,7 +923,7 @@ pub fn bake_zarr_levels(
     })?;
     let store = Arc::new(AtomicStore::new(&store_dir));
     let levels = open_levels(&store, &store_dir, tapes, options)?;
-    let (threads, _) = super::capped_threads(options.bake.threads);
+    let (threads, _) = super::engine::capped_threads(options.bake.threads);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -1098,7 +1066,10 @@ fn zarr_files(
     let [nz, ny, nx] = sharding.shape;
     let compression = match options.zarr.compression {
         ZarrCompression::Zstd => {
-            format!("zstd {}", options.zstd.unwrap_or(super::DEFAULT_ZSTD_LEVEL))
+            format!(
+                "zstd {}",
+                options.zstd.unwrap_or(super::settings::DEFAULT_ZSTD_LEVEL)
+            )
         }
         ZarrCompression::Blosc => "blosc lz4".into(),
         ZarrCompression::None => "uncompressed".into(),

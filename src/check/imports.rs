@@ -22,34 +22,6 @@ pub const MAX_IMPORT_DEPTH: usize = 32;
 /// would be on the main thread's).
 const IMPORT_STACK_BYTES: usize = 16 << 20;
 
-/// An imported file and the `set` values it was checked with (sorted, as bits).
-type ImportKey = (PathBuf, Vec<(String, u64)>);
-/// A checked import: its graph, or its diagnostics.
-type Checked = Result<Arc<CheckedGraph>, Arc<Diagnostics>>;
-
-/// What one check shares with the checks of the files it imports.
-#[derive(Default)]
-pub(crate) struct ImportContext {
-    /// The files being checked, outermost first (canonical paths): an import of one of them is a
-    /// cycle.
-    stack: Vec<PathBuf>,
-    /// Each (file, `set` values) checked once.
-    cache: HashMap<ImportKey, Checked>,
-    /// Every file imported, directly or not, in the order first met (as written, for display
-    /// and for watching).
-    pub(crate) files: Vec<PathBuf>,
-}
-
-impl ImportContext {
-    pub(crate) fn for_root(file: &SourceFile) -> ImportContext {
-        let mut context = ImportContext::default();
-        context
-            .stack
-            .push(std::fs::canonicalize(&file.name).unwrap_or_else(|_| PathBuf::from(&file.name)));
-        context
-    }
-}
-
 /// An Import's checked arguments.
 pub(super) struct ImportArgs<'a> {
     pub file: &'a (String, Span),
@@ -262,11 +234,11 @@ impl Checker {
         set: &[(String, Span, f64)],
         here: &Origin,
     ) -> Option<Checked> {
-        let file = match crate::load::read_source(path) {
+        let file = match crate::source::read_source(path) {
             Ok(file) => file,
             // Too large, or not UTF-8: reported in that file, like its other problems.
-            Err(crate::load::LoadError::Invalid(d)) => return Some(Err(Arc::new(d))),
-            Err(crate::load::LoadError::Io { source, .. }) => {
+            Err(crate::source::LoadError::Invalid(d)) => return Some(Err(Arc::new(d))),
+            Err(crate::source::LoadError::Io { source, .. }) => {
                 self.error(
                     Diagnostic::new(
                         Class::MissingFile,

@@ -29,6 +29,7 @@ use crate::ops::{self, BinaryOp, Curve, Hermite, Ramp, SplineInterpolation};
 use crate::syntax::{self, Text, Value, ValueKind};
 use rustc_hash::FxHashMap as HashMap;
 use smallvec::{smallvec, SmallVec};
+use std::path::PathBuf;
 use std::sync::Arc;
 
 /// Options for checking one graph.
@@ -40,7 +41,7 @@ pub struct CheckOptions {
 
 /// Parses and checks a graph file. On failure every problem found is returned.
 pub fn check(file: Arc<SourceFile>, options: &CheckOptions) -> Result<CheckedGraph, Diagnostics> {
-    let context = imports::ImportContext::for_root(&file);
+    let context = ImportContext::for_root(&file);
     check_with(file, options, context).0
 }
 
@@ -49,8 +50,8 @@ pub fn check(file: Arc<SourceFile>, options: &CheckOptions) -> Result<CheckedGra
 fn check_with(
     file: Arc<SourceFile>,
     options: &CheckOptions,
-    imports: imports::ImportContext,
-) -> (Result<CheckedGraph, Diagnostics>, imports::ImportContext) {
+    imports: ImportContext,
+) -> (Result<CheckedGraph, Diagnostics>, ImportContext) {
     let root = match syntax::parse(&file.text) {
         Ok(root) => root,
         Err(diagnostic) => {
@@ -136,7 +137,36 @@ struct Checker {
     lowered: Vec<Option<NodeId>>,
     written: usize,
     /// The files being checked around this one, and the imports met so far.
-    imports: imports::ImportContext,
+    imports: ImportContext,
+}
+
+/// An imported file and the `set` values it was checked with (sorted, as bits).
+type ImportKey = (PathBuf, Vec<(String, u64)>);
+/// A checked import: its graph, or its diagnostics.
+type Checked = Result<Arc<CheckedGraph>, Arc<Diagnostics>>;
+
+/// What one check shares with the checks of the files it imports (`imports.rs` reads and
+/// checks them; the state is the checker's, kept here with it).
+#[derive(Default)]
+pub(crate) struct ImportContext {
+    /// The files being checked, outermost first (canonical paths): an import of one of them is a
+    /// cycle.
+    stack: Vec<PathBuf>,
+    /// Each (file, `set` values) checked once.
+    cache: HashMap<ImportKey, Checked>,
+    /// Every file imported, directly or not, in the order first met (as written, for display
+    /// and for watching).
+    pub(crate) files: Vec<PathBuf>,
+}
+
+impl ImportContext {
+    pub(crate) fn for_root(file: &SourceFile) -> ImportContext {
+        let mut context = ImportContext::default();
+        context
+            .stack
+            .push(std::fs::canonicalize(&file.name).unwrap_or_else(|_| PathBuf::from(&file.name)));
+        context
+    }
 }
 
 type CheckedParts = (Vec<Output>, Vec<(Text, NodeId)>, usize);

@@ -17,7 +17,7 @@ pub struct BakeArgs {
     size: [usize; 3],
     /// The box baked, X0,Y0,Z0:X1,Y1,Z1 (default: the unit cube 0,0,0:1,1,1).
     #[arg(long, value_name = "X0,Y0,Z0:X1,Y1,Z1", value_parser = parse_region, allow_hyphen_values = true)]
-    region: Option<crate::bake::Region>,
+    region: Option<crate::grid::Region>,
     /// File format.
     #[arg(long, value_enum, default_value_t)]
     format: crate::bake::Format,
@@ -301,7 +301,10 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
         region: args.region.unwrap_or_default(),
     };
     // Precision per instruction for the region the voxel centres lie in.
-    compile_options.extent = Some(crate::Extent::new(grid.region.min, grid.region.max));
+    compile_options.extent = Some(crate::precision::Extent::new(
+        grid.region.min,
+        grid.region.max,
+    ));
     if args.lod && compile_options.spacing.is_none() {
         let spacing = grid.spacing().into_iter().fold(f64::INFINITY, f64::min);
         compile_options.spacing = (spacing > 0.0 && spacing.is_finite()).then_some(spacing);
@@ -312,7 +315,7 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
     let (mut total_voxels, mut total_seconds, mut baked) = (0u64, 0f64, 0usize);
     let mut produced: std::collections::HashSet<PathBuf> = std::collections::HashSet::new();
     for file in &files {
-        let (graph, tape) = match crate::load_tape(file, &check_options, &compile_options) {
+        let (graph, tape) = match crate::load::load_tape(file, &check_options, &compile_options) {
             Ok(loaded) => loaded,
             Err(error) => {
                 let failure = print_load_error(error);
@@ -419,15 +422,15 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
 /// The graph compiled for every level of `grid`'s mip chain, each with its level's footprint
 /// (level of detail for its voxel size).
 fn mip_tapes(
-    graph: &crate::CheckedGraph,
-    compile_options: &crate::CompileOptions,
-    grid: &crate::bake::Grid,
-) -> Result<Vec<crate::Tape>, crate::LoadError> {
+    graph: &crate::graph::CheckedGraph,
+    compile_options: &crate::compile::CompileOptions,
+    grid: &crate::grid::Grid,
+) -> Result<Vec<crate::tape::Tape>, crate::source::LoadError> {
     (0..crate::bake::mip_level_count(grid))
         .map(|level| {
             let mut options = compile_options.clone();
             options.spacing = crate::bake::mip_spacing(grid, level);
-            crate::compile(graph, &options).map_err(crate::LoadError::Invalid)
+            crate::compile::compile(graph, &options).map_err(crate::source::LoadError::Invalid)
         })
         .collect()
 }
@@ -530,7 +533,7 @@ fn warn_about_values(
 /// The per-graph report: files, statistics per output, and the speed line.
 pub fn bake_report(
     file: &Path,
-    grid: &crate::bake::Grid,
+    grid: &crate::grid::Grid,
     report: &crate::bake::BakeReport,
     threads: usize,
     clamps: bool,
@@ -624,7 +627,7 @@ pub fn bake_report(
 fn device_for(
     device: crate::gpu::Device,
     file: &std::path::Path,
-    tape: &crate::Tape,
+    tape: &crate::tape::Tape,
 ) -> crate::gpu::Device {
     if device != crate::gpu::Device::Gpu {
         return crate::gpu::Device::Cpu;

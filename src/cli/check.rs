@@ -15,7 +15,7 @@ pub struct CheckArgs {
     /// Compile for this region (`X0,Y0,Z0:X1,Y1,Z1` or `unbounded`): precision is chosen per
     /// instruction, and the summary gives each output's error bound.
     #[arg(long, value_name = "X0,Y0,Z0:X1,Y1,Z1", value_parser = parse_extent, allow_hyphen_values = true)]
-    extent: Option<crate::Extent>,
+    extent: Option<crate::precision::Extent>,
     #[command(flatten)]
     graph: GraphOptions,
 }
@@ -25,7 +25,7 @@ pub fn check(args: CheckArgs) -> Result<(), Failure> {
     compile_options.extent = args.extent;
     let mut worst: Option<Failure> = None;
     for file in &args.files {
-        match crate::load_tape(file, &check_options, &compile_options) {
+        match crate::load::load_tape(file, &check_options, &compile_options) {
             Ok((graph, tape)) => {
                 let mut text = crate::summary::check_summary(&graph, &tape);
                 if args.tape {

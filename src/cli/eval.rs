@@ -1,7 +1,9 @@
 //! `texgraph eval`: evaluate a graph at one point or at every point of a file.
 
 use super::*;
-use crate::{Real, Tape, Workspace};
+use crate::eval::Workspace;
+use crate::real::Real;
+use crate::tape::Tape;
 use clap::Args;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -25,7 +27,7 @@ pub struct EvalArgs {
     /// error there could exceed --max-error run in f64. Default: the point itself; with
     /// --points, none (every scalar in f32).
     #[arg(long, value_name = "X0,Y0,Z0:X1,Y1,Z1", value_parser = parse_extent, allow_hyphen_values = true)]
-    extent: Option<crate::Extent>,
+    extent: Option<crate::precision::Extent>,
     #[command(flatten)]
     graph: GraphOptions,
 }
@@ -46,10 +48,10 @@ pub fn eval(args: EvalArgs) -> Result<(), Failure> {
     compile_options.extent = args.extent.or_else(|| {
         let c = &args.coordinates;
         (args.points.is_none() && c.len() == 3)
-            .then(|| crate::Extent::new([c[0], c[1], c[2]], [c[0], c[1], c[2]]))
+            .then(|| crate::precision::Extent::new([c[0], c[1], c[2]], [c[0], c[1], c[2]]))
     });
-    let (_, tape) =
-        crate::load_tape(&args.file, &check_options, &compile_options).map_err(print_load_error)?;
+    let (_, tape) = crate::load::load_tape(&args.file, &check_options, &compile_options)
+        .map_err(print_load_error)?;
     if args.double {
         eval_with::<f64>(&tape, &args)
     } else {

@@ -11,7 +11,9 @@ pub mod report;
 pub mod serve;
 pub mod verify;
 
-use crate::{CheckOptions, CompileOptions, LoadError};
+use crate::check::CheckOptions;
+use crate::compile::CompileOptions;
+use crate::source::LoadError;
 use clap::Args;
 use std::io::{BufWriter, IsTerminal, Write};
 
@@ -22,7 +24,7 @@ pub fn parse_spacing(text: &str) -> Result<f64, String> {
     }
 }
 
-pub fn parse_region(text: &str) -> Result<crate::bake::Region, String> {
+pub fn parse_region(text: &str) -> Result<crate::grid::Region, String> {
     let text = text.replace(MINUS, "-");
     let corner = |part: &str| -> Option<[f64; 3]> {
         let v: Vec<f64> = part
@@ -36,7 +38,7 @@ pub fn parse_region(text: &str) -> Result<crate::bake::Region, String> {
         .ok_or_else(|| format!("expected X0,Y0,Z0:X1,Y1,Z1, found `{text}`"))?;
     match (corner(lo), corner(hi)) {
         (Some(min), Some(max)) if (0..3).all(|a| min[a] <= max[a]) => {
-            Ok(crate::bake::Region { min, max })
+            Ok(crate::grid::Region { min, max })
         }
         (Some(_), Some(_)) => Err(format!(
             "each minimum must be at most its maximum in `{text}`"
@@ -76,12 +78,12 @@ pub fn parse_max_error(text: &str) -> Result<f64, String> {
 }
 
 /// `--extent X0,Y0,Z0:X1,Y1,Z1` (or `unbounded`): the region a tape is evaluated over.
-pub fn parse_extent(text: &str) -> Result<crate::Extent, String> {
+pub fn parse_extent(text: &str) -> Result<crate::precision::Extent, String> {
     let text = text.replace(MINUS, "-");
     if text.trim() == "unbounded" {
-        return Ok(crate::Extent::unbounded());
+        return Ok(crate::precision::Extent::unbounded());
     }
-    crate::Extent::parse(&text)
+    crate::precision::Extent::parse(&text)
 }
 
 /// Marks a negative number that clap would mistake for a flag (see `protect_negative_numbers`).

@@ -1,7 +1,9 @@
 //! `texgraph report`: error against run time, the stability survey, the Markdown document.
 
 use super::*;
-use crate::{CheckOptions, CompileOptions, LoadError};
+use crate::check::CheckOptions;
+use crate::compile::CompileOptions;
+use crate::source::LoadError;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -18,7 +20,7 @@ pub struct ReportArgs {
     runs: u64,
     /// The region sampled (default the unit cube).
     #[arg(long, value_name = "X0,Y0,Z0:X1,Y1,Z1", value_parser = parse_region, allow_hyphen_values = true)]
-    region: Option<crate::bake::Region>,
+    region: Option<crate::grid::Region>,
     /// Print JSON (an array of rows) instead of a table.
     #[arg(long)]
     json: bool,
@@ -72,7 +74,7 @@ pub fn report_command(args: ReportArgs) -> Result<(), Failure> {
         write_stdout(|out| out.write_all(crate::report::MARKDOWN_HEADER.as_bytes()))?;
     }
     for file in &args.files {
-        let graph = match crate::load_graph(file, &check_options) {
+        let graph = match crate::load::load_graph(file, &check_options) {
             Ok(graph) => graph,
             Err(error) => {
                 let failure = print_load_error(error);
@@ -181,13 +183,13 @@ pub fn report_command(args: ReportArgs) -> Result<(), Failure> {
 }
 
 /// "all outputs 10, colour 10, vein 8": tape length per output set.
-pub fn tape_lengths(graph: &crate::CheckedGraph) -> String {
+pub fn tape_lengths(graph: &crate::graph::CheckedGraph) -> String {
     let mut parts = Vec::new();
-    if let Ok(tape) = crate::compile(graph, &CompileOptions::default()) {
+    if let Ok(tape) = crate::compile::compile(graph, &CompileOptions::default()) {
         parts.push(format!("all outputs {}", tape.instrs.len()));
     }
     for output in &graph.outputs {
-        if let Ok(tape) = crate::compile(
+        if let Ok(tape) = crate::compile::compile(
             graph,
             &CompileOptions {
                 outputs: vec![output.name.clone()],
@@ -201,7 +203,7 @@ pub fn tape_lengths(graph: &crate::CheckedGraph) -> String {
     parts.join(", ")
 }
 
-pub fn region_text(region: &crate::bake::Region) -> String {
+pub fn region_text(region: &crate::grid::Region) -> String {
     format!(
         "{}, {}, {} .. {}, {}, {}",
         region.min[0], region.min[1], region.min[2], region.max[0], region.max[1], region.max[2]

@@ -405,8 +405,8 @@ fn fractal_gradient(
     w
 }
 
-/// A fractal style's code in the WGSL library (`gshaper_add`'s `style`, the interpreter's
-/// `sub`) and, for Ridged, its offset and sharpness (0 otherwise).
+/// A fractal style's code in the WGSL library (`gshaper_add`'s `style`)
+/// and, for Ridged, its offset and sharpness (0 otherwise).
 pub(crate) fn style_code(style: Style) -> (u32, f64, f64) {
     match style {
         Style::Fbm => (0, 0.0, 0.0),
@@ -657,6 +657,20 @@ fn vec3_literal(v: [f64; 3]) -> String {
     )
 }
 
+/// Validates WGSL with naga (what wgpu itself runs before compiling), with 64-bit floats
+/// allowed: the errors located in the source.
+#[cfg(feature = "gpu")]
+pub fn validate(source: &str) -> Result<(), String> {
+    let module = naga::front::wgsl::parse_str(source).map_err(|e| e.emit_to_string(source))?;
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::FLOAT64,
+    )
+    .validate(&module)
+    .map(|_| ())
+    .map_err(|e| e.emit_to_string(source))
+}
+
 #[cfg(all(test, feature = "gpu"))]
 mod tests {
     use super::*;
@@ -677,7 +691,7 @@ mod tests {
              r.c[0] = f32(p.x + h);\n    return r;\n}\n",
         );
         source.push_str(ENTRY);
-        crate::gpu::validate(&source).unwrap_or_else(|e| panic!("{e}"));
+        validate(&source).unwrap_or_else(|e| panic!("{e}"));
 
         let text = r#"Graph(nodes: {
             "p": Position,
@@ -690,19 +704,19 @@ mod tests {
             "g": Gradient(of: Add("a", "d")),
             "r": ColorRamp(input: Add("a", "b"), stops: [(0.0, (0, 0, 0)), (0.5, (1, 0.5, 0)), (1.0, (1, 1, 1))]),
         }, outputs: { "a": "a", "b": "b", "c": "c", "d": "d", "e": "e", "g": "g", "r": "r" })"#;
-        let graph = crate::check(
-            crate::SourceFile::new("every.ron", text),
-            &crate::CheckOptions::default(),
+        let graph = crate::check::check(
+            crate::diagnostic::SourceFile::new("every.ron", text),
+            &crate::check::CheckOptions::default(),
         )
         .unwrap_or_else(|e| panic!("{}", e.render_plain()));
-        let options = crate::CompileOptions {
-            extent: Some(crate::Extent::new([-1e6; 3], [1e6; 3])),
+        let options = crate::compile::CompileOptions {
+            extent: Some(crate::precision::Extent::new([-1e6; 3], [1e6; 3])),
             ..Default::default()
         };
-        let tape = crate::compile(&graph, &options).expect("compiles");
+        let tape = crate::compile::compile(&graph, &options).expect("compiles");
         assert!(tape.wide_instructions() > 0, "{tape}");
         let shader = generate(&tape);
-        crate::gpu::validate(&shader.source).unwrap_or_else(|e| panic!("{e}"));
+        validate(&shader.source).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(shader.channels, tape.channels());
     }
 }

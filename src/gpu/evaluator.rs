@@ -3,7 +3,7 @@
 //! grid (`bake_window`: positions made on the GPU, no upload).
 
 use super::codegen::{self, TABLE_WORDS};
-use super::GpuError;
+use super::error::GpuError;
 use crate::tape::Tape;
 use std::sync::{Arc, Mutex, OnceLock};
 use wgpu::util::DeviceExt;
@@ -127,8 +127,6 @@ pub struct GpuEvaluator {
     bake: wgpu::ComputePipeline,
     points: wgpu::ComputePipeline,
     tables: wgpu::Buffer,
-    /// The interpreter's program and constants (bindings 4 and 5), for an interpreted tape.
-    program: Option<(wgpu::Buffer, wgpu::Buffer)>,
     channels: usize,
     /// One evaluation at a time per evaluator (buffers are made per call).
     busy: Mutex<()>,
@@ -147,29 +145,12 @@ impl GpuEvaluator {
     /// Generates and compiles `tape`'s shader on the process's GPU device. Fails when no
     /// adapter is usable or the shader does not compile (never panics).
     pub fn new(tape: &Tape) -> Result<GpuEvaluator, GpuError> {
-        GpuEvaluator::build(tape, codegen::generate(tape), None)
+        GpuEvaluator::build(tape, codegen::generate(tape))
     }
 
-    /// `tape` run by the WGSL tape interpreter (`gpu/interpreter.rs`) instead of its generated
-    /// shader: the alternative the GPU path was measured against (docs/performance.md, "GPU";
-    /// `examples/gpu_strategies.rs`). Without level of detail per point.
-    pub fn new_interpreted(tape: &Tape) -> Result<GpuEvaluator, GpuError> {
-        let interpreted = super::interpreter::generate(tape);
-        let shader = codegen::Shader {
-            source: interpreted.source,
-            channels: interpreted.channels,
-        };
-        let data = (interpreted.program, interpreted.constants);
-        GpuEvaluator::build(tape, shader, Some(data))
-    }
-
-    fn build(
-        tape: &Tape,
-        shader: codegen::Shader,
-        program: Option<(Vec<u32>, Vec<f64>)>,
-    ) -> Result<GpuEvaluator, GpuError> {
+    fn build(tape: &Tape, shader: codegen::Shader) -> Result<GpuEvaluator, GpuError> {
         let context = context()?;
-        super::validate(&shader.source).map_err(GpuError::Shader)?;
+        codegen::validate(&shader.source).map_err(GpuError::Shader)?;
         let device = &context.device;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -187,15 +168,12 @@ impl GpuEvaluator {
             count: None,
         };
         let read = wgpu::BufferBindingType::Storage { read_only: true };
-        let mut entries = vec![
+        let entries = vec![
             entry(0, read),
             entry(1, read),
             entry(2, wgpu::BufferBindingType::Uniform),
             entry(3, wgpu::BufferBindingType::Storage { read_only: false }),
         ];
-        if program.is_some() {
-            entries.extend([entry(4, read), entry(5, read)]);
-        }
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("texgraph"),
             entries: &entries,
@@ -229,25 +207,6 @@ impl GpuEvaluator {
                 .collect::<Vec<u8>>(),
             usage: wgpu::BufferUsages::STORAGE,
         });
-        let bytes = |words: Vec<u8>, label| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents: &words,
-                usage: wgpu::BufferUsages::STORAGE,
-            })
-        };
-        let program = program.map(|(words, constants)| {
-            (
-                bytes(
-                    words.iter().flat_map(|w| w.to_le_bytes()).collect(),
-                    "program",
-                ),
-                bytes(
-                    constants.iter().flat_map(|c| c.to_le_bytes()).collect(),
-                    "constants",
-                ),
-            )
-        });
         if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Shader(error.to_string()));
         }
@@ -257,7 +216,6 @@ impl GpuEvaluator {
             bake,
             points,
             tables,
-            program,
             channels: shader.channels,
             busy: Mutex::new(()),
         })
@@ -340,8 +298,8 @@ impl GpuEvaluator {
     /// (`segments × channels × layout.segment_len` values).
     pub fn bake_window(
         &self,
-        grid: &crate::bake::Grid,
-        layout: &crate::bake::Layout,
+        grid: &crate::grid::Grid,
+        layout: &crate::grid::Layout,
         first: u64,
         data: &mut [f32],
     ) -> Result<(), GpuError> {
@@ -351,8 +309,8 @@ impl GpuEvaluator {
     /// [`GpuEvaluator::bake_window`], reading the results back only with `read_back`.
     fn window(
         &self,
-        grid: &crate::bake::Grid,
-        layout: &crate::bake::Layout,
+        grid: &crate::grid::Grid,
+        layout: &crate::grid::Layout,
         first: u64,
         data: &mut [f32],
         read_back: bool,
@@ -393,8 +351,8 @@ impl GpuEvaluator {
     /// for `threads` threads), each read back into one reused buffer, or with `keep` left on
     /// the GPU (the results buffer is written and nothing is copied back: the kernel's own
     /// speed, benches `gpu/marble_512`).
-    pub fn eval_grid(&self, grid: &crate::bake::Grid, keep: bool) -> Result<(), GpuError> {
-        let Some(layout) = crate::bake::Layout::new(grid, self.channels.max(1), 1) else {
+    pub fn eval_grid(&self, grid: &crate::grid::Grid, keep: bool) -> Result<(), GpuError> {
+        let Some(layout) = crate::grid::Layout::new(grid, self.channels.max(1), 1) else {
             return Ok(());
         };
         let block = self.channels * layout.segment_len;
@@ -448,15 +406,12 @@ impl GpuEvaluator {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let mut entries = vec![
+        let entries = vec![
             binding(0, &self.tables),
             binding(1, &inputs),
             binding(2, &uniform),
             binding(3, &results),
         ];
-        if let Some((program, constants)) = &self.program {
-            entries.extend([binding(4, program), binding(5, constants)]);
-        }
         let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("texgraph"),
             layout: &self.layout,

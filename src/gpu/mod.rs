@@ -8,9 +8,9 @@
 //! buffers, `bake_window` a bake's windows with the positions made on the GPU.
 
 pub mod codegen;
+mod error;
 #[cfg(feature = "gpu")]
 mod evaluator;
-pub mod interpreter;
 #[cfg(feature = "gpu")]
 pub use evaluator::GpuEvaluator;
 #[cfg(not(feature = "gpu"))]
@@ -18,26 +18,13 @@ mod stub;
 #[cfg(not(feature = "gpu"))]
 pub use stub::GpuEvaluator;
 
-/// Why the GPU path cannot run (the caller falls back to the CPU or reports it).
-#[derive(Clone, Debug, thiserror::Error)]
-pub enum GpuError {
-    /// No usable adapter (or a build without the `gpu` feature).
-    #[error("no usable GPU: {0}")]
-    NoAdapter(String),
-    /// The generated shader did not validate or compile (a texgraph bug: please report it).
-    #[error("the GPU shader does not compile: {0}")]
-    Shader(String),
-    /// Something the GPU path does not run.
-    #[error("the GPU path does not run {0}")]
-    Unsupported(String),
-    /// The device failed during an evaluation.
-    #[error("GPU error: {0}")]
-    Device(String),
-}
+#[cfg(feature = "gpu")]
+pub use codegen::validate;
+pub use error::GpuError;
 
 /// The GPU evaluator of `tape`, compiled once per tape fingerprint in this process (a bake of
 /// many windows, mip levels and repeated bakes of one graph share it).
-pub fn evaluator_for(tape: &crate::Tape) -> Result<std::sync::Arc<GpuEvaluator>, GpuError> {
+pub fn evaluator_for(tape: &crate::tape::Tape) -> Result<std::sync::Arc<GpuEvaluator>, GpuError> {
     use std::collections::HashMap;
     use std::sync::{Arc, Mutex, OnceLock};
     static CACHE: OnceLock<Mutex<HashMap<u64, Arc<GpuEvaluator>>>> = OnceLock::new();
@@ -79,20 +66,6 @@ pub enum Device {
     Gpu,
     /// The GPU when one is usable, else the CPU (which one is said on stderr).
     Auto,
-}
-
-/// Validates WGSL with naga (what wgpu itself runs before compiling), with 64-bit floats
-/// allowed: the errors located in the source.
-#[cfg(feature = "gpu")]
-pub fn validate(source: &str) -> Result<(), String> {
-    let module = naga::front::wgsl::parse_str(source).map_err(|e| e.emit_to_string(source))?;
-    naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::FLOAT64,
-    )
-    .validate(&module)
-    .map(|_| ())
-    .map_err(|e| e.emit_to_string(source))
 }
 
 /// One adapter as `texgraph devices` prints it.

@@ -1,7 +1,7 @@
 //! [`GpuEvaluator`] in a build without the `gpu` feature: it cannot be made (`new` says why),
 //! so every caller takes its CPU path.
 
-use super::GpuError;
+use super::error::GpuError;
 use crate::tape::Tape;
 
 /// Never constructed without the `gpu` feature.
@@ -15,10 +15,6 @@ impl GpuEvaluator {
         Err(GpuError::NoAdapter(
             "this texgraph was built without the `gpu` cargo feature".into(),
         ))
-    }
-
-    pub fn new_interpreted(_tape: &Tape) -> Result<GpuEvaluator, GpuError> {
-        Self::new(_tape)
     }
 
     pub(super) fn new_unavailable() -> Result<String, GpuError> {
@@ -54,14 +50,14 @@ impl GpuEvaluator {
         match self.never {}
     }
 
-    pub fn eval_grid(&self, _grid: &crate::bake::Grid, _keep: bool) -> Result<(), GpuError> {
+    pub fn eval_grid(&self, _grid: &crate::grid::Grid, _keep: bool) -> Result<(), GpuError> {
         match self.never {}
     }
 
     pub fn bake_window(
         &self,
-        _grid: &crate::bake::Grid,
-        _layout: &crate::bake::Layout,
+        _grid: &crate::grid::Grid,
+        _layout: &crate::grid::Layout,
         _first: u64,
         _data: &mut [f32],
     ) -> Result<(), GpuError> {

@@ -48,19 +48,15 @@
 use multiversion::multiversion;
 use multiversion::target::target_cfg_f;
 
-use super::fractal::LaneOctaves;
+use super::kernel::{
+    octaves_grad, reference_batch, reference_fractal, reference_grad_batch, LatticeKernel,
+    NoiseKernel,
+};
+use super::lanes::{canonical_grad, canonical_nan, CHUNK, SMALL};
 use super::lattice::TWO52;
-use super::{canonical_nan, LatticeKernel, NoiseKernel};
+use super::octaves::{LaneOctaves, OctavePeriods};
+use super::period::Period;
 use crate::real::Real;
-
-/// Lanes per chunk: the stack arrays hold this many (cell bytes, fractions, hashes: 4.8 KB in
-/// f32, 7.8 KB in f64, L1-resident). The interpreter's chunks are this size too.
-pub(super) const CHUNK: usize = 256;
-
-/// Below this many lanes a batch runs the per-point kernels: the SIMD path's setup (dispatch,
-/// zeroing the stack arrays) costs more than it saves on one lane. (Fractal sums then take their
-/// octaves as lanes: [`fractal_octave_lanes`].)
-pub(super) const SMALL: usize = 8;
 
 /// Most octaves [`fractal_octave_lanes`] takes as lanes (the octave limit of graph files).
 const OCTAVE_LANES: usize = 32;
@@ -75,7 +71,7 @@ pub(super) fn sample<S: Real, K: LatticeKernel>(
     out: &mut [S],
 ) {
     if out.len() < SMALL {
-        super::reference_batch(|p| k.eval(p), x, y, z, out);
+        reference_batch(|p| k.eval(p), x, y, z, out);
     } else {
         sample_lanes(k, x, y, z, out);
     }
@@ -245,7 +241,7 @@ impl<S: Real, const N: usize> Lattice<S, N> {
             if VALUE {
                 n[i] = v;
             }
-            let d = super::derivative::canonical_grad(d);
+            let d = canonical_grad(d);
             (gx[i], gy[i], gz[i]) = (d[0], d[1], d[2]);
         }
     }
@@ -510,7 +506,7 @@ simd_targets! {
 /// [`sample`] for batches of [`SMALL`] lanes or more.
 fn sample_lanes<S: Real, K: LatticeKernel>(k: &K, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
     if !target_cfg_f!(target_feature = "sse4.1") {
-        return super::reference_batch(|p| k.eval(p), x, y, z, out);
+        return reference_batch(|p| k.eval(p), x, y, z, out);
     }
     let shuffle = target_cfg_f!(target_feature = "avx512vbmi") && !table_reads_forced();
     // Hash bits tested in bytes where AVX-512BW compares bytes into masks (see `LatticeKernel::interior`).
@@ -544,7 +540,7 @@ fn fractal_lanes<S: Real, K: LatticeKernel, const TURB: bool>(
     out: &mut [S],
 ) {
     if !target_cfg_f!(target_feature = "sse4.1") {
-        return super::reference_fractal::<S, TURB>(|p| k.eval(p), freqs, amps, x, y, z, out);
+        return reference_fractal::<S, TURB>(|p| k.eval(p), freqs, amps, x, y, z, out);
     }
     let shuffle = target_cfg_f!(target_feature = "avx512vbmi") && !table_reads_forced();
     const WIDE: bool = !target_cfg_f!(target_feature = "avx512bw"); // see `sample_lanes`
@@ -688,7 +684,7 @@ fn grad_lanes<S: Real, K: LatticeKernel, const VALUE: bool>(
     gz: &mut [S],
 ) {
     if !target_cfg_f!(target_feature = "sse4.1") {
-        return super::derivative::reference_grad_batch(k, None, [x, y, z], n, [gx, gy, gz]);
+        return reference_grad_batch(k, None, [x, y, z], n, [gx, gy, gz]);
     }
     let shuffle = target_cfg_f!(target_feature = "avx512vbmi") && !table_reads_forced();
     const WIDE: bool = !target_cfg_f!(target_feature = "avx512bw"); // see `sample_lanes`
@@ -742,11 +738,11 @@ fn fbm_grad_lanes<S: Real, K: LatticeKernel>(
     oy: &mut [f64],
     oz: &mut [f64],
 ) {
-    use super::fractal::Style;
+    use super::octaves::Style;
     if !target_cfg_f!(target_feature = "sse4.1") {
         let out = [ox, oy, oz];
-        let periods = super::derivative::OctavePeriods::None;
-        return super::derivative::octaves_grad::<S, K>(k, freqs, amps, periods, Style::Fbm, [x, y, z], out);
+        let periods = OctavePeriods::None;
+        return octaves_grad::<S, K>(k, freqs, amps, periods, Style::Fbm, [x, y, z], out);
     }
     let shuffle = target_cfg_f!(target_feature = "avx512vbmi") && !table_reads_forced();
     const WIDE: bool = !target_cfg_f!(target_feature = "avx512bw"); // see `sample_lanes`
@@ -799,7 +795,7 @@ fn fractal_octave_lanes<S: Real, K: LatticeKernel, const TURB: bool>(
     let n = freqs.len().min(amps.len());
     if !target_cfg_f!(target_feature = "sse4.1") || n > OCTAVE_LANES {
         let mut out = [S::ZERO];
-        super::reference_fractal::<S, TURB>(|p| k.eval(p), freqs, amps, &[p[0]], &[p[1]], &[p[2]], &mut out);
+        reference_fractal::<S, TURB>(|p| k.eval(p), freqs, amps, &[p[0]], &[p[1]], &[p[2]], &mut out);
         return out[0];
     }
     const WIDE: bool = !target_cfg_f!(target_feature = "avx512bw"); // see `sample_lanes`
@@ -846,7 +842,7 @@ pub(super) struct CellularTables<'a> {
     pub perm: &'a [u8; 512],
     pub features: &'a [[f32; 256]; 3],
     pub values: &'a [f32; 256],
-    pub params: super::Cellular,
+    pub params: super::cellular::Cellular,
 }
 
 /// Cellular noise over a batch, `out[i]` = `cellular::sample(p_i)` bit for bit: the 27 nearest
@@ -890,7 +886,7 @@ fn cellular_lanes<S: Real, const METRIC: u8>(
         canonical_nan(cellular::sample::<S>(t.perm, t.features, t.values, t.params, None, p))
     };
     if !target_cfg_f!(target_feature = "sse4.1") {
-        return super::reference_batch(point, x, y, z, out);
+        return reference_batch(point, x, y, z, out);
     }
     let uses_f2 = !matches!(t.params.value, CellularValue::F1 | CellularValue::CellValue);
     let jitter = t.params.jitter();
@@ -1361,7 +1357,7 @@ pub(super) fn simplex<S: Real>(
 ) {
     use super::simplex as sx;
     if !target_cfg_f!(target_feature = "sse4.1") {
-        return super::reference_batch(|p| sx::sample(perm, p), x, y, z, out);
+        return reference_batch(|p| sx::sample(perm, p), x, y, z, out);
     }
     let shuffle = target_cfg_f!(target_feature = "avx512vbmi") && !table_reads_forced();
     simplex_chunks(perm, signs, [x, y, z], out, shuffle);
@@ -1471,14 +1467,14 @@ fn scaled_inside(bounds: Option<(f64, f64)>, f: f64, p: f64) -> bool {
 /// `out[i] = k.sample_periodic(p_i, period)` bit for bit (see [`periodic_octaves`]).
 pub(super) fn periodic<S: Real, K: LatticeKernel>(
     k: &K,
-    period: super::Period,
+    period: Period,
     x: &[f64],
     y: &[f64],
     z: &[f64],
     out: &mut [S],
 ) {
     if out.len() < SMALL || period.iter().any(|&p| p == 0 || p > 1 << 52) {
-        return super::reference_batch(|p| k.sample_periodic(p, period), x, y, z, out);
+        return reference_batch(|p| k.sample_periodic(p, period), x, y, z, out);
     }
     periodic_octaves::<S, K, false, false>(k, &[1.0], &[1.0], &[period], x, y, z, out);
 }
@@ -1490,7 +1486,7 @@ pub(super) fn periodic_fractal<S: Real, K: LatticeKernel, const TURB: bool>(
     k: &K,
     freqs: &[f64],
     amps: &[f64],
-    periods: &[super::Period],
+    periods: &[Period],
     x: &[f64],
     y: &[f64],
     z: &[f64],
@@ -1527,7 +1523,7 @@ fn periodic_octaves<S: Real, K: LatticeKernel, const ACC: bool, const TURB: bool
     k: &K,
     freqs: &[f64],
     amps: &[f64],
-    periods: &[super::Period],
+    periods: &[Period],
     x: &[f64],
     y: &[f64],
     z: &[f64],

@@ -350,7 +350,7 @@ pub(super) fn finish_grad<S: Real>(
 /// of the largest |component|, the first of equals (as [`distance`]'s `max` keeps the first).
 #[inline(always)]
 fn distance_grad<S: Real>(metric: Metric, dist: S, d: [S; 3]) -> [S; 3] {
-    use super::derivative::sign;
+    use super::lanes::sign;
     match metric {
         Metric::Euclidean => {
             let r = dist.sqrt();

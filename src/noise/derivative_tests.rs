@@ -6,6 +6,7 @@
 use super::tests::{batch_pool, cellular, planes, with_table_reads};
 use super::*;
 
+use crate::real::Real;
 use CellularValue::{CellValue, Edge, F2MinusF1, F1, F2};
 use Metric::{Chebyshev, Euclidean, Manhattan};
 

@@ -84,7 +84,7 @@ pub(super) fn interior<S: Real>(grads: &[[f32; 3]; 256], h: [u8; 8], frac: [S; 3
 
 /// [`interior`]'s value (its bits, when `VALUE`; else 0) and its gradient with respect to the
 /// fractions (NaN not made canonical): the product rule on the trilinear blend (see
-/// `derivative::blend_slopes`), each corner's dot product having the corner's unit vector as
+/// `lattice::blend_slopes`), each corner's dot product having the corner's unit vector as
 /// its gradient (blended per component), the weights smoothstep's.
 #[inline(always)]
 pub(super) fn interior_grad<S: Real, const VALUE: bool>(
@@ -116,10 +116,10 @@ pub(super) fn interior_grad<S: Real, const VALUE: bool>(
     });
     let s = frac.map(smoothstep);
     let ds = frac.map(smoothstep_slope);
-    let slopes = super::derivative::blend_slopes(corners, s, ds);
+    let slopes = super::lattice::blend_slopes(corners, s, ds);
     let grad = std::array::from_fn(|a| {
         let component = std::array::from_fn(|c| S::from_f64(g(c)[a] as f64));
-        super::derivative::trilerp(s, component) + slopes[a]
+        super::lattice::trilerp(s, component) + slopes[a]
     });
     (value, grad)
 }

@@ -157,3 +157,62 @@ pub(super) fn corner_hashes_wrapped(
         }
     })
 }
+
+/// The weight-slope part of the gradient of the trilinear blend every lattice basis evaluates,
+/// `lerp(s_z, lerp(s_y, lerp(s_x, h0, h1), lerp(s_x, h2, h3)), lerp(s_y, lerp(s_x, h4, h5),
+/// lerp(s_x, h6, h7)))` (corner `[dx + 2 dy + 4 dz]`), where the weight `s_a` depends on axis
+/// a alone with slope `ds_a`. By the product rule through the lerps (`lerp(t, a, b) =
+/// a + t (b - a)` has gradient `lerp(t, ∇a, ∇b) + (b - a) ∇t`), the blend's gradient is the
+/// blend of the corners' gradients (`trilerp` of each component, or the same sum weighted
+/// otherwise; 0 for value noise's constant corners) plus this:
+///
+/// - x: `ds_x · lerp(s_z, lerp(s_y, h1 - h0, h3 - h2), lerp(s_y, h5 - h4, h7 - h6))`;
+/// - y: `ds_y · lerp(s_z, x23 - x01, x67 - x45)` with `x01` the x lerp of corners 0 and 1,
+///   and so on;
+/// - z: `ds_z · (y1 - y0)` with `y0`, `y1` the two y lerps.
+#[inline(always)]
+pub(super) fn blend_slopes<S: Real>(h: [S; 8], s: [S; 3], ds: [S; 3]) -> [S; 3] {
+    let [u, v, w] = s;
+    let x01 = lerp(u, h[0], h[1]);
+    let x23 = lerp(u, h[2], h[3]);
+    let x45 = lerp(u, h[4], h[5]);
+    let x67 = lerp(u, h[6], h[7]);
+    let y0 = lerp(v, x01, x23);
+    let y1 = lerp(v, x45, x67);
+    let dx = lerp(
+        w,
+        lerp(v, h[1] - h[0], h[3] - h[2]),
+        lerp(v, h[5] - h[4], h[7] - h[6]),
+    );
+    [
+        ds[0] * dx,
+        ds[1] * lerp(w, x23 - x01, x67 - x45),
+        ds[2] * (y1 - y0),
+    ]
+}
+
+/// The trilinear blend of eight corner values in the lattice bases' lerp order.
+#[inline(always)]
+pub(super) fn trilerp<S: Real>([u, v, w]: [S; 3], h: [S; 8]) -> S {
+    lerp(
+        w,
+        lerp(v, lerp(u, h[0], h[1]), lerp(u, h[2], h[3])),
+        lerp(v, lerp(u, h[4], h[5]), lerp(u, h[6], h[7])),
+    )
+}
+
+/// The eight trilinear weights `W_c` of the blend (`Σ_c W_c h_c` is [`trilerp`] in exact
+/// arithmetic), corner `[dx + 2 dy + 4 dz]`.
+#[inline(always)]
+pub(super) fn corner_weights<S: Real>([u, v, w]: [S; 3]) -> [S; 8] {
+    let one = S::ONE;
+    let (u0, v0, w0) = (one - u, one - v, one - w);
+    let yz = [v0 * w0, v * w0, v0 * w, v * w];
+    std::array::from_fn(|c| {
+        if c & 1 == 1 {
+            u * yz[c >> 1]
+        } else {
+            u0 * yz[c >> 1]
+        }
+    })
+}

@@ -207,7 +207,7 @@ fn fade_slope<S: Real>(t: S, t1: S) -> S {
 
 /// [`interior`]'s value (its bits, when `VALUE`; else 0) and its gradient with respect to the
 /// fractions (NaN not made canonical): the product rule on the trilinear blend (see
-/// `derivative::blend_slopes`). Each corner's `grad` is `±u ± v` with u and v two of the
+/// `lattice::blend_slopes`). Each corner's `grad` is `±u ± v` with u and v two of the
 /// offset's components, so its gradient has ±1 on those two axes: the corner gradients' blend
 /// is `Σ_c ±W_c` per axis, the trilinear weights signed and routed by the same hash bit tests as
 /// [`grad_select`] (selects, no table reads, straight lane code).
@@ -247,8 +247,8 @@ pub(super) fn interior_grad<S: Real, const WIDE: bool, const VALUE: bool>(
     });
     let s = [fade(x), fade(y), fade(z)];
     let ds = [fade_slope(x, x1), fade_slope(y, y1), fade_slope(z, z1)];
-    let slopes = super::derivative::blend_slopes(corners, s, ds);
-    let weights = super::derivative::corner_weights(s);
+    let slopes = super::lattice::blend_slopes(corners, s, ds);
+    let weights = super::lattice::corner_weights(s);
     let mut g = [S::ZERO; 3];
     for (&hash, &weight) in h.iter().zip(&weights) {
         let corner = if WIDE {

@@ -1,7 +1,12 @@
+use super::kernel::LatticeKernel;
+use super::kernels::GradientKernel;
+use super::kernels::PerlinKernel;
+use super::kernels::ValueKernel;
 use super::lattice::lattice;
 use super::rng::{shuffled_permutation, SplitMix64, GRAD_SALT, PERM_SALT, VALUE_SALT};
 use super::simplex;
 use super::*;
+use crate::real::Real;
 
 const BASES: [Basis; 4] = [
     Basis::Perlin,
@@ -1216,7 +1221,7 @@ pub(super) fn has_vbmi() -> bool {
 #[cfg(target_arch = "x86_64")]
 #[test]
 fn byte_shuffle_hashes_match_the_paired_hashes() {
-    use super::batch::CHUNK;
+    use super::lanes::CHUNK;
     use super::lattice::corner_hashes_paired;
     if !has_vbmi() {
         eprintln!(
@@ -1292,7 +1297,8 @@ fn byte_lookup_reads_the_whole_table() {
 /// path does) agree, whichever of them this CPU's dispatch runs.
 #[test]
 fn both_forms_of_the_lane_loop_agree() {
-    use super::batch::{Lattice, CHUNK};
+    use super::batch::Lattice;
+    use super::lanes::CHUNK;
     fn run<S: Real>(t: &NoiseTable, pts: &[[f64; 3]]) {
         match t.basis {
             Basis::Perlin => run_kernel::<S, _>(

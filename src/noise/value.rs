@@ -86,7 +86,7 @@ pub(super) fn white<S: Real>(perm: &[u8; 512], values: &[f32; 256], p: [f64; 3])
 
 /// [`interior`]'s value (its bits, when `VALUE`; else 0) and its gradient with respect to the
 /// fractions (NaN not made canonical): the corner values are constants, so only the weights'
-/// slopes remain (`derivative::blend_slopes`): 1 for Linear (inside the cell; on a
+/// slopes remain (`lattice::blend_slopes`): 1 for Linear (inside the cell; on a
 /// face, this cell's side), `6t(1 - t)` for Smooth.
 #[inline(always)]
 pub(super) fn interior_grad<S: Real, const SMOOTH: bool, const VALUE: bool>(
@@ -102,7 +102,7 @@ pub(super) fn interior_grad<S: Real, const SMOOTH: bool, const VALUE: bool>(
     let weight = |t: S| if SMOOTH { smoothstep(t) } else { t };
     let slope = |t: S| if SMOOTH { smoothstep_slope(t) } else { S::ONE };
     let corners: [S; 8] = std::array::from_fn(|i| S::from_f64(values[h[i] as usize] as f64));
-    let g = super::derivative::blend_slopes(corners, frac.map(weight), frac.map(slope));
+    let g = super::lattice::blend_slopes(corners, frac.map(weight), frac.map(slope));
     // Linear weights' slopes are the constant 1, so a NaN fraction would not reach its own
     // axis' component: make it NaN (as every other basis' components are then).
     let bad = frac[0].is_nan() | frac[1].is_nan() | frac[2].is_nan();

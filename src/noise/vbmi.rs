@@ -21,7 +21,7 @@ use std::arch::x86_64::{
     _mm512_permutex2var_epi8, _mm512_set1_epi8, _mm512_storeu_si512,
 };
 
-use super::batch::CHUNK;
+use super::lanes::CHUNK;
 
 /// Lanes per vector: bytes per zmm register.
 const V: usize = 64;

@@ -211,44 +211,6 @@ impl Plan {
     }
 }
 
-/// The largest |f32 − f64| of `tape` (compiled plain) on [`SAMPLES`] points spread over
-/// `extent` (one jittered point per cell of a 16³ lattice; fixed, so compiles are
-/// reproducible); non-finite disagreements count as infinite.
-pub(crate) fn sampled_error(tape: &crate::Tape, extent: &Extent) -> f64 {
-    let mut state = 0x9e37_79b9_7f4a_7c15u64;
-    let mut next = || {
-        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    };
-    let mut planes: [Vec<f64>; 3] = Default::default();
-    for i in 0..SAMPLES {
-        let cell = [i % 16, (i / 16) % 16, i / 256];
-        for c in 0..3 {
-            let t = (cell[c] as f64 + next()) / 16.0;
-            planes[c].push(extent.min[c] + t * (extent.max[c] - extent.min[c]));
-        }
-    }
-    let channels = tape.channels();
-    let mut a = vec![0f32; channels * SAMPLES];
-    let mut b = vec![0f64; channels * SAMPLES];
-    let [x, y, z] = &planes;
-    tape.eval_batch(&mut crate::Workspace::new(), x, y, z, &mut a);
-    tape.eval_batch(&mut crate::Workspace::new(), x, y, z, &mut b);
-    a.iter().zip(&b).fold(0.0f64, |m, (s, r)| {
-        let d = (*s as f64 - r).abs();
-        if d.is_nan() && !(s.is_nan() && r.is_nan()) {
-            f64::INFINITY
-        } else if d.is_nan() {
-            m
-        } else {
-            m.max(d)
-        }
-    })
-}
-
 /// What the analysis knows about each live node.
 struct Facts<'g> {
     graph: &'g CheckedGraph,

@@ -1,7 +1,7 @@
 //! How much level of detail per pixel buys a render: the same scene at one sample per pixel
 //! with and without it, against a many-sample render without it (the pixel's true average,
 //! up to the reference's own noise), in RMS error and in texture time. `examples/horizon_lod.rs`
-//! prints these figures for `graphs/scenes/horizon.ron`; `tests/render.rs` pins that level of
+//! prints these figures for `graphs/scenes/horizon.ron`; `tests/it/render.rs` pins that level of
 //! detail brings a render closer to its reference.
 
 use super::{render, RenderError, RenderLod, RenderOptions, RenderedImage, Scene};

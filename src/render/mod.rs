@@ -8,7 +8,7 @@
 //!
 //! Textures are evaluated only at ray hits, in batches: a tile's primary rays are traced first,
 //! then each material binding's compiled tape runs once over all of the tile's hit points
-//! ([`Tape::eval_batch`](crate::Tape::eval_batch), f32), then the hits are shaded. Only the
+//! ([`Tape::eval_batch`](crate::tape::Tape::eval_batch), f32), then the hits are shaded. Only the
 //! outputs a scene binds are compiled, and a graph file used with the same overrides by several
 //! materials or objects is checked and compiled once. Tiles are rendered in parallel (rayon);
 //! the image does not depend on the thread count.
@@ -73,12 +73,14 @@
 //! - Transforms: a list of `Translate(x, y, z)`, `Rotate(axis: (x, y, z), degrees: d)`,
 //!   `Scale(s)` or `Scale((x, y, z))`, applied in order (the first one first).
 
+mod error;
 pub mod geometry;
 pub mod lod_figures;
 pub mod scene;
 pub mod shade;
 pub mod teapot;
 
+pub use error::{RenderError, MAX_PIXELS, MAX_SAMPLES, MAX_SIDE};
 pub use scene::{
     load_scene, BumpDesc, ChannelDesc, CompiledTexture, HeightDesc, HeightTexture, LightDesc,
     MaterialDesc, ObjectDesc, PreviewBump, PreviewDefaults, PreviewObject, Scene, SceneDesc,
@@ -86,8 +88,8 @@ pub use scene::{
 };
 pub use shade::Counters;
 
-use crate::diagnostic::Diagnostics;
-use crate::load::LoadError;
+use error::check_samples;
+use error::check_size;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::io::IsTerminal;
@@ -99,36 +101,6 @@ use std::time::{Duration, Instant};
 pub const DEFAULT_SIZE: (u32, u32) = (480, 360);
 /// Samples per pixel when neither the command line nor the scene gives a number.
 pub const DEFAULT_SAMPLES: u32 = 4;
-/// Longest image side.
-pub const MAX_SIDE: u32 = 16384;
-/// Most pixels in an image.
-pub const MAX_PIXELS: u64 = 64 << 20;
-/// Most samples per pixel.
-pub const MAX_SAMPLES: u32 = 1024;
-
-pub(crate) fn check_size(width: u32, height: u32) -> Result<(), String> {
-    if width == 0 || height == 0 || width > MAX_SIDE || height > MAX_SIDE {
-        return Err(format!(
-            "the image size is {width}×{height}; each side must be 1 to {MAX_SIDE} pixels"
-        ));
-    }
-    if width as u64 * height as u64 > MAX_PIXELS {
-        return Err(format!(
-            "the image size is {width}×{height}; images are limited to {MAX_PIXELS} pixels"
-        ));
-    }
-    Ok(())
-}
-
-pub(crate) fn check_samples(samples: u32) -> Result<(), String> {
-    if samples == 0 || samples > MAX_SAMPLES {
-        return Err(format!(
-            "{samples} samples per pixel; it must be 1 to {MAX_SAMPLES}"
-        ));
-    }
-    Ok(())
-}
-
 /// How to render.
 #[derive(Clone, Debug, Default)]
 pub struct RenderOptions {
@@ -154,7 +126,7 @@ pub struct RenderOptions {
 }
 
 /// Level of detail per pixel: each texture point keeps only the fractal octaves its own
-/// footprint resolves ([`Tape::eval_batch_lod`](crate::Tape::eval_batch_lod)). The footprint
+/// footprint resolves ([`Tape::eval_batch_lod`](crate::tape::Tape::eval_batch_lod)). The footprint
 /// of a sample is its pixel's cone at the hit (ray differentials: distance and incidence)
 /// carried into texture space through the object's and the texture's transforms, divided by
 /// the square root of the samples per pixel (each sample covers that share of its pixel).
@@ -202,63 +174,6 @@ impl Cancel {
 
     pub fn is_cancelled(&self) -> bool {
         self.counter.load(std::sync::atomic::Ordering::Acquire) != self.at
-    }
-}
-
-/// Why a scene could not be loaded or rendered.
-#[derive(Debug, thiserror::Error)]
-pub enum RenderError {
-    /// A scene, graph or mesh file is invalid (exit code 1): every problem, per file, with
-    /// file:line:column.
-    #[error("{}", render_all(.0))]
-    Invalid(Vec<Diagnostics>),
-    /// A file could not be read or written (exit code 2).
-    #[error("{}: {source}", path.display())]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-    /// Bad render options (exit code 2).
-    #[error("{0}")]
-    Options(String),
-    /// The file watcher failed (exit code 2).
-    #[error("watching files: {0}")]
-    Watch(#[from] notify::Error),
-    /// [`RenderOptions::cancel`] said stop (exit code 2; not an error a user sees).
-    #[error("the render was cancelled")]
-    Cancelled,
-}
-
-fn render_all(list: &[Diagnostics]) -> String {
-    list.iter()
-        .map(|d| d.render_plain())
-        .collect::<Vec<_>>()
-        .join("")
-}
-
-impl RenderError {
-    pub(crate) fn from_load(e: LoadError) -> RenderError {
-        match e {
-            LoadError::Io { path, source } => RenderError::Io { path, source },
-            LoadError::Invalid(d) => RenderError::Invalid(vec![d]),
-        }
-    }
-
-    /// The message, with colour for a terminal when `colour` is set.
-    pub fn render(&self, colour: bool) -> String {
-        match self {
-            RenderError::Invalid(list) => list.iter().map(|d| d.render(colour)).collect(),
-            other => format!("error: {other}\n"),
-        }
-    }
-
-    /// The CLI exit code: 1 for invalid input, 2 for I/O and usage errors.
-    pub fn exit_code(&self) -> u8 {
-        match self {
-            RenderError::Invalid(_) => 1,
-            _ => 2,
-        }
     }
 }
 
@@ -316,7 +231,7 @@ pub fn refuse_graph_only_options(path: &Path, given: &[&str]) -> Result<(), Rend
     if given.is_empty() {
         return Ok(());
     }
-    let Ok(source) = crate::load::read_source(path) else {
+    let Ok(source) = crate::source::read_source(path) else {
         return Ok(());
     };
     if input_kind(&source.text) == InputKind::Scene {
@@ -591,7 +506,7 @@ pub(crate) fn load_input_tracking(
     defaults: &PreviewDefaults,
     files: &mut Vec<PathBuf>,
 ) -> Result<Scene, RenderError> {
-    let source = crate::load::read_source(path).map_err(|e| {
+    let source = crate::source::read_source(path).map_err(|e| {
         files.push(path.to_path_buf());
         RenderError::from_load(e)
     })?;

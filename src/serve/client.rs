@@ -3,7 +3,8 @@
 //! generation) or are answered to it alone (hover, report, write-back).
 
 use super::protocol::{self, Request};
-use super::{lock, session, writeback, Mode, Shared};
+use super::shared::{lock, Mode, Shared};
+use super::{session, writeback};
 use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
 use axum::extract::State;
 use axum::http::{header, HeaderMap, StatusCode};
@@ -15,6 +16,9 @@ use serde_json::{json, Value};
 use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::Duration;
+
+/// The page, served from the binary.
+pub(super) const PAGE: &str = include_str!("page.html");
 
 /// Largest message a tab may send (requests are small; anything bigger is hostile).
 const MAX_REQUEST_BYTES: usize = 64 * 1024;
@@ -34,7 +38,7 @@ pub(super) fn spawn_http(
         .build()
         .map_err(|e| format!("cannot start the server's runtime: {e}"))?;
     let app = Router::new()
-        .route("/", get(|| async { Html(super::PAGE) }))
+        .route("/", get(|| async { Html(PAGE) }))
         .route("/api/state", get(state))
         .route("/ws", get(upgrade))
         .with_state(shared);

@@ -9,10 +9,10 @@ use super::writeback::{self, WrittenParam};
 use crate::check::CheckOptions;
 use crate::compile::{compile, CompileOptions};
 use crate::diagnostic::Diagnostics;
+use crate::eval::Workspace;
 use crate::graph::{CheckedGraph, Type};
 use crate::render::{self, Cancel, PreviewDefaults, RenderError, RenderOptions};
 use crate::tape::Tape;
-use crate::Workspace;
 use base64::Engine as _;
 use rustc_hash::FxHashMap as HashMap;
 use serde_json::{json, Value};
@@ -59,7 +59,7 @@ pub fn load(
     files: &mut Vec<PathBuf>,
 ) -> Result<Loaded, LoadFailure> {
     files.push(path.to_path_buf());
-    let source = crate::load::read_source(path).map_err(load_failure)?;
+    let source = crate::source::read_source(path).map_err(load_failure)?;
     let written = writeback::written_params(&source.text).unwrap_or_default();
     let overrides: Vec<(String, f64)> = settings
         .params
@@ -68,7 +68,7 @@ pub fn load(
         .map(|(name, v)| (name.clone(), *v))
         .collect();
     let kinds = writeback::node_kinds(&source.text);
-    let checked = crate::check(
+    let checked = crate::check::check(
         source,
         &CheckOptions {
             overrides: overrides.clone(),
@@ -80,12 +80,12 @@ pub fn load(
             for f in d.list.iter().filter_map(|d| d.file.as_ref()) {
                 files.push(PathBuf::from(&f.name));
             }
-            return Err(load_failure(crate::LoadError::Invalid(d)));
+            return Err(load_failure(crate::source::LoadError::Invalid(d)));
         }
     };
     files.extend(graph.imports().iter().cloned());
     let outputs = compile(&graph, &CompileOptions::default())
-        .map_err(|d| load_failure(crate::LoadError::Invalid(d)))?;
+        .map_err(|d| load_failure(crate::source::LoadError::Invalid(d)))?;
     Ok(Loaded {
         path: path.to_path_buf(),
         graph,
@@ -96,9 +96,9 @@ pub fn load(
     })
 }
 
-fn load_failure(e: crate::LoadError) -> LoadFailure {
+fn load_failure(e: crate::source::LoadError) -> LoadFailure {
     match e {
-        crate::LoadError::Io { path, source } => LoadFailure {
+        crate::source::LoadError::Io { path, source } => LoadFailure {
             diagnostics: vec![json!({
                 "file": path.display().to_string(), "line": null, "column": null,
                 "class": "io", "node": null,
@@ -108,7 +108,7 @@ fn load_failure(e: crate::LoadError) -> LoadFailure {
             })],
             text: format!("error: {}: {source}\n", path.display()),
         },
-        crate::LoadError::Invalid(d) => LoadFailure {
+        crate::source::LoadError::Invalid(d) => LoadFailure {
             diagnostics: diagnostics_json(&d),
             text: d.render_plain(),
         },
@@ -474,7 +474,7 @@ pub fn thumbnails(
         let keep = (pass == 0).then_some(values.as_mut_slice());
         in_blocks(&tape, &points, block, cancel, keep, |p, out| {
             tape.eval_batch_timed(&mut ws, p, out, &mut times);
-            calls += p[0].len().div_ceil(crate::LANES) as u32;
+            calls += p[0].len().div_ceil(crate::eval::LANES) as u32;
         })?;
         for (b, t) in best.iter_mut().zip(&times) {
             *b = (*b).min(t.saturating_sub(overhead * calls));

@@ -3,7 +3,7 @@
 //! first) — each step abandoned when a newer change has bumped the generation.
 
 use super::session::{self, Loaded};
-use super::{lock, Kick, Mode, Shared};
+use super::shared::{lock, Kick, Mode, Shared};
 use crate::render::{Cancel, RenderError, WatchList};
 use serde_json::{json, Value};
 use std::path::PathBuf;
@@ -262,7 +262,7 @@ impl Worker {
             let range = plane.range();
             self.shared.publish("slice", json!({
                 "type": "slice", "generation": generation, "output": name,
-                "value_type": if plane.ty == crate::Type::Scalar { "scalar" } else { "vec3" },
+                "value_type": if plane.ty == crate::graph::Type::Scalar { "scalar" } else { "vec3" },
                 "axis": w.axis, "depth": w.depth, "center": w.center, "width": w.width,
                 "size": settings.slice_size, "min": range.map(|r| r.0), "max": range.map(|r| r.1),
                 "png": plane.png(),
@@ -276,7 +276,7 @@ impl Worker {
             .map(|t| {
                 let range = t.plane.range();
                 json!({
-                    "name": t.name, "type": if t.plane.ty == crate::Type::Scalar { "scalar" } else { "vec3" },
+                    "name": t.name, "type": if t.plane.ty == crate::graph::Type::Scalar { "scalar" } else { "vec3" },
                     "min": range.map(|r| r.0), "max": range.map(|r| r.1), "png": t.plane.png(),
                     "ns_per_point": t.ns_per_point, "instructions": t.instructions,
                 })

@@ -118,9 +118,9 @@ pub fn rewrite_params(text: &str, values: &[(String, f64)]) -> Result<String, St
 /// Writes `values` into the graph file at `path` (atomically: a temporary renamed over it),
 /// re-reading the file first so an edit made meanwhile is kept.
 pub fn write_params(path: &Path, values: &[(String, f64)]) -> Result<(), String> {
-    let source = crate::load::read_source(path).map_err(|e| match e {
-        crate::LoadError::Io { source, .. } => format!("{}: {source}", path.display()),
-        crate::LoadError::Invalid(d) => d.render_plain(),
+    let source = crate::source::read_source(path).map_err(|e| match e {
+        crate::source::LoadError::Io { source, .. } => format!("{}: {source}", path.display()),
+        crate::source::LoadError::Invalid(d) => d.render_plain(),
     })?;
     let text = rewrite_params(&source.text, values)
         .map_err(|e| format!("{}: cannot write the params: {e}", path.display()))?;

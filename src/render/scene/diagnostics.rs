@@ -1,8 +1,8 @@
 //! Pointing scene problems at the scene file: paths into its spanned tree, the collector of
 //! problems, and `ron`'s errors as diagnostics.
 
-use super::RenderError;
 use crate::diagnostic::{Diagnostic, DiagnosticClass, Diagnostics, SourceFile, Span};
+use crate::render::error::RenderError;
 use crate::syntax;
 use std::sync::Arc;
 

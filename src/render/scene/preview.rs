@@ -1,7 +1,7 @@
 //! The default preview scene of a graph file (`texgraph render FILE.ron`): the object, a ground
 //! plane, a key light with shadows and a fill light.
 
-use super::{
+use super::desc::{
     default_ambient_light, default_background, default_up, BumpDesc, CameraDesc, ChannelDesc,
     HeightDesc, HeightTexture, LightDesc, MaterialDesc, ObjectDesc, ScaleBy, SceneDesc, ShapeDesc,
     Space, TransformDesc,

@@ -7,12 +7,12 @@ use crate::check::CheckOptions;
 use crate::compile::{compile, CompileOptions};
 use crate::diagnostic::{Diagnostic, DiagnosticClass as C, Diagnostics};
 use crate::graph::{CheckedGraph, Output, Type};
-use crate::load::{load_graph, LoadError};
+use crate::load::load_graph;
+use crate::render::error::RenderError;
+use crate::render::scene::desc::{BumpDesc, ChannelDesc, HeightDesc, Space};
 use crate::render::scene::diagnostics::{Key, Problems};
-use crate::render::scene::{
-    Bump, BumpDesc, Channel, ChannelDesc, CompiledTexture, EvalGroup, HeightDesc, Material, Space,
-};
-use crate::render::RenderError;
+use crate::render::scene::resolved::{Bump, Channel, CompiledTexture, EvalGroup, Material};
+use crate::source::LoadError;
 use glam::{Affine3A, Mat3, Vec3};
 use std::collections::BTreeMap;
 use std::path::Path;

@@ -10,16 +10,16 @@
 mod materials;
 mod objects;
 
+use super::desc::{LightDesc, ScaleBy, SceneDesc, Space, TransformDesc};
 use super::diagnostics::{Key, Located, Problems};
-use super::{
-    Camera, Light, LightDesc, LightKind, ScaleBy, Scene, SceneDesc, Shape, Space, TransformDesc,
-};
+use super::resolved::{Camera, Light, LightKind, Scene, Shape};
 use crate::diagnostic::DiagnosticClass as C;
 use crate::graph::CheckedGraph;
+use crate::render::error::{check_samples, check_size, RenderError};
 use crate::render::geometry::Mesh;
-use crate::render::{check_samples, check_size, RenderError};
 use glam::{Affine3A, Quat, Vec3};
 use std::collections::BTreeMap;
+use std::path::Component;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -109,7 +109,7 @@ impl<'a> Binding<'a> {
     /// The (graph file, overrides) this binding's texture is shared by, paths relative to `base`.
     fn key(&self, base: &Path) -> TextureKey {
         (
-            super::join_normalised(base, self.graph),
+            join_normalised(base, self.graph),
             self.set
                 .iter()
                 .map(|(k, v)| (k.clone(), v.to_bits()))
@@ -401,4 +401,30 @@ pub(super) fn transform_of(steps: &[TransformDesc]) -> Result<Affine3A, (usize, 
         m = s * m;
     }
     Ok(m)
+}
+
+/// `base/relative`, with `.` and `..` folded away lexically (a graph at
+/// `graphs/scenes/../seed003_marble.ron` is reported as `graphs/seed003_marble.ron`, and the
+/// two spellings share one compiled tape).
+pub(crate) fn join_normalised(base: &Path, relative: &str) -> PathBuf {
+    let joined = base.join(relative);
+    let mut out = PathBuf::new();
+    for c in joined.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir => {
+                let last = out.components().next_back();
+                if matches!(last, Some(Component::Normal(_))) {
+                    out.pop();
+                } else if !matches!(last, Some(Component::RootDir | Component::Prefix(_))) {
+                    out.push("..");
+                }
+            }
+            other => out.push(other.as_os_str()),
+        }
+    }
+    if out.as_os_str().is_empty() {
+        out.push(".");
+    }
+    out
 }

@@ -1,11 +1,13 @@
 //! The object phases: each object's shape (meshes loaded once per file, teapots tessellated once
 //! per resolution) and transform, and, once everything checks, the objects placed in the world.
 
+use super::join_normalised;
 use super::{finite, transform_of, vec3, Resolver};
 use crate::diagnostic::{Diagnostic, DiagnosticClass as C, Diagnostics, SourceFile, Span};
 use crate::render::geometry::{self, Mesh};
+use crate::render::scene::desc::{ShapeDesc, TransformDesc};
 use crate::render::scene::diagnostics::{offset_of, Key};
-use crate::render::scene::{join_normalised, Object, Shape, ShapeDesc, TransformDesc};
+use crate::render::scene::resolved::{Object, Shape};
 use crate::render::teapot;
 use glam::{Affine3A, Mat3};
 use std::path::Path;

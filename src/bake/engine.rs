@@ -1,0 +1,907 @@
+//! The bake engine: a tape evaluated over a [`Grid`] window by window, on the CPU or the GPU,
+//! streamed into a [`Sink`] (module documentation of [`crate::bake`] has the design).
+
+use crate::eval::Workspace;
+use crate::graph::Type;
+use crate::grid::{Grid, Layout, Segment};
+use crate::real::Real;
+use crate::tape::Tape;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{mpsc, Arc};
+
+/// Which evaluation path bakes: the f32 fast path or the f64 reference (stored as f32).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Precision {
+    #[default]
+    F32,
+    F64,
+}
+
+/// How to bake.
+#[derive(Clone, Debug)]
+pub struct BakeOptions {
+    pub grid: Grid,
+    /// Worker threads; 0 means one per core.
+    pub threads: usize,
+    pub precision: Precision,
+    /// Set from another thread (Ctrl-C) to stop between windows with [`BakeError::Cancelled`].
+    pub cancel: Option<Arc<AtomicBool>>,
+    /// Where the windows are evaluated: `Device::Gpu` makes and reads them back on the GPU
+    /// (the tape's evaluator from `gpu::evaluator_for`, f32 precision only); the sinks,
+    /// statistics and streaming are the same. `Auto` is the CPU here (the command line
+    /// resolves it, saying which).
+    pub device: crate::gpu::Device,
+}
+
+impl Default for BakeOptions {
+    fn default() -> Self {
+        BakeOptions {
+            grid: Grid::cube(64),
+            threads: 0,
+            precision: Precision::F32,
+            cancel: None,
+            device: crate::gpu::Device::Cpu,
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum BakeError {
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path}: {message}")]
+    Encode { path: String, message: String },
+    #[error("{0}")]
+    Refused(String),
+    /// A destination texgraph will not write (see [`crate::output`]).
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
+    #[error("the bake was interrupted")]
+    Cancelled,
+}
+
+impl BakeError {
+    /// The CLI exit code: 130 for an interrupted bake, 2 for everything else (I/O, a refused
+    /// size, memory bound or destination).
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            BakeError::Cancelled => 130,
+            BakeError::Io { .. }
+            | BakeError::Encode { .. }
+            | BakeError::Refused(_)
+            | BakeError::Output(_) => 2,
+        }
+    }
+}
+
+/// Statistics of one channel over the whole grid. NaN and infinities are counted, not mixed in.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct ChannelStats {
+    /// Over the finite values; +inf / -inf when there are none (`null` in JSON sidecars).
+    pub min: f64,
+    pub max: f64,
+    /// Mean of the finite values; NaN when there are none.
+    pub mean: f64,
+    pub nan: u64,
+    pub pos_inf: u64,
+    pub neg_inf: u64,
+    /// Values below 0 and above 1 (infinities included): what an 8/16-bit file clamps.
+    pub below_zero: u64,
+    pub above_one: u64,
+    #[serde(skip)]
+    sum: f64,
+    #[serde(skip)]
+    finite: u64,
+}
+
+impl Default for ChannelStats {
+    fn default() -> Self {
+        ChannelStats {
+            min: f64::INFINITY,
+            max: f64::NEG_INFINITY,
+            mean: f64::NAN,
+            nan: 0,
+            pos_inf: 0,
+            neg_inf: 0,
+            below_zero: 0,
+            above_one: 0,
+            sum: 0.0,
+            finite: 0,
+        }
+    }
+}
+
+impl ChannelStats {
+    #[inline]
+    pub(super) fn add(&mut self, v: f32) {
+        self.below_zero += u64::from(v < 0.0);
+        self.above_one += u64::from(v > 1.0);
+        if v.is_finite() {
+            let v = v as f64;
+            self.min = self.min.min(v);
+            self.max = self.max.max(v);
+            self.sum += v;
+            self.finite += 1;
+        } else if v.is_nan() {
+            self.nan += 1;
+        } else if v > 0.0 {
+            self.pos_inf += 1;
+        } else {
+            self.neg_inf += 1;
+        }
+    }
+
+    pub(super) fn merge(&mut self, other: &ChannelStats) {
+        self.min = self.min.min(other.min);
+        self.max = self.max.max(other.max);
+        self.sum += other.sum;
+        self.finite += other.finite;
+        self.nan += other.nan;
+        self.pos_inf += other.pos_inf;
+        self.neg_inf += other.neg_inf;
+        self.below_zero += other.below_zero;
+        self.above_one += other.above_one;
+        self.mean = if self.finite > 0 {
+            self.sum / self.finite as f64
+        } else {
+            f64::NAN
+        };
+    }
+
+    pub fn non_finite(&self) -> u64 {
+        self.nan + self.pos_inf + self.neg_inf
+    }
+
+    /// How many values were finite (min, max and mean are over these).
+    pub fn finite(&self) -> u64 {
+        self.finite
+    }
+
+    /// Values outside [0, 1]: what an 8/16-bit encoding clamps (NaN, written as 0, is counted
+    /// in [`ChannelStats::nan`] instead).
+    pub fn clamped(&self) -> u64 {
+        self.below_zero + self.above_one
+    }
+}
+
+/// Statistics of one output (one entry per channel).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct OutputStats {
+    pub name: String,
+    pub channels: Vec<ChannelStats>,
+}
+
+impl OutputStats {
+    pub fn non_finite(&self) -> u64 {
+        self.channels.iter().map(|c| c.non_finite()).sum()
+    }
+
+    /// Values below 0 and above 1 over all channels.
+    pub fn clamped(&self) -> (u64, u64) {
+        self.channels
+            .iter()
+            .fold((0, 0), |(b, a), c| (b + c.below_zero, a + c.above_one))
+    }
+}
+
+/// One window of evaluated segments, handed to a sink in file order.
+///
+/// Layout: segment-planar. Segment `s` of the window holds every channel of every output for
+/// its voxels: channel `c` (numbered across outputs) of its voxel `i` at
+/// `(s * channels + c) * segment_len + i`.
+pub struct Window<'a> {
+    pub grid: &'a Grid,
+    pub layout: &'a Layout,
+    /// Index of the window's first segment in the grid, and how many it holds.
+    pub first_segment: u64,
+    pub segments: usize,
+    /// Channels per voxel across all outputs, and the first channel of each output.
+    pub channels: usize,
+    pub outputs: &'a [WindowOutput],
+    data: &'a [f32],
+}
+
+/// Where an output's channels are in a window.
+#[derive(Clone, Debug)]
+pub struct WindowOutput {
+    pub name: String,
+    pub ty: Type,
+    pub first_channel: usize,
+}
+
+impl Window<'_> {
+    /// The window's segments, in file order, with their position in the window.
+    pub fn segments(&self) -> impl Iterator<Item = (usize, Segment)> + '_ {
+        (0..self.segments).map(|s| {
+            (
+                s,
+                self.layout
+                    .segment(self.grid, self.first_segment + s as u64),
+            )
+        })
+    }
+
+    /// The z slices the window holds whole, `(first, count)`, when it holds only whole slices.
+    pub fn whole_slices(&self) -> Option<(usize, usize)> {
+        let slice = self.layout.per_row as u64 * self.grid.size[1] as u64;
+        (self.first_segment.is_multiple_of(slice) && (self.segments as u64).is_multiple_of(slice))
+            .then(|| {
+                (
+                    (self.first_segment / slice) as usize,
+                    (self.segments as u64 / slice) as usize,
+                )
+            })
+    }
+
+    /// Appends the voxels of the window's segment `s` (of `segment` geometry) for output
+    /// `output` to `out`, channels interleaved.
+    pub fn push_interleaved(&self, output: usize, s: usize, segment: &Segment, out: &mut Vec<f32>) {
+        let start = out.len();
+        out.resize(
+            start + segment.len * self.outputs[output].ty.channels(),
+            0.0,
+        );
+        self.copy_interleaved(output, s, segment, &mut out[start..]);
+    }
+
+    /// Writes the voxels of the window's segment `s` (of `segment` geometry) for output
+    /// `output` into `out`, channels interleaved; `out` holds exactly `segment.len` voxels.
+    pub fn copy_interleaved(&self, output: usize, s: usize, segment: &Segment, out: &mut [f32]) {
+        let o = &self.outputs[output];
+        let width = o.ty.channels();
+        let len = self.layout.segment_len;
+        let base = s * self.channels * len;
+        assert_eq!(out.len(), segment.len * width, "a segment's voxels");
+        if width == 1 {
+            let start = base + o.first_channel * len;
+            out.copy_from_slice(&self.data[start..start + segment.len]);
+            return;
+        }
+        for c in 0..width {
+            let start = base + (o.first_channel + c) * len;
+            let channel = &self.data[start..start + segment.len];
+            for (t, v) in out[c..].iter_mut().step_by(width).zip(channel) {
+                *t = *v;
+            }
+        }
+    }
+
+    /// Every voxel of the window for output `output`, channels interleaved, in file order.
+    pub fn interleaved(&self, output: usize, out: &mut Vec<f32>) {
+        out.clear();
+        for (s, segment) in self.segments() {
+            self.push_interleaved(output, s, &segment, out);
+        }
+    }
+
+    /// Writes slice `k_local` of a window of whole slices (see [`Window::whole_slices`]) for
+    /// output `output` as interleaved channels, x fastest then y, into `out`.
+    pub fn slice_interleaved(&self, output: usize, k_local: usize, out: &mut Vec<f32>) {
+        out.clear();
+        let slice = self.layout.per_row * self.grid.size[1];
+        for s in k_local * slice..(k_local + 1) * slice {
+            let segment = self
+                .layout
+                .segment(self.grid, self.first_segment + s as u64);
+            self.push_interleaved(output, s, &segment, out);
+        }
+    }
+}
+
+/// Receives the windows of a bake, in file order.
+pub trait Sink: Send {
+    fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError>;
+}
+
+/// A whole baked grid in memory.
+#[derive(Clone, Debug)]
+pub struct Volume {
+    pub grid: Grid,
+    pub outputs: Vec<VolumeOutput>,
+    pub stats: Vec<OutputStats>,
+}
+
+/// One output of a [`Volume`]: interleaved channels, x fastest, then y, then z (the layout
+/// `glTexImage3D` takes).
+#[derive(Clone, Debug)]
+pub struct VolumeOutput {
+    pub name: String,
+    pub ty: Type,
+    pub data: Vec<f32>,
+}
+
+impl VolumeOutput {
+    /// Channel `c` of voxel (i, j, k).
+    pub fn get(&self, grid: &Grid, i: usize, j: usize, k: usize, c: usize) -> f32 {
+        let [nx, ny, _] = grid.size;
+        self.data[((k * ny + j) * nx + i) * self.ty.channels() + c]
+    }
+}
+
+struct VolumeSink {
+    outputs: Vec<VolumeOutput>,
+}
+
+impl Sink for VolumeSink {
+    fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
+        for (o, output) in self.outputs.iter_mut().enumerate() {
+            for (s, segment) in window.segments() {
+                window.push_interleaved(o, s, &segment, &mut output.data);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Bakes into memory. Needs `voxels × channels × 4` bytes, reserved up front: a volume whose
+/// size overflows or cannot be allocated is refused with an error, before any evaluation.
+pub fn bake_volume(tape: &Tape, options: &BakeOptions) -> Result<Volume, BakeError> {
+    bake_volume_with_progress(tape, options, &mut |_| {})
+}
+
+/// [`bake_volume`], calling `progress` with the voxels done after each window (the VDB writer
+/// bakes this way).
+pub fn bake_volume_with_progress(
+    tape: &Tape,
+    options: &BakeOptions,
+    progress: &mut dyn FnMut(u64),
+) -> Result<Volume, BakeError> {
+    let voxels = options.grid.voxels().and_then(|v| usize::try_from(v).ok());
+    let mut outputs = Vec::with_capacity(tape.outputs.len());
+    for o in &tape.outputs {
+        let mut data = Vec::new();
+        let len = voxels.and_then(|v| v.checked_mul(o.ty.channels()));
+        len.and_then(|len| data.try_reserve_exact(len).ok())
+            .ok_or_else(|| {
+                BakeError::Refused(format!(
+                    "a volume of {:?} voxels for output \"{}\" does not fit in memory",
+                    options.grid.size, o.name
+                ))
+            })?;
+        outputs.push(VolumeOutput {
+            name: o.name.clone(),
+            ty: o.ty,
+            data,
+        });
+    }
+    let mut sink = VolumeSink { outputs };
+    let stats = bake_into(tape, options, &mut sink, progress)?;
+    Ok(Volume {
+        grid: options.grid,
+        outputs: sink.outputs,
+        stats,
+    })
+}
+
+/// Most worker threads per available core (`--threads` above it is capped, with a warning from
+/// the command line).
+pub const MAX_THREADS_PER_CORE: usize = 4;
+
+/// The thread count a bake or render uses for a request (`0`: one per core): at most
+/// [`MAX_THREADS_PER_CORE`] × the available parallelism. Returns it and whether it was capped.
+pub fn capped_threads(requested: usize) -> (usize, bool) {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let cap = cores * MAX_THREADS_PER_CORE;
+    match requested {
+        0 => (cores, false),
+        n if n > cap => (cap, true),
+        n => (n, false),
+    }
+}
+
+/// Bakes `tape` over the grid into `sink`, window by window in file order; calls `progress`
+/// with the voxels done so far after each window. Returns per-output statistics.
+pub fn bake_into(
+    tape: &Tape,
+    options: &BakeOptions,
+    sink: &mut dyn Sink,
+    progress: &mut dyn FnMut(u64),
+) -> Result<Vec<OutputStats>, BakeError> {
+    let (threads, _) = capped_threads(options.threads);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| BakeError::Refused(format!("cannot start {threads} worker threads: {e}")))?;
+    match options.precision {
+        Precision::F32 => bake_with::<f32>(tape, options, &pool, sink, progress),
+        Precision::F64 => bake_with::<f64>(tape, options, &pool, sink, progress),
+    }
+}
+
+/// What the coordinating thread, the workers and the writer thread share about a bake.
+struct Plan<'a> {
+    grid: &'a Grid,
+    layout: Layout,
+    channels: usize,
+    outputs: Vec<WindowOutput>,
+}
+
+impl Plan<'_> {
+    /// Samples per segment (every channel, `segment_len` voxels each).
+    fn block(&self) -> usize {
+        self.channels * self.layout.segment_len
+    }
+
+    /// The window of `job`'s segments over its buffer.
+    fn window<'a>(&'a self, job: &'a Job) -> Window<'a> {
+        Window {
+            grid: self.grid,
+            layout: &self.layout,
+            first_segment: job.first,
+            segments: job.count,
+            channels: self.channels,
+            outputs: &self.outputs,
+            data: &job.buffer[..job.count * self.block()],
+        }
+    }
+}
+
+/// An evaluated window on its way to the writer thread (and its buffer on its way back).
+struct Job {
+    first: u64,
+    count: usize,
+    buffer: Vec<f32>,
+}
+
+/// Bakes window by window, two windows in flight: while the pool evaluates window i + 1 into
+/// one buffer, a writer thread hands window i, in the other, to the sink; then they swap. So at
+/// most two windows of samples exist. The statistics are merged here, in segment order, and
+/// `progress` is called here once a window is written. A sink error (the writer stops at it) is
+/// returned at the next hand-over, at most one window's evaluation later; a cancellation stops
+/// before the next window; either way the writer finishes the window it holds and is joined
+/// before this returns.
+fn bake_with<S: Real>(
+    tape: &Tape,
+    options: &BakeOptions,
+    pool: &rayon::ThreadPool,
+    sink: &mut dyn Sink,
+    progress: &mut dyn FnMut(u64),
+) -> Result<Vec<OutputStats>, BakeError> {
+    let grid = &options.grid;
+    let channels = tape.channels();
+    let gpu = match options.device {
+        crate::gpu::Device::Gpu if S::NAME == "f64" => {
+            return Err(BakeError::Refused(
+                "the GPU evaluates the f32 path; an f64 bake (--double) runs on the CPU".into(),
+            ))
+        }
+        crate::gpu::Device::Gpu => {
+            Some(crate::gpu::evaluator_for(tape).map_err(|e| BakeError::Refused(e.to_string()))?)
+        }
+        _ => None,
+    };
+    let mut stats: Vec<ChannelStats> = vec![ChannelStats::default(); channels];
+    let Some(layout) = Layout::new(grid, channels, pool.current_num_threads()) else {
+        return Ok(collect_stats(tape, &stats));
+    };
+    let outputs = tape
+        .outputs
+        .iter()
+        .map(|o| WindowOutput {
+            name: o.name.clone(),
+            ty: o.ty,
+            first_channel: o.first_channel,
+        })
+        .collect();
+    let plan = &Plan {
+        grid,
+        layout,
+        channels,
+        outputs,
+    };
+    let cancelled = || {
+        options
+            .cancel
+            .as_ref()
+            .is_some_and(|c| c.load(Ordering::Relaxed))
+    };
+    std::thread::scope(|scope| {
+        // One job at a time is in the writer's hands (the loop waits for it before sending the
+        // next), so neither send below ever blocks for long; dropping `jobs` (any return from
+        // this closure, a panic included) ends the writer's loop.
+        let (jobs, to_write) = mpsc::sync_channel::<Job>(1);
+        let (written, done) = mpsc::channel::<Result<Job, BakeError>>();
+        scope.spawn(move || write_windows(plan, pool, sink, to_write, written));
+        let mut spare: Option<Vec<f32>> = None;
+        // The segment after the window the writer holds.
+        let mut in_flight: Option<u64> = None;
+        let mut first = 0u64;
+        while first < layout.total {
+            if cancelled() {
+                return Err(BakeError::Cancelled);
+            }
+            let count = (layout.total - first).min(layout.per_window as u64) as usize;
+            let mut buffer = spare
+                .take()
+                .unwrap_or_else(|| vec![0f32; layout.per_window * plan.block()]);
+            let data = &mut buffer[..count * plan.block()];
+            let segment_stats = match &gpu {
+                Some(gpu) => gpu_window(gpu, plan, pool, first, data)?,
+                None => evaluate_window::<S>(tape, plan, pool, first, data),
+            };
+            for part in &segment_stats {
+                for (total, part) in stats.iter_mut().zip(part) {
+                    total.merge(part);
+                }
+            }
+            if let Some(end) = in_flight.take() {
+                spare = Some(wait_written(&done)?.buffer);
+                progress(layout.voxels_before(grid, end));
+                if cancelled() {
+                    return Err(BakeError::Cancelled);
+                }
+            }
+            jobs.send(Job {
+                first,
+                count,
+                buffer,
+            })
+            .map_err(|_| writer_stopped())?;
+            first += count as u64;
+            in_flight = Some(first);
+        }
+        if let Some(end) = in_flight {
+            wait_written(&done)?;
+            progress(layout.voxels_before(grid, end));
+        }
+        Ok(collect_stats(tape, &stats))
+    })
+}
+
+/// The writer thread: hands each job's window to the sink, inside the pool (so a sink that
+/// encodes in parallel, PNG slices, uses its workers, alongside the evaluation of the next
+/// window), and sends the job back with the result; stops at the first error.
+fn write_windows(
+    plan: &Plan<'_>,
+    pool: &rayon::ThreadPool,
+    sink: &mut dyn Sink,
+    jobs: mpsc::Receiver<Job>,
+    written: mpsc::Sender<Result<Job, BakeError>>,
+) {
+    for job in jobs {
+        let result = pool.install(|| sink.window(&plan.window(&job)));
+        let failed = result.is_err();
+        if written.send(result.map(|()| job)).is_err() || failed {
+            return;
+        }
+    }
+}
+
+/// Waits for the writer to finish the window it holds.
+fn wait_written(done: &mpsc::Receiver<Result<Job, BakeError>>) -> Result<Job, BakeError> {
+    done.recv().map_err(|_| writer_stopped())?
+}
+
+/// The writer thread is gone without a word: only a panic in the sink does that, and the scope
+/// re-raises it when it joins the thread.
+fn writer_stopped() -> BakeError {
+    BakeError::Refused("internal: the bake's writer thread stopped".into())
+}
+
+/// Evaluates the `data.len() / block` segments from `first` into `data`, in parallel, one task
+/// per segment; returns each segment's channel statistics, in segment order.
+fn evaluate_window<S: Real>(
+    tape: &Tape,
+    plan: &Plan<'_>,
+    pool: &rayon::ThreadPool,
+    first: u64,
+    data: &mut [f32],
+) -> Vec<Vec<ChannelStats>> {
+    let (grid, layout, channels) = (plan.grid, &plan.layout, plan.channels);
+    let seg_len = layout.segment_len;
+    let block = plan.block();
+    pool.install(|| {
+        data.par_chunks_mut(block)
+            .enumerate()
+            .map_init(
+                || {
+                    (
+                        Workspace::<S>::new(),
+                        // The x coordinates of the last segment, and where it started: rows
+                        // that fit in one segment reuse them for every row.
+                        (Vec::with_capacity(seg_len), usize::MAX),
+                        Vec::with_capacity(seg_len),
+                        Vec::with_capacity(seg_len),
+                        vec![S::ZERO; block],
+                    )
+                },
+                |(workspace, (xs, xs_start), ys, zs, out), (s, target)| {
+                    let segment = layout.segment(grid, first + s as u64);
+                    let n = segment.len;
+                    if *xs_start != segment.i0 || xs.len() != n {
+                        xs.clear();
+                        xs.extend((segment.i0..segment.i0 + n).map(|i| grid.centre(0, i)));
+                        *xs_start = segment.i0;
+                    }
+                    ys.clear();
+                    ys.resize(n, grid.centre(1, segment.j));
+                    zs.clear();
+                    zs.resize(n, grid.centre(2, segment.k));
+                    let out = &mut out[..channels * n];
+                    tape.eval_batch(workspace, xs, ys, zs, out);
+                    let mut seg_stats = vec![ChannelStats::default(); channels];
+                    for (c, stat) in seg_stats.iter_mut().enumerate() {
+                        for (t, v) in target[c * seg_len..c * seg_len + n]
+                            .iter_mut()
+                            .zip(&out[c * n..(c + 1) * n])
+                        {
+                            *t = v.to_f64() as f32;
+                            stat.add(*t);
+                        }
+                    }
+                    seg_stats
+                },
+            )
+            .collect()
+    })
+}
+
+/// [`evaluate_window`] on the GPU: the window made and read back by `gpu`, then each segment's
+/// channel statistics (in parallel, as the CPU path gathers them).
+fn gpu_window(
+    gpu: &crate::gpu::GpuEvaluator,
+    plan: &Plan<'_>,
+    pool: &rayon::ThreadPool,
+    first: u64,
+    data: &mut [f32],
+) -> Result<Vec<Vec<ChannelStats>>, BakeError> {
+    let (grid, layout, channels) = (plan.grid, &plan.layout, plan.channels);
+    gpu.bake_window(grid, layout, first, data)
+        .map_err(|e| BakeError::Refused(e.to_string()))?;
+    let seg_len = layout.segment_len;
+    Ok(pool.install(|| {
+        data.par_chunks(plan.block())
+            .enumerate()
+            .map(|(s, block)| {
+                let n = layout.segment(grid, first + s as u64).len;
+                let mut seg_stats = vec![ChannelStats::default(); channels];
+                for (c, stat) in seg_stats.iter_mut().enumerate() {
+                    for &v in &block[c * seg_len..c * seg_len + n] {
+                        stat.add(v);
+                    }
+                }
+                seg_stats
+            })
+            .collect()
+    }))
+}
+
+pub(super) fn collect_stats(tape: &Tape, stats: &[ChannelStats]) -> Vec<OutputStats> {
+    tape.outputs
+        .iter()
+        .map(|o| OutputStats {
+            name: o.name.clone(),
+            channels: stats[o.first_channel..o.first_channel + o.ty.channels()].to_vec(),
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::{Region, SEGMENT_VOXELS, WINDOW_BYTES};
+
+    fn grid(size: [usize; 3]) -> Grid {
+        Grid {
+            size,
+            region: Region::default(),
+        }
+    }
+
+    /// Segments cover every voxel once, in file order, whatever the shape.
+    #[test]
+    fn segments_tile_the_grid_in_file_order() {
+        for (size, channels, threads) in [
+            ([5, 3, 2], 1, 1),
+            ([70_000, 2, 3], 4, 2),
+            ([1, 1, 9], 2, 8),
+            ([131_073, 1, 1], 1, 3),
+        ] {
+            let g = grid(size);
+            let layout = Layout::new(&g, channels, threads).unwrap();
+            let mut next = (0usize, 0usize, 0usize);
+            for index in 0..layout.total {
+                let s = layout.segment(&g, index);
+                assert_eq!((s.i0, s.j, s.k), next, "{size:?} segment {index}");
+                assert!(s.len >= 1 && s.len <= layout.segment_len);
+                next = if s.i0 + s.len < size[0] {
+                    (s.i0 + s.len, s.j, s.k)
+                } else if s.j + 1 < size[1] {
+                    (0, s.j + 1, s.k)
+                } else {
+                    (0, 0, s.k + 1)
+                };
+            }
+            assert_eq!(next, (0, 0, size[2]));
+            assert_eq!(layout.voxels_before(&g, layout.total), g.voxels().unwrap());
+            let mut before = 0;
+            for index in 0..layout.total {
+                assert_eq!(layout.voxels_before(&g, index), before, "{size:?} {index}");
+                before += layout.segment(&g, index).len as u64;
+            }
+        }
+    }
+
+    /// A window's samples stay within WINDOW_BYTES for any shape and channel count, and rows
+    /// are split rather than held whole.
+    #[test]
+    fn windows_are_bounded_for_any_shape() {
+        for size in [
+            [4_294_967_296, 1, 1],
+            [65_536, 65_536, 1],
+            [1, 1, 1 << 40],
+            [512, 512, 512],
+        ] {
+            for channels in [1, 4, 3_000, 600_000] {
+                for threads in [1, 2, 64, 1024] {
+                    let layout = Layout::new(&grid(size), channels, threads).unwrap();
+                    let bytes = layout.per_window * layout.segment_len * channels * 4;
+                    assert!(
+                        bytes <= WINDOW_BYTES.max(channels * 4),
+                        "{size:?} {channels} {threads}: {bytes}"
+                    );
+                    assert!(layout.segment_len <= SEGMENT_VOXELS);
+                }
+            }
+        }
+        // Small slices: whole slices per window.
+        let layout = Layout::new(&grid([128, 128, 128]), 4, 2).unwrap();
+        assert_eq!(layout.per_window % 128, 0);
+    }
+
+    /// A cheap one-output graph (x) for the pipeline tests.
+    fn x_tape() -> Tape {
+        let file = crate::diagnostic::SourceFile::new(
+            "x.ron",
+            r#"Graph(nodes: { "p": Position }, outputs: { "x": "p.x" })"#,
+        );
+        let graph =
+            crate::check::check(file, &crate::check::CheckOptions::default()).expect("checks");
+        crate::compile::compile(&graph, &crate::compile::CompileOptions::default())
+            .expect("compiles")
+    }
+
+    /// 512 × 512 × 6 voxels of one channel: windows of half a slice on 1 thread, of a slice on 2
+    /// or 3.
+    fn pipeline_options(threads: usize) -> BakeOptions {
+        BakeOptions {
+            grid: grid([512, 512, 6]),
+            threads,
+            ..BakeOptions::default()
+        }
+    }
+
+    /// Counts the windows it is handed (shared, so progress can look), checks they come in
+    /// order, and fails on window `fail_at` (or panics, when `panic`).
+    struct Counting {
+        seen: Arc<std::sync::atomic::AtomicUsize>,
+        next_segment: u64,
+        fail_at: Option<usize>,
+        panic: bool,
+    }
+
+    impl Counting {
+        fn new(fail_at: Option<usize>) -> Counting {
+            Counting {
+                seen: Arc::default(),
+                next_segment: 0,
+                fail_at,
+                panic: false,
+            }
+        }
+    }
+
+    impl Sink for Counting {
+        fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
+            assert_eq!(
+                window.first_segment, self.next_segment,
+                "windows in file order"
+            );
+            self.next_segment += window.segments as u64;
+            let index = self.seen.fetch_add(1, Ordering::SeqCst);
+            if Some(index) == self.fail_at {
+                assert!(!self.panic, "the sink panics on window {index}");
+                return Err(BakeError::Encode {
+                    path: "sink".into(),
+                    message: format!("window {index} failed"),
+                });
+            }
+            Ok(())
+        }
+    }
+
+    /// Progress is reported from the coordinating thread once each window is written, with
+    /// the voxels done so far, and the bake ends with every window written.
+    #[test]
+    fn progress_follows_the_written_windows() {
+        let tape = x_tape();
+        for threads in [1, 2, 3] {
+            let options = pipeline_options(threads);
+            let mut sink = Counting::new(None);
+            let seen = sink.seen.clone();
+            let mut reported = Vec::new();
+            let stats = bake_into(&tape, &options, &mut sink, &mut |voxels| {
+                reported.push(voxels);
+                assert!(
+                    seen.load(Ordering::SeqCst) >= reported.len(),
+                    "reported before written"
+                );
+            })
+            .expect("bakes");
+            let layout = Layout::new(&options.grid, 1, threads).unwrap();
+            let ends: Vec<u64> = (1..=layout.total.div_ceil(layout.per_window as u64))
+                .map(|w| (w * layout.per_window as u64).min(layout.total))
+                .map(|end| layout.voxels_before(&options.grid, end))
+                .collect();
+            assert!(ends.len() >= 6, "{threads} threads: {} windows", ends.len());
+            assert_eq!(seen.load(Ordering::SeqCst), ends.len(), "{threads} threads");
+            assert_eq!(reported, ends, "{threads} threads");
+            assert_eq!(stats[0].channels[0].finite(), 6 * 512 * 512);
+        }
+    }
+
+    /// A sink that fails on the third window: its error comes back, no window after it is
+    /// written or reported, and nothing hangs.
+    #[test]
+    fn a_failing_sink_stops_the_bake_with_its_error() {
+        let tape = x_tape();
+        for threads in [1, 2, 3] {
+            let mut sink = Counting::new(Some(2));
+            let seen = sink.seen.clone();
+            let mut reported = 0;
+            let result = bake_into(&tape, &pipeline_options(threads), &mut sink, &mut |_| {
+                reported += 1;
+            });
+            match result {
+                Err(BakeError::Encode { message, .. }) => assert_eq!(message, "window 2 failed"),
+                other => panic!("{threads} threads: {other:?}"),
+            }
+            assert_eq!(
+                seen.load(Ordering::SeqCst),
+                3,
+                "{threads} threads: windows written"
+            );
+            assert_eq!(reported, 2, "{threads} threads: windows reported");
+        }
+    }
+
+    /// A flag raised after the first window stops the bake with `Cancelled`: the window then
+    /// evaluated is not handed to the sink.
+    #[test]
+    fn a_cancelled_bake_stops_between_windows() {
+        let tape = x_tape();
+        for threads in [1, 2] {
+            let cancel = Arc::new(AtomicBool::new(false));
+            let options = BakeOptions {
+                cancel: Some(cancel.clone()),
+                ..pipeline_options(threads)
+            };
+            let mut sink = Counting::new(None);
+            let seen = sink.seen.clone();
+            let mut reported = 0;
+            let result = bake_into(&tape, &options, &mut sink, &mut |_| {
+                reported += 1;
+                cancel.store(true, Ordering::Relaxed);
+            });
+            assert!(matches!(result, Err(BakeError::Cancelled)), "{result:?}");
+            assert_eq!((seen.load(Ordering::SeqCst), reported), (1, 1));
+        }
+    }
+
+    /// A sink that panics: the panic reaches the caller (the writer thread is joined), no hang.
+    #[test]
+    fn a_panicking_sink_panics_the_bake() {
+        let tape = x_tape();
+        let mut sink = Counting::new(Some(1));
+        sink.panic = true;
+        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            bake_into(&tape, &pipeline_options(2), &mut sink, &mut |_| {})
+        }));
+        assert!(result.is_err());
+    }
+}
