@@ -1,6 +1,7 @@
 //! The fuzz harness, shared by the cargo-fuzz targets (`fuzz/fuzz_targets/`) and by the corpus
-//! replay test (`tests/fuzz_corpus.rs` compiles this very file with `#[path]`, so CI replays the
-//! committed corpus on stable Rust without libFuzzer).
+//! replay test (`tests/it/main.rs` compiles this very file with `#[path]` for
+//! `tests/it/fuzz_corpus.rs`, so CI replays the committed corpus on stable Rust without
+//! libFuzzer).
 //!
 //! A panic is a finding. The invariants:
 //! - [`graph_bytes`]: any bytes give either a checked graph or diagnostics that render with the

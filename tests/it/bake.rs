@@ -6,8 +6,8 @@
 //! The small test grid is 12×10×8 over a non-unit box with negative coordinates, so that an x/y/z
 //! mix-up or a wrong centre formula shows.
 
+use crate::common;
 use std::collections::BTreeMap;
-mod common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -1401,9 +1401,9 @@ fn force_replaces_files_and_png_folders_whole() {
                     );
                 }
             }
-            (Format::Ktx2, _, _) => unreachable!("tests/bake_ktx2.rs covers KTX2"),
-            (Format::Zarr, _, _) => unreachable!("tests/bake_zarr.rs covers zarr"),
-            (Format::Vdb, _, _) => unreachable!("tests/bake_vdb_reader.rs covers vdb"),
+            (Format::Ktx2, _, _) => unreachable!("tests/it/bake_ktx2.rs covers KTX2"),
+            (Format::Zarr, _, _) => unreachable!("tests/it/bake_zarr.rs covers zarr"),
+            (Format::Vdb, _, _) => unreachable!("tests/it/bake_vdb_reader.rs covers vdb"),
         }
     }
 }

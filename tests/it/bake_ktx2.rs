@@ -7,7 +7,7 @@
 //! The grids are odd (5×3×4) over a box with negative coordinates, so that an axis mix-up, a
 //! wrong texel order or a row padding shows.
 
-mod common;
+use crate::common;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -4,7 +4,7 @@
 //! against `eval_point` of an independently compiled tape, in KTX2 files (read by the `ktx2`
 //! crate), OME-Zarr multiscale groups (read by `zarrs`) and level folders.
 
-mod common;
+use crate::common;
 use std::path::Path;
 use std::process::Command;
 use std::sync::Arc;

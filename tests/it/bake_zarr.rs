@@ -6,7 +6,7 @@
 //! Grids are odd (19×7×11 over a box with negative coordinates) and chunks small, so edge
 //! shards and chunks, an axis mix-up or a wrong channel order show.
 
-mod common;
+use crate::common;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};

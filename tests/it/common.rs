@@ -1,7 +1,4 @@
-//! Helpers shared by the test crates (`mod common;` in each that needs them).
-
-// Each test crate uses some of these.
-#![allow(dead_code)]
+//! Helpers shared by the test modules (`use crate::common;`).
 
 use std::collections::BTreeSet;
 use texgraph::nodes::CATALOGUE;
@@ -227,6 +224,7 @@ pub fn save_by_rename(path: &std::path::Path, text: &str) {
     std::fs::rename(&temp, path).unwrap();
 }
 
+#[cfg(feature = "gpu")]
 /// Whether the GPU tests can run: a usable adapter (lavapipe counts). Without one they say so
 /// on stderr with `SKIPPED` and return false, never passing silently; with
 /// `TEXGRAPH_REQUIRE_GPU_ADAPTER=1` (set by .ci/run after installing lavapipe) a missing
@@ -244,6 +242,7 @@ pub fn gpu_available(test: &str) -> bool {
     }
 }
 
+#[cfg(feature = "gpu")]
 /// The GPU contract (docs/accuracy.md, "GPU"): per output channel, the largest difference of
 /// the GPU from the f64 reference over the points is at most 2e-5 (times the channel's largest
 /// magnitude, when above 1) plus four times the CPU's f32 path's own largest difference at the
@@ -259,6 +258,7 @@ pub fn gpu_contract(
     gpu_contract_lod(tape, gpu, points, None)
 }
 
+#[cfg(feature = "gpu")]
 /// [`gpu_contract`] with level of detail per point (`Tape::eval_batch_lod` on the CPU,
 /// `GpuEvaluator::eval_batch_lod` on the GPU) where `spacing` is given.
 pub fn gpu_contract_lod(

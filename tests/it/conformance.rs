@@ -281,7 +281,7 @@ const COLOUR_AND_GEOMETRY: [&str; 8] = [
     "Blend",
 ];
 
-mod common;
+use crate::common;
 
 /// A test's graph uses every kind it claims to check.
 #[track_caller]
@@ -1097,7 +1097,7 @@ fn select_chooses_branches_and_folds() {
 
 /// Gradient against hand-derived partials (`x² y + sin z`: `(2xy, x², cos z)`) and Import
 /// against the formula of the imported graph at the input with its param set (a file written
-/// to a temporary folder). tests/gradient.rs and tests/imports.rs test both in depth.
+/// to a temporary folder). tests/it/gradient.rs and tests/it/imports.rs test both in depth.
 #[test]
 fn gradient_and_import_match_their_definitions() {
     let dir = tempfile::tempdir().expect("temp dir");

@@ -26,7 +26,7 @@ fn doc() -> String {
     std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
-mod common;
+use crate::common;
 use common::{code_blocks as blocks_of, Block};
 
 fn code_blocks(doc: &str) -> Vec<Block> {

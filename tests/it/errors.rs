@@ -5,7 +5,7 @@
 //! Re-bless after an intended change of wording with
 //!
 //! ```text
-//! TEXGRAPH_BLESS=1 cargo test --test errors
+//! TEXGRAPH_BLESS=1 cargo test --test it errors::
 //! ```
 //!
 //! and read the diff of `tests/errors/*.txt` before committing it.
@@ -37,7 +37,7 @@ const NOISE: &[&str] = &[
     "Span {",
 ];
 
-mod common;
+use crate::common;
 use common::blessing;
 
 fn cases() -> Vec<PathBuf> {
@@ -237,7 +237,7 @@ fn error_goldens() {
             Err(_) => {
                 let _ = writeln!(
                     failures,
-                    "{name}.ron: no golden {DIR}/{name}.txt; create it with `TEXGRAPH_BLESS=1 cargo test --test errors`\n--- rendered ---\n{rendered}"
+                    "{name}.ron: no golden {DIR}/{name}.txt; create it with `TEXGRAPH_BLESS=1 cargo test --test it errors::`\n--- rendered ---\n{rendered}"
                 );
             }
             Ok(expected) => {
@@ -245,7 +245,7 @@ fn error_goldens() {
                 if expected != rendered {
                     let _ = writeln!(
                         failures,
-                        "{name}.ron: rendering differs from {DIR}/{name}.txt (re-bless with `TEXGRAPH_BLESS=1 cargo test --test errors` if intended)\n{}",
+                        "{name}.ron: rendering differs from {DIR}/{name}.txt (re-bless with `TEXGRAPH_BLESS=1 cargo test --test it errors::` if intended)\n{}",
                         diff(&expected, &rendered)
                     );
                 }

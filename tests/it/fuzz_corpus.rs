@@ -3,9 +3,7 @@
 //! goes through the same harness as the fuzz targets (`fuzz/src/lib.rs`, compiled here by path),
 //! so CI checks the invariants on all of them without nightly or libFuzzer.
 
-#[allow(dead_code)]
-#[path = "../fuzz/src/lib.rs"]
-mod harness;
+use crate::harness;
 
 use std::path::Path;
 
@@ -64,7 +62,7 @@ fn scene_bytes_corpus_replays() {
     );
 }
 
-mod common;
+use crate::common;
 
 /// The fuzz harness's structured generator reaches every node kind of the catalogue: a kind
 /// added without a fuzz case fails here.

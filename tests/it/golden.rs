@@ -15,7 +15,7 @@
 //! `tests/golden/NAME.tape` is the graph's tape disassembly (`texgraph check --tape`), compared
 //! exactly.
 //!
-//! Re-bless after an intended change: `TEXGRAPH_BLESS=1 cargo test --test golden`, then review
+//! Re-bless after an intended change: `TEXGRAPH_BLESS=1 cargo test --test it golden::`, then review
 //! the diff (`git diff tests/golden`).
 
 use std::fmt::Write as _;
@@ -27,7 +27,7 @@ const F32_TOLERANCE: f64 = 1e-5;
 const SLICE: usize = 32;
 const PICTURE: usize = 64;
 
-mod common;
+use crate::common;
 use common::blessing as bless;
 
 /// The folders of graphs with goldens: the seed and noise-family graphs and the material
@@ -137,7 +137,7 @@ fn golden_text(path: &Path, tape: &Tape, points: &[[f64; 3]]) -> String {
     );
     let _ = writeln!(
         text,
-        "# re-bless: TEXGRAPH_BLESS=1 cargo test --test golden"
+        "# re-bless: TEXGRAPH_BLESS=1 cargo test --test it golden::"
     );
     for (i, p) in points.iter().enumerate() {
         let _ = writeln!(text, "p {} {} {}", p[0], p[1], p[2]);
@@ -265,7 +265,7 @@ fn every_seed_graph_matches_its_golden_values_and_picture() {
                 }
             }
             Err(_) => failures.push(format!(
-                "{} is missing: run TEXGRAPH_BLESS=1 cargo test --test golden",
+                "{} is missing: run TEXGRAPH_BLESS=1 cargo test --test it golden::",
                 values_path.display()
             )),
         }
@@ -282,7 +282,7 @@ fn every_seed_graph_matches_its_golden_values_and_picture() {
                 }
             }
             Err(_) => failures.push(format!(
-                "{} is missing: run TEXGRAPH_BLESS=1 cargo test --test golden",
+                "{} is missing: run TEXGRAPH_BLESS=1 cargo test --test it golden::",
                 picture_path.display()
             )),
         }
@@ -325,7 +325,7 @@ fn every_seed_graph_compiles_to_its_golden_tape() {
                 ));
             }
             Err(_) => failures.push(format!(
-                "{} is missing: run TEXGRAPH_BLESS=1 cargo test --test golden",
+                "{} is missing: run TEXGRAPH_BLESS=1 cargo test --test it golden::",
                 tape_path.display()
             )),
         }

@@ -1,11 +1,10 @@
 //! The GPU path (issue 19) against the f64 reference: every graph of `graphs/` at points near
-#![cfg(feature = "gpu")]
 //! the origin, at |p| up to 1e4 and at |p| near 2^31, within the contract of
 //! `common::gpu_contract`; bakes on the GPU against bakes on the CPU; every generated shader
 //! validated by naga (that test needs no GPU). On a machine without any adapter the GPU tests
 //! print `SKIPPED` (CI installs Mesa's lavapipe and requires one).
 
-mod common;
+use crate::common;
 
 use texgraph::bake::{bake_volume, BakeOptions, Grid, Region};
 use texgraph::gpu::{Device, GpuEvaluator};
@@ -360,21 +359,4 @@ fn the_stability_survey_covers_the_gpu() {
         }
         eprintln!("{}", texgraph::stability::stability_text(&rows));
     }
-}
-
-/// The measured alternative, the WGSL tape interpreter (`gpu/interpreter.rs`), computes what the
-/// generated shader computes: within the same contract against the f64 reference. Ignored in
-/// the default run: its one big shader takes over two minutes to compile on lavapipe in a debug
-/// build (`cargo test --test gpu -- --ignored` runs it).
-#[test]
-#[ignore = "two minutes on lavapipe: cargo test --test gpu -- --ignored"]
-fn the_interpreter_meets_the_contract_too() {
-    if !common::gpu_available("the_interpreter_meets_the_contract_too") {
-        return;
-    }
-    let set = points(300, 0.0, 10.0, 5);
-    let tape = compile_for(&common::crate_root().join("graphs/tiling_marble.ron"), &set);
-    let gpu = GpuEvaluator::new_interpreted(&tape).expect("compiles");
-    let figures = common::gpu_contract(&tape, &gpu, &set).unwrap_or_else(|e| panic!("{e}"));
-    eprintln!("interpreter, tiling_marble: {}", figures_text(&figures));
 }

@@ -8,7 +8,7 @@ use proptest::prelude::*;
 use texgraph::nodes::{Lowering, CATALOGUE};
 use texgraph::{check, compile, CheckOptions, CompileOptions, SourceFile, Tape, Workspace};
 
-mod common;
+use crate::common;
 
 /// Relative tolerance of the comparison, against `max(1, |reference|)`, beyond the reference's
 /// own error estimate. The reference is Richardson's extrapolation of central differences with

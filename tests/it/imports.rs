@@ -9,7 +9,7 @@ use proptest::prelude::*;
 use std::path::Path;
 use texgraph::{check, compile, CheckOptions, CompileOptions, SourceFile, Tape};
 
-mod common;
+use crate::common;
 
 fn write(dir: &Path, name: &str, text: &str) {
     std::fs::write(dir.join(name), text).expect("write a test graph");

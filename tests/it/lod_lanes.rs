@@ -7,7 +7,7 @@ use texgraph::{
     compile, CheckOptions, CheckedGraph, CompileOptions, Extent, Real, Tape, Workspace,
 };
 
-mod common;
+use crate::common;
 use common::graph_files;
 
 /// Every graph file, and beside each graph with a scalar output the same graph with that

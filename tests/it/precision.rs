@@ -4,7 +4,7 @@
 use texgraph::stability::{stability_report, MAGNITUDES};
 use texgraph::{check, compile, CheckOptions, CompileOptions, Extent, SourceFile, Tape, Workspace};
 
-mod common;
+use crate::common;
 use common::graph_files;
 
 fn load(path: &std::path::Path) -> texgraph::CheckedGraph {

@@ -27,7 +27,7 @@ const NOISES: &str = r#"Graph(nodes: { "p": Position }, outputs: {
     "turbulence": Turbulence(input: "p", basis: Gradient, octaves: 6.0),
 })"#;
 
-mod common;
+use crate::common;
 
 fn batch<S: texgraph::Real>(tape: &Tape, points: &[[f64; 3]]) -> Vec<S> {
     let x: Vec<f64> = points.iter().map(|p| p[0]).collect();

@@ -259,7 +259,7 @@ proptest! {
     }
 }
 
-mod common;
+use crate::common;
 
 /// The generator reaches every node kind of the catalogue: a kind added without a generator
 /// case fails here.

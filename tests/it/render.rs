@@ -2,7 +2,7 @@
 //! independence, watch-mode reloads that survive broken edits, scene-file diagnostics.
 //!
 //! Goldens are `tests/render/NAME.png` (8-bit sRGB), compared within a tolerance;
-//! `TEXGRAPH_BLESS=1 cargo test --test render` re-blesses them.
+//! `TEXGRAPH_BLESS=1 cargo test --test it render::` re-blesses them.
 
 use std::path::{Path, PathBuf};
 use texgraph::render::{
@@ -13,7 +13,7 @@ use texgraph::render::{
 
 const MARBLE: &str = "graphs/seed003_marble.ron";
 
-mod common;
+use crate::common;
 use common::blessing;
 
 /// Small renders without level of detail: the goldens pin the shading and the textures at
@@ -826,7 +826,7 @@ fn the_timing_table_runs_and_cites_seed_003() {
 
 /// Not a check: renders the pictures for the README and docs into `$TEXGRAPH_GALLERY`
 /// (default `target/render-gallery`).
-/// `cargo test --release --test render gallery -- --ignored`
+/// `cargo test --release --test it render::gallery -- --ignored`
 #[test]
 #[ignore]
 fn gallery() {
@@ -876,7 +876,7 @@ fn gallery() {
 
 /// Not a check: prints seed 003's timing table (500×500 pixels, 1 sample per pixel, octaves 1,
 /// 2, 4, 8) — what `texgraph render --timing-table` prints.
-/// `cargo test --release --test render timing_table_print -- --ignored --nocapture`
+/// `cargo test --release --test it render::timing_table_print -- --ignored --nocapture`
 #[test]
 #[ignore]
 fn timing_table_print() {

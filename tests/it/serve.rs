@@ -12,7 +12,7 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 use texgraph::serve::Server;
 
-mod common;
+use crate::common;
 use tokio_tungstenite::tungstenite::Message;
 
 const WAIT: Duration = Duration::from_secs(30);
