@@ -10,6 +10,7 @@ mod common;
 mod harness;
 
 mod accuracy;
+mod architecture;
 mod bake;
 mod bake_ktx2;
 mod bake_mips;
