@@ -66,15 +66,20 @@ fn code_only(src: &str) -> String {
                 }
             }
             out.push(' ');
-        } else if !word_before(i) && (rest.starts_with("r#") || rest.starts_with("r\"")
-            || rest.starts_with("br#") || rest.starts_with("br\""))
+        } else if !word_before(i)
+            && (rest.starts_with("r#")
+                || rest.starts_with("r\"")
+                || rest.starts_with("br#")
+                || rest.starts_with("br\""))
         {
             let start = if rest.starts_with('b') { 1 } else { 0 };
             let hashes = rest[start + 1..].bytes().take_while(|&c| c == b'#').count();
             if rest.as_bytes().get(start + 1 + hashes) == Some(&b'"') {
                 let close = format!("\"{}", "#".repeat(hashes));
                 let body = i + start + 2 + hashes;
-                i = src[body..].find(&close).map_or(b.len(), |k| body + k + close.len());
+                i = src[body..]
+                    .find(&close)
+                    .map_or(b.len(), |k| body + k + close.len());
                 out.push_str("\"\"");
             } else {
                 out.push('r');
@@ -534,8 +539,9 @@ fn no_file_of_src_refers_back_to_a_file_that_refers_to_it() {
 
 /// ARCHITECTURE.md's layer table: each row `| N name | `module`, … | … |`, lowest first.
 fn layer_table() -> BTreeMap<String, (usize, String)> {
-    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("ARCHITECTURE.md"))
-        .expect("ARCHITECTURE.md");
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("ARCHITECTURE.md"))
+            .expect("ARCHITECTURE.md");
     let section = text
         .split("\n## Layers")
         .nth(1)
@@ -553,7 +559,10 @@ fn layer_table() -> BTreeMap<String, (usize, String)> {
         };
         for module in cells[1].split(',').map(|m| m.trim().trim_matches('`')) {
             let previous = layers.insert(module.to_string(), (level, cells[0].to_string()));
-            assert!(previous.is_none(), "`{module}` is in two rows of the layer table");
+            assert!(
+                previous.is_none(),
+                "`{module}` is in two rows of the layer table"
+            );
         }
     }
     assert!(layers.len() > 10, "no layer table found: {layers:?}");
@@ -576,7 +585,9 @@ fn every_module_uses_only_its_own_layer_and_those_below() {
         }
     }
     for t in layers.keys().filter(|t| !tops.contains(*t)) {
-        problems.push(format!("the layer table names `{t}`, which src/ does not have"));
+        problems.push(format!(
+            "the layer table names `{t}`, which src/ does not have"
+        ));
     }
     for (file, edges) in &analysis.edges {
         let Some((from, from_name)) = layers.get(&top(file)) else {
@@ -609,7 +620,10 @@ fn the_reference_reader_finds_circles_and_ignores_what_is_not_code() {
     // Through `use super::`, a full path in code, and a facade's `pub use`.
     let circled = crate_of(&[
         ("lib.rs", "pub mod a;\npub mod b;\n"),
-        ("a/mod.rs", "mod inner;\npub use inner::Thing;\npub struct Root;\n"),
+        (
+            "a/mod.rs",
+            "mod inner;\npub use inner::Thing;\npub struct Root;\n",
+        ),
         ("a/inner.rs", "use super::Root;\npub struct Thing(Root);\n"),
         ("b.rs", "pub fn f() -> usize { crate::a::inner::LEN }\n"),
     ]);
@@ -625,7 +639,12 @@ fn the_reference_reader_finds_circles_and_ignores_what_is_not_code() {
         ("z.rs", "pub fn h() { super::x::f() }\n"),
     ]);
     assert_eq!(three.circles().len(), 1);
-    assert_eq!(three.circles()[0].len(), 3, "{}", circles_text(&three.circles()));
+    assert_eq!(
+        three.circles()[0].len(),
+        3,
+        "{}",
+        circles_text(&three.circles())
+    );
     // Comments, strings, doc links, `mod` declarations and inline test modules that use their
     // own file are not references; a lifetime does not open a character literal.
     let clean = crate_of(&[
@@ -639,7 +658,11 @@ fn the_reference_reader_finds_circles_and_ignores_what_is_not_code() {
         ),
         ("q.rs", "use crate::p::P;\npub struct Q<'a>(P<'a>);\n"),
     ]);
-    assert!(clean.circles().is_empty(), "{}", circles_text(&clean.circles()));
+    assert!(
+        clean.circles().is_empty(),
+        "{}",
+        circles_text(&clean.circles())
+    );
     assert_eq!(clean.edges["p.rs"], BTreeSet::new());
     assert_eq!(clean.edges["q.rs"].len(), 1);
 }
