@@ -227,7 +227,7 @@ pub fn bake_files(
 }
 
 /// Bakes a mip chain: `tapes[L]` is the graph compiled for level L's footprint
-/// ([`mip_spacing`]), level 0 first. KTX2 writes one file holding every level; PNG, EXR and raw
+/// ([`mip_spacing`](super::settings::mip_spacing)), level 0 first. KTX2 writes one file holding every level; PNG, EXR and raw
 /// write each level into its own folder `OUT/mipL/` (named as a bake of that level alone);
 /// zarr writes an OME-Zarr multiscale group per output. Every level is checked before any is
 /// baked. Returns one report per file set (one for KTX2 and zarr, one per level otherwise).

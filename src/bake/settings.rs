@@ -170,7 +170,7 @@ pub struct BakeFileOptions {
     pub zstd: Option<i32>,
     /// Zarr: chunking, sharding, compression and which part of the shards to bake.
     pub zarr: ZarrSettings,
-    /// Mip levels, level 0 (the grid) first; 1 without `--mips`. Set by [`bake_mipmapped`].
+    /// Mip levels, level 0 (the grid) first; 1 without `--mips`. Set by [`bake_mipmapped`](crate::bake::bake_mipmapped).
     pub levels: u32,
     pub transfer: Transfer,
     /// Refuse a bake whose files would exceed this many bytes (uncompressed estimate).

@@ -33,7 +33,7 @@ pub enum Interpolation {
 }
 
 impl Basis {
-    /// The range of every table of this basis (see [`NoiseTable::range`]).
+    /// The range of every table of this basis (see [`NoiseTable::range`](super::table::NoiseTable::range)).
     pub fn range(self) -> (f64, f64) {
         match self {
             Basis::Perlin => (-PERLIN_RANGE, PERLIN_RANGE),
@@ -45,7 +45,7 @@ impl Basis {
     }
 
     /// An upper bound on the Lipschitz constant of the basis, the same for every seed; see
-    /// [`NoiseTable::lipschitz`].
+    /// [`NoiseTable::lipschitz`](super::table::NoiseTable::lipschitz).
     pub fn lipschitz(self) -> f64 {
         match self {
             Basis::Perlin => 11.157,

@@ -55,7 +55,7 @@ pub enum RenderError {
     /// The file watcher failed (exit code 2).
     #[error("watching files: {0}")]
     Watch(#[from] notify::Error),
-    /// [`RenderOptions::cancel`] said stop (exit code 2; not an error a user sees).
+    /// [`RenderOptions::cancel`](crate::render::RenderOptions::cancel) said stop (exit code 2; not an error a user sees).
     #[error("the render was cancelled")]
     Cancelled,
 }
