@@ -25,6 +25,7 @@ fn main() {
         input: path.clone(),
         host: "127.0.0.1".parse().unwrap(),
         port: 0,
+        sizes: texgraph::serve::Sizes::default(),
     })
     .expect("the server starts");
     let runtime = tokio::runtime::Builder::new_current_thread()

@@ -19,6 +19,15 @@ pub struct ServeArgs {
     /// Open the page in the default browser.
     #[arg(long)]
     open: bool,
+    /// The preview's side in pixels when the page opens (1 to 2048; the page can change it).
+    #[arg(long, default_value_t = crate::serve::Sizes::default().preview, value_name = "PIXELS")]
+    preview_size: u32,
+    /// The slice's side in pixels (1 to 2048).
+    #[arg(long, default_value_t = crate::serve::Sizes::default().slice, value_name = "PIXELS")]
+    slice_size: u32,
+    /// The node thumbnails' side in pixels (1 to 512).
+    #[arg(long, default_value_t = crate::serve::Sizes::default().thumb, value_name = "PIXELS")]
+    thumb_size: u32,
 }
 
 /// Serves the page until interrupted.
@@ -27,6 +36,11 @@ pub fn serve(args: ServeArgs) -> Result<(), Failure> {
         input: args.file,
         host: args.host,
         port: args.port,
+        sizes: crate::serve::Sizes {
+            preview: args.preview_size,
+            slice: args.slice_size,
+            thumb: args.thumb_size,
+        },
     })
     .map_err(|e| {
         eprintln!("error: {e}");

@@ -40,11 +40,36 @@ pub struct ServeOptions {
     pub host: IpAddr,
     /// The port; 0 picks a free one.
     pub port: u16,
+    /// The images' sizes when the page opens (a tab changes them with a `view` request).
+    pub sizes: Sizes,
+}
+
+/// The sides in pixels of the preview, the slice and the node thumbnails.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Sizes {
+    pub preview: u32,
+    pub slice: u32,
+    pub thumb: u32,
+}
+
+impl Default for Sizes {
+    /// 512, 256 and 96 pixels (docs/serve.md).
+    fn default() -> Self {
+        let s = Settings::default();
+        Sizes {
+            preview: s.preview_size,
+            slice: s.slice_size,
+            thumb: s.thumb_size,
+        }
+    }
 }
 
 /// Why the server could not start.
 #[derive(Debug, thiserror::Error)]
 pub enum ServeError {
+    /// An image size out of its range (`--preview-size` and the others).
+    #[error("{0}")]
+    Sizes(String),
     #[error("{}: {source}", path.display())]
     Input {
         path: PathBuf,
@@ -166,10 +191,22 @@ pub fn start(options: ServeOptions) -> Result<Server, ServeError> {
         .local_addr()
         .map_err(|source| ServeError::Listen { addr, source })?;
     let (kicks, kick_rx) = std::sync::mpsc::channel();
-    let settings = Settings {
-        graph: graphs.first().cloned(),
-        ..Settings::default()
-    };
+    let settings = protocol::apply_view(
+        &Settings {
+            graph: graphs.first().cloned(),
+            ..Settings::default()
+        },
+        None,
+        None,
+        None,
+        None,
+        [
+            Some(options.sizes.preview),
+            Some(options.sizes.slice),
+            Some(options.sizes.thumb),
+        ],
+    )
+    .map_err(ServeError::Sizes)?;
     let shared = Arc::new(Shared {
         mode,
         loopback: options.host.is_loopback(),

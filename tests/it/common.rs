@@ -198,10 +198,27 @@ pub fn expected_volume(tape: &Tape, grid: &texgraph::bake::Grid) -> Vec<Vec<f32>
 
 /// `texgraph serve` tests: a server on a free localhost port.
 pub fn serve(input: &std::path::Path) -> texgraph::serve::Server {
+    serve_sized(input, SMALL_IMAGES)
+}
+
+/// Image sizes for the tests that do not check the defaults: a quarter of the default sides
+/// (a 128² preview renders 16 times faster than 512² in a debug build, and proves the same).
+pub const SMALL_IMAGES: texgraph::serve::Sizes = texgraph::serve::Sizes {
+    preview: 128,
+    slice: 64,
+    thumb: 24,
+};
+
+/// [`serve`] with the images' sizes when the page opens.
+pub fn serve_sized(
+    input: &std::path::Path,
+    sizes: texgraph::serve::Sizes,
+) -> texgraph::serve::Server {
     texgraph::serve::start(texgraph::serve::ServeOptions {
         input: input.to_path_buf(),
         host: "127.0.0.1".parse().unwrap(),
         port: 0,
+        sizes,
     })
     .expect("the server starts")
 }

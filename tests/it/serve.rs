@@ -160,7 +160,8 @@ async fn the_page_and_the_state_are_served() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn every_node_param_and_image_is_sent() {
     let (_dir, path) = marble_copy();
-    let server = serve(&path);
+    // The default sizes (the other tests start smaller: `common::SMALL_IMAGES`).
+    let server = common::serve_sized(&path, texgraph::serve::Sizes::default());
     let mut tab = Tab::open(&server).await;
     tab.until("the first full preview", |t| t.settled()).await;
     assert!(
@@ -499,12 +500,13 @@ async fn tabs_share_one_state_and_a_vanished_tab_harms_nobody() {
     let mut b = Tab::open(&server).await;
     a.until("ready", |t| t.ready()).await;
     b.until("ready", |t| t.ready()).await;
-    // A tab that asks for a big render and disconnects at once; another that never reads.
+    // A tab that asks for a big render (four times the preview's side) and disconnects at
+    // once; another that never reads.
     let mut gone = Tab::open(&server).await;
-    gone.send(json!({"type": "view", "preview_size": 1024}))
+    gone.send(json!({"type": "view", "preview_size": 512}))
         .await;
     gone.until("its request taken", |t| {
-        t.get("settings")["preview_size"] == 1024
+        t.get("settings")["preview_size"] == 512
     })
     .await;
     drop(gone);
@@ -522,7 +524,7 @@ async fn tabs_share_one_state_and_a_vanished_tab_harms_nobody() {
                 && t.get("slice")["output"] == "vein"
                 && t.get("slice")["axis"] == "xz"
                 && t.get("preview")["stage"] == "full"
-                && t.get("preview")["width"] == 1024
+                && t.get("preview")["width"] == 512
         })
         .await;
     }

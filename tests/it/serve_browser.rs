@@ -15,7 +15,7 @@ use serde_json::{json, Value};
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream};
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 use texgraph::serve::Server;
 
@@ -28,10 +28,11 @@ const MARBLE_NODES: [&str; 5] = ["v", "fractal", "phase", "vein", "colour"];
 /// How long a wait on the page may take (a debug build renders the full preview).
 const WAIT: Duration = Duration::from_secs(30);
 const POLL: Duration = Duration::from_millis(100);
-/// The default image sizes (docs/serve.md).
-const PREVIEW: u64 = 512;
-const SLICE: u64 = 256;
-const THUMB: u64 = 96;
+/// The image sizes the tests' servers start with (`common::SMALL_IMAGES`: the page lays them out
+/// as it does the defaults, and they render 16 times faster in a debug build).
+const PREVIEW: u64 = common::SMALL_IMAGES.preview as u64;
+const SLICE: u64 = common::SMALL_IMAGES.slice as u64;
+const THUMB: u64 = common::SMALL_IMAGES.thumb as u64;
 
 /// Whether the browser is installed; if not, says SKIPPED (or fails under
 /// `TEXGRAPH_REQUIRE_BROWSER=1`).
@@ -98,72 +99,112 @@ fn free_port() -> u16 {
         .port()
 }
 
-/// A running chromedriver, shut down (its browsers with it) when dropped.
-struct Driver {
-    child: Child,
-    addr: SocketAddr,
+/// The one chromedriver and Chromium session every browser test shares (issue 31: a browser
+/// and a WebDriver started once, not once per test). The tests take turns (`TURN`): each
+/// navigates the one window to its own server's page, so nothing of one test's page survives
+/// into the next. The session's connection runs on a runtime of its own, which outlives every
+/// test's runtime; the process that started chromedriver is watched by a small shell script,
+/// which shuts chromedriver (and the browser with it) down once the test process is gone.
+struct SharedBrowser {
+    client: Client,
+    _runtime: tokio::runtime::Runtime,
+    _profile: tempfile::TempDir,
 }
 
-impl Driver {
-    fn start() -> Driver {
-        let port = free_port();
-        let child = Command::new(CHROMEDRIVER)
-            .arg(format!("--port={port}"))
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("chromedriver starts");
-        let mut driver = Driver {
-            child,
-            addr: SocketAddr::from(([127, 0, 0, 1], port)),
-        };
-        let deadline = Instant::now() + Duration::from_secs(10);
-        loop {
-            if let Ok((_, body)) = http_get(driver.addr, "/status") {
-                if body.replace(' ', "").contains("\"ready\":true") {
-                    return driver;
-                }
+static SHARED: std::sync::OnceLock<SharedBrowser> = std::sync::OnceLock::new();
+static TURN: tokio::sync::Mutex<()> = tokio::sync::Mutex::const_new(());
+
+/// Starts chromedriver on a free port with its watchdog: once this process has exited, the
+/// watchdog asks chromedriver to shut down (it quits its browsers), then kills it.
+fn start_driver() -> SocketAddr {
+    let port = free_port();
+    let watchdog = format!(
+        "{CHROMEDRIVER} --port={port} >/dev/null 2>&1 & driver=$!
+         while kill -0 {parent} 2>/dev/null; do sleep 0.5; done
+         exec 3<>/dev/tcp/127.0.0.1/{port} && printf 'GET /shutdown HTTP/1.1\r\nHost: localhost\r\n\r\n' >&3
+         sleep 2; kill $driver 2>/dev/null; wait $driver",
+        parent = std::process::id()
+    );
+    Command::new("bash")
+        .args(["-c", &watchdog])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("bash starts chromedriver");
+    let addr = SocketAddr::from(([127, 0, 0, 1], port));
+    let deadline = Instant::now() + Duration::from_secs(10);
+    loop {
+        if let Ok((_, body)) = http_get(addr, "/status") {
+            if body.replace(' ', "").contains("\"ready\":true") {
+                return addr;
             }
-            if let Ok(Some(status)) = driver.child.try_wait() {
-                panic!("chromedriver exited before it answered: {status}");
-            }
-            assert!(
-                Instant::now() < deadline,
-                "chromedriver did not answer on port {port} within 10 s"
+        }
+        assert!(
+            Instant::now() < deadline,
+            "chromedriver did not answer on port {port} within 10 s"
+        );
+        std::thread::sleep(POLL);
+    }
+}
+
+impl SharedBrowser {
+    /// The shared session, started by the first test that asks.
+    fn get() -> &'static SharedBrowser {
+        SHARED.get_or_init(|| {
+            let addr = start_driver();
+            let profile = tempfile::tempdir().expect("a profile folder");
+            let runtime = tokio::runtime::Builder::new_multi_thread()
+                .worker_threads(1)
+                .enable_all()
+                .build()
+                .expect("the browser's runtime");
+            let mut capabilities = serde_json::Map::new();
+            capabilities.insert("browserName".into(), json!("chrome"));
+            capabilities.insert(
+                "goog:chromeOptions".into(),
+                json!({
+                    "binary": CHROMIUM,
+                    "args": [
+                        "--headless=new", "--no-sandbox", "--disable-gpu",
+                        "--disable-dev-shm-usage", "--disable-quic", "--no-first-run",
+                        "--disable-background-networking", "--disable-component-update",
+                        "--disable-sync",
+                        format!("--user-data-dir={}", profile.path().display()),
+                        "--window-size=1400,1000",
+                    ],
+                }),
             );
-            std::thread::sleep(POLL);
-        }
-    }
-
-    fn url(&self) -> String {
-        format!("http://{}", self.addr)
-    }
-}
-
-impl Drop for Driver {
-    fn drop(&mut self) {
-        // chromedriver's own shutdown quits the browsers of its sessions too (a test that
-        // panicked did not close its session); kill it if it does not exit.
-        let _ = http_get(self.addr, "/shutdown");
-        let deadline = Instant::now() + Duration::from_secs(3);
-        while Instant::now() < deadline {
-            if let Ok(Some(_)) = self.child.try_wait() {
-                return;
+            let url = format!("http://{addr}");
+            // The session's own task lives on `runtime`, which no test's runtime outlives.
+            let client = std::thread::scope(|scope| {
+                scope
+                    .spawn(|| {
+                        runtime.block_on(
+                            ClientBuilder::new(
+                                hyper_util::client::legacy::connect::HttpConnector::new(),
+                            )
+                            .capabilities(capabilities)
+                            .connect(&url),
+                        )
+                    })
+                    .join()
+                    .expect("the connecting thread")
+            })
+            .unwrap_or_else(|e| panic!("a Chromium session through chromedriver: {e}"));
+            SharedBrowser {
+                client,
+                _runtime: runtime,
+                _profile: profile,
             }
-            std::thread::sleep(Duration::from_millis(50));
-        }
-        let _ = self.child.kill();
-        let _ = self.child.wait();
+        })
     }
 }
 
-/// One headless Chromium session on a served page.
+/// One test's turn with the shared browser, on its server's page.
 struct Browser {
     client: Client,
-    _driver: Driver,
-    /// The browser's fresh profile (removed after the browser quit).
-    _profile: tempfile::TempDir,
+    _turn: tokio::sync::MutexGuard<'static, ()>,
 }
 
 /// The page's state as the tests read it, in one script run.
@@ -219,48 +260,24 @@ return out;
 "#;
 
 impl Browser {
+    /// Waits for the shared browser's turn, then opens `server`'s page in it.
     async fn open(server: &Server) -> Browser {
-        let driver = Driver::start();
-        let profile = tempfile::tempdir().expect("a profile folder");
-        let mut capabilities = serde_json::Map::new();
-        capabilities.insert("browserName".into(), json!("chrome"));
-        capabilities.insert(
-            "goog:chromeOptions".into(),
-            json!({
-                "binary": CHROMIUM,
-                "args": [
-                    "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-                    "--disable-quic", "--no-first-run", "--disable-background-networking",
-                    "--disable-component-update", "--disable-sync",
-                    format!("--user-data-dir={}", profile.path().display()),
-                    "--window-size=1400,1000",
-                ],
-            }),
-        );
-        let client = ClientBuilder::new(hyper_util::client::legacy::connect::HttpConnector::new())
-            .capabilities(capabilities)
-            .connect(&driver.url())
-            .await
-            .unwrap_or_else(|e| panic!("a Chromium session through chromedriver: {e}"));
+        let turn = TURN.lock().await;
+        let client = SharedBrowser::get().client.clone();
         client
             .goto(&server.url())
             .await
             .unwrap_or_else(|e| panic!("opening {}: {e}", server.url()));
         Browser {
             client,
-            _driver: driver,
-            _profile: profile,
+            _turn: turn,
         }
     }
 
-    /// Ends the session (the browser quits); the driver stops when dropped.
+    /// Ends this test's turn: the page is left for `about:blank`, so it stops talking to a
+    /// server about to stop.
     async fn close(self) {
-        let Browser {
-            client,
-            _driver,
-            _profile,
-        } = self;
-        let _ = client.close().await;
+        let _ = self.client.goto("about:blank").await;
     }
 
     async fn run(&self, script: &str, args: Vec<Value>) -> Value {
