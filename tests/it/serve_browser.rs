@@ -107,6 +107,8 @@ fn free_port() -> u16 {
 /// which shuts chromedriver (and the browser with it) down once the test process is gone.
 struct SharedBrowser {
     client: Client,
+    /// The watchdog shell (chromedriver's parent), never waited for: it ends after this process.
+    _watchdog: std::process::Child,
     _runtime: tokio::runtime::Runtime,
     _profile: tempfile::TempDir,
 }
@@ -116,7 +118,10 @@ static TURN: tokio::sync::Mutex<()> = tokio::sync::Mutex::const_new(());
 
 /// Starts chromedriver on a free port with its watchdog: once this process has exited, the
 /// watchdog asks chromedriver to shut down (it quits its browsers), then kills it.
-fn start_driver() -> SocketAddr {
+// The watchdog is meant to outlive this function and this process (that is its job); it is
+// killed and waited for only when chromedriver never answers.
+#[allow(clippy::zombie_processes)]
+fn start_driver() -> (SocketAddr, std::process::Child) {
     let port = free_port();
     let watchdog = format!(
         "{CHROMEDRIVER} --port={port} >/dev/null 2>&1 & driver=$!
@@ -125,7 +130,7 @@ fn start_driver() -> SocketAddr {
          sleep 2; kill $driver 2>/dev/null; wait $driver",
         parent = std::process::id()
     );
-    Command::new("bash")
+    let watchdog = Command::new("bash")
         .args(["-c", &watchdog])
         .stdin(Stdio::null())
         .stdout(Stdio::null())
@@ -137,13 +142,15 @@ fn start_driver() -> SocketAddr {
     loop {
         if let Ok((_, body)) = http_get(addr, "/status") {
             if body.replace(' ', "").contains("\"ready\":true") {
-                return addr;
+                return (addr, watchdog);
             }
         }
-        assert!(
-            Instant::now() < deadline,
-            "chromedriver did not answer on port {port} within 10 s"
-        );
+        if Instant::now() >= deadline {
+            let mut watchdog = watchdog;
+            let _ = watchdog.kill();
+            let _ = watchdog.wait();
+            panic!("chromedriver did not answer on port {port} within 10 s");
+        }
         std::thread::sleep(POLL);
     }
 }
@@ -152,7 +159,7 @@ impl SharedBrowser {
     /// The shared session, started by the first test that asks.
     fn get() -> &'static SharedBrowser {
         SHARED.get_or_init(|| {
-            let addr = start_driver();
+            let (addr, watchdog) = start_driver();
             let profile = tempfile::tempdir().expect("a profile folder");
             let runtime = tokio::runtime::Builder::new_multi_thread()
                 .worker_threads(1)
@@ -180,13 +187,15 @@ impl SharedBrowser {
             let client = std::thread::scope(|scope| {
                 scope
                     .spawn(|| {
-                        runtime.block_on(
-                            ClientBuilder::new(
-                                hyper_util::client::legacy::connect::HttpConnector::new(),
+                        runtime
+                            .block_on(
+                                ClientBuilder::new(
+                                    hyper_util::client::legacy::connect::HttpConnector::new(),
+                                )
+                                .capabilities(capabilities)
+                                .connect(&url),
                             )
-                            .capabilities(capabilities)
-                            .connect(&url),
-                        )
+                            .map_err(|e| e.to_string())
                     })
                     .join()
                     .expect("the connecting thread")
@@ -194,6 +203,7 @@ impl SharedBrowser {
             .unwrap_or_else(|e| panic!("a Chromium session through chromedriver: {e}"));
             SharedBrowser {
                 client,
+                _watchdog: watchdog,
                 _runtime: runtime,
                 _profile: profile,
             }
