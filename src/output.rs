@@ -322,15 +322,78 @@ pub fn write_atomic(
     Ok(())
 }
 
-/// Writes `image` as a PNG file, atomically ([`write_atomic`]).
-pub fn write_png(path: &Path, image: &image::RgbImage) -> Result<(), OutputError> {
-    write_atomic(path, |w| {
-        let mut bytes = std::io::Cursor::new(Vec::new());
-        image
-            .write_to(&mut bytes, image::ImageFormat::Png)
+/// An 8-bit RGB image, rows from the top, three bytes a pixel: what renders, previews and
+/// plots are before they become PNG. A type of texgraph's own: it only ever stores such images
+/// and encodes them (the `png` crate does that, as it does for bakes); the `image` crate would
+/// bring its colour-management crates into every build for it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RgbImage {
+    width: u32,
+    height: u32,
+    data: Vec<u8>,
+}
+
+impl RgbImage {
+    /// `data`: `width × height` pixels of three bytes, row by row; `None` for another length.
+    pub fn from_raw(width: u32, height: u32, data: Vec<u8>) -> Option<RgbImage> {
+        let len = (width as usize)
+            .checked_mul(height as usize)?
+            .checked_mul(3)?;
+        (data.len() == len).then_some(RgbImage {
+            width,
+            height,
+            data,
+        })
+    }
+
+    /// (width, height) in pixels.
+    pub fn dimensions(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
+    /// Pixel (x, y) as [r, g, b]; panics outside the image.
+    pub fn get_pixel(&self, x: u32, y: u32) -> [u8; 3] {
+        assert!(
+            x < self.width && y < self.height,
+            "pixel ({x}, {y}) outside the image"
+        );
+        let i = 3 * (y as usize * self.width as usize + x as usize);
+        [self.data[i], self.data[i + 1], self.data[i + 2]]
+    }
+
+    /// The bytes, row by row.
+    pub fn as_raw(&self) -> &[u8] {
+        &self.data
+    }
+
+    pub fn into_raw(self) -> Vec<u8> {
+        self.data
+    }
+
+    /// The image as a PNG file's bytes (8-bit RGB, fast compression as the bakes use).
+    pub fn encode_png(&self) -> Vec<u8> {
+        let mut bytes = Vec::new();
+        self.write_png_to(&mut bytes)
+            .expect("PNG encoding into memory does not fail");
+        bytes
+    }
+
+    fn write_png_to(&self, writer: impl Write) -> std::io::Result<()> {
+        let mut encoder = png::Encoder::new(writer, self.width, self.height);
+        encoder.set_color(png::ColorType::Rgb);
+        encoder.set_depth(png::BitDepth::Eight);
+        encoder.set_compression(png::Compression::Fast);
+        let mut writer = encoder.write_header().map_err(std::io::Error::other)?;
+        writer
+            .write_image_data(&self.data)
             .map_err(std::io::Error::other)?;
-        w.write_all(bytes.get_ref())
-    })
+        writer.finish().map_err(std::io::Error::other)
+    }
+}
+
+/// Writes `image` as a PNG file, atomically ([`write_atomic`]).
+pub fn write_png(path: &Path, image: &RgbImage) -> Result<(), OutputError> {
+    write_atomic(path, |w| image.write_png_to(w))
 }
 
 #[cfg(test)]

@@ -665,8 +665,8 @@ pub fn plot(rows: &[Row], title: &str, path: &std::path::Path) -> Result<(), Str
             .map_err(error)?;
         root.present().map_err(error)?;
     }
-    let image =
-        image::RgbImage::from_raw(width, height, buffer).ok_or("plot buffer has the wrong size")?;
+    let image = crate::output::RgbImage::from_raw(width, height, buffer)
+        .ok_or("plot buffer has the wrong size")?;
     crate::output::write_png(path, &image).map_err(|e| e.to_string())
 }
 

@@ -88,6 +88,7 @@ pub use scene::{
 };
 pub use shade::Counters;
 
+use crate::output::RgbImage;
 use error::check_samples;
 use error::check_size;
 use glam::Vec3;
@@ -198,9 +199,9 @@ fn srgb8(v: f32) -> u8 {
 
 impl RenderedImage {
     /// The image as 8-bit sRGB.
-    pub fn to_rgb8(&self) -> image::RgbImage {
+    pub fn to_rgb8(&self) -> RgbImage {
         let bytes: Vec<u8> = self.pixels.iter().flat_map(|p| p.map(srgb8)).collect();
-        image::RgbImage::from_raw(self.width, self.height, bytes).expect("width × height pixels")
+        RgbImage::from_raw(self.width, self.height, bytes).expect("width × height pixels")
     }
 
     /// The linear value of pixel (x, y).
@@ -217,7 +218,7 @@ impl RenderedImage {
 
 /// Writes an image as PNG atomically (temporary file in the same folder + rename), refusing a
 /// destination that is not a regular file (`output::write_atomic`).
-pub fn write_png(image: &image::RgbImage, path: &Path) -> Result<(), RenderError> {
+pub fn write_png(image: &RgbImage, path: &Path) -> Result<(), RenderError> {
     crate::output::write_png(path, image).map_err(|e| match e {
         crate::output::OutputError::Io { path, source } => RenderError::Io { path, source },
         other => RenderError::Options(other.to_string()),

@@ -11,6 +11,7 @@ use crate::compile::{compile, CompileOptions};
 use crate::diagnostic::Diagnostics;
 use crate::eval::Workspace;
 use crate::graph::{CheckedGraph, Type};
+use crate::output::RgbImage;
 use crate::render::{self, Cancel, PreviewDefaults, RenderError, RenderOptions};
 use crate::tape::Tape;
 use base64::Engine as _;
@@ -293,20 +294,16 @@ impl Plane {
                 }
             }
         }
-        let image = image::RgbImage::from_raw(self.side, self.side, bytes).expect("n×n pixels");
+        let image = RgbImage::from_raw(self.side, self.side, bytes).expect("n×n pixels");
         png_data_url(&image)
     }
 }
 
 /// A PNG `data:` URL of an 8-bit RGB image.
-pub fn png_data_url(image: &image::RgbImage) -> String {
-    let mut png = std::io::Cursor::new(Vec::new());
-    image
-        .write_to(&mut png, image::ImageFormat::Png)
-        .expect("PNG encoding into memory does not fail");
+pub fn png_data_url(image: &RgbImage) -> String {
     format!(
         "data:image/png;base64,{}",
-        base64::engine::general_purpose::STANDARD.encode(png.into_inner())
+        base64::engine::general_purpose::STANDARD.encode(image.encode_png())
     )
 }
 
@@ -573,7 +570,7 @@ pub fn preview(
     width: u32,
     samples: u32,
     cancel: &Cancel,
-) -> Result<(image::RgbImage, Duration), RenderError> {
+) -> Result<(RgbImage, Duration), RenderError> {
     let height = match scene.size() {
         Some((w, h)) if w > 0 => ((u64::from(width) * u64::from(h)) / u64::from(w)).max(1) as u32,
         _ => width,

@@ -48,7 +48,7 @@ fn assert_golden(name: &str, image: &RenderedImage) {
     let path = PathBuf::from(format!("tests/render/{name}.png"));
     let got = image.to_rgb8();
     if blessing() {
-        got.save(&path).expect("write golden");
+        std::fs::write(&path, got.encode_png()).expect("write golden");
         return;
     }
     let want = image::open(&path)
@@ -70,7 +70,7 @@ fn assert_golden(name: &str, image: &RenderedImage) {
     let mean = diffs.iter().sum::<i32>() as f64 / diffs.len() as f64;
     if big * 100 > diffs.len() || mean > 1.0 {
         let actual = std::env::temp_dir().join(format!("texgraph-render-{name}.png"));
-        let _ = got.save(&actual);
+        let _ = std::fs::write(&actual, got.encode_png());
         panic!(
             "{name}: {big} of {} channel values differ by more than 8, mean difference {mean:.3}; \
              this render is at {}; if the change is intended, re-bless with TEXGRAPH_BLESS=1",
