@@ -74,6 +74,8 @@ fn check_with(
         lowered: Vec::new(),
         written: 0,
         imports,
+        overridden: Vec::new(),
+        node_spans: HashMap::default(),
     };
     let result = checker.graph(&root, options);
     if checker.diagnostics.is_empty() {
@@ -138,6 +140,10 @@ struct Checker {
     written: usize,
     /// The files being checked around this one, and the imports met so far.
     imports: ImportContext,
+    /// The params whose values came from `--set` (or an Import's `set`), with those values.
+    overridden: Vec<(String, f64)>,
+    /// Each named node's definition, for tracing a bad value back to an override.
+    node_spans: HashMap<Text, Span>,
 }
 
 /// An imported file and the `set` values it was checked with (sorted, as bits).
@@ -172,8 +178,69 @@ impl ImportContext {
 type CheckedParts = (Vec<Output>, Vec<(Text, NodeId)>, usize);
 
 impl Checker {
-    fn error(&mut self, diagnostic: Diagnostic) {
+    fn error(&mut self, mut diagnostic: Diagnostic) {
+        // A bad value that a `--set` (or an Import's `set`) put there says so: the file alone
+        // would not explain it.
+        if diagnostic.class == Class::BadParameter && diagnostic.file.is_none() {
+            if let Some(span) = diagnostic.span {
+                let given = self.overrides_behind(span);
+                if !given.is_empty() {
+                    let from = if self.imports.stack.len() > 1 {
+                        "the Import's `set`"
+                    } else {
+                        "--set"
+                    };
+                    let given: Vec<String> = given
+                        .iter()
+                        .map(|(n, v)| format!("{n}={}", crate::diagnostic::number(*v)))
+                        .collect();
+                    diagnostic.message = format!(
+                        "{} (the value comes from {from} {})",
+                        diagnostic.message,
+                        given.join(", ")
+                    );
+                }
+            }
+        }
         self.diagnostics.push(diagnostic);
+    }
+
+    /// The overridden params (`--set`, an Import's `set`) that the text at `span` refers to,
+    /// directly or through the nodes it names, in the order given.
+    fn overrides_behind(&self, span: Span) -> Vec<(String, f64)> {
+        if self.overridden.is_empty() {
+            return Vec::new();
+        }
+        let mut names: Vec<&str> = Vec::new();
+        let mut spans = vec![span];
+        let mut seen: Vec<&str> = Vec::new();
+        while let Some(span) = spans.pop() {
+            let Some(text) = self.file.text.get(span.start..span.end) else {
+                continue;
+            };
+            // Every string literal in the text is a reference (or a name): `"id"`, `"id.x"`.
+            for (k, quoted) in text.split('"').enumerate() {
+                if k % 2 == 0 {
+                    continue;
+                }
+                let name = quoted.split('.').next().unwrap_or(quoted);
+                if seen.contains(&name) {
+                    continue;
+                }
+                if let Some((key, node_span)) = self.node_spans.get_key_value(name) {
+                    seen.push(key);
+                    spans.push(*node_span);
+                } else if let Some((p, _)) = self.overridden.iter().find(|(p, _)| p == name) {
+                    seen.push(p);
+                    names.push(p);
+                }
+            }
+        }
+        self.overridden
+            .iter()
+            .filter(|(p, _)| names.contains(&p.as_str()))
+            .cloned()
+            .collect()
     }
 }
 

@@ -143,6 +143,10 @@ impl Checker {
             }
         }
         self.lowered = vec![None; declared];
+        self.node_spans = node_entries
+            .iter()
+            .map(|(id, value)| (id.value.clone(), value.span))
+            .collect();
         let order = self.dependency_order(&node_entries);
         for i in order {
             let (id, value) = &node_entries[i];
@@ -203,7 +207,32 @@ impl Checker {
                 node: Arc::from(format!("outputs.{}", name.value).as_str()),
                 span: value.span,
             };
-            if let Some(node) = self.expression(value, &origin) {
+            let node = self.expression(value, &origin);
+            // One namespace with the nodes: an output may bear a node's name only when it is
+            // that node's value (`"vein": "vein"`); a param's name is free to take (params are
+            // named by `--set` and `set:`, outputs by `--output` and `output:`).
+            if let (Some(id), Some(&i)) = (node, self.node_index.get(&name.value)) {
+                if self.lowered[i].is_some_and(|named| named != id) {
+                    self.error(
+                        Diagnostic::new(
+                            Class::DuplicateName,
+                            format!(
+                                "output \"{0}\" has the name of node \"{0}\" but another value",
+                                name.value
+                            ),
+                        )
+                        .in_node(format!("outputs.{}", name.value).as_str())
+                        .at(name.span)
+                        .label("also a node")
+                        .help(format!(
+                            "nodes and outputs share one namespace: output node \"{0}\" as \"{0}\", or rename the output",
+                            name.value
+                        )),
+                    );
+                    continue;
+                }
+            }
+            if let Some(node) = node {
                 result_outputs.push(Output {
                     name: name.value.to_string(),
                     node,
@@ -339,6 +368,7 @@ impl Checker {
                 ));
             } else if let Some(slot) = self.params.iter_mut().find(|(p, _)| p == name) {
                 slot.1 = *value;
+                self.overridden.push((name.clone(), *value));
             } else {
                 let known: Vec<&str> = self.params.iter().map(|(p, _)| p.as_str()).collect();
                 let mut d = Diagnostic::new(

@@ -18,6 +18,7 @@
 //! - `// expect: TEXT` — TEXT must occur in the rendering; several `expect` lines must occur in
 //!   the order written (this is how "all errors, in order" is tested).
 //! - `// expect-errors: N` — exactly N diagnostics.
+//! - `// set: NAME=VALUE` — checked with that param override, as `--set NAME=VALUE` gives it.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -61,7 +62,10 @@ fn name_of(path: &Path) -> String {
 /// Checks (and, if that passes, compiles) a case; the diagnostics it must fail with.
 fn diagnose(name: &str, text: &str) -> Result<Diagnostics, String> {
     let file = SourceFile::new(format!("{DIR}/{name}.ron"), text);
-    match check(file, &CheckOptions::default()) {
+    let options = CheckOptions {
+        overrides: directives(text).set,
+    };
+    match check(file, &options) {
         Err(diagnostics) => Ok(diagnostics),
         Ok(graph) => match compile(&graph, &CompileOptions::default()) {
             Err(diagnostics) => Ok(diagnostics),
@@ -75,12 +79,14 @@ fn diagnose(name: &str, text: &str) -> Result<Diagnostics, String> {
 struct Directives {
     expect: Vec<String>,
     errors: Option<usize>,
+    set: Vec<(String, f64)>,
 }
 
 fn directives(text: &str) -> Directives {
     let mut d = Directives {
         expect: Vec::new(),
         errors: None,
+        set: Vec::new(),
     };
     for line in text.lines() {
         let line = line.trim();
@@ -88,6 +94,10 @@ fn directives(text: &str) -> Directives {
             d.expect.push(rest.trim().to_string());
         } else if let Some(rest) = line.strip_prefix("// expect-errors:") {
             d.errors = Some(rest.trim().parse().expect("expect-errors takes a number"));
+        } else if let Some(rest) = line.strip_prefix("// set:") {
+            let (name, value) = rest.trim().split_once('=').expect("set: NAME=VALUE");
+            let value = value.trim().parse().expect("set: a number");
+            d.set.push((name.trim().to_string(), value));
         }
     }
     d
