@@ -32,6 +32,20 @@ pub trait Real:
     const NAME: &'static str;
     /// The largest value below one (`1 - epsilon/2`), the top of `Fract`'s range.
     const ONE_BELOW: Self;
+    /// Significant bits: 24 for f32, 53 for f64.
+    const MANTISSA_BITS: u32;
+
+    /// A uniform value in [0, 1) from a 64-bit hash (`words[0]` its high half): its top
+    /// [`Real::MANTISSA_BITS`] bits as a binary fraction, exactly (so an f32 value is the f64
+    /// value of the same hash with its low bits dropped, and never rounds up to 1).
+    #[inline(always)]
+    fn from_unit_bits(words: [u32; 2]) -> Self {
+        let hash = (u64::from(words[0]) << 32) | u64::from(words[1]);
+        let bits = Self::MANTISSA_BITS;
+        // An integer below 2^53 and a power of two: both exact, and so is their product.
+        let unit = f64::from_bits(u64::from(1023 - bits) << 52);
+        Self::from_f64((hash >> (64 - bits)) as f64 * unit)
+    }
 
     /// Rounds to nearest (the `as` conversion).
     fn from_f64(v: f64) -> Self;
@@ -94,6 +108,7 @@ macro_rules! impl_real {
             const NAN: Self = <$t>::NAN;
             const NAME: &'static str = $name;
             const ONE_BELOW: Self = 1.0 - <$t>::EPSILON / 2.0;
+            const MANTISSA_BITS: u32 = <$t>::MANTISSA_DIGITS;
 
             #[inline(always)]
             fn from_f64(v: f64) -> Self {

@@ -31,7 +31,7 @@ pub const LIBRARY: [(&str, &str); 6] = [
 pub(crate) const ENTRY: &str = include_str!("wgsl/entry.wgsl");
 
 /// Words of one noise table in the tables buffer (`T_WORDS` in common.wgsl).
-pub const TABLE_WORDS: usize = 2304;
+pub const TABLE_WORDS: usize = 1544;
 
 /// A tape's shader: its WGSL source and the channels each point produces.
 #[derive(Clone, Debug)]

@@ -837,31 +837,24 @@ fn octave_terms<S: Real, K: LatticeKernel, const WIDE: bool, const L: usize>(
     lattice.noise::<K, false, false, WIDE>(k, S::ONE, &mut terms[..L]);
 }
 
-/// The tables and parameters a cellular batch reads.
-pub(super) struct CellularTables<'a> {
-    pub perm: &'a [u8; 512],
-    pub features: &'a [[f32; 256]; 3],
-    pub values: &'a [f32; 256],
-    pub params: super::cellular::Cellular,
-}
-
 /// Cellular noise over a batch, `out[i]` = `cellular::sample(p_i)` bit for bit: the 27 nearest
-/// cells of every lane at once (hash and feature reads as gathers, distances, branch-free
-/// minimum updates in the point function's scan order and with its comparisons), then per lane
-/// the ring test; a lane that needs a further ring (rare), or whose point is not finite, runs
-/// the point function instead.
+/// cells of every lane at once (the cell hash over lanes, distances, branch-free minimum updates
+/// in the point function's scan order and with its comparisons), then per lane the ring test; a
+/// lane that needs a further ring (rare), or whose point is not finite, runs the point function
+/// instead.
 pub(super) fn cellular<S: Real>(
-    t: &CellularTables,
+    key: [u32; 2],
+    params: super::cellular::Cellular,
     x: &[f64],
     y: &[f64],
     z: &[f64],
     out: &mut [S],
 ) {
     use super::cellular::Metric;
-    match t.params.metric {
-        Metric::Euclidean => cellular_lanes::<S, 0>(t, x, y, z, out),
-        Metric::Manhattan => cellular_lanes::<S, 1>(t, x, y, z, out),
-        Metric::Chebyshev => cellular_lanes::<S, 2>(t, x, y, z, out),
+    match params.metric {
+        Metric::Euclidean => cellular_lanes::<S, 0>(key, params, x, y, z, out),
+        Metric::Manhattan => cellular_lanes::<S, 1>(key, params, x, y, z, out),
+        Metric::Chebyshev => cellular_lanes::<S, 2>(key, params, x, y, z, out),
     }
 }
 
@@ -869,7 +862,8 @@ simd_targets! {
 /// [`cellular`] for one metric (`METRIC`: 0 Euclidean, 1 Manhattan, 2 Chebyshev).
 #[allow(clippy::needless_range_loop)] // lanes indexed across parallel arrays, by design
 fn cellular_lanes<S: Real, const METRIC: u8>(
-    t: &CellularTables,
+    key: [u32; 2],
+    params: super::cellular::Cellular,
     x: &[f64],
     y: &[f64],
     z: &[f64],
@@ -882,18 +876,12 @@ fn cellular_lanes<S: Real, const METRIC: u8>(
         1 => Metric::Manhattan,
         _ => Metric::Chebyshev,
     };
-    let point = |p: [f64; 3]| {
-        canonical_nan(cellular::sample::<S>(t.perm, t.features, t.values, t.params, None, p))
-    };
+    let point = |p: [f64; 3]| canonical_nan(cellular::sample::<S>(key, params, None, p));
     if !target_cfg_f!(target_feature = "sse4.1") {
         return reference_batch(point, x, y, z, out);
     }
-    let uses_f2 = !matches!(t.params.value, CellularValue::F1 | CellularValue::CellValue);
-    let jitter = t.params.jitter();
-    // The feature planes in S, on the stack, made when a group first needs gathers: gathers
-    // from a local array ran `eval/cellular` in 4.3 ms against 5.1 ms reading the table's f32
-    // planes through the reference; the coherent groups read the table.
-    let mut features: Option<[[S; 256]; 3]> = None;
+    let uses_f2 = !matches!(params.value, CellularValue::F1 | CellularValue::CellValue);
+    let jitter = params.jitter();
     let mut lanes = CellLanes::<S>::new();
     let chunks = out.chunks_mut(N).zip(x.chunks(N).zip(y.chunks(N)).zip(z.chunks(N)));
     for (out, ((x, y), z)) in chunks {
@@ -901,11 +889,8 @@ fn cellular_lanes<S: Real, const METRIC: u8>(
         let m = out.len().min(N);
         lanes.locate([x, y, z], m);
         for lo in (0..m).step_by(CELL_GROUP) {
-            if !lanes.coherent(t.perm, t.features, metric, lo) {
-                let features = features.get_or_insert_with(|| {
-                    t.features.map(|plane| plane.map(|v| S::from_f64(v as f64)))
-                });
-                lanes.gathered(t.perm, features, metric, lo, (lo + CELL_GROUP).min(m));
+            if !lanes.coherent(key, params.jitter_f32(), metric, lo) {
+                lanes.gathered(key, params.jitter_f32(), metric, lo, (lo + CELL_GROUP).min(m));
             }
         }
         // Every lane's value, then the point function for the lanes the 27 cells may not
@@ -920,9 +905,9 @@ fn cellular_lanes<S: Real, const METRIC: u8>(
             let best = Nearest {
                 f1: lanes.f1[i],
                 f2: lanes.f2[i],
-                cell: lanes.nearest[i] as usize,
+                cell: [lanes.nearest[0][i], lanes.nearest[1][i]],
             };
-            out[i] = canonical_nan(cellular::finish(metric, t.params.value, best, t.values));
+            out[i] = canonical_nan(cellular::finish(metric, params.value, best));
         }
         for i in 0..m {
             if far[i] {
@@ -933,12 +918,17 @@ fn cellular_lanes<S: Real, const METRIC: u8>(
 }
 }
 
-/// One lane's running search step, branch-free: a distance `dist` to the point of cell hash `h`
-/// becomes the nearest (the old nearest second) or the second nearest, with the point function's
-/// strict comparisons (so ties keep the earlier cell, and infinite distances change nothing).
-/// Values in, values out (references into the lane arrays kept LLVM from vectorising the loops).
+/// One lane's running search step, branch-free: a distance `dist` to the point of the cell with
+/// hash state `(a, b)` becomes the nearest (the old nearest second) or the second nearest, with
+/// the point function's strict comparisons (so ties keep the earlier cell, and infinite
+/// distances change nothing). Values in, values out (references into the lane arrays kept LLVM
+/// from vectorising the loops).
 #[inline(always)]
-fn nearer<S: Real>((f1, f2, nearest): (S, S, u32), dist: S, h: u32) -> (S, S, u32) {
+fn nearer<S: Real>(
+    (f1, f2, a, b): (S, S, u32, u32),
+    dist: S,
+    (ha, hb): (u32, u32),
+) -> (S, S, u32, u32) {
     let closer = dist < f1;
     let second = dist < f2;
     let f2 = if closer {
@@ -949,9 +939,9 @@ fn nearer<S: Real>((f1, f2, nearest): (S, S, u32), dist: S, h: u32) -> (S, S, u3
         f2
     };
     if closer {
-        (dist, f2, h)
+        (dist, f2, ha, hb)
     } else {
-        (f1, f2, nearest)
+        (f1, f2, a, b)
     }
 }
 
@@ -961,23 +951,23 @@ const CELL_CHUNK: usize = 64;
 const CELL_GROUP: usize = 16;
 /// The most cells a group's lanes may span along one axis for [`CellLanes::coherent`], and the
 /// most cells it may visit (the union of the lanes' 27-cell neighbourhoods). A visited cell costs
-/// each lane about a dozen vector operations whether or not it is one of the lane's 27; a
-/// gathered cell costs six gathers per lane group. Measured on `eval/cellular_fbm4` (octaves
-/// spanning 1, 2, 4 and 8 cells per group of 16 voxels): allowing the 8-cell octave its 90
-/// visits took the bench from 13.1 to 7.1 ms, so the union pays up to about 100 cells.
+/// each lane about a dozen vector operations whether or not it is one of the lane's 27, and its
+/// hash once for the group; a gathered cell costs each lane its hash. Measured on
+/// `eval/cellular_fbm4` (octaves spanning 1, 2, 4 and 8 cells per group of 16 voxels) with the
+/// table hash this replaced: allowing the 8-cell octave its 90 visits took the bench from 13.1
+/// to 7.1 ms, so the union pays up to about 100 cells.
 const CELL_SPAN: usize = 8;
 const CELL_VISITS: usize = 100;
 
-/// A chunk of a cellular batch: each lane's cell (bytes mod 256 for the hash, and the floor in
-/// f64), its fraction (in S and f64), and the two nearest distances found and the nearest
-/// point's cell hash.
+/// A chunk of a cellular batch: each lane's cell (its index and its floor in f64), its fraction
+/// (in S), and the two nearest distances found and the hash state of the nearest point's cell.
 struct CellLanes<S> {
-    cell: [[u8; CELL_CHUNK]; 3],
+    index: [[i64; CELL_CHUNK]; 3],
     floor: [[f64; CELL_CHUNK]; 3],
     frac: [[S; CELL_CHUNK]; 3],
     f1: [S; CELL_CHUNK],
     f2: [S; CELL_CHUNK],
-    nearest: [u32; CELL_CHUNK],
+    nearest: [[u32; CELL_CHUNK]; 2],
 }
 
 #[allow(clippy::needless_range_loop)] // lanes indexed across parallel arrays, by design
@@ -985,12 +975,12 @@ impl<S: Real> CellLanes<S> {
     #[inline(always)]
     fn new() -> Self {
         CellLanes {
-            cell: [[0; CELL_CHUNK]; 3],
+            index: [[0; CELL_CHUNK]; 3],
             floor: [[0.0; CELL_CHUNK]; 3],
             frac: [[S::ZERO; CELL_CHUNK]; 3],
             f1: [S::ZERO; CELL_CHUNK],
             f2: [S::ZERO; CELL_CHUNK],
-            nearest: [0; CELL_CHUNK],
+            nearest: [[0; CELL_CHUNK]; 2],
         }
     }
 
@@ -1002,19 +992,20 @@ impl<S: Real> CellLanes<S> {
         for (a, src) in p.into_iter().enumerate() {
             let src = &src[..m];
             for i in 0..m {
-                (self.cell[a][i], self.frac[a][i]) = lattice_lane_exact::<S>(src[i]);
+                self.frac[a][i] = lattice_lane_exact::<S>(src[i]).1;
                 self.floor[a][i] = src[i].floor();
+                self.index[a][i] = super::hash::cell_index(src[i]);
             }
         }
         // The lanes past `m` copy lane m - 1, so that every group has CELL_GROUP real lanes.
         if m > 0 {
             for a in 0..3 {
-                let (cell, floor, frac) = (
-                    self.cell[a][m - 1],
+                let (index, floor, frac) = (
+                    self.index[a][m - 1],
                     self.floor[a][m - 1],
                     self.frac[a][m - 1],
                 );
-                self.cell[a][m..].fill(cell);
+                self.index[a][m..].fill(index);
                 self.floor[a][m..].fill(floor);
                 self.frac[a][m..].fill(frac);
             }
@@ -1036,16 +1027,17 @@ impl<S: Real> CellLanes<S> {
     #[inline(always)]
     fn coherent(
         &mut self,
-        perm: &[u8; 512],
-        features: &[[f32; 256]; 3],
+        key: [u32; 2],
+        jitter: f32,
         metric: super::cellular::Metric,
         lo: usize,
     ) -> bool {
+        use super::hash;
         const G: usize = CELL_GROUP;
         const { assert!(CELL_CHUNK.is_multiple_of(G)) }; // so `lo + G <= CELL_CHUNK`
-                                                         // Per axis: the union's first cell byte and length, and each lane's offset to every
+                                                         // Per axis: the union's first cell index and length, and each lane's offset to every
                                                          // union cell (infinite outside its neighbourhood).
-        let mut base = [0u8; 3];
+        let mut base = [0i64; 3];
         let mut len = [0usize; 3];
         let mut offsets = [[[S::ZERO; G]; CELL_SPAN + 2]; 3];
         for a in 0..3 {
@@ -1062,9 +1054,10 @@ impl<S: Real> CellLanes<S> {
                 return false;
             }
             len[a] = span as usize + 2;
-            // The byte of the union's first cell, min - 1.
-            base[a] = self.cell[a][lo]
-                .wrapping_sub((floor[0] - min) as u8)
+            // The union's first cell, min - 1, as the point function indexes it: a lane's own
+            // index plus its offset (wrapping, as `floor as i64` saturates beyond 2^63).
+            base[a] = self.index[a][lo]
+                .wrapping_sub((floor[0] - min) as i64)
                 .wrapping_sub(1);
             for u in 0..len[a] {
                 for j in 0..G {
@@ -1085,21 +1078,23 @@ impl<S: Real> CellLanes<S> {
             std::array::from_fn(|a| self.frac[a][lo..lo + G].try_into().expect("G lanes"));
         let f1: &mut [S; G] = (&mut self.f1[lo..lo + G]).try_into().expect("G lanes");
         let f2: &mut [S; G] = (&mut self.f2[lo..lo + G]).try_into().expect("G lanes");
-        let nearest: &mut [u32; G] = (&mut self.nearest[lo..lo + G]).try_into().expect("G lanes");
-        let byte = |a: usize, u: usize| usize::from(base[a].wrapping_add(u as u8));
+        let [na, nb] = &mut self.nearest;
+        let na: &mut [u32; G] = (&mut na[lo..lo + G]).try_into().expect("G lanes");
+        let nb: &mut [u32; G] = (&mut nb[lo..lo + G]).try_into().expect("G lanes");
+        let at = |a: usize, u: usize| base[a].wrapping_add(u as i64);
         for uz in 0..len[2] {
-            let pz = usize::from(perm[byte(2, uz)]);
+            let sz = hash::absorb(key, at(2, uz));
             for uy in 0..len[1] {
-                let py = usize::from(perm[(byte(1, uy) + pz) & 511]);
+                let syz = hash::absorb(sz, at(1, uy));
                 for ux in 0..len[0] {
-                    let h = u32::from(perm[(byte(0, ux) + py) & 511]);
-                    let k = (h & 255) as usize;
-                    let q = [0, 1, 2].map(|a| S::from_f64(f64::from(features[a][k])));
+                    let [ha, hb] = hash::absorb(syz, at(0, ux));
+                    let q = hash::feature([ha, hb], jitter).map(|v| S::from_f64(f64::from(v)));
                     let o = [&offsets[0][ux], &offsets[1][uy], &offsets[2][uz]];
                     for j in 0..G {
                         let d: [S; 3] = std::array::from_fn(|a| o[a][j] + q[a] - frac[a][j]);
                         let dist = super::cellular::distance(metric, d);
-                        (f1[j], f2[j], nearest[j]) = nearer((f1[j], f2[j], nearest[j]), dist, h);
+                        let best = (f1[j], f2[j], na[j], nb[j]);
+                        (f1[j], f2[j], na[j], nb[j]) = nearer(best, dist, (ha, hb));
                     }
                 }
             }
@@ -1109,46 +1104,52 @@ impl<S: Real> CellLanes<S> {
         true
     }
 
-    /// Lanes `lo..hi`'s 27-cell search, each lane's cells hashed and read by gathers: the hash
-    /// `perm[x + perm[y + perm[z]]]` of the 27 cells with its inner levels shared (3 reads for
-    /// the z neighbours, 9 for (y, z), 27 for the cells), distances and branch-free minimum
-    /// updates in the point function's scan order and with its comparisons.
+    /// Lanes `lo..hi`'s 27-cell search, each lane's cells hashed over the lanes: the hash of the
+    /// 27 cells with its inner steps shared (3 z steps, 9 (y, z), 27 cells), the feature
+    /// points, distances and branch-free minimum updates in the point function's scan order and
+    /// with its comparisons.
     #[inline(always)]
     fn gathered(
         &mut self,
-        perm: &[u8; 512],
-        features: &[[S; 256]; 3],
+        key: [u32; 2],
+        jitter: f32,
         metric: super::cellular::Metric,
         lo: usize,
         hi: usize,
     ) {
+        use super::hash;
         const N: usize = CELL_CHUNK;
         let hi = hi.min(N);
-        let cell = &self.cell;
-        let at = |a: usize, i: usize, o: i64| (u32::from(cell[a][i]) + (o + 256) as u32) & 255;
+        let index = &self.index;
         for dz in -1..=1i64 {
-            let mut pz = [0u32; N];
+            let mut sz = [[0u32; 2]; N];
             for i in lo..hi {
-                pz[i] = u32::from(perm[at(2, i, dz) as usize]);
+                sz[i] = hash::absorb(key, index[2][i].wrapping_add(dz));
             }
             for dy in -1..=1i64 {
-                let mut py = [0u32; N];
+                let mut syz = [[0u32; 2]; N];
                 for i in lo..hi {
-                    py[i] = u32::from(perm[((at(1, i, dy) + pz[i]) & 511) as usize]);
+                    syz[i] = hash::absorb(sz[i], index[1][i].wrapping_add(dy));
                 }
                 for dx in -1..=1i64 {
-                    let mut h = [0u32; N];
-                    for i in lo..hi {
-                        h[i] = u32::from(perm[((at(0, i, dx) + py[i]) & 511) as usize]);
-                    }
                     let offset = [dx, dy, dz].map(|v| S::from_f64(v as f64));
                     for i in lo..hi {
-                        let k = (h[i] & 255) as usize;
-                        let q = [features[0][k], features[1][k], features[2][k]];
+                        let h = hash::absorb(syz[i], index[0][i].wrapping_add(dx));
+                        let q = hash::feature(h, jitter).map(|v| S::from_f64(f64::from(v)));
                         let d: [S; 3] = std::array::from_fn(|a| offset[a] + q[a] - self.frac[a][i]);
                         let dist = super::cellular::distance(metric, d);
-                        let best = (self.f1[i], self.f2[i], self.nearest[i]);
-                        (self.f1[i], self.f2[i], self.nearest[i]) = nearer(best, dist, h[i]);
+                        let best = (
+                            self.f1[i],
+                            self.f2[i],
+                            self.nearest[0][i],
+                            self.nearest[1][i],
+                        );
+                        (
+                            self.f1[i],
+                            self.f2[i],
+                            self.nearest[0][i],
+                            self.nearest[1][i],
+                        ) = nearer(best, dist, (h[0], h[1]));
                     }
                 }
             }

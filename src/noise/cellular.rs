@@ -3,9 +3,11 @@
 //! SIGGRAPH 1996).
 //!
 //! The feature point of cell c is `c + 0.5 + jitter (u - 0.5)`, u uniform in [0, 1)³ per cell
-//! from the fixed generator, looked up by the cell's hash (cell indices mod 256, hashed as the
-//! lattice bases hash); the jittered offsets are stored rounded to f32 once per table, so the
-//! f32 and f64 paths read the same points and jitter 0 gives exactly the cell centres.
+//! from the full-width hash of the cell's exact integer coordinates and the seed (`hash.rs`), so
+//! the pattern never repeats (tiled, it repeats with its period only); the jittered offsets are
+//! rounded to f32 once, so the f32 and f64 paths (and the GPU) place the same points and
+//! jitter 0 gives exactly the cell centres. `CellValue` is the nearest point's cell's value from
+//! the same hash, 24 bits in f32 and 53 in f64.
 //!
 //! Exact search, for every jitter in [0, 1]: the 27 cells around the point's cell first, then
 //! further rings of cells (the 98 at Chebyshev distance 2, then 218 at 3, ...) only while a ring
@@ -23,9 +25,9 @@
 //! Positions stay f64 until the fraction within the cell (as in the lattice bases), so the
 //! pattern is exact at any magnitude; distances are computed in `S` from small numbers.
 
+use super::hash;
 use super::lattice::lattice;
 use super::period::Period;
-use super::rng::SplitMix64;
 use crate::real::Real;
 
 /// How distances are measured.
@@ -62,12 +64,14 @@ pub struct Cellular {
 }
 
 impl Cellular {
-    /// `jitter` in [0, 1] (the checker's range; clamped here for library callers).
+    /// `jitter` in [0, 1] (the checker's range; clamped here for library callers), rounded to
+    /// the nearest multiple of 1/256, which keeps every feature point exact in f32 on every
+    /// device (`hash::feature`).
     pub fn new(jitter: f64, metric: Metric, value: CellularValue) -> Self {
         let jitter = if jitter.is_nan() {
             1.0
         } else {
-            jitter.clamp(0.0, 1.0)
+            (jitter.clamp(0.0, 1.0) * 256.0).round() / 256.0
         };
         Cellular {
             jitter_bits: (jitter + 0.0).to_bits(),
@@ -78,6 +82,11 @@ impl Cellular {
 
     pub fn jitter(&self) -> f64 {
         f64::from_bits(self.jitter_bits)
+    }
+
+    /// The jitter in f32 (exact: a multiple of 1/256).
+    pub(super) fn jitter_f32(&self) -> f32 {
+        self.jitter() as f32
     }
 
     /// Guaranteed range for finite input. F1 is at most the distance to the own cell's point;
@@ -113,46 +122,24 @@ impl Cellular {
     }
 }
 
-/// The jittered feature points of the 256 hash values, `0.5 + jitter (u - 0.5)` per axis with u
-/// from SplitMix64 seeded with `seed`, rounded once to f32.
-/// Stored as three planes (x, y, z) for the lane kernel's one-value gathers; drawn x, y, z
-/// per hash value.
-pub(super) fn features(seed: u64, jitter: f64) -> [[f32; 256]; 3] {
-    let mut rng = SplitMix64::new(seed);
-    let points: [[f32; 3]; 256] = std::array::from_fn(|_| {
-        std::array::from_fn(|_| (0.5 + jitter * (rng.next_f64() - 0.5)) as f32)
-    });
-    std::array::from_fn(|a| std::array::from_fn(|h| points[h][a]))
-}
-
-/// The hash of a cell (indices mod 256), as the lattice bases hash a corner.
-#[inline(always)]
-pub(super) fn hash(perm: &[u8; 512], i: usize, j: usize, k: usize) -> usize {
-    let pk = perm[k & 255] as usize;
-    let pj = perm[((j & 255) + pk) & 511] as usize;
-    perm[((i & 255) + pj) & 511] as usize
-}
-
 /// The two nearest distances so far (in the metric's comparable form: squared for Euclidean)
-/// and the hash of the nearest point's cell.
+/// and the hash state of the nearest point's cell.
 pub(super) struct Nearest<S> {
     pub f1: S,
     pub f2: S,
-    pub cell: usize,
+    pub cell: [u32; 2],
 }
 
 /// One sample of cellular noise with the given tables.
 #[inline(always)]
 pub(super) fn sample<S: Real>(
-    perm: &[u8; 512],
-    features: &[[f32; 256]; 3],
-    values: &[f32; 256],
+    key: [u32; 2],
     params: Cellular,
     period: Option<Period>,
     p: [f64; 3],
 ) -> S {
-    match search::<S, false>(perm, features, params, period, p) {
-        Some((best, _)) => finish(params.metric, params.value, best, values),
+    match search::<S, false>(key, params, period, p) {
+        Some((best, _)) => finish(params.metric, params.value, best),
         None => S::NAN,
     }
 }
@@ -162,68 +149,64 @@ pub(super) fn sample<S: Real>(
 /// [`finish_grad`]). NaN on every component for non-finite input.
 #[inline(always)]
 pub(super) fn sample_grad<S: Real>(
-    perm: &[u8; 512],
-    features: &[[f32; 256]; 3],
-    values: &[f32; 256],
+    key: [u32; 2],
     params: Cellular,
     period: Option<Period>,
     p: [f64; 3],
 ) -> (S, [S; 3]) {
-    match search::<S, true>(perm, features, params, period, p) {
+    match search::<S, true>(key, params, period, p) {
         Some((best, offsets)) => {
             let g = finish_grad(params.metric, params.value, &best, offsets);
-            (finish(params.metric, params.value, best, values), g)
+            (finish(params.metric, params.value, best), g)
         }
         None => (S::NAN, [S::NAN; 3]),
     }
 }
 
-/// The exact search of [`sample`]: the two nearest distances and the nearest point's cell hash,
-/// and when `TRACK` also the offsets `feature - p` of the nearest and second nearest points
-/// (the same comparisons pick them); `None` for non-finite input.
+/// The exact search of [`sample`]: the two nearest distances and the nearest point's cell
+/// state, and when `TRACK` also the offsets `feature - p` of the nearest and second nearest
+/// points (the same comparisons pick them); `None` for non-finite input.
 #[inline(always)]
 fn search<S: Real, const TRACK: bool>(
-    perm: &[u8; 512],
-    features: &[[f32; 256]; 3],
+    key: [u32; 2],
     params: Cellular,
     period: Option<Period>,
     p: [f64; 3],
 ) -> Option<(Nearest<S>, [[S; 3]; 2])> {
-    let (ix, fx) = lattice(p[0]);
-    let (iy, fy) = lattice(p[1]);
-    let (iz, fz) = lattice(p[2]);
-    // Tiled: `p` is reduced into its period, so its cell is `floor(p)` < P exactly, and a
-    // neighbour's index is taken mod P before it is hashed.
-    let cell = |a: usize, i: usize| match period {
-        Some(period) if (1..=1 << 52).contains(&period[a]) => {
-            (p[a].floor() as i64, period[a] as i64)
-        }
-        _ => (i as i64, 256),
-    };
-    let (cx, cy, cz) = (cell(0, ix), cell(1, iy), cell(2, iz));
+    let (_, fx) = lattice(p[0]);
+    let (_, fy) = lattice(p[1]);
+    let (_, fz) = lattice(p[2]);
     if fx.is_nan() || fy.is_nan() || fz.is_nan() {
         return None;
     }
+    let c = p.map(hash::cell_index);
+    // Tiled: `p` is reduced into its period, so its cell is `floor(p)` < P exactly, and a
+    // neighbour's index is taken mod P before it is hashed.
+    let index = |a: usize, o: i64| match period {
+        Some(period) if (1..=1 << 52).contains(&period[a]) => {
+            (c[a] + o).rem_euclid(period[a] as i64)
+        }
+        _ => c[a].wrapping_add(o),
+    };
     let f = [S::from_f64(fx), S::from_f64(fy), S::from_f64(fz)];
     let metric = params.metric;
+    let jitter = params.jitter();
     let mut best = Nearest {
         f1: S::from_f64(f64::INFINITY),
         f2: S::from_f64(f64::INFINITY),
-        cell: 0,
+        cell: [0; 2],
     };
     // The offsets `feature - p` of the nearest and second nearest points (when `TRACK`).
     let mut offsets = [[S::ZERO; 3]; 2];
-    let mut visit = |best: &mut Nearest<S>, o: [i64; 3]| {
-        let at = |(c, m): (i64, i64), o: i64| ((c + o).rem_euclid(m) & 255) as usize;
-        let h = hash(perm, at(cx, o[0]), at(cy, o[1]), at(cz, o[2]));
-        let point = [features[0][h], features[1][h], features[2][h]];
+    let mut visit = |best: &mut Nearest<S>, state: [u32; 2], o: [i64; 3]| {
+        let point = hash::feature(state, params.jitter_f32());
         let d: [S; 3] =
             std::array::from_fn(|a| S::from_f64(o[a] as f64) + S::from_f64(point[a] as f64) - f[a]);
         let dist = distance(metric, d);
         if dist < best.f1 {
             best.f2 = best.f1;
             best.f1 = dist;
-            best.cell = h;
+            best.cell = state;
             if TRACK {
                 offsets = [d, offsets[0]];
             }
@@ -234,15 +217,24 @@ fn search<S: Real, const TRACK: bool>(
             }
         }
     };
-    for dz in -1..=1 {
-        for dy in -1..=1 {
-            for dx in -1..=1 {
-                visit(&mut best, [dx, dy, dz]);
+    // The cells at Chebyshev distance up to `ring` from the point's cell, z outer, then y, x
+    // inner, each ascending (the order decides between equal distances); `only` keeps the
+    // cells of the ring itself. The hash's inner steps (z, then y) are shared by a row.
+    let mut scan = |best: &mut Nearest<S>, ring: i64, only: bool| {
+        for dz in -ring..=ring {
+            let sz = hash::absorb(key, index(2, dz));
+            for dy in -ring..=ring {
+                let syz = hash::absorb(sz, index(1, dy));
+                let full = !only || dz.abs() == ring || dy.abs() == ring;
+                let step = if full { 1 } else { 2 * ring as usize };
+                for dx in (-ring..=ring).step_by(step.max(1)) {
+                    visit(best, hash::absorb(syz, index(0, dx)), [dx, dy, dz]);
+                }
             }
         }
-    }
+    };
+    scan(&mut best, 1, false);
     let uses_f2 = !matches!(params.value, CellularValue::F1 | CellularValue::CellValue);
-    let jitter = params.jitter();
     let mut ring = 2i64;
     loop {
         let needed = if uses_f2 { best.f2 } else { best.f1 };
@@ -255,15 +247,7 @@ fn search<S: Real, const TRACK: bool>(
         if gap >= needed {
             break;
         }
-        for dz in -ring..=ring {
-            for dy in -ring..=ring {
-                for dx in -ring..=ring {
-                    if dx.abs().max(dy.abs()).max(dz.abs()) == ring {
-                        visit(&mut best, [dx, dy, dz]);
-                    }
-                }
-            }
-        }
+        scan(&mut best, ring, true);
         ring += 1;
     }
     Some((best, offsets))
@@ -296,12 +280,7 @@ pub(super) fn ring_gap<S: Real>(ring: i64, jitter: f64, f: [f64; 3]) -> S {
 
 /// The requested value from the two nearest distances.
 #[inline(always)]
-pub(super) fn finish<S: Real>(
-    metric: Metric,
-    value: CellularValue,
-    best: Nearest<S>,
-    values: &[f32; 256],
-) -> S {
+pub(super) fn finish<S: Real>(metric: Metric, value: CellularValue, best: Nearest<S>) -> S {
     let root = |v: S| {
         if metric == Metric::Euclidean {
             v.sqrt()
@@ -313,7 +292,7 @@ pub(super) fn finish<S: Real>(
         CellularValue::F1 => root(best.f1),
         CellularValue::F2 => root(best.f2),
         CellularValue::F2MinusF1 => root(best.f2) - root(best.f1),
-        CellularValue::CellValue => S::from_f64(values[best.cell & 255] as f64),
+        CellularValue::CellValue => hash::value(best.cell),
         CellularValue::Edge => (root(best.f2) - root(best.f1)) * S::from_f64(0.5),
     }
 }

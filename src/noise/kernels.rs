@@ -209,19 +209,11 @@ macro_rules! with_kernel {
                 $body
             }
             $crate::noise::basis::Basis::Cellular(params) => {
-                let $k = $crate::noise::kernels::CellularKernel {
-                    perm: &t.perm,
-                    features: &t.features,
-                    values: &t.values,
-                    params,
-                };
+                let $k = $crate::noise::kernels::CellularKernel { key: t.key, params };
                 $body
             }
             $crate::noise::basis::Basis::White => {
-                let $k = $crate::noise::kernels::WhiteKernel {
-                    perm: &t.perm,
-                    values: &t.values,
-                };
+                let $k = $crate::noise::kernels::WhiteKernel { key: t.key };
                 $body
             }
         }
@@ -372,24 +364,16 @@ impl NoiseKernel for SimplexKernel<'_> {
 }
 
 /// [`Basis::Cellular`]'s kernel.
-pub(super) struct CellularKernel<'a> {
-    pub(super) perm: &'a [u8; 512],
-    pub(super) features: &'a [[f32; 256]; 3],
-    pub(super) values: &'a [f32; 256],
+pub(super) struct CellularKernel {
+    /// The cell hash's key (`hash.rs`).
+    pub(super) key: [u32; 2],
     pub(super) params: Cellular,
 }
 
-impl NoiseKernel for CellularKernel<'_> {
+impl NoiseKernel for CellularKernel {
     #[inline(always)]
     fn sample<S: Real>(&self, p: [f64; 3]) -> S {
-        canonical_nan(cellular::sample(
-            self.perm,
-            self.features,
-            self.values,
-            self.params,
-            None,
-            p,
-        ))
+        canonical_nan(cellular::sample(self.key, self.params, None, p))
     }
 
     /// The SIMD kernel of `batch.rs` (the 27 nearest cells over lanes), bit for bit `sample`.
@@ -397,57 +381,37 @@ impl NoiseKernel for CellularKernel<'_> {
         if out.len() < SMALL {
             return reference_batch(|p| self.sample(p), x, y, z, out);
         }
-        let tables = batch::CellularTables {
-            perm: self.perm,
-            features: self.features,
-            values: self.values,
-            params: self.params,
-        };
-        batch::cellular(&tables, x, y, z, out);
+        batch::cellular(self.key, self.params, x, y, z, out);
     }
 
     /// The point reduced into its period, and the neighbour cells wrapped around it.
     fn sample_periodic<S: Real>(&self, p: [f64; 3], period: Period) -> S {
-        canonical_nan(cellular::sample(
-            self.perm,
-            self.features,
-            self.values,
-            self.params,
-            Some(period),
-            period::reduce3(p, period).0,
-        ))
+        let q = period::reduce3(p, period).0;
+        canonical_nan(cellular::sample(self.key, self.params, Some(period), q))
     }
 
     fn sample_grad<S: Real>(&self, p: [f64; 3]) -> (S, [S; 3]) {
-        let (v, g) =
-            cellular::sample_grad(self.perm, self.features, self.values, self.params, None, p);
+        let (v, g) = cellular::sample_grad(self.key, self.params, None, p);
         (canonical_nan(v), g.map(canonical_nan))
     }
 
     fn sample_grad_periodic<S: Real>(&self, p: [f64; 3], period: Period) -> (S, [S; 3]) {
         let q = period::reduce3(p, period).0;
-        let (v, g) = cellular::sample_grad(
-            self.perm,
-            self.features,
-            self.values,
-            self.params,
-            Some(period),
-            q,
-        );
+        let (v, g) = cellular::sample_grad(self.key, self.params, Some(period), q);
         (canonical_nan(v), g.map(canonical_nan))
     }
 }
 
 /// [`Basis::White`]'s kernel.
-pub(super) struct WhiteKernel<'a> {
-    pub(super) perm: &'a [u8; 512],
-    pub(super) values: &'a [f32; 256],
+pub(super) struct WhiteKernel {
+    /// The cell hash's key (`hash.rs`).
+    pub(super) key: [u32; 2],
 }
 
-impl NoiseKernel for WhiteKernel<'_> {
+impl NoiseKernel for WhiteKernel {
     #[inline(always)]
     fn sample<S: Real>(&self, p: [f64; 3]) -> S {
-        canonical_nan(value::white(self.perm, self.values, p))
+        canonical_nan(value::white(self.key, p))
     }
 
     fn sample_grad<S: Real>(&self, p: [f64; 3]) -> (S, [S; 3]) {

@@ -40,6 +40,7 @@ mod derivative;
 mod derivative_tests;
 mod fractal;
 mod gradient;
+mod hash;
 mod kernel;
 mod kernels;
 mod lanes;

@@ -2,12 +2,11 @@
 //! entry points every caller samples a basis through.
 
 use super::basis::Basis;
-use super::cellular;
 use super::gradient;
+use super::hash;
 use super::kernel::NoiseKernel;
 use super::kernels::with_kernel;
 use super::lanes::check_lengths;
-use super::lattice;
 use super::period::Period;
 use super::perlin;
 use super::rng;
@@ -18,7 +17,7 @@ use crate::real::Real;
 /// Immutable lattice tables for one (basis, seed); Send + Sync; built once at compile time.
 ///
 /// Every table is kept even when the basis does not read it (zeros then): the struct is small
-/// (about 6.7 KB) and a fixed layout keeps all indexing free of bounds checks.
+/// (about 7 KB) and a fixed layout keeps all indexing free of bounds checks.
 #[derive(Clone)]
 pub struct NoiseTable {
     pub(super) basis: Basis,
@@ -34,12 +33,10 @@ pub struct NoiseTable {
     pub(super) pairs: [i32; 512],
     /// Gradient basis: unit vectors (f32 precision, see the module docs).
     pub(super) grads: [[f32; 3]; 256],
-    /// Value basis: lattice values in [0, 1] (f32 precision); Cellular: the per-cell values of
-    /// `CellValue`; White: the per-cell values.
+    /// Value basis: lattice values in [0, 1] (f32 precision).
     pub(super) values: [f32; 256],
-    /// Cellular basis: the jittered feature point of each hash value, in [0, 1]³ (f32), as
-    /// three planes x, y, z.
-    pub(super) features: [[f32; 256]; 3],
+    /// Cellular and White bases: the seed's starting state of the cell hash (`hash.rs`).
+    pub(super) key: [u32; 2],
     /// Simplex basis: the gradient of each hash step's last index `j`,
     /// `GRADIENTS[perm[j] % 12]`, as three planes of -1 / 0 / 1 bytes (two's complement), so
     /// that the batch kernel's last lookup gives the gradient directly.
@@ -57,16 +54,17 @@ impl std::fmt::Debug for NoiseTable {
 }
 
 impl NoiseTable {
-    /// The tables as the GPU path reads them (`gpu/wgsl/common.wgsl`): 2304 32-bit words, the
+    /// The tables as the GPU path reads them (`gpu/wgsl/common.wgsl`): 1544 32-bit words, the
     /// doubled permutation (512), the Gradient unit vectors (256 × 3, f32 bits), the values
-    /// (256, f32 bits), the Cellular feature points (3 planes of 256, f32 bits).
+    /// (256, f32 bits), the cell hash's key (2), then zeros to a multiple of 8.
     #[cfg_attr(not(feature = "gpu"), allow(dead_code))]
     pub(crate) fn gpu_words(&self) -> Vec<u32> {
-        let mut words = Vec::with_capacity(2304);
+        let mut words = Vec::with_capacity(1544);
         words.extend(self.perm.iter().map(|&p| u32::from(p)));
         words.extend(self.grads.iter().flatten().map(|g| g.to_bits()));
         words.extend(self.values.iter().map(|v| v.to_bits()));
-        words.extend(self.features.iter().flatten().map(|f| f.to_bits()));
+        words.extend(self.key);
+        words.resize(1544, 0);
         words
     }
 
@@ -91,15 +89,11 @@ impl NoiseTable {
         };
         let values = match basis {
             Basis::Value(_) => value::values(seed ^ rng::VALUE_SALT),
-            // Per-cell values in [0, 1): one that rounded up to 1 in f32 is held below it.
-            Basis::Cellular(_) | Basis::White => {
-                value::values(seed ^ rng::VALUE_SALT).map(|v| v.min(1.0f32.next_down()))
-            }
             _ => [0.0; 256],
         };
-        let features = match basis {
-            Basis::Cellular(c) => cellular::features(seed ^ rng::CELL_SALT, c.jitter()),
-            _ => [[0.0; 256]; 3],
+        let key = match basis {
+            Basis::Cellular(_) | Basis::White => hash::key(seed ^ rng::CELL_SALT),
+            _ => [0; 2],
         };
         let signs = match basis {
             Basis::Simplex => std::array::from_fn(|a| {
@@ -118,7 +112,7 @@ impl NoiseTable {
             pairs,
             grads,
             values,
-            features,
+            key,
             signs,
         }
     }
@@ -150,28 +144,21 @@ impl NoiseTable {
     /// cell's corner plus its jittered offset); `None` for other bases. For independent
     /// references (a brute-force search over many cells) and tools.
     pub fn feature_point(&self, cell: [i64; 3]) -> Option<[f64; 3]> {
-        let Basis::Cellular(_) = self.basis else {
+        let Basis::Cellular(c) = self.basis else {
             return None;
         };
-        let h = self.cell_hash(cell);
-        Some(std::array::from_fn(|a| {
-            cell[a] as f64 + self.features[a][h] as f64
-        }))
+        let offset = hash::feature(hash::cell(self.key, cell), c.jitter_f32());
+        Some(std::array::from_fn(|a| cell[a] as f64 + offset[a] as f64))
     }
 
-    /// Cellular and White bases: the random value in [0, 1] of integer cell `cell` (what
-    /// `CellValue` and `WhiteNoise` return there); `None` for other bases.
+    /// Cellular and White bases: the random value in [0, 1) of integer cell `cell` (what
+    /// `CellValue` and `WhiteNoise` return there), as the f64 path has it (53 bits; the f32
+    /// path has its top 24); `None` for other bases.
     pub fn cell_value(&self, cell: [i64; 3]) -> Option<f64> {
         match self.basis {
-            Basis::Cellular(_) | Basis::White => Some(self.values[self.cell_hash(cell)] as f64),
+            Basis::Cellular(_) | Basis::White => Some(hash::value(hash::cell(self.key, cell))),
             _ => None,
         }
-    }
-
-    /// The hash of an integer cell (indices mod 256), as every basis hashes a lattice point.
-    fn cell_hash(&self, cell: [i64; 3]) -> usize {
-        let [i, j, k] = cell.map(|c| c.rem_euclid(256) as usize);
-        lattice::corner_hashes(&self.perm, i, j, k)[0]
     }
 
     /// One sample at p. Positions are f64 (always, also on the f32 path); the interior

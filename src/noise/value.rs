@@ -69,19 +69,14 @@ pub(super) fn interior<S: Real, const SMOOTH: bool>(
     lerp(wz, vz0, vz1)
 }
 
-/// White noise: the table value of the point's lattice cell (the value-noise value at the
-/// cell's lower corner, held over the whole cell): a per-cell random value in [0, 1], NaN for
-/// non-finite input.
+/// White noise: a per-cell random value in [0, 1) from the full-width hash of the point's
+/// integer cell (`hash.rs`: no period, 24 bits in f32 and 53 in f64), NaN for non-finite input.
 #[inline(always)]
-pub(super) fn white<S: Real>(perm: &[u8; 512], values: &[f32; 256], p: [f64; 3]) -> S {
-    let (ix, fx) = lattice(p[0]);
-    let (iy, fy) = lattice(p[1]);
-    let (iz, fz) = lattice(p[2]);
-    if fx.is_nan() || fy.is_nan() || fz.is_nan() {
+pub(super) fn white<S: Real>(key: [u32; 2], p: [f64; 3]) -> S {
+    if !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite()) {
         return S::NAN;
     }
-    let h = corner_hashes(perm, ix, iy, iz)[0];
-    S::from_f64(values[h & 255] as f64)
+    super::hash::value(super::hash::cell(key, p.map(super::hash::cell_index)))
 }
 
 /// [`interior`]'s value (its bits, when `VALUE`; else 0) and its gradient with respect to the

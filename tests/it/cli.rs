@@ -954,8 +954,22 @@ fn check_every_error_case_through_the_binary() {
         .collect();
     cases.sort();
     assert!(cases.len() >= 30);
+    // A case's `// set: NAME=VALUE` directives (tests/it/errors.rs) are its `--set` flags.
+    let sets = |case: &str| -> Vec<String> {
+        std::fs::read_to_string(root().join(case))
+            .expect("a case")
+            .lines()
+            .filter_map(|l| l.trim().strip_prefix("// set:"))
+            .flat_map(|set| ["--set".to_string(), set.trim().to_string()])
+            .collect()
+    };
     let mut args = vec!["check"];
-    args.extend(cases.iter().map(|s| s.as_str()));
+    args.extend(
+        cases
+            .iter()
+            .filter(|c| sets(c).is_empty())
+            .map(|s| s.as_str()),
+    );
     let out = expect_code(&args, 1);
     assert!(
         stdout(&out).is_empty(),
@@ -968,6 +982,14 @@ fn check_every_error_case_through_the_binary() {
         "no colour when stderr is not a terminal"
     );
     for case in &cases {
+        let set = sets(case);
+        let err = if set.is_empty() {
+            err.clone()
+        } else {
+            let mut args = vec!["check", case.as_str()];
+            args.extend(set.iter().map(String::as_str));
+            stderr(&expect_code(&args, 1))
+        };
         // A problem inside an imported file is located there, the case in its import chain.
         let located = err.lines().any(|l| {
             (l.starts_with("error[") && l.contains(&format!("]: {case}:")))
@@ -992,7 +1014,10 @@ fn check_every_error_case_through_the_binary() {
     }
     // Each file on its own exits 1 too.
     for case in &cases {
-        expect_code(&["check", case], 1);
+        let set = sets(case);
+        let mut args = vec!["check", case.as_str()];
+        args.extend(set.iter().map(String::as_str));
+        expect_code(&args, 1);
     }
 }
 

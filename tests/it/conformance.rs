@@ -795,8 +795,8 @@ fn noise_family_nodes_match_their_definitions() {
     let diff = cellular(0, 1.0, Metric::Chebyshev, CellularValue::F2MinusF1);
     let edge = cellular(0, 0.25, Metric::Euclidean, CellularValue::Edge);
     let cells = cellular(9, 1.0, Metric::Euclidean, CellularValue::CellValue);
-    // White noise is the value-noise table at the cell's lower corner.
-    let value5 = NoiseTable::new(Basis::Value(Interpolation::Linear), 5);
+    // White noise is the hash value of the point's integer cell (`NoiseTable::cell_value`).
+    let white5 = NoiseTable::new(Basis::White, 5);
     let perlin = NoiseTable::new(Basis::Perlin, 0);
     let simplex = NoiseTable::new(Basis::Simplex, 0);
     // The vector kinds: components from seeds seed, seed + 2^53, seed + 2^54.
@@ -853,7 +853,7 @@ fn noise_family_nodes_match_their_definitions() {
             ),
             (cellular_reference(&edge, "Euclidean", "Edge", p), 1e-12),
             (cellular_reference(&cells, "Euclidean", "CellValue", p), 0.0),
-            (value5.sample::<f64>(p.map(f64::floor)), 0.0),
+            (white5.cell_value(p.map(|c| c.floor() as i64)).unwrap(), 0.0),
             (ridged, 1e-12),
             (billow, 1e-12),
         ];

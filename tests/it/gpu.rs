@@ -360,3 +360,60 @@ fn the_stability_survey_covers_the_gpu() {
         eprintln!("{}", texgraph::stability::stability_text(&rows));
     }
 }
+
+/// White noise and the cellular values are the same bits on the GPU as on the CPU's f32 path
+/// (issue 32): the cell hash is 32-bit integer arithmetic and every feature point is exact in
+/// f32 (the jitter a multiple of 1/256), and the distances follow the CPU's order of operations
+/// with correctly rounded roots; untiled and tiled, near the origin, at |p| ~ 1e6, beyond
+/// 2^32 cells (where the cell index needs its high word) and, untiled, at 2^54 (the GPU reduces
+/// a tiled coordinate exactly below 2^51, docs/gpu.md).
+#[test]
+fn white_and_cellular_values_are_the_cpu_bits() {
+    if !common::gpu_available("white_and_cellular_values_are_the_cpu_bits") {
+        return;
+    }
+    let source = r#"Graph(nodes: { "p": Position }, outputs: {
+        "white": WhiteNoise(input: "p", seed: 5),
+        "white_tiled": WhiteNoise(input: "p", seed: 6, period: (3, 7, 1000)),
+        "cell": Cellular(input: "p", seed: 9, jitter: 0.9, value: CellValue),
+        "f1": Cellular(input: "p", seed: 3, value: F1),
+        "f2": Cellular(input: "p", seed: 4, jitter: 0.75, metric: Manhattan, value: F2),
+        "edge": Cellular(input: "p", seed: 2, jitter: 0.5, metric: Chebyshev, value: Edge),
+        "tiled": Cellular(input: "p", seed: 7, value: F2MinusF1, period: (4, 5, 6)),
+    })"#;
+    let graph = texgraph::check(
+        texgraph::SourceFile::new("cells.ron", source),
+        &CheckOptions::default(),
+    )
+    .expect("checks");
+    let tape = texgraph::compile(&graph, &CompileOptions::default()).expect("compiles");
+    let gpu = GpuEvaluator::new(&tape).expect("compiles on the GPU");
+    let mut set = points(1000, 0.0, 50.0, 11);
+    set.extend(points(300, 1e6, 100.0, 12));
+    set.extend(points(300, -6e10, 100.0, 13));
+    set.extend(points(100, 2f64.powi(54), 0.0, 14));
+    let [x, y, z] = [0, 1, 2].map(|c| set.iter().map(|p| p[c]).collect::<Vec<f64>>());
+    let n = set.len();
+    let mut cpu = vec![0f32; tape.channels() * n];
+    tape.eval_batch(&mut texgraph::Workspace::<f32>::new(), &x, &y, &z, &mut cpu);
+    let mut gpu_out = vec![0f32; tape.channels() * n];
+    gpu.eval_batch(&x, &y, &z, &mut gpu_out).expect("evaluates");
+    let names: Vec<&str> = tape.outputs().iter().map(|o| o.name.as_str()).collect();
+    for (c, name) in names.iter().enumerate() {
+        let tiled = name.contains("tiled");
+        let differ: Vec<String> = (0..n)
+            .filter(|&i| !tiled || set[i].iter().all(|v| v.abs() < 2f64.powi(51)))
+            .filter(|&i| cpu[c * n + i].to_bits() != gpu_out[c * n + i].to_bits())
+            .take(3)
+            .map(|i| {
+                format!(
+                    "{:?}: CPU {} GPU {}",
+                    set[i],
+                    cpu[c * n + i],
+                    gpu_out[c * n + i]
+                )
+            })
+            .collect();
+        assert!(differ.is_empty(), "{name}: {}", differ.join("; "));
+    }
+}

@@ -13,10 +13,9 @@
 //   CellularValue::Edge        -> CELL_VALUE_EDGE = 4
 // (An out-of-range metric code acts as Chebyshev, an out-of-range value code as Edge.)
 //
-// Tables (common.wgsl): `feature_at(t, h)` is the jittered feature point of hash h (Rust's
-// `features`, in [0,1]^3, f32), `value_at(t, h)` the per-cell value (Rust's `values`),
-// `perm_at` the doubled permutation. `jitter` is the basis' jitter (Rust keeps it in f64; here
-// it arrives rounded to f32, see `cellular_ring_gap`).
+// The cell hash (common.wgsl, Rust's noise/hash.rs): a cell's state from the table's key and
+// its exact integer coordinates, its feature point `hash_feature` (exact in f32: the jitter is
+// a multiple of 1/256, so it arrives here exactly) and its value `hash_value`.
 //
 // Arithmetic: the cell (floor of the point) and its fraction are exact in f64; the fraction is
 // rounded to f32 once (as the CPU's `S::from_f64(fx)`), and the offsets `d = (o + point) - f`
@@ -53,12 +52,12 @@ const CELLULAR_MAX_RING: i32 = 4;
 const CELLULAR_FAR: f32 = 3.4028234663852886e38;
 
 // The two nearest distances so far (in `cellular_distance`'s form: squared for Euclidean), the
-// hash of the nearest point's cell, and the offsets `feature - p` of the nearest (d1) and second
-// nearest (d2) points (Rust's `Nearest` and the tracked `offsets`).
+// hash state of the nearest point's cell, and the offsets `feature - p` of the nearest (d1) and
+// second nearest (d2) points (Rust's `Nearest` and the tracked `offsets`).
 struct CellularBest {
     f1: f32,
     f2: f32,
-    cell: u32,
+    cell: vec2<u32>,
     d1: vec3<f32>,
     d2: vec3<f32>,
 }
@@ -96,14 +95,17 @@ fn cellular_sqrt(v: f32) -> f32 {
     return f32(sqrt(f64(v)));
 }
 
-// The cell index (0..=255) that is hashed for the neighbour at offset `o` along one axis:
-// untiled (`period` 0) `(base + o) & 255` with `base` the lattice index (Rust
-// `(i + o).rem_euclid(256) & 255`); tiled, `(c + o) mod period` (c = floor of the reduced
-// coordinate, exact in f64: all integers below 2^53), then `& 255` (Rust
-// `(c + o).rem_euclid(P) & 255`).
-fn cellular_wrap(base: u32, c: f64, period: f64, o: i32) -> u32 {
+// A neighbour's cell, absorbed into the hash state `s`: untiled (`period` 0) the cell index
+// `c` plus `o` as Rust's `i64::wrapping_add` (on the two words, with the carry, so it stays
+// exact beyond 2^53); tiled, `(c + o) mod period` (c = floor of the reduced coordinate, exact
+// in f64: all integers below 2^53; Rust `(c + o).rem_euclid(P)`).
+fn cellular_absorb(s: vec2<u32>, c: f64, period: f64, o: i32) -> vec2<u32> {
     if (period == 0.0lf) {
-        return (base + bitcast<u32>(o)) & 255u;
+        let w = cell_words(c);
+        let lo = w.x + bitcast<u32>(o);
+        let carry = select(0u, 1u, lo < w.x);
+        let hi = w.y + select(0u, 0xffffffffu, o < 0) + carry;
+        return pcg2d(s ^ vec2<u32>(lo, hi));
     }
     let x = c + f64(o);
     var m = x - period * floor(x / period);
@@ -113,8 +115,7 @@ fn cellular_wrap(base: u32, c: f64, period: f64, o: i32) -> u32 {
     if (m >= period) {
         m = m - period;
     }
-    let low = m - 256.0lf * floor(m / 256.0lf);
-    return u32(i32(low)) & 255u;
+    return hash_absorb(s, m);
 }
 
 // Rust `distance`: squared Euclidean, Manhattan, Chebyshev (the first of equal maxima).
@@ -128,10 +129,10 @@ fn cellular_distance(metric: u32, d: vec3<f32>) -> f32 {
     return max(max(abs(d.x), abs(d.y)), abs(d.z));
 }
 
-// Rust's `visit` closure for the cell of hash `h` at offset `o` from the point's cell
+// Rust's `visit` closure for the cell of hash state `h` at offset `o` from the point's cell
 // (`fr` the point's f32 fractions).
-fn cellular_visit(t: u32, b: CellularBest, h: u32, o: vec3<i32>, fr: vec3<f32>, metric: u32) -> CellularBest {
-    let point = feature_at(t, h);
+fn cellular_visit(b: CellularBest, h: vec2<u32>, o: vec3<i32>, fr: vec3<f32>, metric: u32, jitter: f32) -> CellularBest {
+    let point = hash_feature(h, jitter);
     let d = (vec3<f32>(o) + point) - fr;
     let dist = cellular_distance(metric, d);
     var r = b;
@@ -178,7 +179,7 @@ fn cellular_search(t: u32, q: vec3<f64>, period: vec3<f64>, metric: u32, value: 
     out.nan = cellular_is_nan3(fr);
     out.best.f1 = CELLULAR_FAR;
     out.best.f2 = CELLULAR_FAR;
-    out.best.cell = 0u;
+    out.best.cell = vec2<u32>(0u);
     out.best.d1 = vec3<f32>(0.0);
     out.best.d2 = vec3<f32>(0.0);
     if (out.nan) {
@@ -186,24 +187,15 @@ fn cellular_search(t: u32, q: vec3<f64>, period: vec3<f64>, metric: u32, value: 
     }
     var best = out.best;
 
-    // The 27 cells: the hashed indices of offsets -1, 0, 1 per axis, and the hash built as
-    // `hash` does, perm[(i + perm[(j + perm[k]) & 511]) & 511].
-    let ix = vec3<u32>(cellular_wrap(s.index.x, c.x, period.x, -1),
-                       cellular_wrap(s.index.x, c.x, period.x, 0),
-                       cellular_wrap(s.index.x, c.x, period.x, 1));
-    let iy = vec3<u32>(cellular_wrap(s.index.y, c.y, period.y, -1),
-                       cellular_wrap(s.index.y, c.y, period.y, 0),
-                       cellular_wrap(s.index.y, c.y, period.y, 1));
-    let iz = vec3<u32>(cellular_wrap(s.index.z, c.z, period.z, -1),
-                       cellular_wrap(s.index.z, c.z, period.z, 0),
-                       cellular_wrap(s.index.z, c.z, period.z, 1));
+    // The 27 cells, z outer, y, x inner (the hash's inner steps shared by a row).
+    let key = hash_key(t);
     for (var dz = -1; dz <= 1; dz = dz + 1) {
-        let pk = perm_at(t, iz[u32(dz + 1)]);
+        let sz = cellular_absorb(key, c.z, period.z, dz);
         for (var dy = -1; dy <= 1; dy = dy + 1) {
-            let pj = perm_at(t, iy[u32(dy + 1)] + pk);
+            let syz = cellular_absorb(sz, c.y, period.y, dy);
             for (var dx = -1; dx <= 1; dx = dx + 1) {
-                let h = perm_at(t, ix[u32(dx + 1)] + pj);
-                best = cellular_visit(t, best, h, vec3<i32>(dx, dy, dz), fr, metric);
+                let h = cellular_absorb(syz, c.x, period.x, dx);
+                best = cellular_visit(best, h, vec3<i32>(dx, dy, dz), fr, metric, jitter);
             }
         }
     }
@@ -222,14 +214,14 @@ fn cellular_search(t: u32, q: vec3<f64>, period: vec3<f64>, metric: u32, value: 
         // The cells at Chebyshev distance `ring`, in the order of the Rust filtered cube loop:
         // a row whose y or z offset is ±ring is all in the ring, any other only at x = ±ring.
         for (var dz = -ring; dz <= ring; dz = dz + 1) {
-            let pk = perm_at(t, cellular_wrap(s.index.z, c.z, period.z, dz));
+            let sz = cellular_absorb(key, c.z, period.z, dz);
             for (var dy = -ring; dy <= ring; dy = dy + 1) {
-                let pj = perm_at(t, cellular_wrap(s.index.y, c.y, period.y, dy) + pk);
+                let syz = cellular_absorb(sz, c.y, period.y, dy);
                 let full = abs(dz) == ring || abs(dy) == ring;
                 let step = select(2 * ring, 1, full);
                 for (var dx = -ring; dx <= ring; dx = dx + step) {
-                    let h = perm_at(t, cellular_wrap(s.index.x, c.x, period.x, dx) + pj);
-                    best = cellular_visit(t, best, h, vec3<i32>(dx, dy, dz), fr, metric);
+                    let h = cellular_absorb(syz, c.x, period.x, dx);
+                    best = cellular_visit(best, h, vec3<i32>(dx, dy, dz), fr, metric, jitter);
                 }
             }
         }
@@ -241,7 +233,7 @@ fn cellular_search(t: u32, q: vec3<f64>, period: vec3<f64>, metric: u32, value: 
 // Rust `finish`: the requested value from the two nearest distances.
 fn cellular_finish(t: u32, metric: u32, value: u32, b: CellularBest) -> f32 {
     if (value == CELL_VALUE_CELL_VALUE) {
-        return value_at(t, b.cell);
+        return hash_value(b.cell);
     }
     var r1 = b.f1;
     var r2 = b.f2;

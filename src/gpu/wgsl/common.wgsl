@@ -14,9 +14,9 @@
 
 const T_PERM: u32 = 0u;        // 512 entries: the permutation of 0..=255, doubled
 const T_GRADS: u32 = 512u;     // 256 x 3: Gradient basis unit vectors (x, y, z of hash h at 3h)
-const T_VALUES: u32 = 1280u;   // 256: Value lattice values / Cellular cell values / White values
-const T_FEATURES: u32 = 1536u; // 3 planes of 256: Cellular feature points (axis a of h at 256a + h)
-const T_WORDS: u32 = 2304u;
+const T_VALUES: u32 = 1280u;   // 256: Value lattice values
+const T_KEY: u32 = 1536u;      // 2: the cell hash's key (Cellular, White; noise/hash.rs)
+const T_WORDS: u32 = 1544u;
 
 fn perm_at(t: u32, i: u32) -> u32 {
     return tables[t + T_PERM + (i & 511u)];
@@ -31,9 +31,63 @@ fn value_at(t: u32, h: u32) -> f32 {
     return bitcast<f32>(tables[t + T_VALUES + (h & 255u)]);
 }
 
-fn feature_at(t: u32, h: u32) -> vec3<f32> {
-    let b = t + T_FEATURES + (h & 255u);
-    return vec3<f32>(bitcast<f32>(tables[b]), bitcast<f32>(tables[b + 256u]), bitcast<f32>(tables[b + 512u]));
+// ---- The cell hash (noise/hash.rs) ------------------------------------------------------------------
+// pcg2d (Jarzynski & Olano, JCGT 2020) absorbing a cell's exact integer coordinates, z, y, x,
+// each as its two 32-bit two's-complement words; values in [0, 1) from the top bits.
+
+fn pcg2d(v: vec2<u32>) -> vec2<u32> {
+    var x = v.x * 1664525u + 1013904223u;
+    var y = v.y * 1664525u + 1013904223u;
+    x = x + y * 1664525u;
+    y = y + x * 1664525u;
+    x = x ^ (x >> 16u);
+    y = y ^ (y >> 16u);
+    x = x + y * 1664525u;
+    y = y + x * 1664525u;
+    x = x ^ (x >> 16u);
+    y = y ^ (y >> 16u);
+    return vec2<u32>(x, y);
+}
+
+fn hash_key(t: u32) -> vec2<u32> {
+    return vec2<u32>(tables[t + T_KEY], tables[t + T_KEY + 1u]);
+}
+
+// A cell index (an integer-valued f64, Rust's `floor as i64`) as its two words (low, high):
+// exact for |c| < 2^63, saturating beyond as Rust's `as` does.
+fn cell_words(c: f64) -> vec2<u32> {
+    if (c >= 9223372036854775808.0lf) {
+        return vec2<u32>(0xffffffffu, 0x7fffffffu);
+    }
+    if (c < -9223372036854775808.0lf) {
+        return vec2<u32>(0u, 0x80000000u);
+    }
+    let hi = floor(c / 4294967296.0lf);
+    let lo = c - hi * 4294967296.0lf;
+    // hi is within [-2^31, 2^31): through i32 to its two's-complement bits.
+    return vec2<u32>(u32(lo), bitcast<u32>(i32(hi)));
+}
+
+fn hash_absorb(s: vec2<u32>, c: f64) -> vec2<u32> {
+    return pcg2d(s ^ cell_words(c));
+}
+
+fn hash_cell(key: vec2<u32>, c: vec3<f64>) -> vec2<u32> {
+    return hash_absorb(hash_absorb(hash_absorb(key, c.z), c.y), c.x);
+}
+
+// Rust `Real::from_unit_bits` for f32 (`hash::value`): the value words' top 24 bits.
+fn hash_value(s: vec2<u32>) -> f32 {
+    let w = pcg2d(vec2<u32>(s.x ^ 0x5bd1e995u, s.y ^ 0xcc9e2d51u));
+    return f32(w.x >> 8u) * 5.9604644775390625e-8f;
+}
+
+// Rust `hash::feature`: per axis 0.5 + jitter (u - 0.5), u the top 16 bits of a word and the
+// jitter a multiple of 1/256, so every step is exact in f32 (fused or not).
+fn hash_feature(s: vec2<u32>, jitter: f32) -> vec3<f32> {
+    let z = pcg2d(s).x;
+    let u = vec3<f32>(f32(s.x >> 16u), f32(s.y >> 16u), f32(z >> 16u)) * 1.52587890625e-5f;
+    return vec3<f32>(0.5) + jitter * (u - vec3<f32>(0.5));
 }
 
 // ---- The lattice split (noise/lattice.rs `lattice`) --------------------------------------------

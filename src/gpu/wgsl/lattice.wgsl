@@ -152,13 +152,14 @@ fn value_smooth_sample_periodic(t: u32, p: vec3<f64>, period: vec3<f64>) -> f32 
     return value_interior(t, s.index, upper_index(s, r.wrap), w);
 }
 
-// White noise: the value of the cell's lower corner; NaN for a non-finite point.
+// White noise (value.rs `white`): the hash value of the point's cell (noise/hash.rs); NaN for a
+// non-finite point.
 fn white_sample(t: u32, p: vec3<f64>) -> f32 {
     let s = lattice3(p);
     if (is_nan3(s.frac)) {
         return nan_f32();
     }
-    return value_at(t, hash_ebert(t, s.index.x, s.index.y, s.index.z));
+    return hash_value(hash_cell(hash_key(t), floor(p)));
 }
 
 fn white_sample_periodic(t: u32, p: vec3<f64>, period: vec3<f64>) -> f32 {

@@ -429,18 +429,14 @@ fn value_smooth_grad_periodic(t: u32, p: vec3<f64>, period: vec3<f64>) -> vec4<f
 }
 
 // ---- White (value.rs `white`, derivative.rs `white_grad`) ----------------------------------------------
-// The value of the point's cell (its lower corner's hash), gradient 0; NaN value and gradient
-// for a non-finite coordinate. The Rust tests `p` for finiteness (gradient) and the fractions
-// for NaN (value); a coordinate is non-finite exactly when its fraction is NaN (x - floor(x)),
-// so one test serves both.
+// The hash value of the point's cell, gradient 0; NaN value and gradient for a non-finite
+// coordinate (a coordinate is non-finite exactly when its fraction is NaN, x - floor(x)).
 fn white_grad(t: u32, p: vec3<f64>) -> vec4<f32> {
     let s = lattice3(p);
     if (lg_is_nan(s.frac.x) || lg_is_nan(s.frac.y) || lg_is_nan(s.frac.z)) {
         return vec4<f32>(lg_nan());
     }
-    let i = s.index;
-    let h = perm_at(t, i.x + perm_at(t, i.y + perm_at(t, i.z)));
-    return vec4<f32>(vec3<f32>(0.0), value_at(t, h));
+    return vec4<f32>(vec3<f32>(0.0), white_sample(t, p));
 }
 
 // The default `sample_grad_periodic`: the point reduced into its period (no neighbours).
