@@ -149,7 +149,7 @@ impl Checker {
             _ => self.resolve_basis(&named, given, whole, here)?,
         };
         let seed = named.constant("seed") as u64;
-        let period = self.period(&named, basis, given, whole, here)?;
+        let period = self.period(&named, given, whole, here)?;
         let fractal = matches!(
             def.lowering,
             Lowering::Fractal(_) | Lowering::VecFractal | Lowering::Warp
@@ -281,12 +281,11 @@ impl Checker {
     }
 
     /// The node's tiling period, refused where it cannot tile: with a fractional lacunarity
-    /// (octave i must repeat every `period · lacunarity^i` whole cells) and, for the Simplex
-    /// basis, with a period not divisible by 3 (its grid repeats only every 3 cells).
+    /// (octave i must repeat every `period · lacunarity^i` whole cells). Every basis tiles at
+    /// every integer period (Simplex too: its lattice is invariant under integer translations).
     fn period(
         &mut self,
         named: &Named,
-        basis: Basis,
         given: &[Option<&Value>],
         whole: &Value,
         here: &Origin,
@@ -305,16 +304,6 @@ impl Checker {
                 .label("cannot tile")
                 .help(help.to_string())
         };
-        if basis == Basis::Simplex && period.iter().any(|p| p % 3 != 0) {
-            self.error(refuse(
-                format!(
-                    "the Simplex basis tiles only with periods divisible by 3, got ({}, {}, {}): its skewed grid repeats along an axis every 3 cells",
-                    period[0], period[1], period[2]
-                ),
-                "use a multiple of 3 (3, 6, 12, ...), or another basis",
-            ));
-            return None;
-        }
         if named.index("lacunarity").is_some() {
             let lacunarity = named.constant("lacunarity");
             if lacunarity.fract() != 0.0 {

@@ -81,14 +81,18 @@ fn tape_function(tape: &Tape) -> String {
     for k in 0..tape.wide_slots {
         let _ = writeln!(w, "    var d{k}: f64 = 0.0lf;");
     }
+    // Constants times `dispatch.one` (1.0 at run time, see `entry.wgsl`): exactly the constant
+    // (NaN, infinities and signed zeros included), and opaque to the driver's folding.
+    let _ = writeln!(w, "    let one = dispatch.one;");
+    let _ = writeln!(w, "    let one_d = f64(one);");
     for &(slot, value) in &tape.scalar_constants {
-        let _ = writeln!(w, "    s{slot} = {};", f32_literal(value as f32));
+        let _ = writeln!(w, "    s{slot} = {} * one;", f32_literal(value as f32));
     }
     for &(slot, value) in &tape.vec3_constants {
-        let _ = writeln!(w, "    v{slot} = {};", vec3_literal(value));
+        let _ = writeln!(w, "    v{slot} = {} * one_d;", vec3_literal(value));
     }
     for &(slot, value) in &tape.wide_constants {
-        let _ = writeln!(w, "    d{slot} = {};", f64_literal(value));
+        let _ = writeln!(w, "    d{slot} = {} * one_d;", f64_literal(value));
     }
     for instr in &tape.instrs {
         let line = instruction(tape, instr);
@@ -609,7 +613,8 @@ fn binary(prefix: &str, op: BinaryOp, a: &str, b: &str) -> String {
         BinaryOp::Add => format!("({a} + {b})"),
         BinaryOp::Sub => format!("({a} - {b})"),
         BinaryOp::Mul => format!("({a} * {b})"),
-        BinaryOp::Div => format!("({a} / {b})"),
+        // Guarded: drivers may turn x/0 into NaN (`math.wgsl`).
+        BinaryOp::Div => format!("{prefix}div({a}, {b})"),
         _ => format!("{prefix}{}({a}, {b})", op.name()),
     }
 }
@@ -696,7 +701,7 @@ mod tests {
         let text = r#"Graph(nodes: {
             "p": Position,
             "q": Rotate(input: Scale(input: "p", by: 3.0), axis: (1, 2, 3), degrees: Mul("p.x", 40.0)),
-            "a": Fbm(input: "q", basis: Simplex, octaves: 4.5, period: (6, 6, 6)),
+            "a": Fbm(input: "q", basis: Simplex, octaves: 4.5, period: (4, 5, 6)),
             "b": Turbulence(input: "p", basis: Value(Smooth), octaves: 3),
             "c": Noise(input: "q", basis: Cellular(jitter: 0.8, metric: Manhattan, value: F2MinusF1)),
             "d": Ridged(input: "p", basis: Gradient, octaves: 5, offset: 1.0, sharpness: 2.0),

@@ -102,6 +102,8 @@ struct Dispatch {
 }
 
 impl Dispatch {
+    /// The block's bytes: the fields, then `one` (1.0 as f32 bits, see `entry.wgsl`) and
+    /// padding to a multiple of 16 bytes.
     fn bytes(&self) -> Vec<u8> {
         [
             self.first_segment,
@@ -112,6 +114,10 @@ impl Dispatch {
             self.ny,
             self.count,
             self.spacing,
+            1.0f32.to_bits(),
+            0,
+            0,
+            0,
         ]
         .iter()
         .flat_map(|w| w.to_le_bytes())

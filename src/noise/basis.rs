@@ -15,7 +15,7 @@ pub enum Basis {
     Gradient,
     /// Value noise: random values in [0, 1] on lattice points, interpolated.
     Value(Interpolation),
-    /// Simplex gradient noise on the skewed grid (see `simplex.rs`); range ±1.
+    /// Simplex gradient noise on the body-centred cubic lattice (see `simplex.rs`); range ±1.
     Simplex,
     /// Cellular (Worley) noise (see `cellular.rs`).
     Cellular(Cellular),

@@ -1157,92 +1157,95 @@ impl<S: Real> CellLanes<S> {
     }
 }
 
-/// A chunk's lanes for [`simplex`]: where each lane lies (cell bytes, offset, which axis of its
-/// tetrahedron comes first and last, as bytes for the hash indices and as S for the terms, which
-/// would otherwise convert them once per vertex), one vertex's index bytes and gradient
-/// bytes at a time, and the running sum.
-struct SimplexLanes<S, const N: usize = CHUNK> {
-    c: [[f64; N]; 3],
-    f: [[f64; N]; 3],
+/// A chunk's lanes for [`simplex`]: where each lane lies (cell bytes, fractions in f64, the
+/// skewed cell's carries, and its tetrahedron as masks of the skewed axes that come first and
+/// second), one vertex's hash index bytes at a time, and each vertex's gradient bytes.
+struct SimplexLanes<const N: usize = CHUNK> {
     cell: [[u8; N]; 3],
-    x0: [[S; N]; 3],
+    frac: [[f64; N]; 3],
+    carry: [[u8; N]; 3],
     first: [[u8; N]; 3],
-    last: [[u8; N]; 3],
-    first_s: [[S; N]; 3],
-    last_s: [[S; N]; 3],
+    second: [[u8; N]; 3],
     vertex: [[u8; N]; 3],
-    grad: [[[u8; N]; 3]; 8],
+    grad: [[[u8; N]; 3]; 4],
 }
 
 #[allow(clippy::needless_range_loop)] // lanes indexed across parallel arrays, by design
-impl<S: Real> SimplexLanes<S> {
+impl SimplexLanes {
     #[inline(always)]
     fn new() -> Self {
         SimplexLanes {
-            c: [[0.0; CHUNK]; 3],
-            f: [[0.0; CHUNK]; 3],
             cell: [[0; CHUNK]; 3],
-            x0: [[S::ZERO; CHUNK]; 3],
+            frac: [[0.0; CHUNK]; 3],
+            carry: [[0; CHUNK]; 3],
             first: [[0; CHUNK]; 3],
-            last: [[0; CHUNK]; 3],
-            first_s: [[S::ZERO; CHUNK]; 3],
-            last_s: [[S::ZERO; CHUNK]; 3],
+            second: [[0; CHUNK]; 3],
             vertex: [[0; CHUNK]; 3],
-            grad: [[[0; CHUNK]; 3]; 8],
+            grad: [[[0; CHUNK]; 3]; 4],
         }
     }
 
     /// Each lane's cell and tetrahedron, as the point function finds them (`FAST`: every
-    /// coordinate below 2^51 in magnitude, the branch-free residue), and a zero sum. Two passes,
-    /// so that LLVM vectorises them: the residues and fractions per axis, then the rest from
-    /// those (reading only this struct's arrays, so no aliasing checks).
+    /// coordinate below 2^51 in magnitude, the branch-free split of `lattice_lane_fast`). Two
+    /// passes, so that LLVM vectorises them: the cells and fractions per axis, then the carries
+    /// and the order of the skewed fractions.
     #[inline(always)]
     fn locate<const FAST: bool>(&mut self, p: [&[f64]; 3]) {
-        use super::simplex as sx;
+        const MAGIC: f64 = 6_755_399_441_055_744.0; // 1.5 · 2^52, see `lattice_lane_fast`
         let n = p[0].len().min(CHUNK);
-        for ((src, c), f) in p.into_iter().zip(&mut self.c).zip(&mut self.f) {
-            for ((&x, c), f) in src.iter().zip(c.iter_mut()).zip(f.iter_mut()) {
-                (*c, *f) = if FAST {
-                    sx::cell768_fast(x)
+        for ((src, cell), frac) in p.into_iter().zip(&mut self.cell).zip(&mut self.frac) {
+            for ((&x, cell), frac) in src.iter().zip(cell.iter_mut()).zip(frac.iter_mut()) {
+                if FAST {
+                    let c = x.floor();
+                    (*cell, *frac) = ((c + MAGIC).to_bits() as u8, x - c);
                 } else {
-                    sx::cell768(x)
-                };
+                    let (c, f) = super::lattice::lattice(x);
+                    (*cell, *frac) = (c as u8, f);
+                }
             }
         }
-        // In place: the residues become the cell's base vertex, the fractions its offset.
-        let mut comparisons = [0u8; CHUNK];
+        let f = &self.frac;
         for i in 0..n {
-            let (c, f) = (&mut self.c, &mut self.f);
-            let at = sx::locate_parts([c[0][i], c[1][i], c[2][i]], [f[0][i], f[1][i], f[2][i]]);
+            let sums = [f[1][i] + f[2][i], f[0][i] + f[2][i], f[0][i] + f[1][i]];
+            let carry = sums.map(|s| s.floor());
+            let skewed = [sums[0] - carry[0], sums[1] - carry[1], sums[2] - carry[2]];
+            let (uv, vw, uw) = (
+                skewed[0] >= skewed[1],
+                skewed[1] >= skewed[2],
+                skewed[0] >= skewed[2],
+            );
+            // `simplex::order` as masks: the first axis, then the second of the other two.
+            let first = [uv & uw, !uv & vw, !(uv & uw) & !(!uv & vw)];
+            let second = [
+                !first[0] & ((first[1] & uw) | (first[2] & uv)),
+                !first[1] & ((first[0] & vw) | (first[2] & !uv)),
+                !first[2] & ((first[0] & !vw) | (first[1] & !uw)),
+            ];
             for a in 0..3 {
-                c[a][i] = at.cell[a];
-                f[a][i] = at.offset[a];
-            }
-            comparisons[i] = at.comparisons as u8;
-        }
-        for a in 0..3 {
-            let (c, f) = (&self.c[a], &self.f[a]);
-            for i in 0..n {
-                // The cell is an exact non-negative integer below 2^12: its low byte is the
-                // low byte of the bits of `cell + 2^52` (see `lattice_lane_exact`).
-                self.cell[a][i] = (c[i] + TWO52).to_bits() as u8;
-                self.x0[a][i] = S::from_f64(f[i]);
-            }
-        }
-        for i in 0..n {
-            let (first, last) = sx::axis_masks(comparisons[i]);
-            for a in 0..3 {
-                self.first[a][i] = first[a];
-                self.last[a][i] = last[a];
-                self.first_s[a][i] = S::from_f64(f64::from(first[a]));
-                self.last_s[a][i] = S::from_f64(f64::from(last[a]));
+                // A NaN sum (non-finite input) gives carry 0, as `locate_parts`.
+                self.carry[a][i] = u8::from(carry[a] >= 1.0);
+                self.first[a][i] = u8::from(first[a]);
+                self.second[a][i] = u8::from(second[a]);
             }
         }
     }
 
-    /// Vertex `K`'s gradient bytes for the first `n` lanes: the vertex's index bytes, then its
-    /// hash's gradient (by byte shuffles when `shuffle`, see [`SimplexLanes::shuffle_gradients`];
-    /// else by table reads).
+    /// Vertex `K`'s skewed offset plus carry on skewed axis `a` of lane `i`, a small integer.
+    #[inline(always)]
+    fn skewed<const K: usize>(&self, a: usize, i: usize) -> u8 {
+        let o = match K {
+            0 => 0,
+            1 => self.first[a][i],
+            2 => self.first[a][i] + self.second[a][i],
+            _ => 1,
+        };
+        self.carry[a][i] + o
+    }
+
+    /// Vertex `K`'s gradient bytes for the first `n` lanes: its hash index bytes (the skewed
+    /// coordinates mod 256: `cell_y + cell_z + s_u`, `cell_x + cell_z + s_v`,
+    /// `cell_x + cell_y + s_w`, `simplex::vertex_hash`'s), then its hash's gradient (by byte
+    /// shuffles when `shuffle`, see [`SimplexLanes::shuffle_gradients`]; else by table reads).
     #[inline(always)]
     fn gradients<const K: usize>(
         &mut self,
@@ -1251,17 +1254,21 @@ impl<S: Real> SimplexLanes<S> {
         n: usize,
         shuffle: bool,
     ) {
-        use super::simplex as sx;
         let n = n.min(CHUNK);
-        for a in 0..3 {
-            let (cell, first, last) = (&self.cell[a], &self.first[a], &self.last[a]);
-            for i in 0..n {
-                self.vertex[a][i] = cell[i].wrapping_add(sx::vertex_byte::<K>(first[i], last[i]));
-            }
+        for i in 0..n {
+            let c = [self.cell[0][i], self.cell[1][i], self.cell[2][i]];
+            let s = [
+                self.skewed::<K>(0, i),
+                self.skewed::<K>(1, i),
+                self.skewed::<K>(2, i),
+            ];
+            self.vertex[0][i] = c[1].wrapping_add(c[2]).wrapping_add(s[0]);
+            self.vertex[1][i] = c[0].wrapping_add(c[2]).wrapping_add(s[1]);
+            self.vertex[2][i] = c[0].wrapping_add(c[1]).wrapping_add(s[2]);
         }
         if shuffle {
             // SAFETY: `shuffle` is true only in the clone compiled for avx512vbmi (see
-            // `sample_lanes`).
+            // `simplex`).
             unsafe { self.shuffle_gradients::<K>(perm, signs, n) };
         } else {
             let v = &self.vertex;
@@ -1276,37 +1283,34 @@ impl<S: Real> SimplexLanes<S> {
         }
     }
 
-    /// Vertex `K`'s term at lane `i`, in S.
+    /// Vertex `K`'s term at lane `i`, in S: its offset `frac - half / 2` (f64, rounded once;
+    /// `simplex::half_offset` of the skewed offsets) and its gradient.
     #[inline(always)]
-    fn term<const K: usize>(&self, i: usize, p: [S; 3]) -> S {
-        use super::simplex as sx;
-        let (first, last, grad) = (&self.first_s, &self.last_s, &self.grad[K]);
-        let v: [S; 3] = std::array::from_fn(|a| sx::vertex_offset::<S, K>(first[a][i], last[a][i]));
-        let gradient: [S; 3] = std::array::from_fn(|a| S::from_f64(f64::from(grad[a][i] as i8)));
-        sx::term_with(p, v, sx::vertex_unskew::<S, K>(), gradient)
+    fn term<S: Real, const K: usize>(&self, i: usize) -> S {
+        let s: [i64; 3] = std::array::from_fn(|a| i64::from(self.skewed::<K>(a, i)));
+        let half = [-s[0] + s[1] + s[2], s[0] - s[1] + s[2], s[0] + s[1] - s[2]];
+        let d: [S; 3] =
+            std::array::from_fn(|a| S::from_f64(self.frac[a][i] - half[a] as f64 * 0.5));
+        let grad = &self.grad[K];
+        let g: [S; 3] = std::array::from_fn(|a| S::from_f64(f64::from(grad[a][i] as i8)));
+        super::simplex::term(d, g)
     }
 
-    /// The noise of the first `out.len()` lanes: the eight terms summed in the point function's
-    /// order, in one pass over the lanes (the offset stays in registers).
+    /// The noise of the first `out.len()` lanes: the four terms summed in the point function's
+    /// order, in one pass over the lanes.
     #[inline(always)]
-    fn sum(&self, out: &mut [S]) {
+    fn sum<S: Real>(&self, out: &mut [S]) {
         use super::simplex as sx;
         let n = out.len().min(CHUNK);
-        let x0 = &self.x0;
         // Summed into a stack array, then copied: writing `out` in the loop made LLVM check it
         // against the lane arrays at run time and take a scalar loop.
         let mut sums = [S::ZERO; CHUNK];
         for i in 0..n {
-            let p = [x0[0][i], x0[1][i], x0[2][i]];
             let mut sum = S::ZERO;
-            sum = sum + self.term::<0>(i, p);
-            sum = sum + self.term::<1>(i, p);
-            sum = sum + self.term::<2>(i, p);
-            sum = sum + self.term::<3>(i, p);
-            sum = sum + self.term::<4>(i, p);
-            sum = sum + self.term::<5>(i, p);
-            sum = sum + self.term::<6>(i, p);
-            sum = sum + self.term::<7>(i, p);
+            sum = sum + self.term::<S, 0>(i);
+            sum = sum + self.term::<S, 1>(i);
+            sum = sum + self.term::<S, 2>(i);
+            sum = sum + self.term::<S, 3>(i);
             sums[i] = canonical_nan(S::from_f64(sx::SCALE) * sum);
         }
         out.copy_from_slice(&sums[..n]);
@@ -1343,11 +1347,11 @@ impl<S: Real> SimplexLanes<S> {
 
 simd_targets! {
 /// Simplex noise over a batch, `out[i]` = the point function bit for bit, in loops over the
-/// lanes of each chunk: locate (f64, per lane, the point function's integer arithmetic and
-/// comparisons; the tetrahedron kept as axis masks, so the eight vertex offsets are arithmetic,
-/// not table reads), then per vertex in the point function's order its index bytes, its hash's
-/// gradient (byte shuffles with AVX-512 VBMI: the permutation's three steps and a last lookup
-/// straight into the gradient components) and its term, all in S.
+/// lanes of each chunk: locate (f64, per lane, the point function's arithmetic and comparisons;
+/// the tetrahedron kept as masks, so the four vertex offsets are arithmetic, not table reads),
+/// then per vertex in the point function's order its hash index bytes and its gradient (byte
+/// shuffles with AVX-512 VBMI: the permutation's three steps and a last lookup straight into
+/// the gradient components), and the four terms in S.
 pub(super) fn simplex<S: Real>(
     perm: &[u8; 512],
     signs: &[[u8; 256]; 3],
@@ -1375,13 +1379,13 @@ fn simplex_chunks<S: Real>(
     out: &mut [S],
     shuffle: bool,
 ) {
-    let mut lanes = SimplexLanes::<S>::new();
+    let mut lanes = SimplexLanes::new();
     let chunks = out
         .chunks_mut(CHUNK)
         .zip(x.chunks(CHUNK).zip(y.chunks(CHUNK)).zip(z.chunks(CHUNK)));
     for (out, ((x, y), z)) in chunks {
         let n = out.len();
-        // `fits` with f = 1 is |x| < 2^51 = `sx::FAST` for every coordinate.
+        // `fits` with f = 1 is |x| < 2^51 for every coordinate.
         if fits([x, y, z], 1.0) {
             lanes.locate::<true>([x, y, z]);
         } else {
@@ -1391,10 +1395,6 @@ fn simplex_chunks<S: Real>(
         lanes.gradients::<1>(perm, signs, n, shuffle);
         lanes.gradients::<2>(perm, signs, n, shuffle);
         lanes.gradients::<3>(perm, signs, n, shuffle);
-        lanes.gradients::<4>(perm, signs, n, shuffle);
-        lanes.gradients::<5>(perm, signs, n, shuffle);
-        lanes.gradients::<6>(perm, signs, n, shuffle);
-        lanes.gradients::<7>(perm, signs, n, shuffle);
         lanes.sum(out);
     }
 }

@@ -19,7 +19,7 @@ use crate::real::Real;
 /// batch forms. A basis on the integer lattice implements [`LatticeKernel`] and gets the SIMD
 /// batch kernels of `batch.rs` (points as lanes, or one point's octaves as lanes) through the
 /// blanket implementation below. A basis on another grid — cellular noise's neighbour cells,
-/// simplex noise's skewed grid — implements this trait itself: `sample` alone is complete and
+/// simplex noise's tetrahedra — implements this trait itself: `sample` alone is complete and
 /// correct (the batch forms default to per-point loops, bit-identical by construction), and its
 /// own batch kernels override them, held to `sample`'s bits by the same tests. Its range and
 /// Lipschitz bound go on [`Basis`], whose matches are exhaustive.

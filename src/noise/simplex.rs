@@ -1,29 +1,42 @@
-//! Simplex noise: Perlin's 2001 simplex gradient noise in Stefan Gustavson's formulation
-//! ("Simplex noise demystified", 2005): the space is cut into tetrahedra by skewing the cubic
-//! grid along its main diagonal (F = 1/3, G = 1/6), each vertex carries one of the 12 cube-edge
-//! gradients picked by a hash, and each vertex contributes `(0.6 - r²)⁴ (g · d)` within radius
-//! √0.6, the sum scaled by 32.
+//! Simplex noise on the body-centred cubic (BCC) lattice: the lattice of OpenSimplex2 and of
+//! Gustavson and McEwan's psrdnoise (Stefan Gustavson and Ian McEwan, "Tiling simplex noise and
+//! flow noise in two and three dimensions", JCGT 11(1), 2022), which tiles at every integer
+//! period where Gustavson's skewed grid tiles only at multiples of 3.
 //!
-//! One departure, for continuity: Gustavson (and most libraries) sum only the four vertices of
-//! the tetrahedron containing the point, but at radius √0.6 the kernel also reaches the vertex
-//! beyond each of its four faces (the reflection of a vertex in the opposite face; 26% of points
-//! have such a contribution), so the four-vertex sum jumps across every face. We sum those four
-//! vertices too: eight vertices in all, the kernel's whole support (the test
-//! `simplex_matches_a_brute_force_sum_over_every_vertex` checks against a sum over every
-//! vertex), so the noise is continuous and C³, at about twice the arithmetic. It is zero on every vertex (a vertex's own term is `g · 0`, and every
-//! other vertex is at least √0.75 away).
+//! The grid: the vertices are the points whose coordinates are all integers or all
+//! half-integers, `V = M⁻¹ i` for integer `i`, with `M = [[0,1,1],[1,0,1],[1,1,0]]` (so
+//! `i = M V = (Vy + Vz, Vx + Vz, Vx + Vy)`, the "skewed" coordinates u, v, w). Any integer
+//! translation maps the grid onto itself, which is why every integer period works. The space is
+//! cut into tetrahedra (the skewed unit cube of `M x` into six, by the order of the skewed
+//! fractions), each with two vertices of the integer lattice and two of the half-integer one.
 //!
-//! Range: ±1, proved in `simplex_range_and_lipschitz_bounds_are_proved` (the bound with every
-//! gradient chosen adversarially is 32 × 0.030585 = 0.9787; random samples reach ±0.975).
-//! Lipschitz bound: see [`LIPSCHITZ`].
+//! Each vertex carries one of the 12 cube-edge gradients (Gustavson's `grad3`), picked by a
+//! hash of its skewed coordinates mod 256, and contributes `(0.5 - r²)⁴ (g · d)` within radius
+//! √0.5 (d the offset from the vertex, r = |d|); the sum is scaled by [`SCALE`]. Radius √0.5 is
+//! the tetrahedra's smallest altitude (a vertex beyond a face is at least √0.5 from every point
+//! of the face, and from every point of the tetrahedron: checked by the test
+//! `simplex_matches_a_brute_force_sum_over_every_vertex`), so the four vertices of the point's
+//! tetrahedron are every vertex in reach and the sum is continuous, in fact C³ (the kernel and
+//! its first three derivatives vanish at r² = 0.5). It is exactly 0 on every vertex (a vertex's
+//! own term is `g · 0`, and every other vertex is at least √0.75 away).
 //!
-//! Precision: the skewed cell is computed exactly at any magnitude (small-integer arithmetic,
-//! carried in f64 so that the batch kernel runs it over lanes). With `X = floor(x)` (and so
-//! on) as integers and `f = x - X` exact, the skew `(x + y + z) / 3` splits into the integer
-//! part of `(X + Y + Z) / 3` (`q`, with remainder `r`) and `(r + fx + fy + fz) / 3`, so the cell
-//! is `X + q + L` with a small `L` and the offset inside it involves small numbers only. Only
-//! residues of the indices are needed (mod 768 = 3 × 256, so that `q mod 256` and `r` are right).
+//! Range ±1 and Lipschitz bound 12.5: proved by branch and bound in
+//! `simplex_range_and_lipschitz_bounds_are_proved` (see [`SCALE`], [`LIPSCHITZ`]).
+//!
+//! Precision: the skewed cell is found from each coordinate's integer cell and fraction (exact
+//! in f64 at any magnitude, as the lattice bases split them): `u = y + z` has the cell
+//! `Y + Z + floor(fy + fz)` and the fraction `fy + fz - floor(fy + fz)`, so the offsets to the
+//! vertices, `f - k/2` for small integers k, involve small numbers only, and the hash needs the
+//! cells mod 256 only.
+//!
+//! Tiling: a vertex is hashed as its translate into the period box (each coordinate, in halves,
+//! mod twice the period, which keeps it an integer or a half-integer), so a vertex and its
+//! translates by whole periods share their gradient and `N(p + P eₐ) = N(p)` bit for bit for
+//! every integer period P ≤ 2^20 (the point is reduced into its period first, as the other
+//! bases do).
 
+use super::lattice::lattice;
+use super::period::{self, Period};
 use crate::real::Real;
 
 /// The 12 cube-edge gradients (Gustavson's `grad3`), picked by `hash % 12`.
@@ -42,265 +55,145 @@ pub(super) const GRADIENTS: [[f32; 3]; 12] = [
     [0.0, -1.0, -1.0],
 ];
 
-/// The output scale (Gustavson's 32).
-pub(super) const SCALE: f64 = 32.0;
+/// The squared kernel radius: the tetrahedra's smallest altitude squared.
+pub(super) const RADIUS2: f64 = 0.5;
 
-/// The squared kernel radius (Gustavson's 0.6).
-pub(super) const RADIUS2: f64 = 0.6;
+/// The output scale. With every gradient chosen adversarially (each vertex's `|g · d|` at its
+/// largest, the sum of d's two largest |components|), `Σ (0.5 - r²)⁴ |g · d|` is at most
+/// 0.013008 (at about (0, 1/6, 1/6) and its images), so `76 ×` that, 0.98861, bounds |N|.
+pub(super) const SCALE: f64 = 76.0;
 
-/// Half-width of the range; see the module docs.
+/// Half-width of the range; see [`SCALE`].
 pub(super) const RANGE: f64 = 1.0;
 
-/// An upper bound on |∇N|: per vertex, |∇((0.6 - r²)⁴ g·d)| <= √2 (0.6 - r²)³ (0.6 + 7 r²)
-/// (|g| = √2, |g·d| <= √2 r), at most √2 × 0.16331 = 0.23095 (at r² = 0.6/7); the test
-/// `simplex_range_and_lipschitz_bounds_are_proved` bounds the sum of these over the vertices in
-/// reach by 12.5 / 32 = 0.3906 everywhere (the sum's maximum is about 0.3797), so
-/// |∇N| <= 12.5; measured slopes reach about 6.
+/// An upper bound on |∇N|: per vertex `|∇((0.5 - r²)⁴ g·d)| <= √2 (0.5 - r²)³ (0.5 + 7 r²)`
+/// (|g| = √2, |g · d| <= √2 r); the test `simplex_range_and_lipschitz_bounds_are_proved` bounds
+/// the sum of these over the vertices in reach by 12.5 / 76 everywhere (its maximum, at the
+/// centre of the half-integer cube's corners, (1/4, 1/4, 1/4), is 0.15645), so |∇N| <= 12.5.
 pub(super) const LIPSCHITZ: f64 = 12.5;
 
-/// 2^51: below it, [`cell768_fast`] applies.
-pub(super) const FAST: f64 = 2_251_799_813_685_248.0;
+/// The vertices of a tetrahedron, by the order of the skewed fractions: `first` and `second`
+/// are the axes (0 = u, 1 = v, 2 = w) of the largest and second largest, ties to the lower
+/// axis. The vertices are, as offsets in skewed coordinates, `0`, `e_first`,
+/// `e_first + e_second` and `(1, 1, 1)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Order {
+    pub first: usize,
+    pub second: usize,
+}
 
-/// One coordinate as its integer cell residue mod 768 (an exact small integer, as f64) and its
-/// fraction in [0, 1] (as [`super::lattice::lattice`] computes it; NaN for non-finite input).
+/// The order of skewed fractions `s` (ties to the lower axis; NaN compares false everywhere
+/// and gives u, v).
 #[inline(always)]
-pub(super) fn cell768(x: f64) -> (f64, f64) {
-    if x.abs() < FAST {
-        cell768_fast(x)
+pub(super) fn order(s: [f64; 3]) -> Order {
+    let (uv, vw, uw) = (s[0] >= s[1], s[1] >= s[2], s[0] >= s[2]);
+    let first = if uv && uw {
+        0
+    } else if !uv && vw {
+        1
     } else {
-        cell768_cold(x)
+        2
+    };
+    let second = match first {
+        0 => {
+            if vw {
+                1
+            } else {
+                2
+            }
+        }
+        1 => {
+            if uw {
+                0
+            } else {
+                2
+            }
+        }
+        _ => {
+            if uv {
+                0
+            } else {
+                1
+            }
+        }
+    };
+    Order { first, second }
+}
+
+/// Vertex `k`'s offset in skewed coordinates, 0 or 1 per skewed axis.
+#[inline(always)]
+pub(super) fn skewed_offset(order: Order, k: usize) -> [i64; 3] {
+    let mut o = [0i64; 3];
+    if k >= 1 {
+        o[order.first] = 1;
+    }
+    if k >= 2 {
+        o[order.second] = 1;
+    }
+    if k == 3 {
+        o = [1; 3];
+    }
+    o
+}
+
+/// Where a point lies: its lattice cells mod 256 and fractions (as [`lattice`] splits them),
+/// the carries `floor` of the skewed fraction sums `(fy + fz, fx + fz, fx + fy)`, and its
+/// tetrahedron.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Located {
+    pub cell: [usize; 3],
+    pub frac: [f64; 3],
+    pub carry: [i64; 3],
+    pub order: Order,
+}
+
+/// Finds the skewed cell and tetrahedron of `p`.
+#[inline(always)]
+pub(super) fn locate(p: [f64; 3]) -> Located {
+    let parts = p.map(lattice);
+    locate_parts(parts.map(|c| c.0), parts.map(|c| c.1))
+}
+
+/// [`locate`] from each axis' cell residue and fraction.
+#[inline(always)]
+pub(super) fn locate_parts(cell: [usize; 3], f: [f64; 3]) -> Located {
+    let sums = [f[1] + f[2], f[0] + f[2], f[0] + f[1]];
+    let carry = sums.map(|s| s.floor());
+    let skewed = [sums[0] - carry[0], sums[1] - carry[1], sums[2] - carry[2]];
+    Located {
+        cell,
+        frac: f,
+        // A NaN fraction (non-finite input) gives carry 0: the result is NaN anyway.
+        carry: carry.map(|c| if c.is_nan() { 0 } else { c as i64 }),
+        order: order(skewed),
     }
 }
 
-/// [`cell768`] for |x| < 2^51, branch-free (the batch kernel runs it over lanes): with
-/// `c = floor(x)`, `c · (1/768)` is within 2^-52 |c / 768| < 1/2 of `c / 768`, so its floor is
-/// `floor(c / 768)` or one off, and `c - 768 k` (exact: integers below 2^52) is `c mod 768`
-/// after at most one correction by 768 either way.
+/// Twice vertex `k`'s offset from the point's lattice cell corner, per axis: the vertex is
+/// `cell + half / 2` (`half` small integers, all even or all odd), from
+/// `V = M⁻¹ (M cell + carry + o)` with `M⁻¹ = [[-1,1,1],[1,-1,1],[1,1,-1]] / 2`.
 #[inline(always)]
-pub(super) fn cell768_fast(x: f64) -> (f64, f64) {
-    let c = x.floor();
-    let m = c - 768.0 * (c * (1.0 / 768.0)).floor();
-    let m = if m < 0.0 { m + 768.0 } else { m };
-    let m = if m >= 768.0 { m - 768.0 } else { m };
-    (m, x - c)
+pub(super) fn half_offset(carry: [i64; 3], o: [i64; 3]) -> [i64; 3] {
+    let s = [carry[0] + o[0], carry[1] + o[1], carry[2] + o[2]];
+    [-s[0] + s[1] + s[2], s[0] - s[1] + s[2], s[0] + s[1] - s[2]]
 }
 
-/// [`cell768`] for |x| >= 2^51 and non-finite x.
-#[cold]
-#[inline(never)]
-fn cell768_cold(x: f64) -> (f64, f64) {
-    // Already an integer beyond 2^52 (fraction 0), or not finite (fraction NaN, cell 0).
-    // `%` (fmod) is exact.
-    let c = x.floor();
-    let m = c % 768.0;
-    let m = if m < 0.0 { m + 768.0 } else { m };
-    (if m.is_finite() { m } else { 0.0 }, x - c)
+/// The hash of a vertex from its doubled coordinates mod 512 (`twice[a]` = `2 V_a` mod 512,
+/// all even or all odd): its skewed coordinates `M V` mod 256, then the lattice bases' hash.
+#[inline(always)]
+pub(super) fn vertex_hash(perm: &[u8; 512], twice: [i64; 3]) -> usize {
+    let i = (twice[1] + twice[2]).rem_euclid(512) / 2;
+    let j = (twice[0] + twice[2]).rem_euclid(512) / 2;
+    let k = (twice[0] + twice[1]).rem_euclid(512) / 2;
+    hash(perm, i, j, k)
 }
 
-/// The hash of a vertex (cell indices mod 256), Ebert-style as the lattice bases hash.
+/// `perm[i + perm[j + perm[k]]]` (indices mod 256).
 #[inline(always)]
 pub(super) fn hash(perm: &[u8; 512], i: i64, j: i64, k: i64) -> usize {
     let pk = perm[(k & 255) as usize] as usize;
     let pj = perm[((j & 255) as usize + pk) & 511] as usize;
     perm[((i & 255) as usize + pj) & 511] as usize
-}
-
-/// Where a point lies: the skewed cell's base vertex (an exact small integer per axis, as
-/// f64, equal to the true index mod 256), the offset from it (unskewed), and which of the six
-/// tetrahedra (a number into [`ORDERS`]), also as the comparisons that picked it.
-pub(super) struct Located {
-    pub cell: [f64; 3],
-    pub offset: [f64; 3],
-    pub order: usize,
-    /// `4 (a >= b) + 2 (b >= c) + (a >= c)` for the offset `(a, b, c)`; `order` is
-    /// `ORDER_OF_COMPARISONS[comparisons]` (the batch kernel derives the axes from these bits).
-    pub comparisons: usize,
-}
-
-/// Finds the skewed cell and tetrahedron of `p` (see the module docs for the exact split).
-#[inline(always)]
-pub(super) fn locate(p: [f64; 3]) -> Located {
-    let (cx, fx) = cell768(p[0]);
-    let (cy, fy) = cell768(p[1]);
-    let (cz, fz) = cell768(p[2]);
-    locate_parts([cx, cy, cz], [fx, fy, fz])
-}
-
-/// [`locate`] from each coordinate's cell residue mod 768 and fraction: branch-free, exact
-/// small-integer arithmetic in f64 (every intermediate is an integer below 2^12, or a fraction).
-#[inline(always)]
-pub(super) fn locate_parts(c: [f64; 3], f: [f64; 3]) -> Located {
-    locate_from::<true>(c, f)
-}
-
-/// [`locate_parts`]; without `REDUCE`, from full cell indices (below 2^50 in magnitude), giving
-/// the full index of the skewed cell (tiling needs it).
-#[inline(always)]
-fn locate_from<const REDUCE: bool>(c: [f64; 3], f: [f64; 3]) -> Located {
-    const THIRD: f64 = 1.0 / 3.0;
-    let sum = c[0] + c[1] + c[2];
-    // Multiplications by rounded reciprocals, their floors exact: `(n + 1/2) / d` is at least
-    // 1/(2d) from an integer, far more than the product's rounding error for the integers n
-    // here (below 2^12; below 2^50 without `REDUCE`).
-    let sum = if REDUCE {
-        sum - 768.0 * ((sum + 0.5) * (1.0 / 768.0)).floor()
-    } else {
-        sum
-    };
-    let q = ((sum + 0.5) * THIRD).floor();
-    let r = sum - 3.0 * q;
-    let skew = (r + f[0] + f[1] + f[2]) * THIRD;
-    let l = [
-        (f[0] + skew).floor(),
-        (f[1] + skew).floor(),
-        (f[2] + skew).floor(),
-    ];
-    let unskew = (r + l[0] + l[1] + l[2]) * (1.0 / 6.0);
-    let offset = [
-        f[0] - l[0] + unskew,
-        f[1] - l[1] + unskew,
-        f[2] - l[2] + unskew,
-    ];
-    let [a, b, cc] = offset;
-    // Gustavson's comparisons (ties go to the lower axis) as an index: a >= b, b >= c, a >= c.
-    let index = 4 * usize::from(a >= b) + 2 * usize::from(b >= cc) + usize::from(a >= cc);
-    // Non-finite input: NaN everywhere; keep the cell harmless (0); the result is NaN anyway.
-    let cell: [f64; 3] = std::array::from_fn(|k| {
-        let v = c[k] + q + l[k];
-        if v.is_finite() {
-            v
-        } else {
-            0.0
-        }
-    });
-    Located {
-        cell,
-        offset,
-        order: ORDER_OF_COMPARISONS[index],
-        comparisons: index,
-    }
-}
-
-/// The tetrahedron (its number in [`ORDERS`]) for each outcome of the comparisons
-/// `4 (a >= b) + 2 (b >= c) + (a >= c)` of the offset's components; the two impossible
-/// outcomes (1 and 6) map to a neighbour.
-pub(super) const ORDER_OF_COMPARISONS: [usize; 8] = [3, 3, 4, 5, 2, 1, 0, 0];
-
-/// The eight vertices in reach of a point in the tetrahedron with axis order `order`, as
-/// offsets from the cell's base vertex: the tetrahedron's own four `v0 = 0, v1 = e_a,
-/// v2 = e_a + e_b, v3 = 1` (a, b, c the axes by decreasing offset), then the vertex beyond the
-/// face opposite each, `v1 + v3 - v0`, `v0 + v2 - v1`, `v1 + v3 - v2`, `v0 + v2 - v3`.
-#[inline(always)]
-pub(super) fn vertices(order: [usize; 3]) -> [[i64; 3]; 8] {
-    let e = |axis: usize| {
-        let mut v = [0i64; 3];
-        v[axis] = 1;
-        v
-    };
-    let add = |a: [i64; 3], b: [i64; 3]| [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
-    let sub = |a: [i64; 3], b: [i64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-    let v0 = [0; 3];
-    let v1 = e(order[0]);
-    let v2 = add(v1, e(order[1]));
-    let v3 = [1; 3];
-    [
-        v0,
-        v1,
-        v2,
-        v3,
-        sub(add(v1, v3), v0),
-        sub(add(v0, v2), v1),
-        sub(add(v1, v3), v2),
-        sub(add(v0, v2), v3),
-    ]
-}
-
-/// The batch kernel's form of `ORDERS[ORDER_OF_COMPARISONS[comparisons]]`, branch-free: which
-/// axis comes first (largest offset) and which last, as 0/1 per axis. Exact for the six
-/// outcomes that occur (the other two would need `a >= b >= c > a`; NaN offsets compare false
-/// everywhere, outcome 0); `axis_masks_match_the_orders` checks them.
-#[inline(always)]
-pub(super) fn axis_masks(comparisons: u8) -> ([u8; 3], [u8; 3]) {
-    let ab = (comparisons >> 2) & 1;
-    let bc = (comparisons >> 1) & 1;
-    let ac = comparisons & 1;
-    let first_x = ab & ac;
-    let first_y = (1 - ab) & bc;
-    let last_x = (1 - ab) & (1 - ac);
-    let last_y = ab & (1 - bc);
-    (
-        [first_x, first_y, 1 - first_x - first_y],
-        [last_x, last_y, 1 - last_x - last_y],
-    )
-}
-
-/// Vertex `K`'s offset along one axis (as [`vertices`] lists them) from that axis's masks:
-/// `first` (1 on the tetrahedron's first axis) and `last`; the middle axis is `1 - first - last`.
-/// Every value is a small integer; `0 - last` keeps vertex 7's zero positive, as the table's is.
-#[inline(always)]
-pub(super) fn vertex_offset<S: Real, const K: usize>(first: S, last: S) -> S {
-    let one = S::ONE;
-    match K {
-        0 => S::ZERO,
-        1 => first,
-        2 => one - last,
-        3 => one,
-        4 => first + one,
-        5 => one - first - last,
-        6 => first + last,
-        _ => S::ZERO - last,
-    }
-}
-
-/// [`vertex_offset`] as a byte added (mod 256) to a cell index byte.
-#[inline(always)]
-pub(super) fn vertex_byte<const K: usize>(first: u8, last: u8) -> u8 {
-    match K {
-        0 => 0,
-        1 => first,
-        2 => 1 - last,
-        3 => 1,
-        4 => first + 1,
-        5 => 1 - first - last,
-        6 => first + last,
-        _ => 0u8.wrapping_sub(last),
-    }
-}
-
-/// Vertex `K`'s unskew `G (v0 + v1 + v2)`, the same for every tetrahedron (the coordinate sums
-/// of the eight vertices are 0, 1, 2, 3, 4, 1, 2, -1).
-#[inline(always)]
-pub(super) fn vertex_unskew<S: Real, const K: usize>() -> S {
-    const SUMS: [i64; 8] = [0, 1, 2, 3, 4, 1, 2, -1];
-    S::from_f64(SUMS[K] as f64 / 6.0)
-}
-
-/// The six tetrahedra of a skewed cell, by the order of the offset's components (largest
-/// first), numbered as [`locate`] reports them.
-pub(super) const ORDERS: [[usize; 3]; 6] = [
-    [0, 1, 2],
-    [0, 2, 1],
-    [2, 0, 1],
-    [2, 1, 0],
-    [1, 2, 0],
-    [1, 0, 2],
-];
-
-/// One vertex's term `(max(0.6 - r², 0))⁴ (g · d)` at offset `x0` from the cell's base vertex,
-/// for vertex `v` (an offset from the base) whose hash is `h`.
-#[inline(always)]
-pub(super) fn term<S: Real>(x0: [S; 3], v: [i64; 3], h: usize) -> S {
-    let (offset, g) = vertex_constants::<S>(v);
-    term_with(x0, offset, g, gradient::<S>(h))
-}
-
-/// A vertex offset as `S`, and its unskew `G (v0 + v1 + v2)` (G times a small integer).
-#[inline(always)]
-pub(super) fn vertex_constants<S: Real>(v: [i64; 3]) -> ([S; 3], S) {
-    (
-        v.map(|c| S::from_f64(c as f64)),
-        S::from_f64((v[0] + v[1] + v[2]) as f64 / 6.0),
-    )
 }
 
 /// The gradient a hash picks, as `S`.
@@ -309,42 +202,56 @@ pub(super) fn gradient<S: Real>(h: usize) -> [S; 3] {
     GRADIENTS[h % 12].map(|c| S::from_f64(c as f64))
 }
 
-/// [`term`]'s arithmetic from its constants: the point function's and the batch kernel's
-/// (which reads the constants from tables), in one place.
+/// The offset from vertex `half / 2` (relative to the cell corner) to the point of fractions
+/// `f`: `f - half / 2`, in f64 (exact: small halves from numbers in [0, 1)), rounded to S once.
 #[inline(always)]
-pub(super) fn term_with<S: Real>(x0: [S; 3], v: [S; 3], g: S, grad: [S; 3]) -> S {
-    let d = [x0[0] - v[0] + g, x0[1] - v[1] + g, x0[2] - v[2] + g];
+pub(super) fn offset<S: Real>(f: [f64; 3], half: [i64; 3]) -> [S; 3] {
+    std::array::from_fn(|a| S::from_f64(f[a] - half[a] as f64 * 0.5))
+}
+
+/// One vertex's term `(max(0.5 - r², 0))⁴ (g · d)` at offset `d` from it.
+#[inline(always)]
+pub(super) fn term<S: Real>(d: [S; 3], g: [S; 3]) -> S {
     let t = S::from_f64(RADIUS2) - (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     let t = if t > S::ZERO { t } else { S::ZERO };
-    let dot = grad[0] * d[0] + grad[1] * d[1] + grad[2] * d[2];
+    let dot = g[0] * d[0] + g[1] * d[1] + g[2] * d[2];
     let t2 = t * t;
     t2 * t2 * dot
 }
 
-/// The vertices a point reaches: its offset from its skewed cell's base vertex (in S) and the
-/// eight vertices in reach, each as its offset from the base vertex and its hash, in the
-/// order the sums add them.
-pub(super) type Reach<S> = ([S; 3], [([i64; 3], usize); 8]);
+/// The gradient of [`term`] with respect to the point (which moves `d` one for one):
+/// `t⁴ g - 8 t³ (g · d) d`.
+#[inline(always)]
+pub(super) fn term_grad<S: Real>(d: [S; 3], g: [S; 3]) -> [S; 3] {
+    let t = S::from_f64(RADIUS2) - (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    let t = if t > S::ZERO { t } else { S::ZERO };
+    let dot = g[0] * d[0] + g[1] * d[1] + g[2] * d[2];
+    let t2 = t * t;
+    let t4 = t2 * t2;
+    let k = S::from_f64(-8.0) * (t2 * t) * dot;
+    std::array::from_fn(|a| t4 * g[a] + k * d[a])
+}
 
-/// The vertices `p` reaches (see [`Reach`]).
+/// The four vertices a point reaches: each one's offset `d` (point minus vertex, in S) and hash.
+pub(super) type Reach<S> = [([S; 3], usize); 4];
+
+/// The vertices `p` reaches (untiled).
 #[inline(always)]
 fn reach<S: Real>(perm: &[u8; 512], p: [f64; 3]) -> Reach<S> {
     let at = locate(p);
-    let x0 = at.offset.map(S::from_f64);
-    let cell = at.cell.map(|c| c as i64);
-    let vertices = vertices(ORDERS[at.order]).map(|v| {
-        let h = hash(perm, cell[0] + v[0], cell[1] + v[1], cell[2] + v[2]);
-        (v, h)
-    });
-    (x0, vertices)
+    std::array::from_fn(|k| {
+        let half = half_offset(at.carry, skewed_offset(at.order, k));
+        let twice: [i64; 3] = std::array::from_fn(|a| 2 * at.cell[a] as i64 + half[a]);
+        (offset(at.frac, half), vertex_hash(perm, twice))
+    })
 }
 
 /// The noise from the vertices in reach: the terms summed in order, scaled.
 #[inline(always)]
-fn sum<S: Real>((x0, vertices): Reach<S>) -> S {
+fn sum<S: Real>(reach: Reach<S>) -> S {
     let mut sum = S::ZERO;
-    for (v, h) in vertices {
-        sum = sum + term(x0, v, h);
+    for (d, h) in reach {
+        sum = sum + term(d, gradient::<S>(h));
     }
     S::from_f64(SCALE) * sum
 }
@@ -357,9 +264,8 @@ pub(super) fn sample<S: Real>(perm: &[u8; 512], p: [f64; 3]) -> S {
 }
 
 /// [`sample`]'s value (its bits) and its gradient with respect to the point: the offset from
-/// each vertex moves with the point (the cell is piecewise constant), so per vertex
-/// `∇((0.6 - r²)⁴ g·d) = (0.6 - r²)⁴ g - 8 (0.6 - r²)³ (g·d) d` where `r² < 0.6` (0 beyond),
-/// summed in the value's order and scaled alike. NaN on every component for non-finite input.
+/// each vertex moves with the point (the tetrahedron is piecewise constant), summed in the
+/// value's order and scaled alike. NaN on every component for non-finite input.
 #[inline(always)]
 pub(super) fn sample_grad<S: Real>(perm: &[u8; 512], p: [f64; 3]) -> (S, [S; 3]) {
     sum_grad(reach(perm, p))
@@ -368,41 +274,22 @@ pub(super) fn sample_grad<S: Real>(perm: &[u8; 512], p: [f64; 3]) -> (S, [S; 3])
 /// [`sum`] and its gradient (see [`sample_grad`]).
 #[inline(always)]
 fn sum_grad<S: Real>(reach: Reach<S>) -> (S, [S; 3]) {
-    let (x0, vertices) = reach;
     let mut g = [S::ZERO; 3];
-    for (v, h) in vertices {
-        let (offset, unskew) = vertex_constants::<S>(v);
-        let dt = term_grad_with(x0, offset, unskew, gradient::<S>(h));
+    let mut bad = false;
+    for (d, h) in reach {
+        let dt = term_grad(d, gradient::<S>(h));
         g = std::array::from_fn(|a| g[a] + dt[a]);
+        bad |= d.iter().any(|c| c.is_nan());
     }
     let scale = S::from_f64(SCALE);
-    let bad = x0.iter().any(|c| c.is_nan());
     let g = g.map(|c| if bad { S::NAN } else { scale * c });
-    (sum((x0, vertices)), g)
+    (sum(reach), g)
 }
 
-/// The gradient of [`term_with`] with respect to the point (which moves `d` one for one).
-#[inline(always)]
-pub(super) fn term_grad_with<S: Real>(x0: [S; 3], v: [S; 3], g: S, grad: [S; 3]) -> [S; 3] {
-    let d = [x0[0] - v[0] + g, x0[1] - v[1] + g, x0[2] - v[2] + g];
-    let t = S::from_f64(RADIUS2) - (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    let t = if t > S::ZERO { t } else { S::ZERO };
-    let dot = grad[0] * d[0] + grad[1] * d[1] + grad[2] * d[2];
-    let t2 = t * t;
-    let t4 = t2 * t2;
-    let k = S::from_f64(-8.0) * (t2 * t) * dot;
-    std::array::from_fn(|a| t4 * grad[a] + k * d[a])
-}
-
-/// One sample tiled with `period` (each a multiple of 3, which the checker ensures: the skewed
-/// grid is invariant under a translation by `(P, 0, 0)` exactly when 3 divides P, the vertex
-/// index moving by `(4P/3, P/3, P/3)`). The point is reduced into its period (so the full cell
-/// index is small and exact), and each vertex is hashed as its translate into the period box:
-/// its unskewed position times 6, `U = 6 V - (V0 + V1 + V2)`, is reduced mod `6 P` per axis and
-/// turned back into a vertex index (`V = (U + ΣU / 3) / 6`, exact integers). A vertex and its
-/// translates by whole periods get one hash, so the noise repeats; it is the same kernel sum,
-/// so it stays continuous.
-pub(super) fn sample_periodic<S: Real>(perm: &[u8; 512], p: [f64; 3], period: [u64; 3]) -> S {
+/// One sample tiled with `period` (every integer period: see the module docs). The point is
+/// reduced into its period, so each tiled axis' cell is an exact small integer, and each vertex
+/// is hashed as its translate into the period box: `2 V` mod `2 P` per tiled axis.
+pub(super) fn sample_periodic<S: Real>(perm: &[u8; 512], p: [f64; 3], period: Period) -> S {
     sum(reach_periodic(perm, p, period))
 }
 
@@ -411,31 +298,27 @@ pub(super) fn sample_periodic<S: Real>(perm: &[u8; 512], p: [f64; 3], period: [u
 pub(super) fn sample_grad_periodic<S: Real>(
     perm: &[u8; 512],
     p: [f64; 3],
-    period: [u64; 3],
+    period: Period,
 ) -> (S, [S; 3]) {
     sum_grad(reach_periodic(perm, p, period))
 }
 
 /// The vertices `p` reaches in the noise tiled with `period` (see [`sample_periodic`]).
 #[inline(always)]
-fn reach_periodic<S: Real>(perm: &[u8; 512], p: [f64; 3], period: [u64; 3]) -> Reach<S> {
-    let q = super::period::reduce3(p, period).0;
-    if q.iter().any(|v| !v.is_finite()) || period.iter().any(|&p| p == 0 || p % 3 != 0) {
-        return reach(perm, q);
-    }
-    // Full cell indices: the reduced coordinates are below 2^21.
-    let c = q.map(f64::floor);
-    let at = locate_from::<false>(c, [q[0] - c[0], q[1] - c[1], q[2] - c[2]]);
-    let x0 = at.offset.map(S::from_f64);
-    let cell = at.cell.map(|v| v as i64);
-    let vertices = vertices(ORDERS[at.order]).map(|v| {
-        let vertex = [cell[0] + v[0], cell[1] + v[1], cell[2] + v[2]];
-        let s = vertex[0] + vertex[1] + vertex[2];
-        let u: [i64; 3] =
-            std::array::from_fn(|a| (6 * vertex[a] - s).rem_euclid(6 * period[a] as i64));
-        let s = (u[0] + u[1] + u[2]) / 3;
-        let wrapped: [i64; 3] = std::array::from_fn(|a| (u[a] + s) / 6);
-        (v, hash(perm, wrapped[0], wrapped[1], wrapped[2]))
+fn reach_periodic<S: Real>(perm: &[u8; 512], p: [f64; 3], period: Period) -> Reach<S> {
+    let q = period::reduce3(p, period).0;
+    let at = locate(q);
+    // Per axis: the tiled cell (exact, below the period) and twice the period, or none.
+    let tiled: [Option<(i64, i64)>; 3] = std::array::from_fn(|a| {
+        let ok = (1..=1u64 << 52).contains(&period[a]) && q[a].is_finite();
+        ok.then(|| (q[a].floor() as i64, 2 * period[a] as i64))
     });
-    (x0, vertices)
+    std::array::from_fn(|k| {
+        let half = half_offset(at.carry, skewed_offset(at.order, k));
+        let twice: [i64; 3] = std::array::from_fn(|a| match tiled[a] {
+            Some((cell, twice_period)) => (2 * cell + half[a]).rem_euclid(twice_period),
+            None => 2 * at.cell[a] as i64 + half[a],
+        });
+        (offset(at.frac, half), vertex_hash(perm, twice))
+    })
 }

@@ -1370,40 +1370,63 @@ fn both_forms_of_the_lane_loop_agree() {
 // ---------------------------------------------------------------------------------------------
 // Simplex
 
-/// An independent simplex reference: from absolute coordinates, every vertex of the skewed
-/// grid within six cells of the point, no tetrahedron logic, plain f64.
-fn simplex_brute_force(t: &NoiseTable, p: [f64; 3]) -> f64 {
-    let skew = (p[0] + p[1] + p[2]) / 3.0;
-    let base = p.map(|c| (c + skew).floor() as i64);
-    let mut sum = 0.0;
-    for i in -3..=3 {
-        for j in -3..=3 {
-            for k in -3..=3 {
-                let v = [base[0] + i, base[1] + j, base[2] + k];
-                let unskew = (v[0] + v[1] + v[2]) as f64 / 6.0;
-                let d: [f64; 3] = std::array::from_fn(|a| p[a] - (v[a] as f64 - unskew));
-                let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-                if r2 >= 0.6 {
-                    continue;
-                }
-                let [a, b, c] = v.map(|x| x.rem_euclid(256) as usize);
-                let h = t.perm[a + t.perm[b + t.perm[c] as usize] as usize] as usize;
-                let g = simplex::GRADIENTS[h % 12].map(f64::from);
-                sum += (0.6 - r2).powi(4) * (g[0] * d[0] + g[1] * d[1] + g[2] * d[2]);
+/// The BCC lattice's vertices around `p`: the integer and the half-integer points of the
+/// cubes around its cell (every vertex within distance 2).
+fn bcc_vertices_near(p: [f64; 3]) -> Vec<[f64; 3]> {
+    let base = p.map(|c| c.floor());
+    let mut out = Vec::new();
+    for i in -2..=3 {
+        for j in -2..=3 {
+            for k in -2..=3 {
+                let v = [
+                    base[0] + f64::from(i),
+                    base[1] + f64::from(j),
+                    base[2] + f64::from(k),
+                ];
+                out.push(v);
+                out.push(v.map(|c| c + 0.5));
             }
         }
     }
-    32.0 * sum
+    out
 }
 
-/// The eight vertices per tetrahedron are all the kernel reaches: the noise equals the sum over
-/// every vertex (also checks the exact integer skew and the tetrahedron choice).
+/// An independent simplex reference: from absolute coordinates, every vertex of the BCC lattice
+/// near the point (no tetrahedron logic), its hash from its skewed coordinates `M V`
+/// (`(Vy + Vz, Vx + Vz, Vx + Vy)`, integers) mod 256, the kernel `(0.5 - r²)⁴ (g · d)` for
+/// every vertex within √0.5, plain f64.
+fn simplex_brute_force(t: &NoiseTable, p: [f64; 3]) -> f64 {
+    let mut sum = 0.0;
+    for v in bcc_vertices_near(p) {
+        let d: [f64; 3] = std::array::from_fn(|a| p[a] - v[a]);
+        let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        if r2 >= 0.5 {
+            continue;
+        }
+        let skewed =
+            [v[1] + v[2], v[0] + v[2], v[0] + v[1]].map(|c| (c as i64).rem_euclid(256) as usize);
+        let [a, b, c] = skewed;
+        let h = t.perm[a + t.perm[b + t.perm[c] as usize] as usize] as usize;
+        let g = simplex::GRADIENTS[h % 12].map(f64::from);
+        sum += (0.5 - r2).powi(4) * (g[0] * d[0] + g[1] * d[1] + g[2] * d[2]);
+    }
+    76.0 * sum
+}
+
+/// The four vertices of a point's tetrahedron are all the kernel reaches: the noise equals the
+/// sum over every vertex (also checks the exact skewed cells, the carries and the tetrahedron
+/// choice), near the origin and far from it.
 #[test]
 fn simplex_matches_a_brute_force_sum_over_every_vertex() {
     for seed in [0, 9] {
         let t = NoiseTable::new(Basis::Simplex, seed);
         let mut pts = points(40, 20_000, 60.0);
         pts.extend(points(41, 2000, 3.0));
+        pts.extend(
+            points(42, 500, 1e9)
+                .into_iter()
+                .map(|p| p.map(|c| c.round() + 0.3125)),
+        );
         for p in pts {
             let want = simplex_brute_force(&t, p);
             let got = t.sample::<f64>(p);
@@ -1412,85 +1435,73 @@ fn simplex_matches_a_brute_force_sum_over_every_vertex() {
     }
 }
 
-/// The batch kernel's branch-free tetrahedron (axis masks, vertex offsets and unskews from the
-/// comparison bits) is the point function's table for each of the six possible outcomes, and
-/// the two impossible outcomes never occur (random offsets, ties and NaN included).
+/// The tetrahedron's order of the skewed fractions: the largest first, then the second largest,
+/// ties to the lower axis, for every permutation of three values with and without ties.
 #[test]
-fn axis_masks_match_the_orders() {
-    fn check<const K: usize>(first: [u8; 3], last: [u8; 3], want: [i64; 3]) {
-        for a in 0..3 {
-            let s = simplex::vertex_offset::<f64, K>(f64::from(first[a]), f64::from(last[a]));
+fn simplex_orders_rank_the_skewed_fractions() {
+    use simplex::{order, Order};
+    for s in [
+        [0.3f64, 0.2, 0.1],
+        [0.25, 0.25, 0.1],
+        [0.5, 0.5, 0.5],
+        [0.1, 0.1, 0.4],
+        [0.0, 0.7, 0.7],
+    ] {
+        for perm in [
+            [0, 1, 2],
+            [0, 2, 1],
+            [1, 0, 2],
+            [1, 2, 0],
+            [2, 0, 1],
+            [2, 1, 0],
+        ] {
+            let v = [s[perm[0]], s[perm[1]], s[perm[2]]];
+            let mut axes = [0usize, 1, 2];
+            // Largest first; equal values keep the lower axis first (a stable sort).
+            axes.sort_by(|&a, &b| v[b].total_cmp(&v[a]));
             assert_eq!(
-                s.to_bits(),
-                (want[a] as f64).to_bits(),
-                "vertex {K}, axis {a}"
+                order(v),
+                Order {
+                    first: axes[0],
+                    second: axes[1]
+                },
+                "{v:?}"
             );
-            let b = simplex::vertex_byte::<K>(first[a], last[a]);
-            assert_eq!(b, want[a].rem_euclid(256) as u8, "vertex {K}, axis {a}");
         }
-        let sum = want[0] + want[1] + want[2];
-        assert_eq!(simplex::vertex_unskew::<f64, K>(), sum as f64 / 6.0);
     }
-    for comparisons in [0u8, 2, 3, 4, 5, 7] {
-        let order = simplex::ORDERS[simplex::ORDER_OF_COMPARISONS[comparisons as usize]];
-        let (first, last) = simplex::axis_masks(comparisons);
-        let mut want_first = [0u8; 3];
-        want_first[order[0]] = 1;
-        let mut want_last = [0u8; 3];
-        want_last[order[2]] = 1;
-        assert_eq!(
-            (first, last),
-            (want_first, want_last),
-            "outcome {comparisons}"
-        );
-        let v = simplex::vertices(order);
-        check::<0>(first, last, v[0]);
-        check::<1>(first, last, v[1]);
-        check::<2>(first, last, v[2]);
-        check::<3>(first, last, v[3]);
-        check::<4>(first, last, v[4]);
-        check::<5>(first, last, v[5]);
-        check::<6>(first, last, v[6]);
-        check::<7>(first, last, v[7]);
-    }
-    let mut pts = points(44, 20_000, 50.0);
-    pts.extend((0..27).map(|i| [i % 3, i / 3 % 3, i / 9].map(|c| f64::from(c) / 3.0)));
-    pts.push([f64::NAN, 0.5, 0.25]);
-    for p in pts {
-        let c = simplex::locate(p).comparisons;
-        assert!(c != 1 && c != 6, "{p:?}: impossible outcome {c}");
-    }
+    assert_eq!(order([f64::NAN; 3]).first, 2);
 }
 
-/// Zero on the grid's vertices: the integer points whose coordinates sum to a multiple of 3
-/// are vertices, exactly representable at every magnitude.
+/// Zero on the grid's vertices, the integer points and the half-integer points, exactly
+/// representable at every magnitude up to 2^51.
 #[test]
 fn simplex_is_zero_on_its_vertices() {
     let t = NoiseTable::new(Basis::Simplex, 4);
     let mut rng = SplitMix64::new(42);
     let mut checked = 0;
     for scale in [10.0, 1e6, 2f64.powi(31), 2f64.powi(45)] {
-        for _ in 0..300 {
-            let p = [0; 3].map(|_: i32| (rng.next_signed() * scale).round());
-            let sum = p[0] + p[1] + p[2];
-            let p = [p[0], p[1], p[2] - sum.rem_euclid(3.0)];
-            assert_eq!(t.sample::<f64>(p), 0.0, "{p:?}");
-            assert_eq!(t.sample::<f32>(p), 0.0, "{p:?}");
-            checked += 1;
+        for half in [0.0, 0.5] {
+            for _ in 0..150 {
+                let p = [0; 3].map(|_: i32| (rng.next_signed() * scale).round() + half);
+                assert_eq!(t.sample::<f64>(p), 0.0, "{p:?}");
+                assert_eq!(t.sample::<f32>(p), 0.0, "{p:?}");
+                checked += 1;
+            }
         }
     }
     assert_eq!(checked, 1200);
-    // Other points of a cell are not zero: the noise is not trivially flat.
-    assert_ne!(t.sample::<f64>([1.0, 0.0, 0.0]), 0.0);
+    // Other points are not zero: the noise is not trivially flat.
+    assert_ne!(t.sample::<f64>([0.25, 0.0, 0.0]), 0.0);
 }
 
 /// Exact at any magnitude: far out, the noise of `p` equals that of `p` moved back by a whole
-/// number of periods (768 along each axis), bit for bit.
+/// number of its untiled periods (256 along each axis: the hash reads the skewed cells mod
+/// 256), bit for bit.
 #[test]
-fn simplex_repeats_every_768_exactly_far_out() {
+fn simplex_repeats_every_256_exactly_far_out() {
     let t = NoiseTable::new(Basis::Simplex, 5);
     for p in points(43, 2000, 100.0) {
-        for far in [768.0 * 1e6, 768.0 * 2f64.powi(30), -768.0 * 3.0e9] {
+        for far in [256.0 * 1e6, 256.0 * 2f64.powi(30), -256.0 * 3.0e9] {
             let q = [p[0] + far, p[1] - far, p[2] + 2.0 * far];
             // The fraction must survive the shift for the comparison to be fair.
             if q[0] - far != p[0] || q[1] + far != p[1] || q[2] - 2.0 * far != p[2] {
@@ -1505,52 +1516,74 @@ fn simplex_repeats_every_768_exactly_far_out() {
     }
 }
 
-/// Sum over every vertex within reach of unskewed offset `x0` from a cell's base vertex of
-/// `term(r², d)`, and a bound on the sum's change within distance `slack`: the sum over the
-/// vertices that can come within reach of `slope(r_lo, r_hi)`, the largest slope of one term
-/// for a vertex at a distance in [r_lo, r_hi].
+/// Every integer period from 1 to 64 on each axis tiles bit for bit (issue 32): `N(p + P eₐ) =
+/// N(p)` for random points, in f32 and f64, the value and the gradient.
+#[test]
+fn simplex_tiles_at_every_period_up_to_64() {
+    let mut rng = SplitMix64::new(47);
+    for p_len in 1..=64u64 {
+        for axis in 0..3 {
+            let mut period = [0u64; 3].map(|_| 1 + (rng.next_f64() * 64.0) as u64);
+            period[axis] = p_len;
+            let t = NoiseTable::periodic(Basis::Simplex, 3, Some(period));
+            for _ in 0..8 {
+                let p = [0; 3].map(|_: u8| rng.next_signed() * 100.0);
+                let k = (rng.next_signed() * 20.0).round();
+                let mut q = p;
+                q[axis] += k * p_len as f64;
+                if q[axis] - k * p_len as f64 != p[axis] {
+                    continue;
+                }
+                assert_eq!(
+                    t.sample::<f64>(p).to_bits(),
+                    t.sample::<f64>(q).to_bits(),
+                    "period {period:?}, axis {axis}, {p:?}"
+                );
+                assert_eq!(t.sample::<f32>(p).to_bits(), t.sample::<f32>(q).to_bits());
+                let (g, h) = (t.sample_grad::<f64>(p), t.sample_grad::<f64>(q));
+                assert_eq!(g.map(f64::to_bits), h.map(f64::to_bits), "{period:?} {p:?}");
+            }
+        }
+    }
+}
+
+/// Sum over the BCC vertices within reach of `x` of `term(r², d)`, and a bound on the sum's
+/// change within distance `slack`: the sum over the vertices that can come within reach of
+/// `slope(r_lo, r_hi)`, the largest slope of one term for a vertex at a distance in
+/// [r_lo, r_hi].
 fn simplex_vertex_sum(
-    x0: [f64; 3],
+    x: [f64; 3],
     slack: f64,
     term: &dyn Fn(f64, [f64; 3]) -> f64,
     slope: &dyn Fn(f64, f64) -> f64,
 ) -> (f64, f64) {
-    let reach = 0.6f64.sqrt();
+    let reach = 0.5f64.sqrt();
     let (mut sum, mut change) = (0.0, 0.0);
-    for i in -1..=2i64 {
-        for j in -1..=2i64 {
-            for k in -1..=2i64 {
-                let g = (i + j + k) as f64 / 6.0;
-                let d = [
-                    x0[0] - i as f64 + g,
-                    x0[1] - j as f64 + g,
-                    x0[2] - k as f64 + g,
-                ];
-                let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-                if r2 < 0.6 {
-                    sum += term(r2, d);
-                }
-                let r = r2.sqrt();
-                if r - slack < reach {
-                    change += slack * slope((r - slack).max(0.0), (r + slack).min(reach));
-                }
-            }
+    for v in bcc_vertices_near(x) {
+        let d: [f64; 3] = std::array::from_fn(|a| x[a] - v[a]);
+        let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        if r2 < 0.5 {
+            sum += term(r2, d);
+        }
+        let r = r2.sqrt();
+        if r - slack < reach {
+            change += slack * slope((r - slack).max(0.0), (r + slack).min(reach));
         }
     }
     (sum, change)
 }
 
-/// Branch and bound over the skewed cell [0, 1]³ (its sorted sixth u_x >= u_y >= u_z: the grid
-/// and the terms are symmetric under axis permutations): is the vertex sum of `term` at most
-/// `target` everywhere? A box's bound is the sum at its centre plus the change bound of
-/// [`simplex_vertex_sum`] over the box's half-diagonal (unskewing does not stretch distances:
-/// its matrix I - 11ᵀ/6 has norm 1).
+/// Branch and bound over the lattice's fundamental region: the BCC lattice (and every term
+/// below, a function of |components|) is symmetric under integer translations, the reflections
+/// `x -> 1 - x` and axis permutations, so `1/2 >= x >= y >= z >= 0` covers space. Is the vertex
+/// sum of `term` at most `target` everywhere? A box's bound is the sum at its centre plus the
+/// change bound of [`simplex_vertex_sum`] over the box's half-diagonal.
 fn simplex_sum_below(
     term: &dyn Fn(f64, [f64; 3]) -> f64,
     slope: &dyn Fn(f64, f64) -> f64,
     target: f64,
 ) -> bool {
-    let mut stack = vec![([0.0f64; 3], [1.0f64; 3])];
+    let mut stack = vec![([0.0f64; 3], [0.5f64; 3])];
     while let Some((lo, hi)) = stack.pop() {
         if hi[0] < lo[1] || hi[1] < lo[2] {
             continue;
@@ -1560,8 +1593,7 @@ fn simplex_sum_below(
             .map(|a| (0.5 * (hi[a] - lo[a])).powi(2))
             .sum::<f64>()
             .sqrt();
-        let g = (c[0] + c[1] + c[2]) / 6.0;
-        let (value, change) = simplex_vertex_sum(c.map(|u| u - g), half, term, slope);
+        let (value, change) = simplex_vertex_sum(c, half, term, slope);
         if value + change <= target {
             continue;
         }
@@ -1583,13 +1615,13 @@ fn simplex_sum_below(
     true
 }
 
-/// The range ±1: |N| <= 32 Σ (0.6 - r²)⁴ |g · d| <= 32 Σ (0.6 - r²)⁴ T(d), T the sum of the two
+/// The range ±1: |N| <= 76 Σ (0.5 - r²)⁴ |g · d| <= 76 Σ (0.5 - r²)⁴ T(d), T the sum of the two
 /// largest |components| (the largest |g · d| over the 12 edge gradients), and that sum stays
-/// below 1/32. Each term's gradient is at most √2 (0.6 - r²)³ (0.6 + 7 r²) <= 0.2309.
-/// The Lipschitz bound: |∇N| <= 32 Σ √2 (0.6 - r²)³ (0.6 + 7 r²) (see `simplex::LIPSCHITZ`),
-/// and that sum stays below 12.5 / 32 = 0.3906 (its maximum is about 0.3797); each of its terms
-/// has slope at most 0.8375 (the
-/// maximum of |d/dr| of it, at most √2 r (0.6 - r²)² |4.8 - 56 r²|).
+/// below 1/76. Each term's slope in position is at most √2 (0.5 - r²)³ (0.5 + 7 r²).
+/// The Lipschitz bound: |∇N| <= 76 Σ √2 (0.5 - r²)³ (0.5 + 7 r²) (see `simplex::LIPSCHITZ`), and
+/// that sum stays below 12.5 / 76 (its maximum is about 0.15645, at (1/4, 1/4, 1/4)); each of
+/// its terms has slope at most 0.4425 in r (the maximum of |d/dr| of it,
+/// √2 r (0.5 - r²)² |4 - 56 r²|, is 0.44244, at r = 0.4944).
 #[test]
 fn simplex_range_and_lipschitz_bounds_are_proved() {
     let (lo, hi) = NoiseTable::new(Basis::Simplex, 0).range();
@@ -1597,24 +1629,31 @@ fn simplex_range_and_lipschitz_bounds_are_proved() {
     let adversary = |r2: f64, d: [f64; 3]| {
         let mut a = d.map(f64::abs);
         a.sort_by(f64::total_cmp);
-        (0.6 - r2).powi(4) * (a[1] + a[2])
+        (0.5 - r2).powi(4) * (a[1] + a[2])
     };
-    // One term's gradient, √2 (0.6 - r²)³ (0.6 + 7 r²), rises to its peak at r² = 0.6/7 and
+    // One term's gradient, √2 (0.5 - r²)³ (0.5 + 7 r²), rises to its peak at r² = 0.5/7 and
     // falls after: its maximum over [a, b] is at the point of [a, b] nearest the peak.
-    let term_slope = |r: f64| 2f64.sqrt() * (0.6 - r * r).powi(3) * (0.6 + 7.0 * r * r);
-    let peak = (0.6f64 / 7.0).sqrt();
+    let term_slope = |r: f64| 2f64.sqrt() * (0.5 - r * r).powi(3) * (0.5 + 7.0 * r * r);
+    let peak = (0.5f64 / 7.0).sqrt();
     let range_slope = |a: f64, b: f64| term_slope(peak.clamp(a, b));
-    assert!(simplex_sum_below(&adversary, &range_slope, hi / 32.0));
+    assert!(simplex_sum_below(
+        &adversary,
+        &range_slope,
+        hi / simplex::SCALE
+    ));
     let slope = |r2: f64, _: [f64; 3]| term_slope(r2.sqrt());
     assert!(simplex_sum_below(
         &slope,
-        &|_, _| 0.8375,
-        simplex::LIPSCHITZ / 32.0
+        &|_, _| 0.4425,
+        simplex::LIPSCHITZ / simplex::SCALE
     ));
-    // Both are nearly tight: the adversary reaches 0.9787 of the range.
-    let x0 = [0.2018f64, 0.7982, 1.0];
-    let g = (x0[0] + x0[1] + x0[2]) / 6.0;
-    assert!(32.0 * simplex_vertex_sum(x0.map(|u| u - g), 0.0, &adversary, &range_slope).0 > 0.978);
+    // The slope bound of one Lipschitz term, checked on a fine grid of r.
+    let slope_of_slope =
+        |r: f64| 2f64.sqrt() * r * (0.5 - r * r).powi(2) * (4.0 - 56.0 * r * r).abs();
+    assert!((0..=10_000).all(|i| slope_of_slope(f64::from(i) * 0.5f64.sqrt() / 1e4) <= 0.4425));
+    // Both are nearly tight: the adversary reaches 0.9886 of the range.
+    let x0 = [1.0 / 6.0, 1.0 / 6.0, 0.0];
+    assert!(simplex::SCALE * simplex_vertex_sum(x0, 0.0, &adversary, &range_slope).0 > 0.988);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1736,11 +1775,11 @@ fn cellular_f2_is_exact() {
 // ---------------------------------------------------------------------------------------------
 // Tiling
 
-/// Every basis with a spread of periods (Simplex with multiples of 3, the periods its grid
-/// allows).
+/// Every basis with a spread of periods (Simplex with odd and even ones too: its lattice tiles
+/// at every integer period).
 fn tiling_cases() -> Vec<(Basis, Period)> {
     let mut cases = Vec::new();
-    for basis in every_basis().into_iter().filter(|b| *b != Basis::Simplex) {
+    for basis in every_basis() {
         for period in [
             [1, 1, 1],
             [3, 3, 3],
@@ -1751,7 +1790,7 @@ fn tiling_cases() -> Vec<(Basis, Period)> {
             cases.push((basis, period));
         }
     }
-    for period in [[3, 3, 3], [6, 9, 3], [768, 3, 300], [999, 1026, 24]] {
+    for period in [[4, 4, 4], [6, 9, 3], [768, 3, 300], [999, 1026, 24]] {
         cases.push((Basis::Simplex, period));
     }
     cases

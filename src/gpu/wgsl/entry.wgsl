@@ -18,6 +18,11 @@ struct Dispatch {
     // points: 1 when `inputs` holds a fourth plane, each point's sample spacing (level of
     // detail per point); 0: none.
     spacing: u32,
+    // Always 1.0. The tape's constants are multiplied by it (`fn tape`): a value the driver
+    // cannot know, so it cannot fold two constants of a chain into one (reassociating
+    // `(p * a) * b` into `p * (a * b)` rounds differently: at |p| ~ 10^12 one f64 ulp moves a
+    // noise sample by 10^-3).
+    one: f32,
 }
 @group(0) @binding(2) var<uniform> dispatch: Dispatch;
 

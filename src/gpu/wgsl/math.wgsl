@@ -33,6 +33,32 @@ fn reduce_turn(x: f64) -> f32 {
     return f32(x - k * TWO_PI_64);
 }
 
+// Division with IEEE's answers at a zero divisor: ±inf by the signs (the divisor's zero sign
+// included), NaN for 0/0 and NaN/0. Drivers may divide through a reciprocal refined by a Newton
+// step, which turns x/0 into NaN (lavapipe does for f64).
+fn s_div(a: f32, b: f32) -> f32 {
+    if (b == 0.0) {
+        if (is_nan(a) || a == 0.0) {
+            return nan_f32();
+        }
+        let negative = (bitcast<u32>(a) >> 31u) != (bitcast<u32>(b) >> 31u);
+        return select(inf_f32(), -inf_f32(), negative);
+    }
+    return a / b;
+}
+
+fn d_div(a: f64, b: f64) -> f64 {
+    if (b == 0.0lf) {
+        if (a != a || a == 0.0lf) {
+            return nan_d();
+        }
+        // The signs through f32, which keeps them (zeros and infinities included).
+        let negative = (bitcast<u32>(f32(a)) >> 31u) != (bitcast<u32>(f32(b)) >> 31u);
+        return f64(select(inf_f32(), -inf_f32(), negative));
+    }
+    return a / b;
+}
+
 fn s_sin(x: f32) -> f32 {
     if (is_inf(x)) { return nan_f32(); }
     return sin(reduce_turn(f64(x)));
