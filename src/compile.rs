@@ -100,7 +100,12 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
                     .reasons
                     .push((emitter.instrs.len(), plan.reason(id as NodeId)));
             }
-            lower_wide(graph, id, dst, &slots, &mut emitter.axes)
+            if !matches!(node.op, Op::Noise(_) | Op::Fractal(..)) {
+                lower_wide(graph, id, dst, &slots, &mut emitter.axes)
+            } else {
+                let plain = emitter.lower(graph, id, dst, &slots.narrow, options, &mut stretches);
+                promoted_noise(plain)
+            }
         } else {
             // Allocate the destination before freeing dead arguments, so an instruction never
             // writes a slot it reads (the interpreter relies on it).
@@ -244,6 +249,31 @@ impl Uses {
 struct Slots {
     narrow: Vec<Slot>,
     wide: Vec<Slot>,
+}
+
+/// A promoted noise sample or fractal sum: the plain instruction (its side tables, noise table,
+/// octave schedule and level of detail, registered as the plain one registers them) with its
+/// result in the wide slot `dst` it was lowered with.
+fn promoted_noise(plain: Instr) -> Instr {
+    match plain {
+        Instr::Noise { dst, src, table } => Instr::Wide(Wide::Noise { dst, src, table }),
+        Instr::Fractal {
+            dst,
+            src,
+            table,
+            octaves,
+            style,
+            bias,
+        } => Instr::Wide(Wide::Fractal {
+            dst,
+            src,
+            table,
+            octaves,
+            style,
+            bias,
+        }),
+        other => other,
+    }
 }
 
 /// The promoted instruction of live node `id` (an operation `precision::rules::promotable`

@@ -410,7 +410,7 @@ impl Tape {
                 Instr::Hermite { .. } | Instr::Ramp { .. } | Instr::Curve { .. } => {
                     self.splines(instr, ws, n)
                 }
-                Instr::Wide(w) => wide(w, ws, n, &self.axes),
+                Instr::Wide(w) => self.wide_noise(w, ws, spacing, n),
             }
         }
     }
@@ -503,14 +503,8 @@ impl Tape {
     ) {
         match *instr {
             Instr::Noise { dst, src, table } => {
-                let a = &ws.vec3s[src as usize];
-                let table = &self.tables[table as usize].1;
-                table.sample_batch(
-                    &a[..n],
-                    &a[LANES..LANES + n],
-                    &a[2 * LANES..2 * LANES + n],
-                    &mut ws.scalars[dst as usize][..n],
-                );
+                let out = &mut ws.scalars[dst as usize];
+                self.sample_into(table, &ws.vec3s[src as usize], n, out);
             }
             Instr::Fractal {
                 dst,
@@ -520,36 +514,15 @@ impl Tape {
                 style,
                 bias,
             } => {
-                let a = &ws.vec3s[src as usize];
-                let (x, y, z) = (&a[..n], &a[LANES..LANES + n], &a[2 * LANES..2 * LANES + n]);
-                let table = &self.tables[table as usize].1;
-                let schedule = &self.octaves[octaves as usize];
-                let out = &mut ws.scalars[dst as usize][..n];
-                if let Some(lod) = self.lanes_dropping(octaves, spacing, &mut ws.kept[..n]) {
-                    let kept = &ws.kept[..n];
-                    let lanes = noise::LaneOctaves {
-                        powers: lod.powers(),
-                        kept,
-                    };
-                    noise::fractal_styled_batch_lanes(table, schedule, lanes, style, x, y, z, out);
-                    lod.biases(kept, &mut ws.bias);
-                    for (v, &bias) in out.iter_mut().zip(&ws.bias[..n]) {
-                        // As the plain path: a zero bias adds nothing (not even to a -0).
-                        *v = if bias != 0.0 {
-                            *v + S::from_f64(bias)
-                        } else {
-                            *v
-                        };
-                    }
-                    return;
-                }
-                noise::fractal_styled_batch(table, schedule, style, x, y, z, out);
-                if bias != 0.0 {
-                    let bias = S::from_f64(bias);
-                    for v in out {
-                        *v = *v + bias;
-                    }
-                }
+                let fractal = FractalInstr {
+                    table,
+                    octaves,
+                    style,
+                    bias,
+                };
+                let out = &mut ws.scalars[dst as usize];
+                let scratch = (&mut ws.kept[..], &mut ws.bias[..]);
+                self.fractal_into(fractal, &ws.vec3s[src as usize], spacing, scratch, n, out);
             }
             Instr::NoiseGradient { dst, src, table } => {
                 let mut out = take(&mut ws.vec3s[dst as usize]);
@@ -597,6 +570,96 @@ impl Tape {
                 ws.vec3s[dst as usize] = out;
             }
             _ => unreachable!("run_chunk dispatches only noise instructions here"),
+        }
+    }
+
+    /// A promoted noise sample or fractal sum: the instruction's own computation in f64, into
+    /// its wide slot (every basis' f64 form is the reference path's).
+    #[inline(always)]
+    fn wide_noise<S: Real>(
+        &self,
+        w: Wide,
+        ws: &mut Workspace<S>,
+        spacing: Option<&[f64]>,
+        n: usize,
+    ) {
+        match w {
+            Wide::Noise { dst, src, table } => {
+                let out = &mut ws.wides[dst as usize];
+                self.sample_into(table, &ws.vec3s[src as usize], n, out);
+            }
+            Wide::Fractal {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+                bias,
+            } => {
+                let fractal = FractalInstr {
+                    table,
+                    octaves,
+                    style,
+                    bias,
+                };
+                let out = &mut ws.wides[dst as usize];
+                let scratch = (&mut ws.kept[..], &mut ws.bias[..]);
+                self.fractal_into(fractal, &ws.vec3s[src as usize], spacing, scratch, n, out);
+            }
+            other => wide(other, ws, n, &self.axes),
+        }
+    }
+
+    /// `Noise`: a sample per lane of the point planes `a`, in `T` (the lane type, or f64 for a
+    /// promoted instruction), through the table's batch kernel.
+    #[inline(always)]
+    fn sample_into<T: Real>(&self, table: u32, a: &[f64], n: usize, out: &mut [T]) {
+        let table = &self.tables[table as usize].1;
+        let (x, y, z) = (&a[..n], &a[LANES..LANES + n], &a[2 * LANES..2 * LANES + n]);
+        table.sample_batch(x, y, z, &mut out[..n]);
+    }
+
+    /// `Fractal`: the sum per lane of the point planes `a`, in `T`, with level of detail per
+    /// lane where `spacing` drops octaves (`scratch`: the workspace's kept counts and biases),
+    /// plus the instruction's bias.
+    #[inline(always)]
+    fn fractal_into<T: Real>(
+        &self,
+        f: FractalInstr,
+        a: &[f64],
+        spacing: Option<&[f64]>,
+        (kept, biases): (&mut [f64], &mut [f64]),
+        n: usize,
+        out: &mut [T],
+    ) {
+        let (x, y, z) = (&a[..n], &a[LANES..LANES + n], &a[2 * LANES..2 * LANES + n]);
+        let table = &self.tables[f.table as usize].1;
+        let schedule = &self.octaves[f.octaves as usize];
+        let out = &mut out[..n];
+        if let Some(lod) = self.lanes_dropping(f.octaves, spacing, &mut kept[..n]) {
+            let kept = &kept[..n];
+            let lanes = noise::LaneOctaves {
+                powers: lod.powers(),
+                kept,
+            };
+            noise::fractal_styled_batch_lanes(table, schedule, lanes, f.style, x, y, z, out);
+            lod.biases(kept, biases);
+            for (v, &bias) in out.iter_mut().zip(&biases[..n]) {
+                // As the plain path: a zero bias adds nothing (not even to a -0).
+                *v = if bias != 0.0 {
+                    *v + T::from_f64(bias)
+                } else {
+                    *v
+                };
+            }
+            return;
+        }
+        noise::fractal_styled_batch(table, schedule, f.style, x, y, z, out);
+        if f.bias != 0.0 {
+            let bias = T::from_f64(f.bias);
+            for v in out {
+                *v = *v + bias;
+            }
         }
     }
 
@@ -655,10 +718,21 @@ impl Tape {
     }
 }
 
-/// A promoted instruction: the same per-lane operations as the plain ones, on f64 lanes.
+/// A fractal instruction's parameters (`Instr::Fractal`, `Wide::Fractal`).
+#[derive(Clone, Copy)]
+struct FractalInstr {
+    table: u32,
+    octaves: u32,
+    style: noise::Style,
+    bias: f64,
+}
+
+/// A promoted instruction: the same per-lane operations as the plain ones, on f64 lanes (those
+/// without side tables: `Tape::wide_noise` runs the noise ones).
 #[inline(always)]
 fn wide<S: Real>(w: Wide, ws: &mut Workspace<S>, n: usize, axes: &[[f64; 3]]) {
     match w {
+        Wide::Noise { .. } | Wide::Fractal { .. } => {}
         Wide::Rotate {
             dst,
             src,

@@ -87,8 +87,8 @@ fn precision_summary(s: &mut String, plan: &crate::precision::Plan, tape: &Tape)
         if let Some(why) = &o.shortfall {
             let _ = writeln!(
                 s,
-                "  warning: output \"{}\" may miss {:e}: {why}",
-                o.output, plan.max_error
+                "  warning: {}",
+                crate::tape::shortfall_text(&o.output, plan.max_error, why)
             );
         }
     }

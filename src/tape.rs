@@ -220,6 +220,22 @@ pub enum Wide {
         degrees: Slot,
         axis: u32,
     },
+    /// d = a noise sample of v(src), computed in f64 (a promoted `Noise`: every basis has its
+    /// f64 form, the reference path's).
+    Noise {
+        dst: Slot,
+        src: Slot,
+        table: u32,
+    },
+    /// d = a fractal sum of v(src), computed in f64 (a promoted `Fractal`), plus `bias`.
+    Fractal {
+        dst: Slot,
+        src: Slot,
+        table: u32,
+        octaves: u32,
+        style: Style,
+        bias: f64,
+    },
     /// d = a lane-type scalar, exactly.
     Widen {
         dst: Slot,
@@ -321,6 +337,22 @@ impl Tape {
     /// which instructions run in f64.
     pub fn precision(&self) -> Option<&crate::precision::Plan> {
         self.precision.as_deref()
+    }
+    /// The outputs that may miss the precision target over the extent the tape was compiled
+    /// for, each as `output "grain" may miss 1e-4: WHY` (the plan's shortfalls, which
+    /// `check --tape` lists and `eval`, `bake` and `render` print as warnings). Empty without
+    /// a plan, or when every output meets the target.
+    pub fn shortfalls(&self) -> Vec<String> {
+        let Some(plan) = &self.precision else {
+            return Vec::new();
+        };
+        plan.outputs
+            .iter()
+            .filter_map(|o| {
+                let why = o.shortfall.as_ref()?;
+                Some(shortfall_text(&o.output, plan.max_error, why))
+            })
+            .collect()
     }
 
     /// Instructions that run in f64 on the fast path (promoted ones and their conversions).
@@ -498,10 +530,9 @@ impl Tape {
                     vec3_text(&self.axes[*axis as usize])
                 )
             }
-            Instr::Noise { dst, src, table } => format!(
-                "s{dst} = noise v{src} {}",
-                basis_name(&self.tables[*table as usize].0)
-            ),
+            Instr::Noise { dst, src, table } => {
+                format!("s{dst} = {}", self.noise_text(*src, *table))
+            }
             Instr::NoiseGradient { dst, src, table } => format!(
                 "v{dst} = gradient noise v{src} {}",
                 basis_name(&self.tables[*table as usize].0)
@@ -528,27 +559,10 @@ impl Tape {
                 octaves,
                 style,
                 bias,
-            } => {
-                let schedule = &self.octaves[*octaves as usize];
-                let bias = if *bias != 0.0 {
-                    format!(" bias={bias}")
-                } else {
-                    String::new()
-                };
-                let amplitudes: Vec<String> =
-                    schedule.amplitudes.iter().map(|a| a.to_string()).collect();
-                let frequencies: Vec<String> =
-                    schedule.frequencies.iter().map(|a| a.to_string()).collect();
-                format!(
-                    "s{dst} = {} v{src} {} octaves={} frequencies=[{}] amplitudes=[{}]",
-                    style_name(style),
-                    basis_name(&self.tables[*table as usize].0),
-                    schedule.len(),
-                    frequencies.join(", "),
-                    amplitudes.join(", "),
-                ) + &periods_text(schedule)
-                    + &bias
-            }
+            } => format!(
+                "s{dst} = {}",
+                self.fractal_text(*src, *table, *octaves, *style, *bias)
+            ),
             Instr::Hermite { dst, src, spline } => {
                 let h = &self.hermites[*spline as usize];
                 format!(
@@ -584,31 +598,74 @@ impl Tape {
                     points.join(", ")
                 )
             }
-            Instr::Wide(w) => wide_text(w),
+            Instr::Wide(w) => self.wide_text(w),
         }
     }
-}
 
-fn wide_text(w: &Wide) -> String {
-    match *w {
-        Wide::Component { dst, src, axis } => {
-            format!("d{dst} = v{src}.{}", ["x", "y", "z"][axis as usize % 3])
+    /// A noise instruction's text after `dst =`.
+    fn noise_text(&self, src: Slot, table: u32) -> String {
+        format!(
+            "noise v{src} {}",
+            basis_name(&self.tables[table as usize].0)
+        )
+    }
+
+    /// A fractal instruction's text after `dst =`.
+    fn fractal_text(&self, src: Slot, table: u32, octaves: u32, style: Style, bias: f64) -> String {
+        let schedule = &self.octaves[octaves as usize];
+        let bias = if bias != 0.0 {
+            format!(" bias={bias}")
+        } else {
+            String::new()
+        };
+        let amplitudes: Vec<String> = schedule.amplitudes.iter().map(|a| a.to_string()).collect();
+        let frequencies: Vec<String> = schedule.frequencies.iter().map(|a| a.to_string()).collect();
+        format!(
+            "{} v{src} {} octaves={} frequencies=[{}] amplitudes=[{}]",
+            style_name(&style),
+            basis_name(&self.tables[table as usize].0),
+            schedule.len(),
+            frequencies.join(", "),
+            amplitudes.join(", "),
+        ) + &periods_text(schedule)
+            + &bias
+    }
+
+    fn wide_text(&self, w: &Wide) -> String {
+        match *w {
+            Wide::Noise { dst, src, table } => {
+                format!("d{dst} = {}", self.noise_text(src, table))
+            }
+            Wide::Fractal {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+                bias,
+            } => format!(
+                "d{dst} = {}",
+                self.fractal_text(src, table, octaves, style, bias)
+            ),
+            Wide::Component { dst, src, axis } => {
+                format!("d{dst} = v{src}.{}", ["x", "y", "z"][axis as usize % 3])
+            }
+            Wide::Unary { op, dst, src } => format!("d{dst} = {op} d{src}"),
+            Wide::Binary { op, dst, a, b } => format!("d{dst} = {op} d{a}, d{b}"),
+            Wide::Ternary { op, dst, a, b, c } => format!("d{dst} = {op} d{a}, d{b}, d{c}"),
+            Wide::Dot { dst, a, b } => format!("d{dst} = dot v{a}, v{b}"),
+            Wide::Length { dst, src } => format!("d{dst} = length v{src}"),
+            Wide::Splat { dst, src } => format!("v{dst} = splat d{src}"),
+            Wide::Combine { dst, x, y, z } => format!("v{dst} = combine d{x}, d{y}, d{z}"),
+            Wide::Rotate {
+                dst,
+                src,
+                degrees,
+                axis,
+            } => format!("v{dst} = rotate v{src} axis=#{axis} degrees=d{degrees}"),
+            Wide::Widen { dst, src } => format!("d{dst} = widen s{src}"),
+            Wide::Narrow { dst, src } => format!("s{dst} = narrow d{src}"),
         }
-        Wide::Unary { op, dst, src } => format!("d{dst} = {op} d{src}"),
-        Wide::Binary { op, dst, a, b } => format!("d{dst} = {op} d{a}, d{b}"),
-        Wide::Ternary { op, dst, a, b, c } => format!("d{dst} = {op} d{a}, d{b}, d{c}"),
-        Wide::Dot { dst, a, b } => format!("d{dst} = dot v{a}, v{b}"),
-        Wide::Length { dst, src } => format!("d{dst} = length v{src}"),
-        Wide::Splat { dst, src } => format!("v{dst} = splat d{src}"),
-        Wide::Combine { dst, x, y, z } => format!("v{dst} = combine d{x}, d{y}, d{z}"),
-        Wide::Rotate {
-            dst,
-            src,
-            degrees,
-            axis,
-        } => format!("v{dst} = rotate v{src} axis=#{axis} degrees=d{degrees}"),
-        Wide::Widen { dst, src } => format!("d{dst} = widen s{src}"),
-        Wide::Narrow { dst, src } => format!("s{dst} = narrow d{src}"),
     }
 }
 
@@ -660,4 +717,9 @@ impl fmt::Display for Tape {
         }
         Ok(())
     }
+}
+
+/// One output's shortfall, as `check --tape` and the evaluating commands print it.
+pub(crate) fn shortfall_text(output: &str, max_error: f64, why: &str) -> String {
+    format!("output \"{output}\" may miss {max_error:e}: {why}")
 }

@@ -350,6 +350,9 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
             fail(&mut worst, Failure::Usage);
             continue;
         }
+        if !args.double {
+            warn_shortfalls(file, &tape);
+        }
         let tapes = if args.mips {
             match mip_tapes(&graph, &compile_options, &grid) {
                 Ok(tapes) => tapes,

@@ -52,6 +52,9 @@ pub fn eval(args: EvalArgs) -> Result<(), Failure> {
     });
     let (_, tape) = crate::load::load_tape(&args.file, &check_options, &compile_options)
         .map_err(print_load_error)?;
+    if !args.double {
+        warn_shortfalls(&args.file, &tape);
+    }
     if args.double {
         eval_with::<f64>(&tape, &args)
     } else {

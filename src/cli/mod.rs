@@ -14,8 +14,10 @@ pub mod verify;
 use crate::check::CheckOptions;
 use crate::compile::CompileOptions;
 use crate::source::LoadError;
+use crate::tape::Tape;
 use clap::Args;
 use std::io::{BufWriter, IsTerminal, Write};
+use std::path::Path;
 
 pub fn parse_spacing(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
@@ -234,5 +236,14 @@ pub(crate) fn resolve_device(
                 Ok(Device::Cpu)
             }
         },
+    }
+}
+
+/// Prints the outputs of `tape` that may miss the precision target over the extent it was
+/// compiled for, and why (`Tape::shortfalls`), as warnings on stderr: the evaluating commands
+/// say so whenever the fast path cannot meet `--max-error`.
+pub(crate) fn warn_shortfalls(file: &Path, tape: &Tape) {
+    for shortfall in tape.shortfalls() {
+        eprintln!("warning: {}: {shortfall}", file.display());
     }
 }

@@ -205,17 +205,30 @@ pub fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
     let mut previewer = Previewer::new(&file, defaults, options, &out);
     if !watch {
         return match previewer.reload() {
-            Ok(stats) => write_stdout(|w| writeln!(w, "wrote {}: {stats}", out.display())),
+            Ok(stats) => {
+                warn_render_shortfalls(&stats);
+                write_stdout(|w| writeln!(w, "wrote {}: {stats}", out.display()))
+            }
             Err(e) => Err(failure(&e)),
         };
     }
     eprintln!("watching {} (Ctrl-C to stop)", file.display());
     let result = render::watch(&mut previewer, |result| {
         match result {
-            Ok(stats) => eprintln!("{}: {stats}", out.display()),
+            Ok(stats) => {
+                warn_render_shortfalls(stats);
+                eprintln!("{}: {stats}", out.display())
+            }
             Err(e) => eprint!("{}", e.render(colour())),
         }
         std::ops::ControlFlow::Continue(())
     });
     result.map_err(|e| failure(&e))
+}
+
+/// The precision plan's shortfalls, one `warning:` line each on stderr.
+fn warn_render_shortfalls(stats: &crate::render::RenderStats) {
+    for why in &stats.shortfalls {
+        eprintln!("warning: {why}");
+    }
 }

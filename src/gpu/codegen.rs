@@ -11,6 +11,7 @@
 //! scalars f64, as on the CPU, so positions and lattice cells are exact; see `wgsl/math.wgsl`
 //! for the transcendentals.
 
+use super::error::GpuError;
 use crate::graph::TableKey;
 use crate::noise::{Basis, CellularValue, Interpolation, Metric, Octaves, Style};
 use crate::ops::{BinaryOp, Spline, SplineInterpolation, TernaryOp, UnaryOp};
@@ -18,9 +19,10 @@ use crate::tape::{Instr, Tape, Wide};
 use std::fmt::Write;
 
 /// The WGSL library, in the order the generated shader concatenates it.
-pub const LIBRARY: [(&str, &str); 6] = [
+pub const LIBRARY: [(&str, &str); 7] = [
     ("common.wgsl", include_str!("wgsl/common.wgsl")),
     ("math.wgsl", include_str!("wgsl/math.wgsl")),
+    ("cell.wgsl", include_str!("wgsl/cell.wgsl")),
     ("lattice.wgsl", include_str!("wgsl/lattice.wgsl")),
     ("lattice_grad.wgsl", include_str!("wgsl/lattice_grad.wgsl")),
     ("simplex.wgsl", include_str!("wgsl/simplex.wgsl")),
@@ -40,11 +42,21 @@ pub struct Shader {
     pub channels: usize,
 }
 
-/// The WGSL of `tape`: the library, the tape's function and the entry points.
-pub fn generate(tape: &Tape) -> Shader {
+/// The WGSL of `tape`: the library (with the bases' f64 forms when the tape has promoted
+/// noise), the tape's function and the entry points. Never refused today; `Result` for the
+/// tapes a later instruction cannot express.
+pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
     let mut source = String::new();
     for (_, text) in LIBRARY {
         source.push_str(text);
+        source.push('\n');
+    }
+    if tape
+        .instrs
+        .iter()
+        .any(|i| matches!(i, Instr::Wide(Wide::Noise { .. } | Wide::Fractal { .. })))
+    {
+        source.push_str(super::widen::library());
         source.push('\n');
     }
     let mut splines = String::new();
@@ -64,7 +76,7 @@ pub fn generate(tape: &Tape) -> Shader {
     );
     source.push_str(&tape_function(tape));
     source.push_str(ENTRY);
-    Shader { source, channels }
+    Ok(Shader { source, channels })
 }
 
 /// `fn tape(p: vec3<f64>) -> Channels`: the instructions in order over local slot variables.
@@ -176,12 +188,12 @@ fn instruction(tape: &Tape, instr: &Instr) -> String {
             let key = &tape.tables[table as usize].0;
             format!(
                 "s{dst} = {};",
-                sample_call(table, key, key.period, &format!("v{src}"), false)
+                sample_call(table, key, key.period, &format!("v{src}"), Kernel::Value)
             )
         }
         Instr::NoiseGradient { dst, src, table } => {
             let key = &tape.tables[table as usize].0;
-            let call = sample_call(table, key, key.period, &format!("v{src}"), true);
+            let call = sample_call(table, key, key.period, &format!("v{src}"), Kernel::Gradient);
             format!("v{dst} = vec3<f64>(({call}).xyz);")
         }
         Instr::Fractal {
@@ -191,7 +203,17 @@ fn instruction(tape: &Tape, instr: &Instr) -> String {
             octaves,
             style,
             bias,
-        } => fractal(tape, dst, src, table, octaves, style, bias),
+        } => fractal(
+            tape,
+            &format!("s{dst}"),
+            src,
+            FractalInstr {
+                table,
+                octaves,
+                style,
+                bias,
+            },
+        ),
         Instr::FractalGradient {
             dst,
             src,
@@ -244,34 +266,71 @@ fn wide(tape: &Tape, w: Wide) -> String {
         ),
         Wide::Widen { dst, src } => format!("d{dst} = f64(s{src});"),
         Wide::Narrow { dst, src } => format!("s{dst} = f32(d{src});"),
+        // Refused by `generate` before any instruction is written.
+        // The WGSL noise takes its point in f64 already (the cell split and the octave points
+        // `p · f` in f64, see `common.wgsl`'s `lattice`): only the kernel inside the cell runs in
+        // f32, whose error does not grow with the coordinates (`docs/gpu.md`).
+        Wide::Noise { dst, src, table } => {
+            let key = &tape.tables[table as usize].0;
+            let call = sample_call(table, key, key.period, &format!("v{src}"), Kernel::Wide);
+            format!("d{dst} = {call};")
+        }
+        Wide::Fractal {
+            dst,
+            src,
+            table,
+            octaves,
+            style,
+            bias,
+        } => fractal(
+            tape,
+            &format!("d{dst}"),
+            src,
+            FractalInstr {
+                table,
+                octaves,
+                style,
+                bias,
+            },
+        ),
     }
 }
 
 /// The octave loop of a fractal sum, unrolled: each octave's point `p · f` in f64, its sample
-/// (at its own period when tiled), the style's accumulation in f32 (`noise/fractal.rs`
-/// `Shaper::add`), NaN made canonical, then the level-of-detail bias. Where the tape has a
+/// (at its own period when tiled), the style's accumulation in f32, or f64 for a promoted sum
+/// (`noise/fractal.rs` `Shaper::add`), NaN made canonical, then the level-of-detail bias. Where the tape has a
 /// `LaneLod` for the schedule, the octaves and bias follow the point's spacing `h`
 /// ([`lane_lod`]); without a spacing they are the schedule's.
-fn fractal(
-    tape: &Tape,
-    dst: u32,
-    src: u32,
-    table: u32,
-    octaves: u32,
-    style: Style,
-    bias: f64,
-) -> String {
+fn fractal(tape: &Tape, dst: &str, src: u32, instr: FractalInstr) -> String {
+    let FractalInstr {
+        table,
+        octaves,
+        style,
+        bias,
+    } = instr;
+    // A promoted sum (a `d` slot) runs in f64 throughout, as `fractal_into::<f64>` does.
+    let wide = dst.starts_with('d');
+    let (ty, p, real) = if wide {
+        ("f64", "d", f64_literal as fn(f64) -> String)
+    } else {
+        (
+            "f32",
+            "s",
+            (|v: f64| f32_literal(v as f32)) as fn(f64) -> String,
+        )
+    };
+    let kernel = if wide { Kernel::Wide } else { Kernel::Value };
     let key = &tape.tables[table as usize].0;
     let schedule = &tape.octaves[octaves as usize];
-    let mut w = String::from("{\n        var sum: f32 = 0.0;\n        var weight: f32 = 1.0;\n");
+    let mut w = format!("{{\n        var sum: {ty} = 0.0;\n        var weight: {ty} = 1.0;\n");
     let lod = lane_lod(tape, octaves, &mut w);
     for k in 0..schedule.frequencies.len() {
         let (point, period) = octave_point(schedule, k, src);
-        let n = sample_call(table, key, period, &point, false);
-        // The amplitude rounded to f32 (`S::from_f64`): a literal, or per point.
+        let n = sample_call(table, key, period, &point, kernel);
+        // The amplitude in the sum's type (`S::from_f64`): a literal, or per point.
         let a = match lod {
-            Some(_) => format!("f32({})", octave_amplitude(schedule, k, lod.as_ref())),
-            None => f32_literal(schedule.amplitudes[k] as f32),
+            Some(_) => format!("{ty}({})", octave_amplitude(schedule, k, lod.as_ref())),
+            None => real(schedule.amplitudes[k]),
         };
         let _ = writeln!(w, "        if ({} < kept) {{", f64_literal(k as f64));
         let _ = writeln!(w, "        let a{k} = {a};\n        let n{k} = {n};");
@@ -281,15 +340,19 @@ fn fractal(
             Style::Billow => writeln!(w, "        sum = sum + a{k} * (2.0 * abs(n{k}) - 1.0);"),
             Style::Ridged { offset, sharpness } => writeln!(
                 w,
-                "        let r{k} = s_pow(s_max({} - abs(n{k}), 0.0), {}) * weight;\n        \
-                 sum = sum + a{k} * r{k};\n        weight = s_min(s_max(2.0 * r{k}, 0.0), 1.0);",
-                f32_literal(offset as f32),
-                f32_literal(sharpness as f32)
+                "        let r{k} = {p}_pow({p}_max({} - abs(n{k}), 0.0), {}) * weight;\n        \
+                 sum = sum + a{k} * r{k};\n        weight = {p}_min({p}_max(2.0 * r{k}, 0.0), 1.0);",
+                real(offset),
+                real(sharpness)
             ),
         };
         let _ = writeln!(w, "        }}");
     }
-    let _ = writeln!(w, "        if (is_nan(sum)) {{ sum = nan_f32(); }}");
+    if wide {
+        let _ = writeln!(w, "        if (is_nan_d(sum)) {{ sum = nan_d(); }}");
+    } else {
+        let _ = writeln!(w, "        if (is_nan(sum)) {{ sum = nan_f32(); }}");
+    }
     match lod {
         Some(terms) => {
             // lod.rs `LaneLod::biases`: the dropped octaves' mean where the point drops one,
@@ -311,15 +374,27 @@ fn fractal(
                 );
             }
             let _ = writeln!(w, "        }}");
-            let _ = writeln!(w, "        if (bias != 0.0lf) {{ sum = sum + f32(bias); }}");
+            let _ = writeln!(
+                w,
+                "        if (bias != 0.0lf) {{ sum = sum + {ty}(bias); }}"
+            );
         }
         None if bias != 0.0 => {
-            let _ = writeln!(w, "        sum = sum + {};", f32_literal(bias as f32));
+            let _ = writeln!(w, "        sum = sum + {};", real(bias));
         }
         None => {}
     }
-    let _ = write!(w, "        s{dst} = sum;\n        _ = weight;\n    }}");
+    let _ = write!(w, "        {dst} = sum;\n        _ = weight;\n    }}");
     w
+}
+
+/// A fractal sum's operands (`Instr::Fractal` without its slots).
+#[derive(Clone, Copy)]
+struct FractalInstr {
+    table: u32,
+    octaves: u32,
+    style: Style,
+    bias: f64,
 }
 
 /// Declares `kept` (f64): the octaves the point keeps. With the schedule's `LaneLod`, from the
@@ -391,7 +466,7 @@ fn fractal_gradient(
     let lod = lane_lod(tape, octaves, &mut w);
     for k in 0..schedule.frequencies.len() {
         let (point, period) = octave_point(schedule, k, src);
-        let call = sample_call(table, key, period, &point, true);
+        let call = sample_call(table, key, period, &point, Kernel::Gradient);
         let _ = writeln!(
             w,
             "        if ({} < kept) {{\n        let n{k} = {call};\n        g = gshaper_add_f64(g, {code}u, n{k}.w, n{k}.xyz, {}, {}, {}, {});\n        }}",
@@ -452,7 +527,7 @@ fn sample_call(
     key: &TableKey,
     period: Option<[u64; 3]>,
     point: &str,
-    gradient: bool,
+    kernel: Kernel,
 ) -> String {
     let name = match key.basis {
         Basis::Perlin => "perlin",
@@ -463,7 +538,11 @@ fn sample_call(
         Basis::White => "white",
         Basis::Cellular(_) => "cellular",
     };
-    let kind = if gradient { "grad" } else { "sample" };
+    let kind = if kernel == Kernel::Gradient {
+        "grad"
+    } else {
+        "sample"
+    };
     let offset = table as usize * TABLE_WORDS;
     let mut args = format!("{offset}u, {point}");
     let mut suffix = "";
@@ -487,13 +566,26 @@ fn sample_call(
     }
     if let Basis::Cellular(c) = key.basis {
         let (metric, value) = cellular_codes(&c);
-        let _ = write!(
-            args,
-            ", {metric}u, {value}u, {}",
-            f32_literal(c.jitter() as f32)
-        );
+        // The jitter is a multiple of 1/256 (`Cellular::new`): the same in f32 and f64.
+        let jitter = match kernel {
+            Kernel::Wide => f64_literal(c.jitter()),
+            _ => f32_literal(c.jitter() as f32),
+        };
+        let _ = write!(args, ", {metric}u, {value}u, {jitter}");
     }
-    format!("{name}_{kind}{suffix}({args})")
+    let wide = if kernel == Kernel::Wide { "_d" } else { "" };
+    format!("{name}_{kind}{suffix}{wide}({args})")
+}
+
+/// Which form of a basis a call uses.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Kernel {
+    /// The value in f32.
+    Value,
+    /// The value in f64 (`widen.rs`), for promoted noise.
+    Wide,
+    /// (gradient, value) in f32.
+    Gradient,
 }
 
 /// A spline (colour ramp: vec3, curve: scalar) as a WGSL function of an f64 input, evaluated
@@ -714,14 +806,39 @@ mod tests {
             &crate::check::CheckOptions::default(),
         )
         .unwrap_or_else(|e| panic!("{}", e.render_plain()));
-        let options = crate::compile::CompileOptions {
-            extent: Some(crate::precision::Extent::new([-1e6; 3], [1e6; 3])),
-            ..Default::default()
+        let compile = |graph: &crate::graph::CheckedGraph, half: Option<f64>| {
+            let options = crate::compile::CompileOptions {
+                extent: half.map(|h| crate::precision::Extent::new([-h; 3], [h; 3])),
+                ..Default::default()
+            };
+            crate::compile::compile(graph, &options).expect("compiles")
         };
-        let tape = crate::compile::compile(&graph, &options).expect("compiles");
+        // Every kind, in f32.
+        let shader = generate(&compile(&graph, None)).expect("no promoted noise");
+        validate(&shader.source).unwrap_or_else(|e| panic!("{e}"));
+        // Arithmetic promoted to f64 (`Sin(p.x·1e5)` over ±1e6): f64 in WGSL.
+        let sine = crate::check::check(
+            crate::diagnostic::SourceFile::new(
+                "sine.ron",
+                r#"Graph(nodes: { "p": Position, "s": Sin(Mul("p.x", 1e5)) }, outputs: { "s": "s" })"#,
+            ),
+            &crate::check::CheckOptions::default(),
+        )
+        .unwrap_or_else(|e| panic!("{}", e.render_plain()));
+        let tape = compile(&sine, Some(1e6));
         assert!(tape.wide_instructions() > 0, "{tape}");
-        let shader = generate(&tape);
+        let shader = generate(&tape).expect("no promoted noise");
         validate(&shader.source).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(shader.channels, tape.channels());
+        // Noise promoted to f64 over ±1e6: the f64 point into the same WGSL noise, widened.
+        let tape = compile(&graph, Some(1e6));
+        assert!(
+            tape.instrs
+                .iter()
+                .any(|i| matches!(i, Instr::Wide(Wide::Noise { .. } | Wide::Fractal { .. }))),
+            "{tape}"
+        );
+        let shader = generate(&tape).expect("generated");
+        validate(&shader.source).unwrap_or_else(|e| panic!("{e}"));
     }
 }

@@ -151,7 +151,7 @@ impl GpuEvaluator {
     /// Generates and compiles `tape`'s shader on the process's GPU device. Fails when no
     /// adapter is usable or the shader does not compile (never panics).
     pub fn new(tape: &Tape) -> Result<GpuEvaluator, GpuError> {
-        GpuEvaluator::build(tape, codegen::generate(tape))
+        GpuEvaluator::build(tape, codegen::generate(tape)?)
     }
 
     fn build(tape: &Tape, shader: codegen::Shader) -> Result<GpuEvaluator, GpuError> {

@@ -15,6 +15,7 @@ mod evaluator;
 pub use evaluator::GpuEvaluator;
 #[cfg(not(feature = "gpu"))]
 mod stub;
+mod widen;
 #[cfg(not(feature = "gpu"))]
 pub use stub::GpuEvaluator;
 

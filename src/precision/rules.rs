@@ -474,12 +474,15 @@ pub fn f64_roundings(op: &Op, ty: Type) -> f64 {
     }
 }
 
-/// Operations the fast path can run in f64 on the wide slots (`Instr::Wide`).
+/// Operations the fast path can run in f64 on the wide slots (`Instr::Wide`): the math, the
+/// vector operations that read or make scalars, and noise samples and fractal sums (every
+/// basis' f64 form, the reference path's kernels).
 pub fn promotable(op: &Op, ty: Type) -> bool {
     match op {
         Op::Component(_) | Op::Dot | Op::Length | Op::Splat | Op::Combine => true,
         Op::Rotate { .. } => true,
         Op::Unary(_) | Op::Binary(_) | Op::Ternary(_) => ty == Type::Scalar,
+        Op::Noise(_) | Op::Fractal(..) => ty == Type::Scalar,
         _ => false,
     }
 }

@@ -262,6 +262,9 @@ pub struct RenderStats {
     pub load_seconds: f64,
     pub total_seconds: f64,
     pub counters: Counters,
+    /// Outputs the precision plan could not bring within its target at the textures' extents
+    /// (`GRAPH: output …`), to print as warnings: the image is right, but not to that error.
+    pub shortfalls: Vec<String>,
 }
 
 impl std::fmt::Display for RenderStats {
@@ -330,7 +333,7 @@ pub fn render(
     let run = || {
         render_in_pool(scene, frame, options.progress, cancel, &gpus).ok_or(RenderError::Cancelled)
     };
-    match options.threads {
+    let rendered = match options.threads {
         Some(threads) => {
             if threads == 0 {
                 return Err(RenderError::Options("--threads must be at least 1".into()));
@@ -345,7 +348,25 @@ pub fn render(
             pool.install(run)
         }
         None => run(),
-    }
+    };
+    rendered.map(|(image, mut stats)| {
+        stats.shortfalls = texture_shortfalls(scene);
+        (image, stats)
+    })
+}
+
+/// Each texture's precision shortfalls, named by graph file.
+fn texture_shortfalls(scene: &Scene) -> Vec<String> {
+    scene
+        .textures()
+        .iter()
+        .flat_map(|t| {
+            t.tape
+                .shortfalls()
+                .into_iter()
+                .map(move |why| format!("{}: {why}", t.graph.display()))
+        })
+        .collect()
 }
 
 /// Per texture, its GPU evaluator with `Device::Gpu` (the start-up check: a texture whose tape
@@ -448,6 +469,7 @@ fn render_in_pool(
         load_seconds: 0.0,
         total_seconds: 0.0,
         counters,
+        shortfalls: Vec::new(),
     };
     Some((
         RenderedImage {

@@ -27,16 +27,18 @@ fn text_graph(text: &str) -> texgraph::CheckedGraph {
     .expect("valid")
 }
 
-/// Over the unit cube nothing needs f64: every seed graph (and every graph at the top of
-/// `graphs/`) compiles to the plain tape, instruction for instruction and fingerprint for
-/// fingerprint.
+/// Over the unit cube nothing needs f64 for the seed graphs: every one compiles to the plain
+/// tape, instruction for instruction and fingerprint for fingerprint. (The other graphs may
+/// promote where the plain tape's measured error is within 4x of the target: `stone`'s warped
+/// cellular cracks measure 3.2e-5 against 1e-4, and the plan promotes their noise.)
 #[test]
 fn the_unit_cube_compiles_every_seed_graph_to_the_plain_tape() {
     let unit = Extent::new([0.0; 3], [1.0; 3]);
-    let top_level = graph_files()
-        .into_iter()
-        .filter(|p| !p.to_string_lossy().contains("library"));
-    for path in top_level {
+    let seeds = graph_files().into_iter().filter(|p| {
+        p.file_name()
+            .is_some_and(|n| n.to_string_lossy().starts_with("seed"))
+    });
+    for path in seeds {
         let graph = load(&path);
         let plain = compiled(&graph, None);
         let planned = compiled(&graph, Some(unit));

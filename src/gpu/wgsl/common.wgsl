@@ -1,11 +1,12 @@
-// common.wgsl: what every texgraph compute shader shares (noise tables, the lattice split, the
-// tiling reduction). The generated shader of a tape is: common.wgsl, math.wgsl, the basis
-// modules, then the tape's own `main`.
+// common.wgsl: what every texgraph compute shader shares (noise tables, the cell hash, the
+// tiling reduction). The generated shader of a tape is: common.wgsl, math.wgsl, cell.wgsl, the
+// basis modules, for a tape with promoted noise their f64 forms (`widen.rs`), then the tape's
+// own function and the entry points.
 //
 // Conventions: positions and every vec3 value are vec3<f64> (the CPU's vec3 slots are f64
 // planes, and the lattice cell must be exact at |p| up to 2^31); a lattice fraction is computed
 // in f64 and rounded to f32 once, as the CPU's f32 path does (`S::from_f64(x - c)`); everything
-// after the split is f32.
+// after the split is f32 (f64 in the `_d` forms).
 
 // ---- Noise tables -------------------------------------------------------------------------
 // All tables of a tape in one storage buffer of 32-bit words; table t starts at word t (a
@@ -20,15 +21,6 @@ const T_WORDS: u32 = 1544u;
 
 fn perm_at(t: u32, i: u32) -> u32 {
     return tables[t + T_PERM + (i & 511u)];
-}
-
-fn grad_at(t: u32, h: u32) -> vec3<f32> {
-    let b = t + T_GRADS + 3u * (h & 255u);
-    return vec3<f32>(bitcast<f32>(tables[b]), bitcast<f32>(tables[b + 1u]), bitcast<f32>(tables[b + 2u]));
-}
-
-fn value_at(t: u32, h: u32) -> f32 {
-    return bitcast<f32>(tables[t + T_VALUES + (h & 255u)]);
 }
 
 // ---- The cell hash (noise/hash.rs) ------------------------------------------------------------------
@@ -76,52 +68,6 @@ fn hash_cell(key: vec2<u32>, c: vec3<f64>) -> vec2<u32> {
     return hash_absorb(hash_absorb(hash_absorb(key, c.z), c.y), c.x);
 }
 
-// Rust `Real::from_unit_bits` for f32 (`hash::value`): the value words' top 24 bits.
-fn hash_value(s: vec2<u32>) -> f32 {
-    let w = pcg2d(vec2<u32>(s.x ^ 0x5bd1e995u, s.y ^ 0xcc9e2d51u));
-    return f32(w.x >> 8u) * 5.9604644775390625e-8f;
-}
-
-// Rust `hash::feature`: per axis 0.5 + jitter (u - 0.5), u the top 16 bits of a word and the
-// jitter a multiple of 1/256, so every step is exact in f32 (fused or not).
-fn hash_feature(s: vec2<u32>, jitter: f32) -> vec3<f32> {
-    let z = pcg2d(s).x;
-    let u = vec3<f32>(f32(s.x >> 16u), f32(s.y >> 16u), f32(z >> 16u)) * 1.52587890625e-5f;
-    return vec3<f32>(0.5) + jitter * (u - vec3<f32>(0.5));
-}
-
-// ---- The lattice split (noise/lattice.rs `lattice`) --------------------------------------------
-// c = floor(x), index = c mod 256, fraction = x - c (exact in f64), rounded to f32 once.
-struct Split {
-    index: u32,
-    frac: f32,
-}
-
-fn lattice(x: f64) -> Split {
-    let c = floor(x);
-    let m = c - 256.0lf * floor(c / 256.0lf);
-    var s: Split;
-    s.index = u32(i32(m)) & 255u;
-    s.frac = f32(x - c);
-    return s;
-}
-
-// The split of each axis.
-struct Split3 {
-    index: vec3<u32>,
-    frac: vec3<f32>,
-}
-
-fn lattice3(p: vec3<f64>) -> Split3 {
-    let x = lattice(p.x);
-    let y = lattice(p.y);
-    let z = lattice(p.z);
-    var s: Split3;
-    s.index = vec3<u32>(x.index, y.index, z.index);
-    s.frac = vec3<f32>(x.frac, y.frac, z.frac);
-    return s;
-}
-
 // ---- Tiling (noise/period.rs) ------------------------------------------------------------------
 // A period per axis in whole cells (as f64; 0 means "no period on this axis", which the
 // generator writes for periods beyond 2^52). `reduce3` gives the point reduced into [0, P) per
@@ -157,11 +103,6 @@ fn reduce3(p: vec3<f64>, period: vec3<f64>) -> Reduced {
                        period.y != 0.0lf && y.y + 1.0lf == period.y,
                        period.z != 0.0lf && z.y + 1.0lf == period.z);
     return r;
-}
-
-// The upper corner's index per axis: index + 1 (mod 256), or 0 where the axis wraps.
-fn upper_index(s: Split3, wrap: vec3<bool>) -> vec3<u32> {
-    return select((s.index + vec3<u32>(1u)) & vec3<u32>(255u), vec3<u32>(0u), wrap);
 }
 
 // ---- NaN ---------------------------------------------------------------------------------------

@@ -137,8 +137,8 @@ fn simplex_reach(t: u32, q: vec3<f64>, period: vec3<f64>) -> SimplexReach {
 // `gradient(h)`: GRADIENTS[h % 12], the 12 cube-edge vectors.
 fn simplex_gradient(h: u32) -> vec3<f32> {
     let i = h % 12u;
-    let a = select(1.0, -1.0, (i & 1u) != 0u);
-    let b = select(1.0, -1.0, (i & 2u) != 0u);
+    let a = select(f32(1.0), f32(-1.0), (i & 1u) != 0u);
+    let b = select(f32(1.0), f32(-1.0), (i & 2u) != 0u);
     if (i < 4u) {
         return vec3<f32>(a, b, 0.0);
     }
@@ -150,7 +150,7 @@ fn simplex_gradient(h: u32) -> vec3<f32> {
 
 // `sum`: the terms `(max(0.5 - r², 0))⁴ (g · d)` summed in vertex order, scaled.
 fn simplex_sum(re: SimplexReach) -> f32 {
-    var sum = 0.0;
+    var sum: f32 = 0.0;
     for (var k = 0u; k < 4u; k = k + 1u) {
         let d = re.d[k];
         let grad = simplex_gradient(re.h[k]);
@@ -165,7 +165,7 @@ fn simplex_sum(re: SimplexReach) -> f32 {
 
 // `sum_grad`: (gradient, value) as xyz, w.
 fn simplex_sum_grad(re: SimplexReach) -> vec4<f32> {
-    var sum = 0.0;
+    var sum: f32 = 0.0;
     var g = vec3<f32>(0.0);
     for (var k = 0u; k < 4u; k = k + 1u) {
         let d = re.d[k];

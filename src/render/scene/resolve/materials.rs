@@ -8,6 +8,7 @@ use crate::compile::{compile, CompileOptions};
 use crate::diagnostic::{Diagnostic, DiagnosticClass as C, Diagnostics};
 use crate::graph::{CheckedGraph, Output, Type};
 use crate::load::load_graph;
+use crate::precision::Extent;
 use crate::render::error::RenderError;
 use crate::render::scene::desc::{BumpDesc, ChannelDesc, HeightDesc, Space};
 use crate::render::scene::diagnostics::{Key, Problems};
@@ -504,18 +505,24 @@ impl<'a> Resolver<'a> {
         Some((k, name, ty == Type::Vec3))
     }
 
-    /// Compiles each graph for exactly the outputs bound to it.
-    pub(super) fn compile_textures(&mut self) -> Result<Vec<CompiledTexture>, RenderError> {
+    /// Compiles each graph for exactly the outputs bound to it, and for the box it is evaluated
+    /// over (`extents`: precision chosen per instruction, as a bake's region chooses it).
+    pub(super) fn compile_textures(
+        &mut self,
+        extents: &[Option<Extent>],
+    ) -> Result<Vec<CompiledTexture>, RenderError> {
         let graphs = std::mem::take(&mut self.graphs);
         let outputs = std::mem::take(&mut self.outputs);
         let mut textures = Vec::with_capacity(self.keys.len());
-        for ((key, graph), outputs) in self.keys.iter().zip(graphs).zip(outputs) {
+        let cases = self.keys.iter().zip(graphs).zip(outputs).zip(extents);
+        for (((key, graph), outputs), extent) in cases {
             let graph = graph.expect("checked above");
             let tape = compile(
                 &graph,
                 &CompileOptions {
                     outputs: outputs.clone(),
                     spacing: None,
+                    extent: *extent,
                     ..Default::default()
                 },
             )

@@ -15,6 +15,7 @@ use super::diagnostics::{Key, Located, Problems};
 use super::resolved::{Camera, Light, LightKind, Scene, Shape};
 use crate::diagnostic::DiagnosticClass as C;
 use crate::graph::CheckedGraph;
+use crate::precision::Extent;
 use crate::render::error::{check_samples, check_size, RenderError};
 use crate::render::geometry::Mesh;
 use glam::{Affine3A, Quat, Vec3};
@@ -326,7 +327,8 @@ impl<'a> Resolver<'a> {
         objects: Vec<(Option<Shape>, Affine3A)>,
     ) -> Result<Scene, RenderError> {
         self.problems.finish()?;
-        let textures = self.compile_textures()?;
+        let extents = self.texture_extents(&objects);
+        let textures = self.compile_textures(&extents)?;
         let (materials, groups) = self.materials(&textures);
         let objects = self.place_objects(objects);
         let desc = self.desc;
@@ -344,6 +346,81 @@ impl<'a> Resolver<'a> {
             samples: desc.samples,
         })
     }
+}
+
+impl Resolver<'_> {
+    /// The box each texture is evaluated over, for its precision plan: for every binding of a
+    /// material some object uses, each such object's shape bounds (in object space, or through
+    /// the object's transform in world space) through the binding's texture transform,
+    /// widened a little for the f32 rounding of hit points. `None` for a texture an unbounded
+    /// shape (an infinite plane) uses: it is compiled without a plan, in f32 as before.
+    fn texture_extents(&self, objects: &[(Option<Shape>, Affine3A)]) -> Vec<Option<Extent>> {
+        let mut boxes: Vec<Option<Option<(Vec3, Vec3)>>> = vec![None; self.keys.len()];
+        for (binding, chosen) in self.bindings.iter().zip(&self.chosen) {
+            let (Some((key, _, _)), Ok(texture)) = (chosen, transform_of(binding.transform)) else {
+                continue;
+            };
+            let users = self.desc.objects.iter().zip(objects);
+            for (_, (shape, to_world)) in users.filter(|(d, _)| d.material == binding.material) {
+                let local = shape.as_ref().and_then(shape_bounds);
+                let found = local.map(|(lo, hi)| {
+                    let (lo, hi) = match binding.space {
+                        Space::Object => (lo, hi),
+                        Space::World => transformed_box(to_world, lo, hi),
+                    };
+                    transformed_box(&texture, lo, hi)
+                });
+                let slot = &mut boxes[*key];
+                *slot = Some(match (*slot, found) {
+                    (Some(None), _) | (_, None) => None,
+                    (None, Some(b)) => Some(b),
+                    (Some(Some((lo, hi))), Some((l, h))) => Some((lo.min(l), hi.max(h))),
+                });
+            }
+        }
+        boxes
+            .into_iter()
+            .map(|b| {
+                let (lo, hi) = b??;
+                // Hit points are f32: a little outside the exact surface.
+                let pad = |v: Vec3| Vec3::splat(1e-6) + v.abs() * 1e-5;
+                let (lo, hi) = (lo - pad(lo), hi + pad(hi));
+                (lo.is_finite() && hi.is_finite()).then(|| {
+                    Extent::new(lo.to_array().map(f64::from), hi.to_array().map(f64::from))
+                })
+            })
+            .collect()
+    }
+}
+
+/// A shape's bounds in its own space; `None` for an infinite plane.
+fn shape_bounds(shape: &Shape) -> Option<(Vec3, Vec3)> {
+    match shape {
+        Shape::Sphere(r) => Some((Vec3::splat(-r), Vec3::splat(*r))),
+        Shape::Box(half) => Some((-*half, *half)),
+        Shape::Plane(Some([x, z])) => {
+            let half = Vec3::new(x / 2.0, 0.0, z / 2.0);
+            Some((-half, half))
+        }
+        Shape::Plane(None) => None,
+        Shape::Mesh(mesh) => Some(mesh.bounds()),
+    }
+}
+
+/// The bounds of the box `[lo, hi]` through `m`: its eight corners mapped.
+fn transformed_box(m: &Affine3A, lo: Vec3, hi: Vec3) -> (Vec3, Vec3) {
+    (0..8).fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |(a, b), c| {
+            let corner = Vec3::new(
+                if c & 1 == 0 { lo.x } else { hi.x },
+                if c & 2 == 0 { lo.y } else { hi.y },
+                if c & 4 == 0 { lo.z } else { hi.z },
+            );
+            let p = m.transform_point3(corner);
+            (a.min(p), b.max(p))
+        },
+    )
 }
 
 /// An `[f64; 3]` as the renderer's `Vec3` (f32).
