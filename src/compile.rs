@@ -100,7 +100,10 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
                     .reasons
                     .push((emitter.instrs.len(), plan.reason(id as NodeId)));
             }
-            if !matches!(node.op, Op::Noise(_) | Op::Fractal(..)) {
+            if !matches!(
+                node.op,
+                Op::Noise(_) | Op::Fractal(..) | Op::NoiseGradient(_) | Op::FractalGradient(..)
+            ) {
                 lower_wide(graph, id, dst, &slots, &mut emitter.axes)
             } else {
                 let plain = emitter.lower(graph, id, dst, &slots.narrow, options, &mut stretches);
@@ -251,9 +254,10 @@ struct Slots {
     wide: Vec<Slot>,
 }
 
-/// A promoted noise sample or fractal sum: the plain instruction (its side tables, noise table,
-/// octave schedule and level of detail, registered as the plain one registers them) with its
-/// result in the wide slot `dst` it was lowered with.
+/// A promoted noise sample, fractal sum or gradient: the plain instruction (its side tables,
+/// noise table, octave schedule and level of detail, registered as the plain one registers
+/// them) with its result in the slot `dst` it was lowered with (wide for a scalar, the vec3
+/// slot for a gradient).
 fn promoted_noise(plain: Instr) -> Instr {
     match plain {
         Instr::Noise { dst, src, table } => Instr::Wide(Wide::Noise { dst, src, table }),
@@ -271,6 +275,22 @@ fn promoted_noise(plain: Instr) -> Instr {
             octaves,
             style,
             bias,
+        }),
+        Instr::NoiseGradient { dst, src, table } => {
+            Instr::Wide(Wide::NoiseGradient { dst, src, table })
+        }
+        Instr::FractalGradient {
+            dst,
+            src,
+            table,
+            octaves,
+            style,
+        } => Instr::Wide(Wide::FractalGradient {
+            dst,
+            src,
+            table,
+            octaves,
+            style,
         }),
         other => other,
     }

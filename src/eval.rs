@@ -12,7 +12,7 @@
 use crate::noise;
 use crate::ops::{self, BinaryOp, TernaryOp, UnaryOp};
 use crate::real::Real;
-use crate::tape::{Instr, Tape, Wide};
+use crate::tape::{Instr, Slot, Tape, Wide};
 use std::mem::take;
 
 /// Points per chunk. 256 lanes keep a typical tape's live slots (a few KiB each) in L1/L2.
@@ -525,17 +525,7 @@ impl Tape {
                 self.fractal_into(fractal, &ws.vec3s[src as usize], spacing, scratch, n, out);
             }
             Instr::NoiseGradient { dst, src, table } => {
-                let mut out = take(&mut ws.vec3s[dst as usize]);
-                let a = &ws.vec3s[src as usize];
-                let (gx, rest) = out.split_at_mut(LANES);
-                let (gy, gz) = rest.split_at_mut(LANES);
-                self.tables[table as usize].1.sample_grad_batch::<S>(
-                    &a[..n],
-                    &a[LANES..LANES + n],
-                    &a[2 * LANES..2 * LANES + n],
-                    [&mut gx[..n], &mut gy[..n], &mut gz[..n]],
-                );
-                ws.vec3s[dst as usize] = out;
+                self.gradient_into::<S, S>(dst, src, table, None, ws, spacing, n)
             }
             Instr::FractalGradient {
                 dst,
@@ -544,30 +534,7 @@ impl Tape {
                 octaves,
                 style,
             } => {
-                let mut out = take(&mut ws.vec3s[dst as usize]);
-                let a = &ws.vec3s[src as usize];
-                let (x, y, z) = (&a[..n], &a[LANES..LANES + n], &a[2 * LANES..2 * LANES + n]);
-                let (gx, rest) = out.split_at_mut(LANES);
-                let (gy, gz) = rest.split_at_mut(LANES);
-                let g = [&mut gx[..n], &mut gy[..n], &mut gz[..n]];
-                let table = &self.tables[table as usize].1;
-                let schedule = &self.octaves[octaves as usize];
-                // The dropped octaves' mean is a constant: it adds no slope.
-                match self.lanes_dropping(octaves, spacing, &mut ws.kept[..n]) {
-                    Some(lod) => {
-                        let lanes = noise::LaneOctaves {
-                            powers: lod.powers(),
-                            kept: &ws.kept[..n],
-                        };
-                        noise::fractal_styled_grad_batch_lanes::<S>(
-                            table, schedule, lanes, style, x, y, z, g,
-                        )
-                    }
-                    None => {
-                        noise::fractal_styled_grad_batch::<S>(table, schedule, style, x, y, z, g)
-                    }
-                }
-                ws.vec3s[dst as usize] = out;
+                self.gradient_into::<S, S>(dst, src, table, Some((octaves, style)), ws, spacing, n)
             }
             _ => unreachable!("run_chunk dispatches only noise instructions here"),
         }
@@ -606,8 +573,67 @@ impl Tape {
                 let scratch = (&mut ws.kept[..], &mut ws.bias[..]);
                 self.fractal_into(fractal, &ws.vec3s[src as usize], spacing, scratch, n, out);
             }
+            Wide::NoiseGradient { dst, src, table } => {
+                self.gradient_into::<f64, S>(dst, src, table, None, ws, spacing, n)
+            }
+            Wide::FractalGradient {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+            } => {
+                let fractal = Some((octaves, style));
+                self.gradient_into::<f64, S>(dst, src, table, fractal, ws, spacing, n)
+            }
             other => wide(other, ws, n, &self.axes),
         }
+    }
+
+    /// `NoiseGradient` (`fractal` None) or `FractalGradient` (its schedule and style): the
+    /// gradient per lane of the point planes `src` into vec3 slot `dst`, the kernels in `K` (the
+    /// lane type, or f64 for a promoted gradient; vec3 slots are f64 either way).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn gradient_into<K: Real, S: Real>(
+        &self,
+        dst: Slot,
+        src: Slot,
+        table: u32,
+        fractal: Option<(u32, noise::Style)>,
+        ws: &mut Workspace<S>,
+        spacing: Option<&[f64]>,
+        n: usize,
+    ) {
+        let mut out = take(&mut ws.vec3s[dst as usize]);
+        let a = &ws.vec3s[src as usize];
+        let (x, y, z) = (&a[..n], &a[LANES..LANES + n], &a[2 * LANES..2 * LANES + n]);
+        let (gx, rest) = out.split_at_mut(LANES);
+        let (gy, gz) = rest.split_at_mut(LANES);
+        let g = [&mut gx[..n], &mut gy[..n], &mut gz[..n]];
+        let table = &self.tables[table as usize].1;
+        match fractal {
+            None => table.sample_grad_batch::<K>(x, y, z, g),
+            Some((octaves, style)) => {
+                let schedule = &self.octaves[octaves as usize];
+                // The dropped octaves' mean is a constant: it adds no slope.
+                match self.lanes_dropping(octaves, spacing, &mut ws.kept[..n]) {
+                    Some(lod) => {
+                        let lanes = noise::LaneOctaves {
+                            powers: lod.powers(),
+                            kept: &ws.kept[..n],
+                        };
+                        noise::fractal_styled_grad_batch_lanes::<K>(
+                            table, schedule, lanes, style, x, y, z, g,
+                        )
+                    }
+                    None => {
+                        noise::fractal_styled_grad_batch::<K>(table, schedule, style, x, y, z, g)
+                    }
+                }
+            }
+        }
+        ws.vec3s[dst as usize] = out;
     }
 
     /// `Noise`: a sample per lane of the point planes `a`, in `T` (the lane type, or f64 for a
@@ -732,7 +758,10 @@ struct FractalInstr {
 #[inline(always)]
 fn wide<S: Real>(w: Wide, ws: &mut Workspace<S>, n: usize, axes: &[[f64; 3]]) {
     match w {
-        Wide::Noise { .. } | Wide::Fractal { .. } => {}
+        Wide::Noise { .. }
+        | Wide::Fractal { .. }
+        | Wide::NoiseGradient { .. }
+        | Wide::FractalGradient { .. } => {}
         Wide::Rotate {
             dst,
             src,

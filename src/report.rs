@@ -733,8 +733,13 @@ functions, 8–32 for noise interiors); a scalar run in f64 computes what the re
 and adds nothing, except where its value is handed to an f32 reader, which rounds it once.
 Instructions are promoted to f64 (the tape's `d` slots; `check --tape` gives each one's
 magnitude and what f32 would have added) until every output's bound is within `--max-error`
-(default 1e-4). Positions, lattice cells and noise interiors stay as they are; the fbm of a far
-marble stays f32, its `v.x → phase → sin` chain runs in f64.
+(default 1e-4). Noise samples, fractal sums and their gradients are promoted like any other
+instruction: a promoted one runs the basis' f64 kernels (the reference's) on its lanes, batched,
+so its value is exact to f64 (issue 32). Positions and lattice cells are f64 either way. The fbm
+of a far marble stays f32 (its f32 rounding is small next to the target), its
+`v.x → phase → sin` chain runs in f64; the wood grain's noise, whose angle turns a radius of
+1e6, runs in f64 too. `eval`, `bake` and `render` print each output the compiled tape
+still cannot promise as a `warning:` on stderr (the same text as `check`).
 
 - **Nothing changes where nothing needs it.** When the bound with every scalar in f32 is within
   the target, the tape is the plain one, instruction for instruction. The bound is a worst case
@@ -751,7 +756,7 @@ marble stays f32, its `v.x → phase → sin` chain runs in f64.
   points 1e-6 away along each axis.
 - **What cannot be.** `check --extent` and `report --stability` name the node and the reason:
   an output whose own value is too large for f32 (`evaluate in f64`), a node with no f64 form on
-  the fast path (noise interiors, splines) feeding a steep chain, an operation without a bounded
+  the fast path (splines, ramps) feeding a steep chain, an operation without a bounded
   slope over the extent (a division by a range containing 0, `atan2` at its origin), or f64
   itself (`Sin(Mul(1e12, "v.x"))` at |p| = 1e6: the reference is meaningless there too).
 - **Bit-identity.** Point and batch evaluation stay bit-identical with promoted instructions;

@@ -236,6 +236,21 @@ pub enum Wide {
         style: Style,
         bias: f64,
     },
+    /// v = the analytic gradient of the noise at v(src), its kernel in f64 (a promoted
+    /// `NoiseGradient`; the vec3 slot is f64 on both paths).
+    NoiseGradient {
+        dst: Slot,
+        src: Slot,
+        table: u32,
+    },
+    /// v = the gradient of a fractal sum, its kernels in f64 (a promoted `FractalGradient`).
+    FractalGradient {
+        dst: Slot,
+        src: Slot,
+        table: u32,
+        octaves: u32,
+        style: Style,
+    },
     /// d = a lane-type scalar, exactly.
     Widen {
         dst: Slot,
@@ -533,25 +548,19 @@ impl Tape {
             Instr::Noise { dst, src, table } => {
                 format!("s{dst} = {}", self.noise_text(*src, *table))
             }
-            Instr::NoiseGradient { dst, src, table } => format!(
-                "v{dst} = gradient noise v{src} {}",
-                basis_name(&self.tables[*table as usize].0)
-            ),
+            Instr::NoiseGradient { dst, src, table } => {
+                format!("v{dst} = {}", self.gradient_text(*src, *table, None))
+            }
             Instr::FractalGradient {
                 dst,
                 src,
                 table,
                 octaves,
                 style,
-            } => {
-                let schedule = &self.octaves[*octaves as usize];
-                format!(
-                    "v{dst} = gradient {} v{src} {} octaves={}",
-                    style_name(style),
-                    basis_name(&self.tables[*table as usize].0),
-                    schedule.len(),
-                ) + &periods_text(schedule)
-            }
+            } => format!(
+                "v{dst} = {}",
+                self.gradient_text(*src, *table, Some((*octaves, *style)))
+            ),
             Instr::Fractal {
                 dst,
                 src,
@@ -631,8 +640,37 @@ impl Tape {
             + &bias
     }
 
+    /// A noise gradient (`fractal`: its octave schedule and style) after `v{dst} = `.
+    fn gradient_text(&self, src: Slot, table: u32, fractal: Option<(u32, Style)>) -> String {
+        let basis = basis_name(&self.tables[table as usize].0);
+        match fractal {
+            None => format!("gradient noise v{src} {basis}"),
+            Some((octaves, style)) => {
+                let schedule = &self.octaves[octaves as usize];
+                format!(
+                    "gradient {} v{src} {basis} octaves={}",
+                    style_name(&style),
+                    schedule.len(),
+                ) + &periods_text(schedule)
+            }
+        }
+    }
+
     fn wide_text(&self, w: &Wide) -> String {
         match *w {
+            Wide::NoiseGradient { dst, src, table } => {
+                format!("v{dst} = {} f64", self.gradient_text(src, table, None))
+            }
+            Wide::FractalGradient {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+            } => format!(
+                "v{dst} = {} f64",
+                self.gradient_text(src, table, Some((octaves, style)))
+            ),
             Wide::Noise { dst, src, table } => {
                 format!("d{dst} = {}", self.noise_text(src, table))
             }

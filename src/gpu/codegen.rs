@@ -51,11 +51,17 @@ pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
         source.push_str(text);
         source.push('\n');
     }
-    if tape
-        .instrs
-        .iter()
-        .any(|i| matches!(i, Instr::Wide(Wide::Noise { .. } | Wide::Fractal { .. })))
-    {
+    if tape.instrs.iter().any(|i| {
+        matches!(
+            i,
+            Instr::Wide(
+                Wide::Noise { .. }
+                    | Wide::Fractal { .. }
+                    | Wide::NoiseGradient { .. }
+                    | Wide::FractalGradient { .. }
+            )
+        )
+    }) {
         source.push_str(super::widen::library());
         source.push('\n');
     }
@@ -220,7 +226,7 @@ fn instruction(tape: &Tape, instr: &Instr) -> String {
             table,
             octaves,
             style,
-        } => fractal_gradient(tape, dst, src, table, octaves, style),
+        } => fractal_gradient(tape, dst, src, table, octaves, style, false),
         Instr::Hermite { dst, src, spline } => {
             let h = tape.hermites[spline as usize];
             format!(
@@ -266,10 +272,7 @@ fn wide(tape: &Tape, w: Wide) -> String {
         ),
         Wide::Widen { dst, src } => format!("d{dst} = f64(s{src});"),
         Wide::Narrow { dst, src } => format!("s{dst} = f32(d{src});"),
-        // Refused by `generate` before any instruction is written.
-        // The WGSL noise takes its point in f64 already (the cell split and the octave points
-        // `p · f` in f64, see `common.wgsl`'s `lattice`): only the kernel inside the cell runs in
-        // f32, whose error does not grow with the coordinates (`docs/gpu.md`).
+        // Promoted noise: the bases' f64 forms (`widen.rs`), as the CPU runs its f64 kernels.
         Wide::Noise { dst, src, table } => {
             let key = &tape.tables[table as usize].0;
             let call = sample_call(table, key, key.period, &format!("v{src}"), Kernel::Wide);
@@ -293,6 +296,19 @@ fn wide(tape: &Tape, w: Wide) -> String {
                 bias,
             },
         ),
+        Wide::NoiseGradient { dst, src, table } => {
+            let key = &tape.tables[table as usize].0;
+            let point = format!("v{src}");
+            let call = sample_call(table, key, key.period, &point, Kernel::WideGradient);
+            format!("v{dst} = ({call}).xyz;")
+        }
+        Wide::FractalGradient {
+            dst,
+            src,
+            table,
+            octaves,
+            style,
+        } => fractal_gradient(tape, dst, src, table, octaves, style, true),
     }
 }
 
@@ -451,6 +467,7 @@ fn octave_amplitude(
 
 /// The gradient of a fractal sum, unrolled as [`fractal`] (`wgsl/lattice_grad.wgsl`'s
 /// `GradShaper`, mirroring `noise/derivative.rs`); the dropped octaves' mean adds no slope.
+#[allow(clippy::too_many_arguments)]
 fn fractal_gradient(
     tape: &Tape,
     dst: u32,
@@ -458,28 +475,39 @@ fn fractal_gradient(
     table: u32,
     octaves: u32,
     style: Style,
+    wide: bool,
 ) -> String {
     let key = &tape.tables[table as usize].0;
     let schedule = &tape.octaves[octaves as usize];
     let (code, offset, sharpness) = style_code(style);
-    let mut w = String::from("{\n        var g = gshaper_start();\n");
+    // A promoted gradient: the `_d` forms, offset and sharpness in f64.
+    let (d, kernel, real) = if wide {
+        ("_d", Kernel::WideGradient, f64_literal as fn(f64) -> String)
+    } else {
+        (
+            "",
+            Kernel::Gradient,
+            (|v: f64| f32_literal(v as f32)) as fn(f64) -> String,
+        )
+    };
+    let mut w = format!("{{\n        var g = gshaper_start{d}();\n");
     let lod = lane_lod(tape, octaves, &mut w);
     for k in 0..schedule.frequencies.len() {
         let (point, period) = octave_point(schedule, k, src);
-        let call = sample_call(table, key, period, &point, Kernel::Gradient);
+        let call = sample_call(table, key, period, &point, kernel);
         let _ = writeln!(
             w,
-            "        if ({} < kept) {{\n        let n{k} = {call};\n        g = gshaper_add_f64(g, {code}u, n{k}.w, n{k}.xyz, {}, {}, {}, {});\n        }}",
+            "        if ({} < kept) {{\n        let n{k} = {call};\n        g = gshaper_add_f64{d}(g, {code}u, n{k}.w, n{k}.xyz, {}, {}, {}, {});\n        }}",
             f64_literal(k as f64),
             octave_amplitude(schedule, k, lod.as_ref()),
             f64_literal(schedule.frequencies[k]),
-            f32_literal(offset as f32),
-            f32_literal(sharpness as f32)
+            real(offset),
+            real(sharpness)
         );
     }
     let _ = write!(
         w,
-        "        v{dst} = vec3<f64>(gshaper_gradient(g));\n    }}"
+        "        v{dst} = vec3<f64>(gshaper_gradient{d}(g));\n    }}"
     );
     w
 }
@@ -538,10 +566,9 @@ fn sample_call(
         Basis::White => "white",
         Basis::Cellular(_) => "cellular",
     };
-    let kind = if kernel == Kernel::Gradient {
-        "grad"
-    } else {
-        "sample"
+    let kind = match kernel {
+        Kernel::Gradient | Kernel::WideGradient => "grad",
+        Kernel::Value | Kernel::Wide => "sample",
     };
     let offset = table as usize * TABLE_WORDS;
     let mut args = format!("{offset}u, {point}");
@@ -568,12 +595,15 @@ fn sample_call(
         let (metric, value) = cellular_codes(&c);
         // The jitter is a multiple of 1/256 (`Cellular::new`): the same in f32 and f64.
         let jitter = match kernel {
-            Kernel::Wide => f64_literal(c.jitter()),
-            _ => f32_literal(c.jitter() as f32),
+            Kernel::Wide | Kernel::WideGradient => f64_literal(c.jitter()),
+            Kernel::Value | Kernel::Gradient => f32_literal(c.jitter() as f32),
         };
         let _ = write!(args, ", {metric}u, {value}u, {jitter}");
     }
-    let wide = if kernel == Kernel::Wide { "_d" } else { "" };
+    let wide = match kernel {
+        Kernel::Wide | Kernel::WideGradient => "_d",
+        Kernel::Value | Kernel::Gradient => "",
+    };
     format!("{name}_{kind}{suffix}{wide}({args})")
 }
 
@@ -586,6 +616,8 @@ enum Kernel {
     Wide,
     /// (gradient, value) in f32.
     Gradient,
+    /// (gradient, value) in f64, for a promoted gradient.
+    WideGradient,
 }
 
 /// A spline (colour ramp: vec3, curve: scalar) as a WGSL function of an f64 input, evaluated
@@ -830,14 +862,16 @@ mod tests {
         let shader = generate(&tape).expect("no promoted noise");
         validate(&shader.source).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(shader.channels, tape.channels());
-        // Noise promoted to f64 over ±1e6: the f64 point into the same WGSL noise, widened.
+        // Noise and gradients promoted to f64 over ±1e6: the bases' f64 forms.
         let tape = compile(&graph, Some(1e6));
-        assert!(
+        let has = |f: fn(&Wide) -> bool| {
             tape.instrs
                 .iter()
-                .any(|i| matches!(i, Instr::Wide(Wide::Noise { .. } | Wide::Fractal { .. }))),
-            "{tape}"
-        );
+                .any(|i| matches!(i, Instr::Wide(w) if f(w)))
+        };
+        assert!(has(|w| matches!(w, Wide::Noise { .. })), "{tape}");
+        assert!(has(|w| matches!(w, Wide::Fractal { .. })), "{tape}");
+        assert!(has(|w| matches!(w, Wide::FractalGradient { .. })), "{tape}");
         let shader = generate(&tape).expect("generated");
         validate(&shader.source).unwrap_or_else(|e| panic!("{e}"));
     }

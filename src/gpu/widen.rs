@@ -1,5 +1,5 @@
 //! The noise bases in f64, for noise the precision plan promoted (`Wide::Noise`,
-//! `Wide::Fractal`): derived from the f32 modules (`cell.wgsl` and the bases) so that each
+//! `Wide::Fractal`, `Wide::NoiseGradient`, `Wide::FractalGradient`): derived from the f32 modules (`cell.wgsl` and the bases) so that each
 //! basis keeps one definition. Every item whose text names `f32`, or uses such an item, gets an
 //! `_d` twin with `f32` read as `f64` and `f`-suffixed literals made abstract; the few whose
 //! f32 forms work on bit patterns are written by hand in `wide.wgsl` and the derived twin is
@@ -11,9 +11,10 @@
 use std::collections::{HashMap, HashSet};
 
 /// The f32 modules with f64 twins, in library order.
-const SOURCES: [&str; 4] = [
+const SOURCES: [&str; 5] = [
     include_str!("wgsl/cell.wgsl"),
     include_str!("wgsl/lattice.wgsl"),
+    include_str!("wgsl/lattice_grad.wgsl"),
     include_str!("wgsl/simplex.wgsl"),
     include_str!("wgsl/cellular.wgsl"),
 ];

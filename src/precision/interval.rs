@@ -113,11 +113,69 @@ impl Interval {
     pub fn symmetric(m: f64) -> Interval {
         Interval::new(-m, m)
     }
+
+    /// The values common to both; [`Interval::TOP`] if none (which an enclosure of the same
+    /// quantity cannot give).
+    pub fn intersect(self, b: Interval) -> Interval {
+        Interval::new(self.lo.max(b.lo), self.hi.min(b.hi))
+    }
+
+    /// sin over an interval of radians: the ends' values, widened to ±1 where the interval
+    /// holds a peak (π/2 + 2kπ) or a trough (−π/2 + 2kπ), and by 1e-12 for the rounding of
+    /// the ends' sines.
+    pub fn sin(self) -> Interval {
+        use std::f64::consts::{FRAC_PI_2, TAU};
+        if !(self.lo.is_finite() && self.hi.is_finite()) || self.hi - self.lo >= TAU {
+            return Interval::symmetric(1.0);
+        }
+        let holds = |c: f64| c + ((self.lo - c) / TAU).ceil() * TAU <= self.hi;
+        let (a, b) = (self.lo.sin(), self.hi.sin());
+        let hi = if holds(FRAC_PI_2) { 1.0 } else { a.max(b) };
+        let lo = if holds(-FRAC_PI_2) { -1.0 } else { a.min(b) };
+        Interval::new((lo - 1e-12).max(-1.0), (hi + 1e-12).min(1.0))
+    }
+
+    /// cos over an interval of radians (sin shifted by π/2).
+    pub fn cos(self) -> Interval {
+        self.add(Interval::point(std::f64::consts::FRAC_PI_2)).sin()
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sines_and_cosines_contain_every_sampled_value() {
+        let mut state = 7u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..2000 {
+            let lo = 40.0 * next() - 20.0;
+            let hi = lo + 7.0 * next() * next();
+            let i = Interval::new(lo, hi);
+            let (s, c) = (i.sin(), i.cos());
+            for k in 0..=64 {
+                let x = lo + (hi - lo) * k as f64 / 64.0;
+                assert!(s.lo <= x.sin() && x.sin() <= s.hi, "sin {x} not in {s:?}");
+                assert!(c.lo <= x.cos() && x.cos() <= c.hi, "cos {x} not in {c:?}");
+            }
+            // Tight where no extremum is inside: the ends' values.
+            if hi - lo < 0.5 && s.lo > -1.0 && s.hi < 1.0 {
+                assert!(s.hi - s.lo <= (hi - lo) + 3e-12, "{i:?}: {s:?}");
+            }
+        }
+        let quarter = Interval::new(0.1, 0.2).sin();
+        assert!(
+            (quarter.lo - 0.1f64.sin()).abs() < 1e-11 && (quarter.hi - 0.2f64.sin()).abs() < 1e-11
+        );
+        assert_eq!(Interval::new(1.0, 2.0).sin().hi, 1.0);
+        assert_eq!(Interval::new(3.0, 3.5).cos().lo, -1.0);
+    }
 
     #[test]
     fn products_and_quotients_contain_every_value() {

@@ -54,7 +54,7 @@ pub fn range(op: &Op, ty: Type, args: &[Range], position: Range) -> Range {
             [term(1, 2), term(2, 0), term(0, 1)]
         }
         Op::Normalize => scalar(Interval::symmetric(1.0)),
-        Op::Rotate { .. } => scalar(Interval::symmetric(norm(&args[0]))),
+        Op::Rotate { axis } => rotate_range(*axis, &args[0], args[1][0]),
         Op::Noise(key) => {
             let (lo, hi) = key.basis.range();
             scalar(Interval::new(lo, hi))
@@ -94,6 +94,31 @@ fn componentwise(ty: Type, args: &[Range], f: impl Fn(&[Interval]) -> Interval) 
         out = [out[0]; 3];
     }
     out
+}
+
+/// Rodrigues' formula over intervals (`ops::rotation_matrix`): the sum of v cos θ,
+/// (a × v) sin θ and a (a · v)(1 − cos θ), each component also within the norm bound |v| that
+/// any rotation keeps. Per component, so a point far along one axis and turned by a known angle keeps its
+/// other components' ranges (and a square root of their squares stays away from 0).
+fn rotate_range(axis: [f64; 3], v: &Range, degrees: Interval) -> Range {
+    let n = Interval::symmetric(norm(v));
+    let Some(a) = crate::ops::normalise_axis(axis) else {
+        return [n; 3];
+    };
+    let theta = degrees.mul(Interval::point(PI / 180.0));
+    let (c, s) = (theta.cos(), theta.sin());
+    let k = a.map(Interval::point);
+    let cross = [
+        k[1].mul(v[2]).sub(k[2].mul(v[1])),
+        k[2].mul(v[0]).sub(k[0].mul(v[2])),
+        k[0].mul(v[1]).sub(k[1].mul(v[0])),
+    ];
+    let along = (0..3).fold(Interval::point(0.0), |d, i| d.add(k[i].mul(v[i])));
+    let t = Interval::point(1.0).sub(c);
+    std::array::from_fn(|i| {
+        let r = v[i].mul(c).add(cross[i].mul(s)).add(k[i].mul(along).mul(t));
+        r.intersect(n)
+    })
 }
 
 fn norm(r: &Range) -> f64 {
@@ -475,14 +500,15 @@ pub fn f64_roundings(op: &Op, ty: Type) -> f64 {
 }
 
 /// Operations the fast path can run in f64 on the wide slots (`Instr::Wide`): the math, the
-/// vector operations that read or make scalars, and noise samples and fractal sums (every
-/// basis' f64 form, the reference path's kernels).
+/// vector operations that read or make scalars, and noise samples, fractal sums and their
+/// gradients (every basis' f64 form, the reference path's kernels).
 pub fn promotable(op: &Op, ty: Type) -> bool {
     match op {
         Op::Component(_) | Op::Dot | Op::Length | Op::Splat | Op::Combine => true,
         Op::Rotate { .. } => true,
         Op::Unary(_) | Op::Binary(_) | Op::Ternary(_) => ty == Type::Scalar,
         Op::Noise(_) | Op::Fractal(..) => ty == Type::Scalar,
+        Op::NoiseGradient(_) | Op::FractalGradient(..) => true,
         _ => false,
     }
 }

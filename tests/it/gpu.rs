@@ -91,6 +91,63 @@ fn huge_coordinates_keep_their_lattice_cells() {
     }
 }
 
+/// Remainders of huge quotients are exact on the GPU as on the CPU (`d_rem` in math.wgsl, Rust's
+/// `%`): `Mod` of coordinates near 1e9 by small divisors gives the CPU's bits, and a rotation by
+/// `p · p` degrees (about 1e17 at the first point, which the random-graph test found: the old
+/// `a - b trunc(a / b)` turned it by a wrong angle) the CPU's value. Compared with the CPU
+/// directly: the contract's allowance for what f64 cannot resolve would hide both.
+#[test]
+fn huge_remainders_are_exact() {
+    if !common::gpu_available("huge_remainders_are_exact") {
+        return;
+    }
+    let text = r#"Graph(nodes: { "p": Position }, outputs: {
+        "m": Mod("p.y", 0.7),
+        "n": Mod(Mul("p.x", 1e7), -3.3),
+        "r": Fract(Rotate(input: Fract(Position), axis: (0.7662260375145, 0.9074880978852755, 0.3), degrees: Dot("p", "p"))),
+    })"#;
+    let graph = texgraph::check(
+        texgraph::SourceFile::new("rem.ron", text),
+        &CheckOptions::default(),
+    )
+    .unwrap_or_else(|e| panic!("{}", e.render_plain()));
+    let mut set = vec![[6.988227852850647, 319832753.1311973, 7.073275865146616]];
+    set.extend(points(300, 0.0, 1e9, 5));
+    let n = set.len();
+    let [x, y, z] = [0, 1, 2].map(|c| set.iter().map(|p| p[c]).collect::<Vec<f64>>());
+    let options = CompileOptions {
+        extent: Extent::around(&x, &y, &z),
+        ..Default::default()
+    };
+    let tape = texgraph::compile(&graph, &options).expect("compiles");
+    let gpu = GpuEvaluator::new(&tape).expect("compiles on the GPU");
+    let mut cpu = vec![0f32; 5 * n];
+    let mut on_gpu = vec![0f32; 5 * n];
+    tape.eval_batch(&mut texgraph::Workspace::new(), &x, &y, &z, &mut cpu);
+    gpu.eval_batch(&x, &y, &z, &mut on_gpu).expect("runs");
+    for (i, p) in set.iter().enumerate() {
+        for c in 0..2 {
+            let k = c * n + i;
+            assert_eq!(
+                on_gpu[k].to_bits(),
+                cpu[k].to_bits(),
+                "Mod channel {c} at {p:?}: GPU {} CPU {}",
+                on_gpu[k],
+                cpu[k]
+            );
+        }
+        for c in 2..5 {
+            let k = c * n + i;
+            assert!(
+                (on_gpu[k] - cpu[k]).abs() <= 1e-5,
+                "rotation channel {c} at {p:?}: GPU {} CPU {}",
+                on_gpu[k],
+                cpu[k]
+            );
+        }
+    }
+}
+
 /// A bake on the GPU writes what a bake on the CPU writes, within the contract, whatever the
 /// grid's shape (rows split into several segments, a region away from the origin).
 #[test]

@@ -20,6 +20,7 @@ mod cli;
 mod conformance;
 mod docs;
 mod errors;
+mod far_points;
 mod fuzz_corpus;
 mod golden;
 #[cfg(feature = "gpu")]

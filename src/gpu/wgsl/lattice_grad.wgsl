@@ -510,7 +510,7 @@ fn gshaper_add_f64(
             let signal = power * s.weight;
             // d power = sharpness · ridge^(sharpness - 1) · d ridge, d ridge = -sign(n) · f · dn
             // while ridge > 0; else 0 (a NaN n gives a NaN g, so the zero keeps the NaN).
-            var slope = 0.0;
+            var slope: f32 = 0.0;
             if (!lg_is_nan(ridge) && ridge > 0.0) {
                 slope = -lg_div(sharp * power, ridge) * lg_sign(n) * f32(freq);
             }

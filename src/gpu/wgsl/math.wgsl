@@ -177,8 +177,54 @@ fn s_atan2(y: f32, x: f32) -> f32 {
     if (x == 0.0) { return ysign * 0.5 * pi; }
     return atan2(y, x);
 }
-// Floored modulo (ops::floored_mod): fmod in f64 (exact for f32 operands), moved into b's
-// half-line.
+// Rust's `%` on f64 (IEEE fmod: a - b trunc(a / b), the sign of a), exactly, for finite a and
+// finite nonzero b. `a - b * trunc(a / b)` is not exact once the quotient passes 2^20 or so (the
+// product rounds), which a rotation by 1e17 degrees shows. Long division instead: each step
+// takes a quotient q below 2^22 of the remainder by the divisor scaled by 2^j (exact), and
+// forms r - d q exactly: d = dh + dl with dh of 24 significant bits (through f32; any rounding
+// will do) and dl of at most 30, so dh q and dl q are exact products, r - dh q is exact by
+// Sterbenz's lemma and the last subtraction's result, below d, is representable. q is taken
+// from a quotient nudged up by 1e-12, so it is never one too few; one too many leaves a
+// negative remainder, moved up by d (exactly). Divisors outside f32's range are brought into it
+// by powers of two first. Subnormal divisors split inexactly (rare; the result stays within an
+// ulp of d).
+fn d_rem(a: f64, b: f64) -> f64 {
+    let two100 = 1267650600228229401496703205376.0lf;
+    var m = abs(b);
+    var r = abs(a);
+    if (r < m) { return a; }
+    // m = ms 2^e with ms in f32's range.
+    var ms = m;
+    var e = 0;
+    for (var i = 0; i < 12 && ms > 1e30lf; i = i + 1) { ms = ms / two100; e = e + 100; }
+    for (var i = 0; i < 12 && ms < 1e-30lf; i = i + 1) { ms = ms * two100; e = e - 100; }
+    let msh = f64(f32(ms));
+    let msl = ms - msh;
+    for (var i = 0; i < 160; i = i + 1) {
+        if (r < m) { break; }
+        // j: the divisor m 2^j leaves a quotient in [2^20, 2^21) (or m itself below 2^20).
+        var ratio = r / m;
+        var j = 0;
+        for (var k = 0; k < 24 && ratio > 1e30lf; k = k + 1) { ratio = ratio / two100; j = j + 100; }
+        if (ratio >= 1048576.0lf) {
+            let bits = bitcast<u32>(f32(ratio));
+            j = j + i32((bits >> 23u) & 255u) - 127 - 20;
+        }
+        let d = ldexp(ms, e + j);
+        let dh = ldexp(msh, e + j);
+        let dl = ldexp(msl, e + j);
+        let q = d_trunc((r / d) * (1.0lf + 1e-12lf));
+        let t = r - dh * q;
+        var rr = t - dl * q;
+        if (rr < 0.0lf) { rr = rr + d; }
+        r = rr;
+    }
+    if (a < 0.0lf) { return -r; }
+    return r;
+}
+
+// Floored modulo (ops::floored_mod): fmod in f64 (`d_rem`, exact; an f32 operands' remainder
+// is an f32), moved into b's half-line.
 fn s_mod(a: f32, b: f32) -> f32 {
     if (b == 0.0 || is_inf(a) || is_nan(a) || is_nan(b)) { return nan_f32(); }
     if (is_inf(b)) {
@@ -187,7 +233,7 @@ fn s_mod(a: f32, b: f32) -> f32 {
     }
     let ad = f64(a);
     let bd = f64(b);
-    let r = f32(ad - bd * d_trunc(ad / bd));
+    let r = f32(d_rem(ad, bd));
     if (r != 0.0 && ((r < 0.0) != (b < 0.0))) {
         let moved = r + b;
         if (moved == b) { return b * ONE_BELOW_F32; }
@@ -473,7 +519,7 @@ fn d_mod(a: f64, b: f64) -> f64 {
         if (a == 0.0lf || (a < 0.0lf) == (b < 0.0lf)) { return a; }
         return b;
     }
-    let r = a - b * d_trunc(a / b);
+    let r = d_rem(a, b);
     if (r != 0.0lf && ((r < 0.0lf) != (b < 0.0lf))) {
         let moved = r + b;
         if (moved == b) { return b * ONE_BELOW_F64; }

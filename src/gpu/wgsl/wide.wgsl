@@ -32,3 +32,16 @@ fn cellular_nan_d(zero: f64) -> f64 {
 fn cellular_is_nan3_d(v: vec3<f64>) -> bool {
     return is_nan3_d(v);
 }
+
+fn lg_is_nan_d(v: f64) -> bool {
+    return is_nan_d(v);
+}
+
+fn lg_nan_d() -> f64 {
+    return nan_d();
+}
+
+// `f64::powf` for the ridge: math.wgsl's `d_pow` (IEEE special values, negative bases).
+fn lg_powf_d(x: f64, e: f64) -> f64 {
+    return d_pow(x, e);
+}
