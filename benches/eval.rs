@@ -12,6 +12,9 @@
 //! `eval/seed003_marble/far`: the same marble on the same slab moved to x = 1e6, compiled for
 //! that extent (its coordinate chain in f64), beside `far_plain_f32` (the plain tape there) and
 //! `texgraph_batch_f32_extent` (compiled for the slab's own extent: the plain tape).
+//! `eval/simplex/texgraph_batch_f32_tiled`: the same simplex tiled at periods (5, 7, 11).
+//! `eval/seed004_wood_grain/{near,far_plain_f32,far,far_f64}`: the wood grain on the slab and
+//! at x = 1e6, where the precision plan promotes its noise to f64 (issue 32).
 //! `compile/N`: parse + check + compile of a generated graph of N nodes (inline nodes included).
 //!
 //! `eval/seed003_marble/texgraph_batch_lod_f32_{fine,receding}`: `Tape::eval_batch_lod` with
@@ -422,6 +425,20 @@ fn family_benches(c: &mut Criterion) {
             &[],
         ),
     );
+    // Tiled at periods no power of two and no multiple of 3 (the old lattice's only ones).
+    let tiled = compile_text(
+        r#"Graph(outputs: { "s": Noise(input: Position, basis: Simplex, period: (5, 7, 11)) })"#,
+        &[],
+    );
+    let (x, y, z) = slab();
+    group.bench_function("texgraph_batch_f32_tiled", |b| {
+        let mut ws = Workspace::<f32>::new();
+        let mut out = vec![0f32; x.len()];
+        b.iter(|| {
+            tiled.eval_batch(&mut ws, &x, &y, &z, &mut out);
+            black_box(&out);
+        })
+    });
     let mut os2 = fastnoise_lite::FastNoiseLite::new();
     os2.set_noise_type(Some(fastnoise_lite::NoiseType::OpenSimplex2));
     os2.set_frequency(Some(1.0));
@@ -648,6 +665,75 @@ fn eval_benches(c: &mut Criterion) {
     group.finish();
 }
 
+/// The seed 004 wood grain on the slab and moved to x = 1e6 (issue 32): near, compiled for the
+/// slab (the plain tape); `far_plain_f32`, the plain tape there (its noise and coordinate
+/// chain rounded in f32: off by up to 1 in the grain); `far`, compiled for that extent (the
+/// coordinate chain and both noises promoted: the Perlin samples run their f64 kernels); and
+/// `far_f64`, the whole tape in f64, the reference.
+fn wood_grain_benches(c: &mut Criterion) {
+    let text =
+        std::fs::read_to_string("graphs/seed004_wood_grain.ron").expect("run from the crate root");
+    let graph = check(
+        SourceFile::new("seed004_wood_grain.ron", text),
+        &CheckOptions::default(),
+    )
+    .expect("valid graph");
+    let tape_for = |extent: Option<texgraph::Extent>| {
+        let options = CompileOptions {
+            outputs: vec!["grain".into()],
+            extent,
+            ..Default::default()
+        };
+        compile(&graph, &options).expect("compiles")
+    };
+    let (x, y, z) = slab();
+    let n = x.len();
+    let plain = tape_for(None);
+    let near = tape_for(Some(texgraph::Extent::new([0.0; 3], [8.0; 3])));
+    let far_x: Vec<f64> = x.iter().map(|v| v + 1e6).collect();
+    let far = tape_for(Some(texgraph::Extent::new(
+        [1e6, 0.0, 0.0],
+        [1e6 + 8.0, 8.0, 8.0],
+    )));
+    // Listing lines `NNNN  dK = noise v…`: noise written to a wide slot.
+    let listing = far.to_string();
+    let promoted_noise = listing
+        .lines()
+        .filter(|l| {
+            let w: Vec<&str> = l.split_whitespace().collect();
+            w.len() > 3 && w[1].starts_with('d') && w[3] == "noise"
+        })
+        .count();
+    assert!(
+        promoted_noise >= 1,
+        "the far wood grain promotes its noise:\n{listing}"
+    );
+    let mut group = new_group(c, "eval/seed004_wood_grain");
+    for (name, tape, xs) in [
+        ("near", &near, &x),
+        ("far_plain_f32", &plain, &far_x),
+        ("far", &far, &far_x),
+    ] {
+        group.bench_function(name, |b| {
+            let mut ws = Workspace::<f32>::new();
+            let mut out = vec![0f32; n];
+            b.iter(|| {
+                tape.eval_batch(&mut ws, xs, &y, &z, &mut out);
+                black_box(&out);
+            })
+        });
+    }
+    group.bench_function("far_f64", |b| {
+        let mut ws = Workspace::<f64>::new();
+        let mut out = vec![0f64; n];
+        b.iter(|| {
+            plain.eval_batch(&mut ws, &far_x, &y, &z, &mut out);
+            black_box(&out);
+        })
+    });
+    group.finish();
+}
+
 /// A generated graph of `n` nodes, counted as the checker counts them ("written", inline nodes
 /// included; `texgraph check` prints both counts): a chain of fbm, math and transform nodes
 /// with cross links, some of them nested. 1 000 nodes are 625 ids in `nodes`, 1 502 nodes
@@ -721,6 +807,7 @@ criterion_group!(
     benches,
     eval_benches,
     family_benches,
+    wood_grain_benches,
     gradient_benches,
     compile_benches
 );

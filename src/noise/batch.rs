@@ -27,12 +27,14 @@
 //! never contracts `a * b + c` into an FMA nor reassociates, so compiling for FMA-capable
 //! targets changes no result.
 //!
-//! Simplex noise ([`simplex`]) follows the same plan with its own loops: the skewed cell and
-//! tetrahedron per lane in f64 (the tetrahedron kept as axis masks, so the eight vertex offsets
-//! are arithmetic, not table reads), each vertex's gradient by byte shuffles straight from the
-//! hash (`NoiseTable::signs`), then one pass summing the eight terms in S. Measured on the
-//! benches' 65 536-point slab (`cargo bench --bench eval -- eval/simplex`, AVX-512 VBMI): 3.3 ms
-//! with one loop per vertex over table reads, 0.81 ms now.
+//! Simplex noise ([`simplex`]) follows the same plan with its own loops: the cell and
+//! tetrahedron of the body-centred cubic lattice per lane in f64 (the tetrahedron kept as axis
+//! masks, so the four vertex offsets are arithmetic, not table reads), each vertex's gradient
+//! by byte shuffles straight from the hash (`NoiseTable::signs`), then one pass summing the four
+//! terms in S; tiled, the points are reduced into the period first and each vertex's hash bytes
+//! come from its doubled coordinates mod twice the period. Those loops run over the whole chunk
+//! (a constant count; see `SimplexLanes::sum`). Measured on the benches' 65 536-point slab
+//! (`cargo bench --bench eval -- eval/simplex`, AVX-512 VBMI): 0.24 ms, 1.44× simdnoise's time.
 //!
 //! Batches of fewer than [`SMALL`] lanes (the interpreter's per-point path) and CPUs without
 //! SSE4.1 run the per-point kernels in a loop instead: no dispatch, no stack arrays, no libm
@@ -1162,7 +1164,13 @@ impl<S: Real> CellLanes<S> {
 /// second), one vertex's hash index bytes at a time, and each vertex's gradient bytes.
 struct SimplexLanes<const N: usize = CHUNK> {
     cell: [[u8; N]; 3],
+    /// Tiled: the whole cells of the reduced points (below the period) and twice each axis'
+    /// period (0 for an untiled axis).
+    whole: [[i32; N]; 3],
+    twice_period: [i32; 3],
     frac: [[f64; N]; 3],
+    /// The fractions rounded to f32, for the f32 terms (`simplex::offset`).
+    frac32: [[f32; N]; 3],
     carry: [[u8; N]; 3],
     first: [[u8; N]; 3],
     second: [[u8; N]; 3],
@@ -1176,7 +1184,10 @@ impl SimplexLanes {
     fn new() -> Self {
         SimplexLanes {
             cell: [[0; CHUNK]; 3],
+            whole: [[0; CHUNK]; 3],
+            twice_period: [0; 3],
             frac: [[0.0; CHUNK]; 3],
+            frac32: [[0.0; CHUNK]; 3],
             carry: [[0; CHUNK]; 3],
             first: [[0; CHUNK]; 3],
             second: [[0; CHUNK]; 3],
@@ -1192,7 +1203,6 @@ impl SimplexLanes {
     #[inline(always)]
     fn locate<const FAST: bool>(&mut self, p: [&[f64]; 3]) {
         const MAGIC: f64 = 6_755_399_441_055_744.0; // 1.5 · 2^52, see `lattice_lane_fast`
-        let n = p[0].len().min(CHUNK);
         for ((src, cell), frac) in p.into_iter().zip(&mut self.cell).zip(&mut self.frac) {
             for ((&x, cell), frac) in src.iter().zip(cell.iter_mut()).zip(frac.iter_mut()) {
                 if FAST {
@@ -1204,8 +1214,14 @@ impl SimplexLanes {
                 }
             }
         }
+        for (f, f32s) in self.frac.iter().zip(&mut self.frac32) {
+            for (&f, f32s) in f.iter().zip(f32s.iter_mut()) {
+                *f32s = f as f32;
+            }
+        }
         let f = &self.frac;
-        for i in 0..n {
+        // Every lane of the chunk, a constant count (see `sum`).
+        for i in 0..CHUNK {
             let sums = [f[1][i] + f[2][i], f[0][i] + f[2][i], f[0][i] + f[1][i]];
             let carry = sums.map(|s| s.floor());
             let skewed = [sums[0] - carry[0], sums[1] - carry[1], sums[2] - carry[2]];
@@ -1226,6 +1242,55 @@ impl SimplexLanes {
                 self.carry[a][i] = u8::from(carry[a] >= 1.0);
                 self.first[a][i] = u8::from(first[a]);
                 self.second[a][i] = u8::from(second[a]);
+            }
+        }
+    }
+
+    /// Tiled: each lane's point reduced into the period (`period::reduce3`'s numbers) into
+    /// `reduced`, and on each tiled axis its whole cell, below the period. Per axis over the
+    /// lanes, branch-free (`reduce_fast`) where every coordinate is below 2^51.
+    #[inline(always)]
+    fn reduce(&mut self, reduced: &mut [[f64; CHUNK]; 3], p: [&[f64]; 3], period: Period) {
+        use super::period;
+        let n = p[0].len().min(CHUNK);
+        let fast = fits(p, 1.0);
+        for a in 0..3 {
+            let (src, dst, whole) = (&p[a][..n], &mut reduced[a][..n], &mut self.whole[a][..n]);
+            let pa = period[a];
+            if pa == 0 || pa > 1 << 20 {
+                dst.copy_from_slice(src);
+            } else if fast {
+                const MAGIC: f64 = 6_755_399_441_055_744.0; // 1.5 · 2^52: m's bits, as `locate`
+                let (pf, inverse) = (pa as f64, 1.0 / pa as f64);
+                for ((&x, q), w) in src.iter().zip(dst.iter_mut()).zip(whole.iter_mut()) {
+                    let (r, m) = period::reduce_fast(x, pf, inverse);
+                    // m is an integer in [0, 2^20): its low bits after adding 1.5 · 2^52 (no
+                    // saturating conversion).
+                    (*q, *w) = (r, (m + MAGIC).to_bits() as i32);
+                }
+            } else {
+                for ((&x, q), w) in src.iter().zip(dst.iter_mut()).zip(whole.iter_mut()) {
+                    // A non-finite x keeps its value (the lane is NaN); its cell is unused.
+                    let (r, m) = period::reduce(x, pa);
+                    (*q, *w) = (r, m as i32);
+                }
+            }
+        }
+        // An untiled axis is taken mod 512 (its whole cell is its cell byte, see
+        // `untiled_cells`): the hash reads the doubled coordinates mod 512 anyway.
+        self.twice_period = period.map(|p| if p == 0 { 512 } else { 2 * p as i32 });
+    }
+
+    /// Tiled: each untiled axis' whole cells are its cell bytes (after [`SimplexLanes::locate`]),
+    /// so that [`SimplexLanes::tiled_vertices`] treats every axis alike.
+    #[inline(always)]
+    fn untiled_cells(&mut self, period: Period, n: usize) {
+        for a in 0..3 {
+            if period[a] == 0 {
+                let (whole, cell) = (&mut self.whole[a][..n], &self.cell[a][..n]);
+                for (w, &c) in whole.iter_mut().zip(cell) {
+                    *w = i32::from(c);
+                }
             }
         }
     }
@@ -1252,19 +1317,24 @@ impl SimplexLanes {
         perm: &[u8; 512],
         signs: &[[u8; 256]; 3],
         n: usize,
-        shuffle: bool,
+        (shuffle, tiled): (bool, bool),
     ) {
         let n = n.min(CHUNK);
-        for i in 0..n {
-            let c = [self.cell[0][i], self.cell[1][i], self.cell[2][i]];
-            let s = [
-                self.skewed::<K>(0, i),
-                self.skewed::<K>(1, i),
-                self.skewed::<K>(2, i),
-            ];
-            self.vertex[0][i] = c[1].wrapping_add(c[2]).wrapping_add(s[0]);
-            self.vertex[1][i] = c[0].wrapping_add(c[2]).wrapping_add(s[1]);
-            self.vertex[2][i] = c[0].wrapping_add(c[1]).wrapping_add(s[2]);
+        if tiled {
+            self.tiled_vertices::<K>();
+        } else {
+            // Every lane of the chunk, a constant count (see `sum`).
+            for i in 0..CHUNK {
+                let c = [self.cell[0][i], self.cell[1][i], self.cell[2][i]];
+                let s = [
+                    self.skewed::<K>(0, i),
+                    self.skewed::<K>(1, i),
+                    self.skewed::<K>(2, i),
+                ];
+                self.vertex[0][i] = c[1].wrapping_add(c[2]).wrapping_add(s[0]);
+                self.vertex[1][i] = c[0].wrapping_add(c[2]).wrapping_add(s[1]);
+                self.vertex[2][i] = c[0].wrapping_add(c[1]).wrapping_add(s[2]);
+            }
         }
         if shuffle {
             // SAFETY: `shuffle` is true only in the clone compiled for avx512vbmi (see
@@ -1283,14 +1353,46 @@ impl SimplexLanes {
         }
     }
 
-    /// Vertex `K`'s term at lane `i`, in S: its offset `frac - half / 2` (f64, rounded once;
-    /// `simplex::half_offset` of the skewed offsets) and its gradient.
+    /// Tiled: vertex `K`'s hash index bytes from its doubled coordinates, each tiled axis' taken
+    /// mod twice the period (`simplex::reach_periodic`: `2 cell + half` lies in
+    /// [-2, 2P + 2], so one addition and two subtractions of 2P reduce it, branch-free), an
+    /// untiled axis' from its cell byte, mod 512 the same way (the same bytes: the hash reads
+    /// the sums mod 512); then the skewed coordinates mod 256 as `simplex::vertex_hash` forms
+    /// them.
+    #[inline(always)]
+    fn tiled_vertices<const K: usize>(&mut self) {
+        let tp = self.twice_period;
+        // Every lane of the chunk, a constant count (see `sum`).
+        for i in 0..CHUNK {
+            let s: [i32; 3] = std::array::from_fn(|a| i32::from(self.skewed::<K>(a, i)));
+            let half = [-s[0] + s[1] + s[2], s[0] - s[1] + s[2], s[0] + s[1] - s[2]];
+            let twice: [i32; 3] = std::array::from_fn(|a| {
+                let mut t = 2 * self.whole[a][i] + half[a];
+                t += if t < 0 { tp[a] } else { 0 };
+                t -= if t >= tp[a] { tp[a] } else { 0 };
+                t - if t >= tp[a] { tp[a] } else { 0 }
+            });
+            self.vertex[0][i] = (((twice[1] + twice[2]) & 511) >> 1) as u8;
+            self.vertex[1][i] = (((twice[0] + twice[2]) & 511) >> 1) as u8;
+            self.vertex[2][i] = (((twice[0] + twice[1]) & 511) >> 1) as u8;
+        }
+    }
+
+    /// Vertex `K`'s term at lane `i`, in S: its offset `frac - half / 2` in S from the fraction
+    /// rounded to S (`simplex::offset`; in f32 from `frac32`, so the lane loop touches no f64
+    /// and runs on 16 lanes with AVX-512) and its gradient.
     #[inline(always)]
     fn term<S: Real, const K: usize>(&self, i: usize) -> S {
-        let s: [i64; 3] = std::array::from_fn(|a| i64::from(self.skewed::<K>(a, i)));
+        let s: [i32; 3] = std::array::from_fn(|a| i32::from(self.skewed::<K>(a, i)));
         let half = [-s[0] + s[1] + s[2], s[0] - s[1] + s[2], s[0] + s[1] - s[2]];
-        let d: [S; 3] =
-            std::array::from_fn(|a| S::from_f64(self.frac[a][i] - half[a] as f64 * 0.5));
+        let d: [S; 3] = std::array::from_fn(|a| {
+            let f = if S::MANTISSA_BITS == 24 {
+                S::from_f64(f64::from(self.frac32[a][i]))
+            } else {
+                S::from_f64(self.frac[a][i])
+            };
+            f - S::from_f64(f64::from(half[a]) * 0.5)
+        });
         let grad = &self.grad[K];
         let g: [S; 3] = std::array::from_fn(|a| S::from_f64(f64::from(grad[a][i] as i8)));
         super::simplex::term(d, g)
@@ -1305,7 +1407,10 @@ impl SimplexLanes {
         // Summed into a stack array, then copied: writing `out` in the loop made LLVM check it
         // against the lane arrays at run time and take a scalar loop.
         let mut sums = [S::ZERO; CHUNK];
-        for i in 0..n {
+        // Over every lane of the chunk, a constant count (the lanes past n hold the last
+        // chunk's or zeroed numbers, computed and dropped): over `0..n` LLVM kept a scalar
+        // epilogue of a whole vector (16 of 256 lanes, 14% of the run time).
+        for i in 0..CHUNK {
             let mut sum = S::ZERO;
             sum = sum + self.term::<S, 0>(i);
             sum = sum + self.term::<S, 1>(i);
@@ -1365,12 +1470,50 @@ pub(super) fn simplex<S: Real>(
         return reference_batch(|p| sx::sample(perm, p), x, y, z, out);
     }
     let shuffle = target_cfg_f!(target_feature = "avx512vbmi") && !table_reads_forced();
-    simplex_chunks(perm, signs, [x, y, z], out, shuffle);
+    simplex_chunks(perm, signs, [x, y, z], out, shuffle, None);
 }
 }
 
-/// [`simplex`]'s chunk loop; `shuffle` picks the byte-shuffle gradients (true only in the
-/// AVX-512 VBMI clone).
+simd_targets! {
+/// Tiled simplex noise over a batch, `out[i]` = `simplex::sample_periodic` bit for bit: the
+/// points reduced into the period per lane, then [`simplex`]'s passes with each vertex's hash
+/// bytes from its doubled coordinates mod twice the period (periods up to 2^20 on every axis,
+/// 0 for an untiled one; beyond, the point function per lane).
+pub(super) fn simplex_periodic<S: Real>(
+    perm: &[u8; 512],
+    signs: &[[u8; 256]; 3],
+    period: Period,
+    x: &[f64],
+    y: &[f64],
+    z: &[f64],
+    out: &mut [S],
+) {
+    use super::simplex as sx;
+    let supported = period.iter().all(|&p| p <= 1 << 20);
+    if !target_cfg_f!(target_feature = "sse4.1") || !supported {
+        return reference_batch(|p| sx::sample_periodic(perm, p, period), x, y, z, out);
+    }
+    let shuffle = target_cfg_f!(target_feature = "avx512vbmi") && !table_reads_forced();
+    simplex_chunks(perm, signs, [x, y, z], out, shuffle, Some(period));
+}
+}
+
+/// [`simplex_chunks`]'s lanes and reduced points, kept per thread: a fresh 20 kB of zeroed
+/// arrays per call of 256 points cost as much as a fifth of the kernel.
+struct SimplexScratch {
+    lanes: SimplexLanes,
+    reduced: [[f64; CHUNK]; 3],
+}
+
+thread_local! {
+    /// Taken out for a call and put back after it (no closure around the kernel: a closure
+    /// would not get the multiversioned function's target features).
+    static SIMPLEX_SCRATCH: std::cell::Cell<Option<Box<SimplexScratch>>> =
+        const { std::cell::Cell::new(None) };
+}
+
+/// [`simplex`]'s and [`simplex_periodic`]'s chunk loop; `shuffle` picks the byte-shuffle
+/// gradients (true only in the AVX-512 VBMI clone).
 #[inline(always)]
 fn simplex_chunks<S: Real>(
     perm: &[u8; 512],
@@ -1378,25 +1521,44 @@ fn simplex_chunks<S: Real>(
     [x, y, z]: [&[f64]; 3],
     out: &mut [S],
     shuffle: bool,
+    period: Option<Period>,
 ) {
-    let mut lanes = SimplexLanes::new();
+    let mut scratch = SIMPLEX_SCRATCH.take().unwrap_or_else(|| {
+        Box::new(SimplexScratch {
+            lanes: SimplexLanes::new(),
+            reduced: [[0.0; CHUNK]; 3],
+        })
+    });
+    let SimplexScratch { lanes, reduced } = &mut *scratch;
     let chunks = out
         .chunks_mut(CHUNK)
         .zip(x.chunks(CHUNK).zip(y.chunks(CHUNK)).zip(z.chunks(CHUNK)));
+    let how = (shuffle, period.is_some());
     for (out, ((x, y), z)) in chunks {
         let n = out.len();
+        let p = match period {
+            Some(period) => {
+                lanes.reduce(reduced, [x, y, z], period);
+                [&reduced[0][..n], &reduced[1][..n], &reduced[2][..n]]
+            }
+            None => [x, y, z],
+        };
         // `fits` with f = 1 is |x| < 2^51 for every coordinate.
-        if fits([x, y, z], 1.0) {
-            lanes.locate::<true>([x, y, z]);
+        if fits(p, 1.0) {
+            lanes.locate::<true>(p);
         } else {
-            lanes.locate::<false>([x, y, z]);
+            lanes.locate::<false>(p);
         }
-        lanes.gradients::<0>(perm, signs, n, shuffle);
-        lanes.gradients::<1>(perm, signs, n, shuffle);
-        lanes.gradients::<2>(perm, signs, n, shuffle);
-        lanes.gradients::<3>(perm, signs, n, shuffle);
+        if let Some(period) = period {
+            lanes.untiled_cells(period, n);
+        }
+        lanes.gradients::<0>(perm, signs, n, how);
+        lanes.gradients::<1>(perm, signs, n, how);
+        lanes.gradients::<2>(perm, signs, n, how);
+        lanes.gradients::<3>(perm, signs, n, how);
         lanes.sum(out);
     }
+    SIMPLEX_SCRATCH.set(Some(scratch));
 }
 
 /// Which lanes of an axis whose scaled coordinates `x · f` all lie inside [0, P) sit in the

@@ -352,6 +352,21 @@ impl NoiseKernel for SimplexKernel<'_> {
         canonical_nan(simplex::sample_periodic(self.perm, p, period))
     }
 
+    /// The tiled lane kernel of `batch.rs`, bit for bit `sample_periodic`.
+    fn sample_batch_periodic<S: Real>(
+        &self,
+        period: Period,
+        x: &[f64],
+        y: &[f64],
+        z: &[f64],
+        out: &mut [S],
+    ) {
+        if out.len() < SMALL {
+            return reference_batch(|p| self.sample_periodic(p, period), x, y, z, out);
+        }
+        batch::simplex_periodic(self.perm, self.signs, period, x, y, z, out);
+    }
+
     fn sample_grad<S: Real>(&self, p: [f64; 3]) -> (S, [S; 3]) {
         let (v, g) = simplex::sample_grad(self.perm, p);
         (canonical_nan(v), g.map(canonical_nan))

@@ -27,7 +27,8 @@
 //! in f64 at any magnitude, as the lattice bases split them): `u = y + z` has the cell
 //! `Y + Z + floor(fy + fz)` and the fraction `fy + fz - floor(fy + fz)`, so the offsets to the
 //! vertices, `f - k/2` for small integers k, involve small numbers only, and the hash needs the
-//! cells mod 256 only.
+//! cells mod 256 only. The fractions are then rounded to the kernel's type once and the offsets
+//! formed there ([`offset`]).
 //!
 //! Tiling: a vertex is hashed as its translate into the period box (each coordinate, in halves,
 //! mod twice the period, which keeps it an integer or a half-integer), so a vertex and its
@@ -203,10 +204,13 @@ pub(super) fn gradient<S: Real>(h: usize) -> [S; 3] {
 }
 
 /// The offset from vertex `half / 2` (relative to the cell corner) to the point of fractions
-/// `f`: `f - half / 2`, in f64 (exact: small halves from numbers in [0, 1)), rounded to S once.
+/// `f`: `f - half / 2` in S, the fraction rounded to S first (exact in f64; in f32 two roundings,
+/// within 2^-24 of the exact offset, and zero on the vertex itself). The fraction in S once per
+/// point, not once per vertex in f64, is what lets the batch kernel run its terms on 16 f32
+/// lanes (issue 32's speed goal).
 #[inline(always)]
 pub(super) fn offset<S: Real>(f: [f64; 3], half: [i64; 3]) -> [S; 3] {
-    std::array::from_fn(|a| S::from_f64(f[a] - half[a] as f64 * 0.5))
+    std::array::from_fn(|a| S::from_f64(f[a]) - S::from_f64(half[a] as f64 * 0.5))
 }
 
 /// One vertex's term `(max(0.5 - r², 0))⁴ (g · d)` at offset `d` from it.
@@ -257,7 +261,7 @@ fn sum<S: Real>(reach: Reach<S>) -> S {
 }
 
 /// One sample. Positions in f64, the kernel arithmetic in `S` (the offsets are small numbers,
-/// computed in f64 and rounded once).
+/// from the fractions rounded to S, see [`offset`]).
 #[inline(always)]
 pub(super) fn sample<S: Real>(perm: &[u8; 512], p: [f64; 3]) -> S {
     sum(reach(perm, p))

@@ -1881,7 +1881,9 @@ fn check_tiled_batches() {
     );
     let [x, y, z] = planes(&pts);
     let schedule = Octaves::new(3.5, 2.0, 0.5, 1).with_period(Some([3, 2, 5]));
-    for (basis, period) in tiling_cases() {
+    // Simplex's lane kernel also takes period 1, an untiled axis (0) and 2^20.
+    let simplex_edges = [[1, 0, 5], [1, 1, 1], [1 << 20, 3, 1 << 20]].map(|p| (Basis::Simplex, p));
+    for (basis, period) in tiling_cases().into_iter().chain(simplex_edges) {
         let t = NoiseTable::periodic(basis, 7, Some(period));
         let what = format!("{basis:?} {period:?}");
         assert_sample_batch_is_point::<f32>(&t, &pts, &what);

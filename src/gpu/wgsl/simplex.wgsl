@@ -8,8 +8,9 @@
 //
 // As on the CPU: each coordinate's cell mod 256 and fraction are exact in f64 (scaling by 2^-8
 // is exact, so the residue is, at any magnitude), the skewed carries and the order come from
-// f64 sums of fractions, each vertex's offset `frac - half / 2` is computed in f64 and rounded
-// to f32 once, and the kernel sums run in f32 in the CPU's operation order. Non-finite input
+// f64 sums of fractions, each vertex's offset `frac - half / 2` is formed in f32 from the
+// fraction rounded to f32 (`simplex::offset`), and the kernel sums run in f32 in the CPU's
+// operation order. Non-finite input
 // gives NaN (value and every gradient component).
 //
 // Needs common.wgsl (`perm_at`, `reduce3`).
@@ -128,7 +129,7 @@ fn simplex_reach(t: u32, q: vec3<f64>, period: vec3<f64>) -> SimplexReach {
                 twice[a] = i32(r);
             }
         }
-        re.d[k] = vec3<f32>(f - vec3<f64>(half) * 0.5lf);
+        re.d[k] = vec3<f32>(f) - vec3<f32>(half) * 0.5;
         re.h[k] = simplex_hash(t, twice);
     }
     return re;
