@@ -50,6 +50,7 @@ fn benches(c: &mut Criterion) {
             precision: Precision::F32,
             cancel: None,
             device: Default::default(),
+            filter: Default::default(),
         };
         group.bench_function(format!("marble_128/threads_{threads}"), |b| {
             b.iter(|| bake_into(&tape, &options, &mut Discard, &mut |_| {}).expect("bakes"))
@@ -65,6 +66,7 @@ fn benches(c: &mut Criterion) {
                 precision: Precision::F32,
                 cancel: None,
                 device: Default::default(),
+                filter: Default::default(),
             };
             options.force = true;
             bake_files(&tape, &options, &mut |_| {}).expect("bakes")
@@ -96,6 +98,7 @@ fn threads(c: &mut Criterion, tape: &texgraph::Tape) {
                 precision: Precision::F32,
                 cancel: None,
                 device: Default::default(),
+                filter: Default::default(),
             };
             group.bench_function(format!("{name}_256/threads_{threads}"), |b| {
                 b.iter(|| bake_files(tape, &options, &mut |_| {}).expect("bakes"))

@@ -40,6 +40,7 @@ pub mod compile;
 pub(crate) mod derive;
 pub mod diagnostic;
 pub mod eval;
+pub mod filter;
 pub mod gpu;
 pub mod graph;
 pub mod grid;

@@ -32,6 +32,9 @@ pub struct BakeOptions {
     /// statistics and streaming are the same. `Auto` is the CPU here (the command line
     /// resolves it, saying which).
     pub device: crate::gpu::Device,
+    /// `Box`: each voxel the estimate of the graph's mean over its cell (filtered evaluation,
+    /// `crate::filter`), on the CPU; `Point`: the value at its centre.
+    pub filter: crate::filter::Filter,
 }
 
 impl Default for BakeOptions {
@@ -42,6 +45,7 @@ impl Default for BakeOptions {
             precision: Precision::F32,
             cancel: None,
             device: crate::gpu::Device::Cpu,
+            filter: crate::filter::Filter::Point,
         }
     }
 }
@@ -470,11 +474,18 @@ fn bake_with<S: Real>(
                 "the GPU evaluates the f32 path; an f64 bake (--double) runs on the CPU".into(),
             ))
         }
+        crate::gpu::Device::Gpu if options.filter == crate::filter::Filter::Box => {
+            return Err(BakeError::Refused(
+                "--filter box runs on the CPU (the GPU's filtered form is not written yet)".into(),
+            ))
+        }
         crate::gpu::Device::Gpu => {
             Some(crate::gpu::evaluator_for(tape).map_err(|e| BakeError::Refused(e.to_string()))?)
         }
         _ => None,
     };
+    let filtered =
+        (options.filter == crate::filter::Filter::Box).then(|| crate::filter::Filtered::new(tape));
     let mut stats: Vec<ChannelStats> = vec![ChannelStats::default(); channels];
     let Some(layout) = Layout::new(grid, channels, pool.current_num_threads()) else {
         return Ok(collect_stats(tape, &stats));
@@ -522,7 +533,7 @@ fn bake_with<S: Real>(
             let data = &mut buffer[..count * plan.block()];
             let segment_stats = match &gpu {
                 Some(gpu) => gpu_window(gpu, plan, pool, first, data)?,
-                None => evaluate_window::<S>(tape, plan, pool, first, data),
+                None => evaluate_window::<S>(tape, filtered.as_ref(), plan, pool, first, data),
             };
             for part in &segment_stats {
                 for (total, part) in stats.iter_mut().zip(part) {
@@ -587,12 +598,16 @@ fn writer_stopped() -> BakeError {
 /// per segment; returns each segment's channel statistics, in segment order.
 fn evaluate_window<S: Real>(
     tape: &Tape,
+    filtered: Option<&crate::filter::Filtered>,
     plan: &Plan<'_>,
     pool: &rayon::ThreadPool,
     first: u64,
     data: &mut [f32],
 ) -> Vec<Vec<ChannelStats>> {
     let (grid, layout, channels) = (plan.grid, &plan.layout, plan.channels);
+    // The voxel's cell: its sides the grid spacing (a degenerate axis is a point along it).
+    let footprint = crate::filter::Footprint::from_sides(grid.spacing().map(f64::abs))
+        .unwrap_or(crate::filter::Footprint::POINT);
     let seg_len = layout.segment_len;
     let block = plan.block();
     pool.install(|| {
@@ -623,7 +638,12 @@ fn evaluate_window<S: Real>(
                     zs.clear();
                     zs.resize(n, grid.centre(2, segment.k));
                     let out = &mut out[..channels * n];
-                    tape.eval_batch(workspace, xs, ys, zs, out);
+                    match filtered {
+                        Some(f) => {
+                            f.eval_batch([xs, ys, zs], std::slice::from_ref(&footprint), out)
+                        }
+                        None => tape.eval_batch(workspace, xs, ys, zs, out),
+                    }
                     let mut seg_stats = vec![ChannelStats::default(); channels];
                     for (c, stat) in seg_stats.iter_mut().enumerate() {
                         for (t, v) in target[c * seg_len..c * seg_len + n]

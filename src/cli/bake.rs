@@ -101,6 +101,11 @@ pub struct BakeArgs {
     /// in level folders OUT/mip0, OUT/mip1, ...
     #[arg(long)]
     mips: bool,
+    /// What each voxel stores: point (the graph at its centre; the default) or box (the
+    /// estimate of the graph's mean over its cell, docs/filtering.md; CPU only; with --mips,
+    /// every level the mean over its own voxels).
+    #[arg(long, value_enum, value_name = "point|box")]
+    filter: Option<FilterArg>,
     /// No progress bar.
     #[arg(long, short)]
     quiet: bool,
@@ -115,6 +120,23 @@ pub struct BakeArgs {
     allow_large: bool,
     #[command(flatten)]
     graph: GraphOptions,
+}
+
+/// `--filter`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum FilterArg {
+    Point,
+    Box,
+}
+
+impl BakeArgs {
+    /// The filter this bake uses: `--filter`, else point (docs/baking.md says why).
+    fn filter(&self) -> crate::filter::Filter {
+        match self.filter {
+            Some(FilterArg::Box) => crate::filter::Filter::Box,
+            _ => crate::filter::Filter::Point,
+        }
+    }
 }
 
 pub fn parse_depth(text: &str) -> Result<u8, String> {
@@ -207,6 +229,9 @@ pub fn bake_option_misuse(args: &BakeArgs) -> Vec<String> {
         eight_bit,
         "8/16-bit files (--format png, --format raw with --raw-type u8, --format ktx2 or zarr without --half or --float)",
     );
+    if args.filter == Some(FilterArg::Box) && (args.lod || args.graph.spacing.is_some()) {
+        problems.push("--filter box fades every octave by the voxel's own footprint; --lod and --spacing do not apply".into());
+    }
     if args.mips && (args.lod || args.graph.spacing.is_some()) {
         problems.push("--mips bakes every level with the footprint of its own voxels; --lod and --spacing do not apply".into());
     }
@@ -333,6 +358,7 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
             },
             cancel: Some(cancel.clone()),
             device: device_for(device, file, &tape),
+            filter: args.filter(),
         };
         let mut options = file_options(&args, file, &graph.params, bake);
         options.zarr.part = shard_part;
@@ -354,7 +380,9 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
             warn_shortfalls(file, &tape);
         }
         let tapes = if args.mips {
-            match mip_tapes(&graph, &compile_options, &grid) {
+            // Filtered levels fade every octave by their own voxels: no level of detail then.
+            let lod = args.filter() == crate::filter::Filter::Point;
+            match mip_tapes(&graph, &compile_options, &grid, lod) {
                 Ok(tapes) => tapes,
                 Err(error) => {
                     fail(&mut worst, print_load_error(error));
@@ -423,16 +451,19 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
 }
 
 /// The graph compiled for every level of `grid`'s mip chain, each with its level's footprint
-/// (level of detail for its voxel size).
+/// (level of detail for its voxel size) when `lod`.
 fn mip_tapes(
     graph: &crate::graph::CheckedGraph,
     compile_options: &crate::compile::CompileOptions,
     grid: &crate::grid::Grid,
+    lod: bool,
 ) -> Result<Vec<crate::tape::Tape>, crate::source::LoadError> {
     (0..crate::bake::mip_level_count(grid))
         .map(|level| {
             let mut options = compile_options.clone();
-            options.spacing = crate::bake::mip_spacing(grid, level);
+            if lod {
+                options.spacing = crate::bake::mip_spacing(grid, level);
+            }
             crate::compile::compile(graph, &options).map_err(crate::source::LoadError::Invalid)
         })
         .collect()

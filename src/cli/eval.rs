@@ -28,8 +28,26 @@ pub struct EvalArgs {
     /// --points, none (every scalar in f32).
     #[arg(long, value_name = "X0,Y0,Z0:X1,Y1,Z1", value_parser = parse_extent, allow_hyphen_values = true)]
     extent: Option<crate::precision::Extent>,
+    /// Filter: print each output's estimated mean over a box of side W (or sides WX,WY,WZ)
+    /// centred on the point (one footprint for every point of --points); see docs/filtering.md.
+    #[arg(long, value_name = "W|WX,WY,WZ", value_parser = parse_footprint)]
+    footprint: Option<crate::filter::Footprint>,
     #[command(flatten)]
     graph: GraphOptions,
+}
+
+/// `W` or `WX,WY,WZ`: each side a number >= 0 (`inf` allowed: the mean along the whole axis).
+pub fn parse_footprint(text: &str) -> Result<crate::filter::Footprint, String> {
+    let sides: Vec<f64> = text
+        .split(',')
+        .map(|t| parse_coordinate(t).map_err(|e| format!("--footprint: {e}")))
+        .collect::<Result<_, _>>()?;
+    let sides = match sides[..] {
+        [w] => [w; 3],
+        [x, y, z] => [x, y, z],
+        _ => return Err(format!("--footprint `{text}`: give W or WX,WY,WZ")),
+    };
+    crate::filter::Footprint::from_sides(sides).map_err(|e| format!("--footprint: {e}"))
 }
 
 pub fn parse_coordinate(text: &str) -> Result<f64, String> {
@@ -64,6 +82,9 @@ pub fn eval(args: EvalArgs) -> Result<(), Failure> {
 
 pub fn eval_with<S: Real>(tape: &Tape, args: &EvalArgs) -> Result<(), Failure> {
     let mut workspace = Workspace::<S>::new();
+    let filtered = args
+        .footprint
+        .map(|f| (crate::filter::Filtered::new(tape), f));
     let Some(points) = &args.points else {
         let point = [
             args.coordinates[0],
@@ -71,7 +92,10 @@ pub fn eval_with<S: Real>(tape: &Tape, args: &EvalArgs) -> Result<(), Failure> {
             args.coordinates[2],
         ];
         let mut out = vec![S::ZERO; tape.channels()];
-        tape.eval_point(&mut workspace, point, &mut out);
+        match &filtered {
+            Some((f, footprint)) => f.eval_point(point, footprint, &mut out),
+            None => tape.eval_point(&mut workspace, point, &mut out),
+        }
         return write_stdout(|w| write_lines(w, tape, &out, 1));
     };
     let stdout = std::io::stdout();
@@ -79,7 +103,12 @@ pub fn eval_with<S: Real>(tape: &Tape, args: &EvalArgs) -> Result<(), Failure> {
     let mut out = Vec::new();
     let mut evaluate = |x: &[f64], y: &[f64], z: &[f64]| -> std::io::Result<()> {
         out.resize(tape.channels() * x.len(), S::ZERO);
-        tape.eval_batch(&mut workspace, x, y, z, &mut out);
+        match &filtered {
+            Some((f, footprint)) => {
+                f.eval_batch([x, y, z], std::slice::from_ref(footprint), &mut out)
+            }
+            None => tape.eval_batch(&mut workspace, x, y, z, &mut out),
+        }
         write_lines(&mut writer, tape, &out, x.len())
     };
     let result = if points == Path::new("-") {

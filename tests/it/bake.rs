@@ -2009,3 +2009,47 @@ fn the_tiling_marble_tiles() {
     };
     assert_ne!(plain_value([0.3, 0.4, 0.5]), plain_value([1.3, 0.4, 0.5]));
 }
+
+// ---------------------------------------------------------------------------------------------
+// Filtered bakes (issue 33)
+
+/// `--filter box` (`BakeOptions::filter`): each voxel holds the graph's mean over its cell.
+/// `fract(3x + 0.2)` over x-cells of width 1/4 (a third of a period to a period and a half):
+/// every voxel within 1e-5 of the exact mean from fract's antiderivative
+/// `F(x) = floor(x)/2 + fract(x)²/2`, where the point bake is off by up to 1/2.
+#[test]
+fn box_filtered_bake_holds_each_voxels_mean() {
+    let tape = load_text(
+        r#"Graph(nodes: { "p": Position }, outputs: { "f": Fract(Add(Mul(3.0, "p.x"), 0.2)) })"#,
+    );
+    let grid = grid_over([8, 2, 2], [-1.0, 0.0, 0.0], [1.0, 1.0, 1.0]);
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut options = options(dir.path(), grid, Format::Raw);
+    options.stem = "box".into();
+    options.raw_type = RawSampleType::F32;
+    options.bake.filter = texgraph::filter::Filter::Box;
+    bake_ok(&tape, &options);
+    let bytes = std::fs::read(dir.path().join("box.f.raw")).expect("read raw");
+    let antiderivative = |x: f64| x.floor() / 2.0 + (x - x.floor()).powi(2) / 2.0;
+    let mut worst_point = 0.0f64;
+    for voxel in voxels(grid.size) {
+        let at = linear(grid.size, voxel) * 4;
+        let got = f32::from_le_bytes(bytes[at..at + 4].try_into().unwrap()) as f64;
+        let (a, b) = (
+            -1.0 + 0.25 * voxel[0] as f64,
+            -1.0 + 0.25 * (voxel[0] + 1) as f64,
+        );
+        let (u, v) = (3.0 * a + 0.2, 3.0 * b + 0.2);
+        let exact = (antiderivative(v) - antiderivative(u)) / (v - u);
+        assert!(
+            (got - exact).abs() < 1e-5,
+            "voxel {voxel:?}: {got}, exact mean {exact}"
+        );
+        let centre = 3.0 * (a + b) / 2.0 + 0.2;
+        worst_point = worst_point.max((centre - centre.floor() - exact).abs());
+    }
+    assert!(
+        worst_point > 0.1,
+        "the grid must be one where point sampling is wrong"
+    );
+}

@@ -1285,3 +1285,59 @@ fn precision_flags() {
         expect_code(&bad, 2);
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// Filtering (issue 33)
+
+/// `eval --footprint`: the mean over a box, here of `Fract(3x + 0.2)` over x in [0, 1/2]
+/// (exactly 0.5 + ... computed from fract's antiderivative), with one footprint for every
+/// point of `--points`; a bad footprint is a usage error naming the flag.
+#[test]
+fn eval_footprint_prints_the_box_mean() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let graph = dir.path().join("f.ron");
+    std::fs::write(
+        &graph,
+        r#"Graph(nodes: { "p": Position }, outputs: { "f": Fract(Add(Mul(3.0, "p.x"), 0.2)) })"#,
+    )
+    .unwrap();
+    let g = graph.to_str().unwrap();
+    let antiderivative = |x: f64| x.floor() / 2.0 + (x - x.floor()).powi(2) / 2.0;
+    let exact = (antiderivative(1.7) - antiderivative(0.2)) / 1.5;
+    let out = expect_code(
+        &[
+            "eval",
+            g,
+            "0.25",
+            "0",
+            "0",
+            "--footprint",
+            "0.5,1,1",
+            "--f64",
+        ],
+        0,
+    );
+    let value: f64 = stdout(&out)
+        .trim()
+        .trim_start_matches("f ")
+        .parse()
+        .unwrap();
+    assert!((value - exact).abs() < 1e-12, "{value} vs {exact}");
+    let out = run_stdin(
+        &["eval", g, "--points", "-", "--footprint", "0.5"],
+        b"0.25 0 0\n0.25 5 -3\n",
+    );
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    for line in stdout(&out).lines() {
+        let v: f64 = line.trim_start_matches("f ").parse().unwrap();
+        assert!((v - exact).abs() < 1e-6, "{line} vs {exact}");
+    }
+    for bad in ["-1", "nan", "1,2", "inf"] {
+        let out = expect_code(&["eval", g, "0", "0", "0", "--footprint", bad], 2);
+        assert!(
+            stderr(&out).contains("--footprint"),
+            "{bad}: {}",
+            stderr(&out)
+        );
+    }
+}

@@ -21,6 +21,7 @@ mod conformance;
 mod docs;
 mod errors;
 mod far_points;
+mod filter;
 mod fuzz_corpus;
 mod golden;
 #[cfg(feature = "gpu")]

@@ -1,0 +1,27 @@
+//! Filtered evaluation (issue 33): the mean of each output over a footprint, not its value at a
+//! point.
+//!
+//! From the bottom up: `moments` (the one-variable mathematics: exact box means, variances and
+//! slopes of piecewise polynomials, `fract` and truncated powers of a value spread over a
+//! footprint) → `rules` (a value's distribution, [`Dist`], through each operation; the
+//! [`Footprint`]) → `noise` (noise and fractal sums over a footprint) → `tape` ([`Filtered`]: a
+//! compiled tape run on distributions). docs/filtering.md has every rule's derivation.
+
+pub mod moments;
+pub mod noise;
+pub mod rules;
+pub mod tape;
+
+pub use rules::{Dist, Footprint, FootprintError};
+pub use tape::Filtered;
+
+/// What a bake's or render's sample stands for.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Filter {
+    /// The graph's value at the voxel centre or pixel hit.
+    #[default]
+    Point,
+    /// The estimate of the graph's mean over the voxel (its side the voxel size) or the
+    /// pixel's footprint.
+    Box,
+}

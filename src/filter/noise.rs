@@ -1,0 +1,269 @@
+//! The noise rule of filtered evaluation: a noise sample (and each octave of a fractal sum) over
+//! a footprint.
+//!
+//! The mean of a noise over a region is estimated as its value at the centre faded towards the
+//! basis' global mean, `α n(m) + (1 − α) μ`, and the variance it loses, `(1 − α²) σ²`, becomes
+//! residual variance (so a downstream `Sin`, `Step` or ramp greys out). `α` is the regression
+//! coefficient of the region's mean on the centre value: for a box of length `L` along a unit
+//! direction, `1 − L² G / (24 σ²)` to second order (`G` the mean squared directional derivative,
+//! by a Taylor expansion of the box mean and `E[n ∂²n] = −E[(∂n)²]` for a stationary noise),
+//! taken as `(1 + κ² L² / 12)^(−1/2)` with `κ² = G / σ²` (the same second-order term, and the
+//! `1/L` decay of a regression on one of about `L` independent cells); per edge of the
+//! footprint in noise space, times `e^(−κ² Σ v_i / 2)` for a Gaussian residual of variance
+//! `v_i` per axis (the same expansion). `μ`, `σ²` and `G` are measured once per table from
+//! 1024 seeded points (`G` by differences at a quarter cell, so white and cellular noise, whose
+//! gradient is zero or kinked, get their correlation length too). The linear part is the exact
+//! gradient faded by `α`, through the input's linear part (the chain rule: a `Warp`'s
+//! Jacobian). Octaves of a fractal sum are independent: their means, linear parts and variances
+//! add; turbulence, billow and ridged shape each faded octave by the exact rules of `abs` and
+//! the ramp, so a faded octave's non-zero mean `E|n|` is in the sum.
+
+use super::rules::{Dist, Rules, Shapes};
+use crate::noise::{NoiseTable, Octaves, Style};
+use crate::ops::{BinaryOp, UnaryOp};
+
+/// A table's statistics over space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stats {
+    pub mean: f64,
+    pub var: f64,
+    /// κ² = G / σ² (per unit length squared).
+    pub kappa2: f64,
+    /// Mean square of one gradient component (`NoiseGradient`'s variance).
+    pub grad_sq: f64,
+}
+
+/// Measures a table's statistics at 1024 seeded points (a fixed sequence: the same numbers on
+/// every run and machine).
+pub fn stats(table: &NoiseTable) -> Stats {
+    const N: usize = 1024;
+    const H: f64 = 0.25;
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = || {
+        // SplitMix64: a seeded, well-mixed sequence (no need for a crate here).
+        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^= z >> 31;
+        (z >> 11) as f64 / (1u64 << 53) as f64 * 128.0 - 64.0
+    };
+    let (mut sum, mut sum2, mut diff2, mut grad2) = (0.0, 0.0, 0.0, 0.0);
+    let mut count = 0.0;
+    for i in 0..N {
+        let p = [next(), next(), next()];
+        let v: f64 = table.sample(p);
+        let g: [f64; 3] = table.sample_grad(p);
+        if !v.is_finite() {
+            continue;
+        }
+        let mut q = p;
+        q[i % 3] += H;
+        let w: f64 = table.sample(q);
+        sum += v;
+        sum2 += v * v;
+        diff2 += (w - v) * (w - v);
+        grad2 += g.iter().map(|c| c * c).sum::<f64>() / 3.0;
+        count += 1.0;
+    }
+    // Gradient bases are odd under a sign flip of their gradients: their mean is 0 exactly
+    // (the sample mean would be off by about σ/32).
+    let zero_mean = matches!(
+        table.basis(),
+        crate::noise::Basis::Perlin | crate::noise::Basis::Gradient | crate::noise::Basis::Simplex
+    );
+    let mean = if zero_mean { 0.0 } else { sum / count };
+    let var = (sum2 / count - mean * mean).max(0.0);
+    let g = diff2 / count / (H * H);
+    Stats {
+        mean,
+        var,
+        kappa2: if var > 0.0 { g / var } else { 0.0 },
+        grad_sq: if grad2.is_finite() {
+            grad2 / count
+        } else {
+            0.0
+        },
+    }
+}
+
+/// [`stats`] of the table `key` names, measured once per process (a table is a function of its
+/// key: basis, seed, period), so each bake, render frame or mip level does not measure again.
+pub fn cached_stats(key: crate::graph::TableKey, table: &NoiseTable) -> Stats {
+    use std::collections::HashMap;
+    use std::sync::{Mutex, OnceLock};
+    static CACHE: OnceLock<Mutex<HashMap<crate::graph::TableKey, Stats>>> = OnceLock::new();
+    let cache = CACHE.get_or_init(Default::default);
+    if let Some(s) = cache.lock().unwrap_or_else(|e| e.into_inner()).get(&key) {
+        return *s;
+    }
+    let s = stats(table);
+    cache
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .insert(key, s);
+    s
+}
+
+/// A table to sample one octave with: the instruction's own, or a periodic copy at the
+/// octave's period.
+pub struct Sampler<'a> {
+    pub table: &'a NoiseTable,
+    pub stats: Stats,
+}
+
+/// The fade `α` of a noise whose input is `p` (noise space) over the footprint.
+fn fade(rules: &Rules, stats: &Stats, p: &[Dist; 3]) -> f64 {
+    if stats.kappa2 == 0.0 {
+        return 1.0;
+    }
+    let mut alpha = 1.0;
+    for e in rules.footprint.edges() {
+        // The footprint's edge in noise space: J e.
+        let mut l2 = 0.0;
+        for c in p {
+            let w: f64 = c
+                .grad
+                .iter()
+                .zip(&e)
+                .filter(|(g, e)| **g != 0.0 && **e != 0.0)
+                .map(|(g, e)| g * e)
+                .sum();
+            l2 += w * w;
+        }
+        alpha /= (1.0 + stats.kappa2 * l2 / 12.0).sqrt();
+    }
+    let v: f64 = p.iter().map(|c| c.var).sum();
+    let alpha = alpha * (-stats.kappa2 * v / 2.0).exp();
+    if alpha.is_nan() {
+        0.0
+    } else {
+        alpha
+    }
+}
+
+/// A noise sample of `p` over the footprint.
+pub fn noise(rules: &Rules, s: &Sampler, p: &[Dist; 3]) -> Dist {
+    let m = p.map(|c| c.mean);
+    let value: f64 = s.table.sample(m);
+    let alpha = fade(rules, &s.stats, p);
+    if alpha == 1.0 && p.iter().all(|c| c.var == 0.0 && c.grad == [0.0; 3]) {
+        return Dist::constant(value);
+    }
+    let g: [f64; 3] = s.table.sample_grad(m);
+    let g = g.map(|c| if c.is_finite() { c } else { 0.0 });
+    let grad = std::array::from_fn(|j| alpha * (0..3).map(|i| g[i] * p[i].grad[j]).sum::<f64>());
+    let carried: f64 = (0..3).map(|i| g[i] * g[i] * p[i].var).sum();
+    let var = (1.0 - alpha * alpha) * s.stats.var + alpha * alpha * carried;
+    Dist {
+        mean: alpha * value + (1.0 - alpha) * s.stats.mean,
+        grad,
+        var: if var.is_finite() { var.max(0.0) } else { 0.0 },
+    }
+}
+
+/// The analytic gradient of the noise at `p` over the footprint: faded like the value, the
+/// lost part as residual variance (its own linear part is left out: second derivatives).
+pub fn noise_gradient(rules: &Rules, s: &Sampler, p: &[Dist; 3], scale: f64) -> [Dist; 3] {
+    let m = p.map(|c| c.mean);
+    let g: [f64; 3] = s.table.sample_grad(m);
+    let alpha = fade(rules, &s.stats, p);
+    let var = (1.0 - alpha * alpha) * s.stats.grad_sq * scale * scale;
+    g.map(|c| Dist {
+        mean: alpha * c * scale,
+        grad: [0.0; 3],
+        var: if var.is_finite() { var } else { 0.0 },
+    })
+}
+
+/// One octave's sampler per octave of a fractal sum (tiled sums: each octave's own period).
+pub struct FractalSamplers<'a> {
+    pub octaves: &'a Octaves,
+    pub samplers: Vec<Sampler<'a>>,
+}
+
+/// A fractal sum over the footprint: every octave by [`noise`] on the scaled input, shaped by
+/// the style's rules, summed (independent octaves: means, linear parts and variances add).
+pub fn fractal(
+    rules: &Rules,
+    shapes: &Shapes,
+    f: &FractalSamplers,
+    style: Style,
+    p: &[Dist; 3],
+) -> Dist {
+    let mut sum = Dist::constant(0.0);
+    let mut weight = Dist::constant(1.0);
+    for (k, (&freq, &amp)) in f
+        .octaves
+        .frequencies
+        .iter()
+        .zip(&f.octaves.amplitudes)
+        .enumerate()
+    {
+        let q = p.map(|c| scale(&c, freq));
+        let n = noise(rules, &f.samplers[k], &q);
+        let shaped = match style {
+            Style::Fbm => n,
+            Style::Turbulence => rules.unary(shapes, UnaryOp::Abs, &n),
+            Style::Billow => {
+                let a = rules.unary(shapes, UnaryOp::Abs, &n);
+                rules.sub(&scale(&a, 2.0), &Dist::constant(1.0))
+            }
+            Style::Ridged { offset, sharpness } => {
+                let a = rules.unary(shapes, UnaryOp::Abs, &n);
+                let ridge = rules.sub(&Dist::constant(offset), &a);
+                let ridge = rules.binary(shapes, BinaryOp::Max, &ridge, &Dist::constant(0.0));
+                let ridge = rules.binary(shapes, BinaryOp::Pow, &ridge, &Dist::constant(sharpness));
+                let signal = rules.mul(&ridge, &weight);
+                let doubled = scale(&signal, 2.0);
+                let w = rules.binary(shapes, BinaryOp::Max, &doubled, &Dist::constant(0.0));
+                weight = rules.binary(shapes, BinaryOp::Min, &w, &Dist::constant(1.0));
+                signal
+            }
+        };
+        sum = rules.add(&sum, &scale(&shaped, amp));
+    }
+    sum
+}
+
+/// The gradient of a fractal sum over the footprint: Fbm as the sum of the octaves' faded
+/// gradients; the shaped styles by their point gradient faded by the coarsest octave's fade
+/// (documented approximation).
+pub fn fractal_gradient(
+    rules: &Rules,
+    f: &FractalSamplers,
+    style: Style,
+    p: &[Dist; 3],
+    point: [f64; 3],
+) -> [Dist; 3] {
+    if style == Style::Fbm {
+        let mut out = [Dist::constant(0.0); 3];
+        for (k, (&freq, &amp)) in f
+            .octaves
+            .frequencies
+            .iter()
+            .zip(&f.octaves.amplitudes)
+            .enumerate()
+        {
+            let q = p.map(|c| scale(&c, freq));
+            let g = noise_gradient(rules, &f.samplers[k], &q, amp * freq);
+            for (o, g) in out.iter_mut().zip(&g) {
+                *o = rules.add(o, g);
+            }
+        }
+        return out;
+    }
+    let alpha = match f.octaves.frequencies.first() {
+        Some(&freq) => fade(rules, &f.samplers[0].stats, &p.map(|c| scale(&c, freq))),
+        None => 1.0,
+    };
+    point.map(|c| Dist::constant(alpha * c))
+}
+
+fn scale(d: &Dist, c: f64) -> Dist {
+    Dist {
+        mean: c * d.mean,
+        grad: d.grad.map(|g| c * g),
+        var: c * c * d.var,
+    }
+}

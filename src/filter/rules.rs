@@ -1,0 +1,724 @@
+//! The per-operation rules of filtered evaluation: how a value's distribution over the
+//! footprint ([`Dist`]) passes through each operation of the tape.
+//!
+//! A value `V(p)` over the footprint is described by its mean `mean`, its linear part `grad`
+//! (the best linear fit's slope in the sample position: `V(p) ≈ mean + grad · (p − p₀)`) and a
+//! residual variance `var` (the part not linear in the position, taken as independent of
+//! everything else). The footprint ([`Footprint`]) is a parallelepiped of edge vectors `e_k`
+//! around the point `p₀` (a box: the axes times its sides), so the linear part alone spreads the
+//! value as `Σ_k (grad · e_k) U_k`, `U_k` uniform on [−1/2, 1/2] (exact for affine values), and
+//! its variance is `Σ_k (grad · e_k)² / 12`.
+//!
+//! Rules (docs/filtering.md has the derivations):
+//! - affine operations, rotations, `Mix` with a constant weight: exact;
+//! - `Sin`, `Cos`: the exact box mean of the linear part, `sin μ · Π_k sinc(a_k / 2)`, times
+//!   `e^(−σ²/2)` for the residual (the Gaussian rule);
+//! - `Fract`, `Floor`, `Round`, `Trunc`, `Mod` (constant divisor), `Step`, `Sign`, `Abs`,
+//!   `Clamp`, `Min`, `Max`, `Smoothstep`, `Select`, `Hermite`, ramps and curves: the exact mean,
+//!   variance and slope of the piecewise function over the linear part's box (`moments.rs`),
+//!   with the residual taken as one more uniform of the same variance;
+//! - products: the moments of a product of correlated values (exact means; the variance as for
+//!   Gaussians); `Div`, `Pow`, `Exp`, `Log`, `Sqrt`, trigonometric inverses: second-order
+//!   (delta-method) moments, with Jensen's bounds where the function is concave;
+//! - every rule's output linear part is `E[f'(V)] · grad` (Stein's lemma: the covariance of
+//!   `f(V)` with the position), and its residual is the rest of its variance.
+
+use super::moments::{self, Moments, Piecewise, Spread};
+use crate::ops::{self, BinaryOp, TernaryOp, UnaryOp};
+
+/// A value over the footprint: mean, linear part (per unit of sample position) and residual
+/// variance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Dist {
+    pub mean: f64,
+    pub grad: [f64; 3],
+    pub var: f64,
+}
+
+impl Dist {
+    /// A constant.
+    pub const fn constant(v: f64) -> Dist {
+        Dist {
+            mean: v,
+            grad: [0.0; 3],
+            var: 0.0,
+        }
+    }
+
+    /// Coordinate `axis` of the sample position `p`.
+    pub fn position(p: [f64; 3], axis: usize) -> Dist {
+        let mut grad = [0.0; 3];
+        grad[axis] = 1.0;
+        Dist {
+            mean: p[axis],
+            grad,
+            var: 0.0,
+        }
+    }
+
+    fn is_constant(&self) -> bool {
+        self.var == 0.0 && self.grad == [0.0; 3]
+    }
+
+    fn scale(self, c: f64) -> Dist {
+        Dist {
+            mean: c * self.mean,
+            grad: self.grad.map(|g| c * g),
+            var: c * c * self.var,
+        }
+    }
+}
+
+/// The region a pixel or voxel covers around the sample point: a parallelepiped given by its
+/// three edge vectors in the graph's input space (a box: the axes times its sides; a pixel:
+/// its two ray-differential vectors and a zero one).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Footprint {
+    edges: [[f64; 3]; 3],
+}
+
+/// Why a footprint was refused.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FootprintError(pub String);
+
+impl std::fmt::Display for FootprintError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for FootprintError {}
+
+impl Footprint {
+    /// No footprint: filtered evaluation is then point evaluation.
+    pub const POINT: Footprint = Footprint {
+        edges: [[0.0; 3]; 3],
+    };
+
+    /// An axis-aligned box of sides `(wx, wy, wz)` (a voxel). Each side must be finite and
+    /// ≥ 0 (an infinite box has no mean for most graphs: |x| over all x).
+    pub fn from_sides(sides: [f64; 3]) -> Result<Footprint, FootprintError> {
+        for (axis, &w) in ["x", "y", "z"].iter().zip(&sides) {
+            if !(w.is_finite() && w >= 0.0) {
+                return Err(FootprintError(format!(
+                    "footprint side {axis} is {w}: a side must be a finite number >= 0"
+                )));
+            }
+        }
+        let [x, y, z] = sides;
+        Ok(Footprint {
+            edges: [[x, 0.0, 0.0], [0.0, y, 0.0], [0.0, 0.0, z]],
+        })
+    }
+
+    /// A cube of side `w`.
+    pub fn cube(w: f64) -> Result<Footprint, FootprintError> {
+        Footprint::from_sides([w; 3])
+    }
+
+    /// A parallelepiped of three edge vectors (any may be zero): an anisotropic pixel footprint
+    /// from its ray differentials. Every component must be finite.
+    pub fn from_edges(edges: [[f64; 3]; 3]) -> Result<Footprint, FootprintError> {
+        if edges.iter().flatten().any(|c| !c.is_finite()) {
+            return Err(FootprintError(format!(
+                "footprint edges {edges:?}: every component must be finite"
+            )));
+        }
+        Ok(Footprint { edges })
+    }
+
+    pub fn edges(&self) -> [[f64; 3]; 3] {
+        self.edges
+    }
+
+    /// The widths of a linear part over the footprint: `|grad · e_k|`. An infinite side with a
+    /// zero slope along it is no width (0 · ∞ taken as 0).
+    pub(crate) fn widths(&self, grad: [f64; 3]) -> [f64; 3] {
+        self.edges.map(|e| proj(grad, &e).abs())
+    }
+
+    /// The covariance over the footprint of two linear parts: `Σ_k (a · e_k)(b · e_k) / 12`.
+    fn covariance(&self, a: [f64; 3], b: [f64; 3]) -> f64 {
+        let mut c = 0.0;
+        for e in &self.edges {
+            let (x, y) = (proj(a, e), proj(b, e));
+            if x != 0.0 && y != 0.0 {
+                c += x * y / 12.0;
+            }
+        }
+        c
+    }
+
+    fn linear_var(&self, grad: [f64; 3]) -> f64 {
+        self.covariance(grad, grad)
+    }
+}
+
+/// `a · e` with `0 · ∞` taken as 0.
+fn proj(a: [f64; 3], e: &[f64; 3]) -> f64 {
+    let mut s = 0.0;
+    for (x, y) in a.iter().zip(e) {
+        if *x != 0.0 && *y != 0.0 {
+            s += x * y;
+        }
+    }
+    s
+}
+
+/// The rules over one footprint.
+#[derive(Clone, Copy, Debug)]
+pub struct Rules<'a> {
+    pub footprint: &'a Footprint,
+}
+
+/// Piecewise functions the rules use, built once.
+pub struct Shapes {
+    abs: Piecewise,
+    sign: Piecewise,
+    step: Piecewise,
+    ramp: Piecewise,
+    unit_smoothstep: Piecewise,
+}
+
+impl Shapes {
+    pub fn new() -> Shapes {
+        Shapes {
+            abs: Piecewise::new(vec![0.0], vec![[0.0, -1.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]]),
+            sign: Piecewise::new(vec![0.0], vec![[-1.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]]),
+            step: Piecewise::new(vec![0.0], vec![[0.0; 4], [1.0, 0.0, 0.0, 0.0]]),
+            ramp: Piecewise::new(vec![0.0], vec![[0.0; 4], [0.0, 1.0, 0.0, 0.0]]),
+            unit_smoothstep: smoothstep_shape(0.0, 1.0),
+        }
+    }
+}
+
+impl Default for Shapes {
+    fn default() -> Self {
+        Shapes::new()
+    }
+}
+
+/// `smoothstep(e0, e1, x)` as a piecewise cubic in x (e0 ≠ e1, both finite).
+pub fn smoothstep_shape(e0: f64, e1: f64) -> Piecewise {
+    let w = e1 - e0;
+    if w > 0.0 {
+        // s = u / w on [e0, e1): 3s² − 2s³.
+        Piecewise::new(
+            vec![e0, e1],
+            vec![
+                [0.0; 4],
+                [0.0, 0.0, 3.0 / (w * w), -2.0 / (w * w * w)],
+                [1.0, 0.0, 0.0, 0.0],
+            ],
+        )
+    } else {
+        // Falling: 1 below e1, 0 from e0; on [e1, e0) with u = x − e1, s = 1 + u / w.
+        Piecewise::new(
+            vec![e1, e0],
+            vec![
+                [1.0, 0.0, 0.0, 0.0],
+                [1.0, 0.0, -3.0 / (w * w), -2.0 / (w * w * w)],
+                [0.0; 4],
+            ],
+        )
+    }
+}
+
+/// Seed 000's Hermite spline `h(clamp(x, 0, 1))` as a piecewise cubic.
+pub fn hermite_shape(h: &ops::Hermite) -> Piecewise {
+    let (p0, p1, m0, m1) = (h.p0, h.p1, h.m0, h.m1);
+    Piecewise::new(
+        vec![0.0, 1.0],
+        vec![
+            [p0, 0.0, 0.0, 0.0],
+            [
+                p0,
+                m0,
+                -3.0 * p0 - 2.0 * m0 + 3.0 * p1 - m1,
+                2.0 * p0 + m0 - 2.0 * p1 + m1,
+            ],
+            [p1, 0.0, 0.0, 0.0],
+        ],
+    )
+}
+
+/// One channel of a ramp or curve (`ops::Spline`) as a piecewise cubic: clamped to the end
+/// values outside the knots; each segment linear, smoothstep-eased or constant; a slope spline
+/// (for `Gradient`) as the derivative of those.
+pub fn spline_shape<const N: usize>(spline: &ops::Spline<N>, channel: usize) -> Piecewise {
+    use ops::SplineInterpolation as I;
+    let (knots, values) = (spline.knots(), spline.values());
+    let slope = spline.is_slope();
+    let value = |i: usize| values[i][channel];
+    let end = |v: f64| if slope { [0.0; 4] } else { [v, 0.0, 0.0, 0.0] };
+    let mut polys = vec![end(value(0))];
+    for i in 0..knots.len() {
+        if i + 1 == knots.len() {
+            polys.push(end(value(i)));
+            break;
+        }
+        let (a, b, w) = (value(i), value(i + 1), knots[i + 1] - knots[i]);
+        if w <= 0.0 {
+            // A hard edge: the segment is empty.
+            polys.push(end(b));
+            continue;
+        }
+        let d = b - a;
+        polys.push(match (spline.interpolation(), slope) {
+            (I::Constant, false) => [a, 0.0, 0.0, 0.0],
+            (I::Constant, true) => [0.0; 4],
+            (I::Linear, false) => [a, d / w, 0.0, 0.0],
+            (I::Linear, true) => [d / w, 0.0, 0.0, 0.0],
+            (I::Smooth, false) => [a, 0.0, 3.0 * d / (w * w), -2.0 * d / (w * w * w)],
+            (I::Smooth, true) => [0.0, 6.0 * d / (w * w), -6.0 * d / (w * w * w), 0.0],
+        });
+    }
+    Piecewise::new(knots.to_vec(), polys)
+}
+
+impl Rules<'_> {
+    fn spread(&self, d: &Dist) -> Spread {
+        Spread::new(self.footprint.widths(d.grad), d.var)
+    }
+
+    /// The linear part's plus the residual variance.
+    pub fn total_var(&self, d: &Dist) -> f64 {
+        self.footprint.linear_var(d.grad) + d.var
+    }
+
+    /// A rule's output from its moments over `d`: linear part `slope · grad` (Stein), the rest
+    /// of the variance as residual.
+    fn out_of_moments(&self, d: &Dist, m: Moments) -> Dist {
+        let grad = if m.slope == 0.0 {
+            [0.0; 3]
+        } else {
+            d.grad.map(|g| m.slope * g)
+        };
+        Dist {
+            mean: m.mean,
+            grad,
+            var: residual(m.variance, self.footprint.linear_var(grad)),
+        }
+    }
+
+    /// `f(d)` for a piecewise polynomial `f`.
+    pub fn piecewise(&self, f: &Piecewise, d: &Dist) -> Dist {
+        if d.is_constant() {
+            return Dist::constant(f.eval(d.mean));
+        }
+        let m = f.moments(d.mean, &self.spread(d));
+        self.out_of_moments(d, m)
+    }
+
+    /// A smooth function by its value and first two derivatives at the mean (the delta method):
+    /// mean `f + f''σ²/2`, variance `f'²σ² + f''²σ⁴/2`; `bound` caps the mean (Jensen's
+    /// inequality for a concave f: `E f(V) ≤ f(E V)`).
+    fn smooth(&self, d: &Dist, (f, f1, f2): (f64, f64, f64), concave: bool) -> Dist {
+        if d.is_constant() {
+            return Dist::constant(f);
+        }
+        let t = self.total_var(d);
+        let mut mean = f + 0.5 * f2 * t;
+        if concave && mean > f {
+            mean = f;
+        }
+        if !mean.is_finite() {
+            mean = f;
+        }
+        let grad = d.grad.map(|g| f1 * g);
+        let total = f1 * f1 * t + 0.5 * f2 * f2 * t * t;
+        Dist {
+            mean,
+            grad,
+            var: residual(total, self.footprint.linear_var(grad)),
+        }
+    }
+
+    fn sin_cos(&self, d: &Dist, cos: bool) -> Dist {
+        let (s, c) = d.mean.sin_cos();
+        let (value, slope) = if cos { (c, -s) } else { (s, c) };
+        if d.is_constant() {
+            return Dist::constant(value);
+        }
+        let widths = self.footprint.widths(d.grad);
+        // E[sin(μ + Σ a_k U_k)] = sin μ · Π sinc(a_k / 2); a Gaussian residual: e^(−σ²/2).
+        let attenuation: f64 =
+            widths.iter().map(|&a| sinc(a / 2.0)).product::<f64>() * (-d.var / 2.0).exp();
+        let double: f64 = widths.iter().map(|&a| sinc(a)).product::<f64>() * (-2.0 * d.var).exp();
+        let c2 = (2.0 * d.mean).cos();
+        // sin² = (1 − cos 2x) / 2, cos² = (1 + cos 2x) / 2.
+        let square = if cos {
+            0.5 * (1.0 + c2 * double)
+        } else {
+            0.5 * (1.0 - c2 * double)
+        };
+        let mean = value * attenuation;
+        let m = Moments {
+            mean,
+            variance: (square - mean * mean).max(0.0),
+            slope: slope * attenuation,
+        };
+        self.out_of_moments(d, m)
+    }
+
+    pub fn add(&self, a: &Dist, b: &Dist) -> Dist {
+        Dist {
+            mean: a.mean + b.mean,
+            grad: std::array::from_fn(|i| a.grad[i] + b.grad[i]),
+            var: a.var + b.var,
+        }
+    }
+
+    pub fn sub(&self, a: &Dist, b: &Dist) -> Dist {
+        if a == b {
+            // The same value (residuals are independent only between different values).
+            return Dist::constant(0.0);
+        }
+        Dist {
+            mean: a.mean - b.mean,
+            grad: std::array::from_fn(|i| a.grad[i] - b.grad[i]),
+            var: a.var + b.var,
+        }
+    }
+
+    /// A product of two values whose linear parts are correlated over the footprint: the mean
+    /// exactly `μa μb + cov`, the variance as for Gaussians
+    /// (`σa²σb² + σa²μb² + σb²μa² + cov² + 2 μa μb cov`).
+    pub fn mul(&self, a: &Dist, b: &Dist) -> Dist {
+        if b.is_constant() {
+            return a.scale(b.mean);
+        }
+        if a.is_constant() {
+            return b.scale(a.mean);
+        }
+        let cov = self.footprint.covariance(a.grad, b.grad);
+        let (ta, tb) = (self.total_var(a), self.total_var(b));
+        let grad = std::array::from_fn(|i| a.mean * b.grad[i] + b.mean * a.grad[i]);
+        let total = ta * tb
+            + ta * b.mean * b.mean
+            + tb * a.mean * a.mean
+            + cov * cov
+            + 2.0 * a.mean * b.mean * cov;
+        Dist {
+            mean: a.mean * b.mean + cov,
+            grad,
+            var: residual(total, self.footprint.linear_var(grad)),
+        }
+    }
+
+    /// `1 / b` by the delta method (`1/μ + σ²/μ³`).
+    fn reciprocal(&self, b: &Dist) -> Dist {
+        let m = b.mean;
+        self.smooth(b, (1.0 / m, -1.0 / (m * m), 2.0 / (m * m * m)), false)
+    }
+
+    /// `min(a, b) = a − (a − b)₊`, `max(a, b) = b + (a − b)₊`: the ramp's exact moments over
+    /// the difference.
+    fn min_max(&self, shapes: &Shapes, a: &Dist, b: &Dist, max: bool) -> Dist {
+        if a.is_constant() && b.is_constant() {
+            let v = if max {
+                a.mean.max(b.mean)
+            } else {
+                a.mean.min(b.mean)
+            };
+            return Dist::constant(v);
+        }
+        let d = self.sub(a, b);
+        let r = shapes.ramp.moments(d.mean, &self.spread(&d));
+        // One side wins over the whole footprint: the result is that operand itself (so that
+        // `max(r, g) - r` is exactly 0 where r wins, residual included).
+        if r.slope == 0.0 && r.mean == 0.0 {
+            return if max { *b } else { *a };
+        }
+        if r.slope == 1.0 && r.mean == d.mean {
+            return if max { *a } else { *b };
+        }
+        let (base, sign) = if max { (b, 1.0) } else { (a, -1.0) };
+        let mean = base.mean + sign * r.mean;
+        let grad = std::array::from_fn(|i| base.grad[i] + sign * r.slope * d.grad[i]);
+        // Var(base ± r) with Cov(base, r) ≈ slope · Cov(base, d) (Stein).
+        let base_var = base.var * if max { -1.0 } else { 1.0 };
+        let cov_base_d = self.footprint.covariance(base.grad, d.grad) + base_var;
+        let total = self.total_var(base) + r.variance + 2.0 * sign * r.slope * cov_base_d;
+        Dist {
+            mean,
+            grad,
+            var: residual(total, self.footprint.linear_var(grad)),
+        }
+    }
+
+    /// `fract(d)`; `floor(d) = d − fract(d)` (variance by `Cov(d, fract d) ≈ slope · Var d`).
+    fn fract_floor(&self, d: &Dist, floor: bool) -> Dist {
+        if d.is_constant() {
+            let f = ops::fract(d.mean);
+            return Dist::constant(if floor { d.mean.floor() } else { f });
+        }
+        let m = moments::fract_moments(d.mean, &self.spread(d));
+        if !floor {
+            return self.out_of_moments(d, m);
+        }
+        let t = self.total_var(d);
+        let floor = Moments {
+            mean: d.mean - m.mean,
+            variance: (t + m.variance - 2.0 * m.slope * t).max(0.0),
+            slope: 1.0 - m.slope,
+        };
+        self.out_of_moments(d, floor)
+    }
+
+    pub fn unary(&self, shapes: &Shapes, op: UnaryOp, d: &Dist) -> Dist {
+        if d.is_constant() || d.mean.is_nan() {
+            return Dist::constant(op.apply(d.mean));
+        }
+        let m = d.mean;
+        match op {
+            UnaryOp::Neg => d.scale(-1.0),
+            UnaryOp::Abs => self.piecewise(&shapes.abs, d),
+            UnaryOp::Sign => self.piecewise(&shapes.sign, d),
+            UnaryOp::Sin => self.sin_cos(d, false),
+            UnaryOp::Cos => self.sin_cos(d, true),
+            UnaryOp::Fract => self.fract_floor(d, false),
+            UnaryOp::Floor => self.fract_floor(d, true),
+            UnaryOp::Round => {
+                let shifted = self.add(d, &Dist::constant(0.5));
+                self.fract_floor(&shifted, true)
+            }
+            UnaryOp::Trunc => {
+                // trunc x = floor x + [x < 0] (almost everywhere).
+                let floor = self.fract_floor(d, true);
+                let below = self.piecewise(&shapes.step, &d.scale(-1.0));
+                self.add(&floor, &below)
+            }
+            UnaryOp::Exp => {
+                // Exact for a Gaussian: E e^V = e^(μ + σ²/2).
+                let t = self.total_var(d);
+                let mean = (m + t / 2.0).exp();
+                let grad = d.grad.map(|g| mean * g);
+                let total = (t.exp() - 1.0) * mean * mean;
+                Dist {
+                    mean,
+                    grad,
+                    var: residual(total, self.footprint.linear_var(grad)),
+                }
+            }
+            UnaryOp::Sqrt => {
+                let s = m.sqrt();
+                let r = self.smooth(d, (s, 0.5 / s, -0.25 / (s * m)), true);
+                Dist {
+                    mean: r.mean.max(0.0),
+                    ..r
+                }
+            }
+            UnaryOp::Log => self.smooth(d, (m.ln(), 1.0 / m, -1.0 / (m * m)), true),
+            UnaryOp::Log2 => {
+                let k = std::f64::consts::LN_2;
+                self.smooth(d, (m.log2(), 1.0 / (m * k), -1.0 / (m * m * k)), true)
+            }
+            UnaryOp::Tan => {
+                let t = m.tan();
+                let s = 1.0 + t * t;
+                self.smooth(d, (t, s, 2.0 * t * s), false)
+            }
+            UnaryOp::Asin | UnaryOp::Acos => {
+                let r = 1.0 / (1.0 - m * m).sqrt();
+                let (f1, f2) = (r, m * r * r * r);
+                let sign = if op == UnaryOp::Acos { -1.0 } else { 1.0 };
+                self.smooth(d, (op.apply(m), sign * f1, sign * f2), false)
+            }
+        }
+    }
+
+    pub fn binary(&self, shapes: &Shapes, op: BinaryOp, a: &Dist, b: &Dist) -> Dist {
+        if (a.is_constant() && b.is_constant()) || a.mean.is_nan() || b.mean.is_nan() {
+            return Dist::constant(op.apply(a.mean, b.mean));
+        }
+        match op {
+            BinaryOp::Add => self.add(a, b),
+            BinaryOp::Sub => self.sub(a, b),
+            BinaryOp::Mul => self.mul(a, b),
+            BinaryOp::Div => {
+                if b.is_constant() {
+                    return a.scale(1.0 / b.mean);
+                }
+                self.mul(a, &self.reciprocal(b))
+            }
+            BinaryOp::Min => self.min_max(shapes, a, b, false),
+            BinaryOp::Max => self.min_max(shapes, a, b, true),
+            BinaryOp::Step => self.piecewise(&shapes.step, &self.sub(b, a)),
+            BinaryOp::Mod => {
+                // b · fract(a / b) with b at its mean (a varying divisor is taken as its mean).
+                let c = b.mean;
+                if c == 0.0 || !c.is_finite() {
+                    return Dist::constant(op.apply(a.mean, c));
+                }
+                let f = self.fract_floor(&a.scale(1.0 / c), false);
+                f.scale(c)
+            }
+            BinaryOp::Pow => self.pow(a, b),
+            BinaryOp::Atan2 => self.atan2(a, b),
+        }
+    }
+
+    /// A smooth function of two values by the two-variable delta method: value, gradient
+    /// `(fa, fb)` and Hessian `(faa, fbb, fab)` at the means.
+    fn smooth2(&self, a: &Dist, b: &Dist, f: f64, g: (f64, f64), h: (f64, f64, f64)) -> Dist {
+        let (ta, tb) = (self.total_var(a), self.total_var(b));
+        let cov = self.footprint.covariance(a.grad, b.grad);
+        let (fa, fb) = g;
+        let (faa, fbb, fab) = h;
+        let mut mean = f + 0.5 * (faa * ta + fbb * tb) + fab * cov;
+        if !mean.is_finite() {
+            mean = f;
+        }
+        let grad = std::array::from_fn(|i| fa * a.grad[i] + fb * b.grad[i]);
+        let total = fa * fa * ta + fb * fb * tb + 2.0 * fa * fb * cov;
+        Dist {
+            mean,
+            grad,
+            var: residual(total, self.footprint.linear_var(grad)),
+        }
+    }
+
+    fn pow(&self, a: &Dist, b: &Dist) -> Dist {
+        let (x, y) = (a.mean, b.mean);
+        let f = x.powf(y);
+        if b.is_constant() {
+            if x <= 0.0 && y.fract() != 0.0 {
+                return Dist::constant(f);
+            }
+            let f1 = y * x.powf(y - 1.0);
+            let f2 = y * (y - 1.0) * x.powf(y - 2.0);
+            let concave = y > 0.0 && y < 1.0;
+            return self.smooth(a, (f, f1, f2), concave);
+        }
+        if x <= 0.0 {
+            return Dist::constant(f);
+        }
+        let l = x.ln();
+        let fa = y * x.powf(y - 1.0);
+        let fb = f * l;
+        let faa = y * (y - 1.0) * x.powf(y - 2.0);
+        let fbb = f * l * l;
+        let fab = x.powf(y - 1.0) * (1.0 + y * l);
+        self.smooth2(a, b, f, (fa, fb), (faa, fbb, fab))
+    }
+
+    fn atan2(&self, a: &Dist, b: &Dist) -> Dist {
+        let (y, x) = (a.mean, b.mean);
+        let r2 = x * x + y * y;
+        let f = y.atan2(x);
+        if r2 == 0.0 {
+            return Dist::constant(f);
+        }
+        let r4 = r2 * r2;
+        self.smooth2(
+            a,
+            b,
+            f,
+            (x / r2, -y / r2),
+            (-2.0 * x * y / r4, 2.0 * x * y / r4, (y * y - x * x) / r4),
+        )
+    }
+
+    pub fn ternary(&self, shapes: &Shapes, op: TernaryOp, a: &Dist, b: &Dist, c: &Dist) -> Dist {
+        let all_constant = a.is_constant() && b.is_constant() && c.is_constant();
+        if all_constant || a.mean.is_nan() || b.mean.is_nan() || c.mean.is_nan() {
+            return Dist::constant(op.apply(a.mean, b.mean, c.mean));
+        }
+        match op {
+            TernaryOp::Clamp => {
+                // clamp(x, lo, hi) = min(max(x, lo), hi).
+                if b.is_constant() && c.is_constant() && b.mean <= c.mean {
+                    let (lo, hi) = (b.mean, c.mean);
+                    let f = Piecewise::new(
+                        vec![lo, hi],
+                        vec![
+                            [lo, 0.0, 0.0, 0.0],
+                            [lo, 1.0, 0.0, 0.0],
+                            [hi, 0.0, 0.0, 0.0],
+                        ],
+                    );
+                    return self.piecewise(&f, a);
+                }
+                let lower = self.min_max(shapes, a, b, true);
+                self.min_max(shapes, &lower, c, false)
+            }
+            TernaryOp::Mix => self.add(a, &self.mul(c, &self.sub(b, a))),
+            TernaryOp::Smoothstep => {
+                if a.is_constant() && b.is_constant() {
+                    let (e0, e1) = (a.mean, b.mean);
+                    if e0 == e1 {
+                        return self.piecewise(&shapes.step, &self.sub(c, a));
+                    }
+                    if e0.is_finite() && e1.is_finite() {
+                        return self.piecewise(&smoothstep_shape(e0, e1), c);
+                    }
+                }
+                // Varying edges: t = (x − e0) / (e1 − e0), then the unit smoothstep.
+                let span = self.sub(b, a);
+                if span.mean == 0.0 {
+                    return self.piecewise(&shapes.step, &self.sub(c, a));
+                }
+                let t = self.binary(shapes, BinaryOp::Div, &self.sub(c, a), &span);
+                self.piecewise(&shapes.unit_smoothstep, &t)
+            }
+            TernaryOp::Select => self.select(a, b, c),
+        }
+    }
+
+    /// `a` where `cond > 0`, else `b`: `p = P(cond > 0)` from the step's exact moments.
+    fn select(&self, cond: &Dist, a: &Dist, b: &Dist) -> Dist {
+        let s = self.spread(cond);
+        let p = if s.widths() == [0.0; 3] {
+            // A point: `cond > 0` strictly, as the point function (the ramp is 1 at 0).
+            f64::from(u8::from(cond.mean > 0.0))
+        } else {
+            moments::ramp_mean(cond.mean, &s, 0)
+        };
+        let density = if cond.is_constant() {
+            0.0
+        } else {
+            moments::density(cond.mean, &s)
+        };
+        let jump = a.mean - b.mean;
+        let mean = p * a.mean + (1.0 - p) * b.mean;
+        let grad = std::array::from_fn(|i| {
+            let w = if density.is_finite() && density != 0.0 {
+                jump * density * cond.grad[i]
+            } else {
+                0.0
+            };
+            p * a.grad[i] + (1.0 - p) * b.grad[i] + w
+        });
+        let total =
+            p * self.total_var(a) + (1.0 - p) * self.total_var(b) + p * (1.0 - p) * jump * jump;
+        Dist {
+            mean,
+            grad,
+            var: residual(total, self.footprint.linear_var(grad)),
+        }
+    }
+}
+
+/// The residual variance left when a linear part of variance `linear` is taken out of a total
+/// variance `total`: 0 where the difference is rounding (below 1e-9 of the total), and where
+/// either overflowed (an overflowing variance is dropped, not propagated as ∞ or NaN).
+fn residual(total: f64, linear: f64) -> f64 {
+    let r = total - linear;
+    if r.is_finite() && r > 1e-9 * total.abs() {
+        r
+    } else {
+        0.0
+    }
+}
+
+/// sin(x) / x, 1 at 0; 0 for an infinite x.
+fn sinc(x: f64) -> f64 {
+    if x.abs() < 1e-4 {
+        1.0 - x * x / 6.0
+    } else if x.is_infinite() {
+        0.0
+    } else {
+        x.sin() / x
+    }
+}

@@ -1,0 +1,482 @@
+//! The filtered form of a tape: every instruction of a compiled tape run on distributions
+//! ([`Dist`]) instead of numbers, so each output is an estimate of its mean over a footprint.
+//!
+//! The instruction set is the interpreter's (`eval.rs`), one rule per instruction kind (the
+//! match below is exhaustive: a new kind does not compile without its rule). Promoted (`Wide`)
+//! instructions take the same rules: every filtered value is f64. Side tables are prepared once
+//! per tape ([`Filtered::new`]): each noise table's statistics, each tiled fractal's per-octave
+//! tables, each spline as piecewise cubics.
+
+use super::noise::{self as fnoise, FractalSamplers, Sampler, Stats};
+use super::rules::{hermite_shape, spline_shape, Dist, Footprint, Rules, Shapes};
+use crate::graph::Type;
+use crate::noise::{NoiseTable, Style};
+use crate::ops;
+use crate::real::Real;
+use crate::tape::{Instr, Tape, Wide};
+use std::collections::HashMap;
+
+use super::moments::Piecewise;
+
+/// A tape ready for filtered evaluation (its side tables prepared). Immutable and shareable
+/// across threads; [`Filtered::eval_point`] and [`Filtered::eval_batch`] allocate their own
+/// slots per call.
+pub struct Filtered<'t> {
+    tape: &'t Tape,
+    stats: Vec<Stats>,
+    /// Per (table, octave schedule) of a tiled fractal: one table per octave at its period.
+    octave_tables: HashMap<(u32, u32), Vec<NoiseTable>>,
+    hermites: Vec<Piecewise>,
+    ramps: Vec<[Piecewise; 3]>,
+    curves: Vec<Piecewise>,
+    shapes: Shapes,
+}
+
+/// The slots of one filtered evaluation.
+struct Slots {
+    scalars: Vec<Dist>,
+    wides: Vec<Dist>,
+    vec3s: Vec<[Dist; 3]>,
+}
+
+impl<'t> Filtered<'t> {
+    pub fn new(tape: &'t Tape) -> Filtered<'t> {
+        let stats = tape
+            .tables
+            .iter()
+            .map(|(key, t)| fnoise::cached_stats(*key, t))
+            .collect();
+        let mut octave_tables = HashMap::new();
+        for instr in &tape.instrs {
+            let (table, octaves) = match *instr {
+                Instr::Fractal { table, octaves, .. }
+                | Instr::FractalGradient { table, octaves, .. }
+                | Instr::Wide(Wide::Fractal { table, octaves, .. })
+                | Instr::Wide(Wide::FractalGradient { table, octaves, .. }) => (table, octaves),
+                _ => continue,
+            };
+            let schedule = &tape.octaves[octaves as usize];
+            let base = &tape.tables[table as usize].1;
+            let periods = match (&schedule.periods, base.period()) {
+                (Some(periods), _) => periods.clone(),
+                (None, Some(p)) => vec![p; schedule.len()],
+                (None, None) => continue,
+            };
+            let tables = periods
+                .iter()
+                .map(|&p| NoiseTable::periodic(base.basis(), base.seed(), Some(p)))
+                .collect();
+            octave_tables.insert((table, octaves), tables);
+        }
+        Filtered {
+            tape,
+            stats,
+            octave_tables,
+            hermites: tape.hermites.iter().map(hermite_shape).collect(),
+            ramps: tape
+                .ramps
+                .iter()
+                .map(|r| std::array::from_fn(|c| spline_shape(r.as_ref(), c)))
+                .collect(),
+            curves: tape
+                .curves
+                .iter()
+                .map(|c| spline_shape(c.as_ref(), 0))
+                .collect(),
+            shapes: Shapes::new(),
+        }
+    }
+
+    pub fn tape(&self) -> &Tape {
+        self.tape
+    }
+
+    /// Every output's estimated mean over `footprint` around `point`, channels in output order
+    /// (as [`Tape::eval_point`]). `S` is the output's type; the rules run in f64 either way.
+    ///
+    /// # Panics
+    /// If `out.len() != tape.channels()`.
+    pub fn eval_point<S: Real>(&self, point: [f64; 3], footprint: &Footprint, out: &mut [S]) {
+        assert_eq!(
+            out.len(),
+            self.tape.channels(),
+            "eval_point: output buffer has the wrong length"
+        );
+        let slots = self.run(point, footprint);
+        for o in &self.tape.outputs {
+            match o.ty {
+                Type::Scalar => {
+                    out[o.first_channel] = S::from_f64(slots.scalars[o.slot as usize].mean)
+                }
+                Type::Vec3 => {
+                    for (c, d) in slots.vec3s[o.slot as usize].iter().enumerate() {
+                        out[o.first_channel + c] = S::from_f64(d.mean);
+                    }
+                }
+            }
+        }
+    }
+
+    /// [`Filtered::eval_point`] over many points, one footprint each (`footprints` as long as
+    /// `x`, or one for all), planar output as [`Tape::eval_batch`]: channel `c` of point `i` is
+    /// `out[c * n + i]`. Runs on the rayon pool for large batches.
+    ///
+    /// # Panics
+    /// If the slices' lengths disagree.
+    pub fn eval_batch<S: Real>(
+        &self,
+        [x, y, z]: [&[f64]; 3],
+        footprints: &[Footprint],
+        out: &mut [S],
+    ) {
+        use rayon::prelude::*;
+        let n = x.len();
+        let channels = self.tape.channels();
+        assert!(
+            y.len() == n && z.len() == n,
+            "eval_batch: coordinate lengths differ"
+        );
+        assert!(
+            footprints.len() == n || footprints.len() == 1,
+            "eval_batch: one footprint per point, or one for all"
+        );
+        assert_eq!(
+            out.len(),
+            channels * n,
+            "eval_batch: output buffer has the wrong length"
+        );
+        let footprint = |i: usize| &footprints[if footprints.len() == 1 { 0 } else { i }];
+        let mut lanes = vec![S::ZERO; channels * n];
+        lanes
+            .par_chunks_mut(channels)
+            .enumerate()
+            .with_min_len(64)
+            .for_each(|(i, lane)| self.eval_point([x[i], y[i], z[i]], footprint(i), lane));
+        for i in 0..n {
+            for c in 0..channels {
+                out[c * n + i] = lanes[i * channels + c];
+            }
+        }
+    }
+
+    fn run(&self, point: [f64; 3], footprint: &Footprint) -> Slots {
+        let t = self.tape;
+        let mut slots = Slots {
+            scalars: vec![Dist::constant(0.0); t.scalar_slots],
+            wides: vec![Dist::constant(0.0); t.wide_slots],
+            vec3s: vec![[Dist::constant(0.0); 3]; t.vec3_slots],
+        };
+        for &(slot, v) in &t.scalar_constants {
+            slots.scalars[slot as usize] = Dist::constant(v);
+        }
+        for &(slot, v) in &t.wide_constants {
+            slots.wides[slot as usize] = Dist::constant(v);
+        }
+        for &(slot, v) in &t.vec3_constants {
+            slots.vec3s[slot as usize] = v.map(Dist::constant);
+        }
+        let rules = Rules { footprint };
+        for instr in &t.instrs {
+            self.step(&rules, instr, point, &mut slots);
+        }
+        slots
+    }
+
+    fn sampler(&self, table: u32) -> Sampler<'_> {
+        Sampler {
+            table: &self.tape.tables[table as usize].1,
+            stats: self.stats[table as usize],
+        }
+    }
+
+    fn fractal_samplers(&self, table: u32, octaves: u32) -> FractalSamplers<'_> {
+        let schedule = &self.tape.octaves[octaves as usize];
+        let stats = self.stats[table as usize];
+        let samplers = match self.octave_tables.get(&(table, octaves)) {
+            Some(tables) => tables
+                .iter()
+                .map(|table| Sampler { table, stats })
+                .collect(),
+            None => (0..schedule.len()).map(|_| self.sampler(table)).collect(),
+        };
+        FractalSamplers {
+            octaves: schedule,
+            samplers,
+        }
+    }
+
+    /// One instruction on the slots.
+    fn step(&self, rules: &Rules, instr: &Instr, point: [f64; 3], s: &mut Slots) {
+        let sh = &self.shapes;
+        match *instr {
+            Instr::Position { dst } => {
+                s.vec3s[dst as usize] = std::array::from_fn(|i| Dist::position(point, i));
+            }
+            Instr::Splat { dst, src } => s.vec3s[dst as usize] = [s.scalars[src as usize]; 3],
+            Instr::Combine { dst, x, y, z } => {
+                s.vec3s[dst as usize] = [x, y, z].map(|c| s.scalars[c as usize]);
+            }
+            Instr::Component { dst, src, axis } => {
+                s.scalars[dst as usize] = s.vec3s[src as usize][axis as usize % 3];
+            }
+            Instr::UnaryScalar { op, dst, src } => {
+                s.scalars[dst as usize] = rules.unary(sh, op, &s.scalars[src as usize]);
+            }
+            Instr::UnaryVec3 { op, dst, src } => {
+                s.vec3s[dst as usize] = s.vec3s[src as usize].map(|c| rules.unary(sh, op, &c));
+            }
+            Instr::BinaryScalar { op, dst, a, b } => {
+                let (a, b) = (s.scalars[a as usize], s.scalars[b as usize]);
+                s.scalars[dst as usize] = rules.binary(sh, op, &a, &b);
+            }
+            Instr::BinaryVec3 { op, dst, a, b } => {
+                let (a, b) = (s.vec3s[a as usize], s.vec3s[b as usize]);
+                s.vec3s[dst as usize] = std::array::from_fn(|i| rules.binary(sh, op, &a[i], &b[i]));
+            }
+            Instr::TernaryScalar { op, dst, a, b, c } => {
+                let [a, b, c] = [a, b, c].map(|x| s.scalars[x as usize]);
+                s.scalars[dst as usize] = rules.ternary(sh, op, &a, &b, &c);
+            }
+            Instr::TernaryVec3 { op, dst, a, b, c } => {
+                let [a, b, c] = [a, b, c].map(|x| s.vec3s[x as usize]);
+                s.vec3s[dst as usize] =
+                    std::array::from_fn(|i| rules.ternary(sh, op, &a[i], &b[i], &c[i]));
+            }
+            Instr::Dot { dst, a, b } => {
+                s.scalars[dst as usize] = dot(rules, &s.vec3s[a as usize], &s.vec3s[b as usize]);
+            }
+            Instr::Length { dst, src } => {
+                s.scalars[dst as usize] = length(rules, sh, &s.vec3s[src as usize]);
+            }
+            Instr::Cross { dst, a, b } => {
+                let (a, b) = (s.vec3s[a as usize], s.vec3s[b as usize]);
+                let term = |i: usize, j: usize| {
+                    rules.sub(&rules.mul(&a[i], &b[j]), &rules.mul(&a[j], &b[i]))
+                };
+                s.vec3s[dst as usize] = [term(1, 2), term(2, 0), term(0, 1)];
+            }
+            Instr::Normalize { dst, src } => {
+                let v = s.vec3s[src as usize];
+                let l = length(rules, sh, &v);
+                s.vec3s[dst as usize] = v.map(|c| rules.binary(sh, ops::BinaryOp::Div, &c, &l));
+            }
+            Instr::RotateConst { dst, src, matrix } => {
+                let m = &self.tape.matrices[matrix as usize];
+                s.vec3s[dst as usize] = rotate(rules, m, &s.vec3s[src as usize]);
+            }
+            Instr::RotateVarying {
+                dst,
+                src,
+                degrees,
+                axis,
+            } => {
+                let axis = self.tape.axes[axis as usize];
+                let v = s.vec3s[src as usize];
+                s.vec3s[dst as usize] =
+                    rotate_varying(rules, axis, &v, &s.scalars[degrees as usize]);
+            }
+            Instr::Noise { dst, src, table } => {
+                s.scalars[dst as usize] =
+                    fnoise::noise(rules, &self.sampler(table), &s.vec3s[src as usize]);
+            }
+            Instr::Fractal {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+                bias,
+            } => {
+                s.scalars[dst as usize] =
+                    self.fractal(rules, table, octaves, style, bias, &s.vec3s[src as usize]);
+            }
+            Instr::NoiseGradient { dst, src, table } => {
+                s.vec3s[dst as usize] = fnoise::noise_gradient(
+                    rules,
+                    &self.sampler(table),
+                    &s.vec3s[src as usize],
+                    1.0,
+                );
+            }
+            Instr::FractalGradient {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+            } => {
+                s.vec3s[dst as usize] =
+                    self.fractal_gradient(rules, table, octaves, style, &s.vec3s[src as usize]);
+            }
+            Instr::Hermite { dst, src, spline } => {
+                let f = &self.hermites[spline as usize];
+                s.scalars[dst as usize] = rules.piecewise(f, &s.scalars[src as usize]);
+            }
+            Instr::Ramp { dst, src, ramp } => {
+                let t = s.scalars[src as usize];
+                s.vec3s[dst as usize] = self.ramps[ramp as usize]
+                    .each_ref()
+                    .map(|f| rules.piecewise(f, &t));
+            }
+            Instr::Curve { dst, src, curve } => {
+                let f = &self.curves[curve as usize];
+                s.scalars[dst as usize] = rules.piecewise(f, &s.scalars[src as usize]);
+            }
+            Instr::Wide(w) => self.wide(rules, w, s),
+        }
+    }
+
+    /// A promoted instruction: the plain one's rule on the wide slots.
+    fn wide(&self, rules: &Rules, w: Wide, s: &mut Slots) {
+        let sh = &self.shapes;
+        match w {
+            Wide::Component { dst, src, axis } => {
+                s.wides[dst as usize] = s.vec3s[src as usize][axis as usize % 3];
+            }
+            Wide::Unary { op, dst, src } => {
+                s.wides[dst as usize] = rules.unary(sh, op, &s.wides[src as usize]);
+            }
+            Wide::Binary { op, dst, a, b } => {
+                let (a, b) = (s.wides[a as usize], s.wides[b as usize]);
+                s.wides[dst as usize] = rules.binary(sh, op, &a, &b);
+            }
+            Wide::Ternary { op, dst, a, b, c } => {
+                let [a, b, c] = [a, b, c].map(|x| s.wides[x as usize]);
+                s.wides[dst as usize] = rules.ternary(sh, op, &a, &b, &c);
+            }
+            Wide::Dot { dst, a, b } => {
+                s.wides[dst as usize] = dot(rules, &s.vec3s[a as usize], &s.vec3s[b as usize]);
+            }
+            Wide::Length { dst, src } => {
+                s.wides[dst as usize] = length(rules, sh, &s.vec3s[src as usize]);
+            }
+            Wide::Splat { dst, src } => s.vec3s[dst as usize] = [s.wides[src as usize]; 3],
+            Wide::Combine { dst, x, y, z } => {
+                s.vec3s[dst as usize] = [x, y, z].map(|c| s.wides[c as usize]);
+            }
+            Wide::Rotate {
+                dst,
+                src,
+                degrees,
+                axis,
+            } => {
+                let axis = self.tape.axes[axis as usize];
+                let v = s.vec3s[src as usize];
+                s.vec3s[dst as usize] = rotate_varying(rules, axis, &v, &s.wides[degrees as usize]);
+            }
+            Wide::Noise { dst, src, table } => {
+                s.wides[dst as usize] =
+                    fnoise::noise(rules, &self.sampler(table), &s.vec3s[src as usize]);
+            }
+            Wide::Fractal {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+                bias,
+            } => {
+                s.wides[dst as usize] =
+                    self.fractal(rules, table, octaves, style, bias, &s.vec3s[src as usize]);
+            }
+            Wide::NoiseGradient { dst, src, table } => {
+                s.vec3s[dst as usize] = fnoise::noise_gradient(
+                    rules,
+                    &self.sampler(table),
+                    &s.vec3s[src as usize],
+                    1.0,
+                );
+            }
+            Wide::FractalGradient {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+            } => {
+                s.vec3s[dst as usize] =
+                    self.fractal_gradient(rules, table, octaves, style, &s.vec3s[src as usize]);
+            }
+            Wide::Widen { dst, src } => s.wides[dst as usize] = s.scalars[src as usize],
+            Wide::Narrow { dst, src } => s.scalars[dst as usize] = s.wides[src as usize],
+        }
+    }
+
+    fn fractal(
+        &self,
+        rules: &Rules,
+        table: u32,
+        octaves: u32,
+        style: Style,
+        bias: f64,
+        p: &[Dist; 3],
+    ) -> Dist {
+        let f = self.fractal_samplers(table, octaves);
+        let sum = fnoise::fractal(rules, &self.shapes, &f, style, p);
+        if bias != 0.0 {
+            rules.add(&sum, &Dist::constant(bias))
+        } else {
+            sum
+        }
+    }
+
+    fn fractal_gradient(
+        &self,
+        rules: &Rules,
+        table: u32,
+        octaves: u32,
+        style: Style,
+        p: &[Dist; 3],
+    ) -> [Dist; 3] {
+        let f = self.fractal_samplers(table, octaves);
+        let base = &self.tape.tables[table as usize].1;
+        let point = if style == Style::Fbm {
+            [0.0; 3]
+        } else {
+            crate::noise::fractal_styled_grad::<f64>(base, f.octaves, style, p.map(|c| c.mean))
+        };
+        fnoise::fractal_gradient(rules, &f, style, p, point)
+    }
+}
+
+fn dot(rules: &Rules, a: &[Dist; 3], b: &[Dist; 3]) -> Dist {
+    let mut sum = rules.mul(&a[0], &b[0]);
+    for i in 1..3 {
+        sum = rules.add(&sum, &rules.mul(&a[i], &b[i]));
+    }
+    sum
+}
+
+fn length(rules: &Rules, shapes: &Shapes, a: &[Dist; 3]) -> Dist {
+    rules.unary(shapes, ops::UnaryOp::Sqrt, &dot(rules, a, a))
+}
+
+/// A constant matrix: exact (means, linear parts; residuals as independent per component).
+fn rotate(_: &Rules, m: &[[f64; 3]; 3], v: &[Dist; 3]) -> [Dist; 3] {
+    std::array::from_fn(|i| Dist {
+        mean: (0..3).map(|j| m[i][j] * v[j].mean).sum(),
+        grad: std::array::from_fn(|k| (0..3).map(|j| m[i][j] * v[j].grad[k]).sum()),
+        var: (0..3).map(|j| m[i][j] * m[i][j] * v[j].var).sum(),
+    })
+}
+
+/// A rotation by a varying angle (degrees): the rotation at the mean angle, plus the angle's
+/// linear part and residual through `dR/dθ v = axis × (R v)` (first order).
+fn rotate_varying(rules: &Rules, axis: [f64; 3], v: &[Dist; 3], degrees: &Dist) -> [Dist; 3] {
+    let m = ops::rotation_matrix(axis, degrees.mean);
+    let mut out = rotate(rules, &m, v);
+    let rv = out.map(|c| c.mean);
+    let d = [
+        axis[1] * rv[2] - axis[2] * rv[1],
+        axis[2] * rv[0] - axis[0] * rv[2],
+        axis[0] * rv[1] - axis[1] * rv[0],
+    ];
+    let k = std::f64::consts::PI / 180.0;
+    for (o, d) in out.iter_mut().zip(d) {
+        for (g, dg) in o.grad.iter_mut().zip(degrees.grad) {
+            *g += d * k * dg;
+        }
+        o.var += d * d * k * k * degrees.var;
+    }
+    out
+}
