@@ -15,6 +15,9 @@
 //! `eval/simplex/texgraph_batch_f32_tiled`: the same simplex tiled at periods (5, 7, 11).
 //! `eval/seed004_wood_grain/{near,far_plain_f32,far,far_f64}`: the wood grain on the slab and
 //! at x = 1e6, where the precision plan promotes its noise to f64 (issue 32).
+//! `eval/filtered/seed003_marble/{point_batch_f32,filtered_1_128,filtered_1_8}`: the marble's
+//! `vein` on the slab, the plain batch beside the filtered form (`filter::Filtered::eval_batch`)
+//! with a voxel of side 1/128 (the slab's spacing 1/16 / 8) and 1/8 (issue 33).
 //! `compile/N`: parse + check + compile of a generated graph of N nodes (inline nodes included).
 //!
 //! `eval/seed003_marble/texgraph_batch_lod_f32_{fine,receding}`: `Tape::eval_batch_lod` with
@@ -670,6 +673,39 @@ fn eval_benches(c: &mut Criterion) {
 /// chain rounded in f32: off by up to 1 in the grain); `far`, compiled for that extent (the
 /// coordinate chain and both noises promoted: the Perlin samples run their f64 kernels); and
 /// `far_f64`, the whole tape in f64, the reference.
+/// The filtered form against the plain batch on the same points (issue 33's cost goal: ≤ 2×).
+fn filtered_benches(c: &mut Criterion) {
+    use texgraph::filter::{Filtered, Footprint};
+    let text =
+        std::fs::read_to_string("graphs/seed003_marble.ron").expect("run from the crate root");
+    let graph = check(
+        SourceFile::new("seed003_marble.ron", text),
+        &CheckOptions::default(),
+    )
+    .expect("valid graph");
+    let options = CompileOptions {
+        outputs: vec!["vein".into()],
+        ..Default::default()
+    };
+    let tape = compile(&graph, &options).expect("compiles");
+    let (x, y, z) = slab();
+    let n = x.len();
+    let filtered = Filtered::new(&tape);
+    let mut group = new_group(c, "eval/filtered/seed003_marble");
+    let mut out = vec![0f32; n];
+    let mut ws = Workspace::<f32>::new();
+    group.bench_function("point_batch_f32", |b| {
+        b.iter(|| tape.eval_batch(&mut ws, &x, &y, &z, black_box(&mut out)))
+    });
+    for (name, side) in [("filtered_1_128", 1.0 / 128.0), ("filtered_1_8", 0.125)] {
+        let footprint = [Footprint::cube(side).expect("finite")];
+        group.bench_function(name, |b| {
+            b.iter(|| filtered.eval_batch([&x, &y, &z], &footprint, black_box(&mut out)))
+        });
+    }
+    group.finish();
+}
+
 fn wood_grain_benches(c: &mut Criterion) {
     let text =
         std::fs::read_to_string("graphs/seed004_wood_grain.ron").expect("run from the crate root");
@@ -808,6 +844,7 @@ criterion_group!(
     eval_benches,
     family_benches,
     wood_grain_benches,
+    filtered_benches,
     gradient_benches,
     compile_benches
 );

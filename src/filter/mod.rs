@@ -4,9 +4,11 @@
 //! From the bottom up: `moments` (the one-variable mathematics: exact box means, variances and
 //! slopes of piecewise polynomials, `fract` and truncated powers of a value spread over a
 //! footprint) → `rules` (a value's distribution, [`Dist`], through each operation; the
-//! [`Footprint`]) → `noise` (noise and fractal sums over a footprint) → `tape` ([`Filtered`]: a
+//! [`Footprint`]) → `noise` (noise and fractal sums over a footprint), `integers` (which values are
+//! integer-valued) → `tape` ([`Filtered`]: a
 //! compiled tape run on distributions). docs/filtering.md has every rule's derivation.
 
+pub mod integers;
 pub mod moments;
 pub mod noise;
 pub mod rules;

@@ -528,6 +528,53 @@ impl Rules<'_> {
         }
     }
 
+    /// `mod(K, P)` of an integer-valued `K` by a whole `P` ≥ 1 (a checker's parity, a cell
+    /// index's residue). Where `K`'s variance is at most that of the two integers around its
+    /// mean (the box straddles one cell face), `K` takes `n` and `n + 1` with probabilities
+    /// `1 − p` and `p` (`n = floor μ`, `p = μ − n`): exact. Otherwise `K = round(Y)` for a
+    /// continuous `Y` with `K`'s linear part and its residual less the rounding's 1/12
+    /// (Sheppard's correction), and with `u = Y + 1/2`,
+    /// `mod(K, P) = floor u − P floor(u/P)`, so `E = P·E[fract(u/P)] − E[fract u]` by the exact
+    /// `fract` rule.
+    pub fn lattice_mod(&self, k: &Dist, p: f64) -> Dist {
+        let g = |v: f64| v - p * (v / p).floor();
+        let (mu, t) = (k.mean, self.total_var(k));
+        let n = mu.floor();
+        let q = mu - n;
+        if !mu.is_finite() {
+            return Dist::constant(f64::NAN);
+        }
+        let (mean, var, slope) = if t <= q * (1.0 - q) + 1e-12 {
+            let (g0, g1) = (g(n), g(n + 1.0));
+            let mean = (1.0 - q) * g0 + q * g1;
+            let square = (1.0 - q) * g0 * g0 + q * g1 * g1;
+            (mean, (square - mean * mean).max(0.0), g1 - g0)
+        } else {
+            let widths = self.footprint.widths(k.grad);
+            let u = Spread::new(widths, (k.var - 1.0 / 12.0).max(0.0));
+            let scaled = Spread::new(
+                widths.map(|w| w / p),
+                (k.var - 1.0 / 12.0).max(0.0) / (p * p),
+            );
+            let whole = moments::fract_moments((mu + 0.5) / p, &scaled);
+            let unit = moments::fract_moments(mu + 0.5, &u);
+            let mean = p * whole.mean - unit.mean;
+            // The residues' variance once the box spans several periods, less the mean's share.
+            let square = (p - 1.0) * (2.0 * p - 1.0) / 6.0;
+            (
+                mean,
+                (square - mean * mean).max(0.0),
+                whole.slope - unit.slope,
+            )
+        };
+        let grad = k.grad.map(|c| slope * c);
+        Dist {
+            mean,
+            grad,
+            var: residual(var, self.footprint.linear_var(grad)),
+        }
+    }
+
     pub fn binary(&self, shapes: &Shapes, op: BinaryOp, a: &Dist, b: &Dist) -> Dist {
         if (a.is_constant() && b.is_constant()) || a.mean.is_nan() || b.mean.is_nan() {
             return Dist::constant(op.apply(a.mean, b.mean));

@@ -30,6 +30,8 @@ pub struct Filtered<'t> {
     ramps: Vec<[Piecewise; 3]>,
     curves: Vec<Piecewise>,
     shapes: Shapes,
+    /// Per instruction: whether its operand `a` is integer-valued (`integers.rs`).
+    integer: Vec<[bool; 3]>,
 }
 
 /// The slots of one filtered evaluation.
@@ -84,6 +86,7 @@ impl<'t> Filtered<'t> {
                 .map(|c| spline_shape(c.as_ref(), 0))
                 .collect(),
             shapes: Shapes::new(),
+            integer: super::integers::integer_operands(tape),
         }
     }
 
@@ -176,8 +179,8 @@ impl<'t> Filtered<'t> {
             slots.vec3s[slot as usize] = v.map(Dist::constant);
         }
         let rules = Rules { footprint };
-        for instr in &t.instrs {
-            self.step(&rules, instr, point, &mut slots);
+        for (instr, integer) in t.instrs.iter().zip(&self.integer) {
+            self.step(&rules, instr, *integer, point, &mut slots);
         }
         slots
     }
@@ -206,7 +209,15 @@ impl<'t> Filtered<'t> {
     }
 
     /// One instruction on the slots.
-    fn step(&self, rules: &Rules, instr: &Instr, point: [f64; 3], s: &mut Slots) {
+    /// `integer`: whether the operand `a` is integer-valued (per component).
+    fn step(
+        &self,
+        rules: &Rules,
+        instr: &Instr,
+        integer: [bool; 3],
+        point: [f64; 3],
+        s: &mut Slots,
+    ) {
         let sh = &self.shapes;
         match *instr {
             Instr::Position { dst } => {
@@ -227,11 +238,12 @@ impl<'t> Filtered<'t> {
             }
             Instr::BinaryScalar { op, dst, a, b } => {
                 let (a, b) = (s.scalars[a as usize], s.scalars[b as usize]);
-                s.scalars[dst as usize] = rules.binary(sh, op, &a, &b);
+                s.scalars[dst as usize] = binary(rules, sh, op, &a, &b, integer[0]);
             }
             Instr::BinaryVec3 { op, dst, a, b } => {
                 let (a, b) = (s.vec3s[a as usize], s.vec3s[b as usize]);
-                s.vec3s[dst as usize] = std::array::from_fn(|i| rules.binary(sh, op, &a[i], &b[i]));
+                s.vec3s[dst as usize] =
+                    std::array::from_fn(|i| binary(rules, sh, op, &a[i], &b[i], integer[i]));
             }
             Instr::TernaryScalar { op, dst, a, b, c } => {
                 let [a, b, c] = [a, b, c].map(|x| s.scalars[x as usize]);
@@ -322,12 +334,12 @@ impl<'t> Filtered<'t> {
                 let f = &self.curves[curve as usize];
                 s.scalars[dst as usize] = rules.piecewise(f, &s.scalars[src as usize]);
             }
-            Instr::Wide(w) => self.wide(rules, w, s),
+            Instr::Wide(w) => self.wide(rules, w, integer[0], s),
         }
     }
 
     /// A promoted instruction: the plain one's rule on the wide slots.
-    fn wide(&self, rules: &Rules, w: Wide, s: &mut Slots) {
+    fn wide(&self, rules: &Rules, w: Wide, integer: bool, s: &mut Slots) {
         let sh = &self.shapes;
         match w {
             Wide::Component { dst, src, axis } => {
@@ -338,7 +350,7 @@ impl<'t> Filtered<'t> {
             }
             Wide::Binary { op, dst, a, b } => {
                 let (a, b) = (s.wides[a as usize], s.wides[b as usize]);
-                s.wides[dst as usize] = rules.binary(sh, op, &a, &b);
+                s.wides[dst as usize] = binary(rules, sh, op, &a, &b, integer);
             }
             Wide::Ternary { op, dst, a, b, c } => {
                 let [a, b, c] = [a, b, c].map(|x| s.wides[x as usize]);
@@ -437,6 +449,23 @@ impl<'t> Filtered<'t> {
         };
         fnoise::fractal_gradient(rules, &f, style, p, point)
     }
+}
+
+/// A binary rule; `Mod` of an integer-valued value by a whole constant takes the lattice into
+/// account (`Rules::lattice_mod`).
+fn binary(
+    rules: &Rules,
+    sh: &Shapes,
+    op: ops::BinaryOp,
+    a: &Dist,
+    b: &Dist,
+    integer: bool,
+) -> Dist {
+    let whole = b.grad == [0.0; 3] && b.var == 0.0 && b.mean.fract() == 0.0 && b.mean >= 1.0;
+    if op == ops::BinaryOp::Mod && integer && whole && b.mean <= 1e6 {
+        return rules.lattice_mod(a, b.mean);
+    }
+    rules.binary(sh, op, a, b)
 }
 
 fn dot(rules: &Rules, a: &[Dist; 3], b: &[Dist; 3]) -> Dist {

@@ -343,3 +343,33 @@ fn marble_filtered_beats_point_sampling() {
         "marble vein at side 1/2: filtered RMS {filtered_rms}, point RMS {point_rms}"
     );
 }
+
+/// An integer-valued value through `Mod` (a checker: `Mod(Floor(x) + Floor(y), 2)`) is
+/// filtered on its lattice: over boxes straddling one face, exactly the two cells' shares;
+/// over wide boxes, 1/2 (a continuous model would give 1).
+#[test]
+fn checker_parity_is_filtered_on_the_lattice() {
+    let t = tape(
+        r#"Graph(nodes: { "p": Position }, outputs: { "c": Mod(Add(Floor("p.x"), Floor("p.y")), 2.0) })"#,
+    );
+    // x in [0.9, 1.3): 1/4 in cell 0 (parity 0 with y in cell 0), 3/4 in cell 1 (parity 1).
+    let got = filtered(
+        &t,
+        [1.1, 0.5, 0.0],
+        &Footprint::from_sides([0.4, 0.2, 0.0]).unwrap(),
+    )[0];
+    assert!((got - 0.75).abs() < 1e-12, "straddling one face: {got}");
+    let wide = filtered(&t, [0.3, 0.7, 0.0], &Footprint::cube(40.0).unwrap())[0];
+    assert!((wide - 0.5).abs() < 0.02, "a wide box: {wide}");
+    let mut rng = Rng(17);
+    for _ in 0..6 {
+        let p = [rng.range(-3.0, 3.0), rng.range(-3.0, 3.0), 0.0];
+        let sides = [rng.range(0.1, 3.0), rng.range(0.1, 3.0), 0.0];
+        let got = filtered(&t, p, &Footprint::from_sides(sides).unwrap())[0];
+        let want = box_mean(&t, p, sides, 40, &mut rng)[0];
+        assert!(
+            (got - want).abs() < 0.12,
+            "at {p:?}, sides {sides:?}: filtered {got}, supersampled {want}"
+        );
+    }
+}
