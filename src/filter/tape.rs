@@ -287,39 +287,10 @@ impl<'t> Filtered<'t> {
                 s.vec3s[dst as usize] =
                     rotate_varying(rules, axis, &v, &s.scalars[degrees as usize]);
             }
-            Instr::Noise { dst, src, table } => {
-                s.scalars[dst as usize] =
-                    fnoise::noise(rules, &self.sampler(table), &s.vec3s[src as usize]);
-            }
-            Instr::Fractal {
-                dst,
-                src,
-                table,
-                octaves,
-                style,
-                bias,
-            } => {
-                s.scalars[dst as usize] =
-                    self.fractal(rules, table, octaves, style, bias, &s.vec3s[src as usize]);
-            }
-            Instr::NoiseGradient { dst, src, table } => {
-                s.vec3s[dst as usize] = fnoise::noise_gradient(
-                    rules,
-                    &self.sampler(table),
-                    &s.vec3s[src as usize],
-                    1.0,
-                );
-            }
-            Instr::FractalGradient {
-                dst,
-                src,
-                table,
-                octaves,
-                style,
-            } => {
-                s.vec3s[dst as usize] =
-                    self.fractal_gradient(rules, table, octaves, style, &s.vec3s[src as usize]);
-            }
+            Instr::Noise { .. }
+            | Instr::Fractal { .. }
+            | Instr::NoiseGradient { .. }
+            | Instr::FractalGradient { .. } => self.noise_step(rules, instr, s, false),
             Instr::Hermite { dst, src, spline } => {
                 let f = &self.hermites[spline as usize];
                 s.scalars[dst as usize] = rules.piecewise(f, &s.scalars[src as usize]);
@@ -377,8 +348,7 @@ impl<'t> Filtered<'t> {
                 s.vec3s[dst as usize] = rotate_varying(rules, axis, &v, &s.wides[degrees as usize]);
             }
             Wide::Noise { dst, src, table } => {
-                s.wides[dst as usize] =
-                    fnoise::noise(rules, &self.sampler(table), &s.vec3s[src as usize]);
+                self.noise_step(rules, &Instr::Noise { dst, src, table }, s, true)
             }
             Wide::Fractal {
                 dst,
@@ -388,16 +358,19 @@ impl<'t> Filtered<'t> {
                 style,
                 bias,
             } => {
-                s.wides[dst as usize] =
-                    self.fractal(rules, table, octaves, style, bias, &s.vec3s[src as usize]);
+                let plain = Instr::Fractal {
+                    dst,
+                    src,
+                    table,
+                    octaves,
+                    style,
+                    bias,
+                };
+                self.noise_step(rules, &plain, s, true)
             }
+            // Gradients write vec3 slots, f64 on both paths: the plain rule.
             Wide::NoiseGradient { dst, src, table } => {
-                s.vec3s[dst as usize] = fnoise::noise_gradient(
-                    rules,
-                    &self.sampler(table),
-                    &s.vec3s[src as usize],
-                    1.0,
-                );
+                self.noise_step(rules, &Instr::NoiseGradient { dst, src, table }, s, true)
             }
             Wide::FractalGradient {
                 dst,
@@ -406,12 +379,59 @@ impl<'t> Filtered<'t> {
                 octaves,
                 style,
             } => {
-                s.vec3s[dst as usize] =
-                    self.fractal_gradient(rules, table, octaves, style, &s.vec3s[src as usize]);
+                let plain = Instr::FractalGradient {
+                    dst,
+                    src,
+                    table,
+                    octaves,
+                    style,
+                };
+                self.noise_step(rules, &plain, s, true)
             }
             Wide::Widen { dst, src } => s.wides[dst as usize] = s.scalars[src as usize],
             Wide::Narrow { dst, src } => s.scalars[dst as usize] = s.wides[src as usize],
         }
+    }
+
+    /// The noise instructions' rules; a scalar result goes to the wide slots when `wide` (a
+    /// promoted instruction: the same rule, every filtered value being f64).
+    fn noise_step(&self, rules: &Rules, instr: &Instr, s: &mut Slots, wide: bool) {
+        let (dst, value) = match *instr {
+            Instr::Noise { dst, src, table } => (
+                dst,
+                fnoise::noise(rules, &self.sampler(table), &s.vec3s[src as usize]),
+            ),
+            Instr::Fractal {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+                bias,
+            } => (
+                dst,
+                self.fractal(rules, table, octaves, style, bias, &s.vec3s[src as usize]),
+            ),
+            Instr::NoiseGradient { dst, src, table } => {
+                let p = &s.vec3s[src as usize];
+                s.vec3s[dst as usize] = fnoise::noise_gradient(rules, &self.sampler(table), p, 1.0);
+                return;
+            }
+            Instr::FractalGradient {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+            } => {
+                let p = &s.vec3s[src as usize];
+                s.vec3s[dst as usize] = self.fractal_gradient(rules, table, octaves, style, p);
+                return;
+            }
+            _ => unreachable!("noise_step takes only noise instructions"),
+        };
+        let file = if wide { &mut s.wides } else { &mut s.scalars };
+        file[dst as usize] = value;
     }
 
     fn fractal(

@@ -373,3 +373,41 @@ fn checker_parity_is_filtered_on_the_lattice() {
         );
     }
 }
+
+/// Promoted (wide) instructions take the same rules: the wood grain compiled for x = 1e6 (its
+/// noise promoted to f64) filters to its point value at a zero footprint and to the plain
+/// tape's filtered value at a small one.
+#[test]
+fn promoted_instructions_filter_like_plain_ones() {
+    let text =
+        std::fs::read_to_string(crate::common::crate_root().join("graphs/seed004_wood_grain.ron"))
+            .unwrap();
+    let graph = check(
+        SourceFile::new("seed004_wood_grain.ron", text),
+        &CheckOptions::default(),
+    )
+    .unwrap();
+    let far = texgraph::Extent::new([1e6, 0.0, 0.0], [1e6 + 1.0, 1.0, 1.0]);
+    let promoted = compile(
+        &graph,
+        &CompileOptions {
+            extent: Some(far),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(
+        promoted.to_string().contains(" noise "),
+        "a noise instruction"
+    );
+    let plain = compile(&graph, &CompileOptions::default()).unwrap();
+    let p = [1e6 + 0.25, 0.3, 0.7];
+    let want = point(&promoted, p);
+    let got = filtered(&promoted, p, &Footprint::POINT);
+    assert_eq!(got, want);
+    let fp = Footprint::cube(0.01).unwrap();
+    let (a, b) = (filtered(&promoted, p, &fp), filtered(&plain, p, &fp));
+    for (a, b) in a.iter().zip(&b) {
+        assert!((a - b).abs() < 1e-9, "promoted {a}, plain {b}");
+    }
+}
