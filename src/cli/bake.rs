@@ -312,7 +312,20 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
         (args.files.clone(), part)
     };
     let threads = threads_or_warn(args.threads);
-    let device = super::resolve_device(args.device, args.double)?;
+    // The filtered form runs on the CPU only (docs/filtering.md, "Not yet").
+    let device = match (args.filter(), args.device) {
+        (crate::filter::Filter::Box, crate::gpu::Device::Gpu) => {
+            eprintln!("error: --filter box runs on the CPU (the GPU's filtered form is not written yet): use --device cpu");
+            return Err(Failure::Usage);
+        }
+        (crate::filter::Filter::Box, crate::gpu::Device::Auto) => {
+            eprintln!(
+                "texgraph: --device auto: evaluating on the CPU (--filter box runs on the CPU)"
+            );
+            crate::gpu::Device::Cpu
+        }
+        _ => super::resolve_device(args.device, args.double)?,
+    };
     let cancel = Arc::new(AtomicBool::new(false));
     {
         // Ctrl-C stops between windows; temporary files are removed and nothing is renamed

@@ -1341,3 +1341,38 @@ fn eval_footprint_prints_the_box_mean() {
         );
     }
 }
+
+/// `bake --filter box` runs on the CPU: `--device gpu` is a usage error that says so, `auto`
+/// picks the CPU and says why; `--lod` does not apply.
+#[test]
+fn bake_filter_box_devices_and_conflicts() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().to_str().unwrap();
+    let base = [
+        "bake",
+        "graphs/seed002_sine.ron",
+        "--size",
+        "4",
+        "--format",
+        "raw",
+        "--quiet",
+        "--filter",
+        "box",
+        "--out",
+        out,
+    ];
+    let gpu = expect_code(&[&base[..], &["--device", "gpu"]].concat(), 2);
+    assert!(
+        stderr(&gpu).contains("--filter box runs on the CPU"),
+        "{}",
+        stderr(&gpu)
+    );
+    let auto = expect_code(&[&base[..], &["--device", "auto", "--force"]].concat(), 0);
+    assert!(
+        stderr(&auto).contains("evaluating on the CPU"),
+        "{}",
+        stderr(&auto)
+    );
+    let lod = expect_code(&[&base[..], &["--lod", "--force"]].concat(), 2);
+    assert!(stderr(&lod).contains("--lod"), "{}", stderr(&lod));
+}
