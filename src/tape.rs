@@ -263,6 +263,46 @@ pub enum Wide {
     },
 }
 
+impl Wide {
+    /// A promoted noise sample, fractal sum or gradient as its plain instruction (the same
+    /// fields; the inverse of the compiler's promotion); `None` for every other instruction.
+    pub(crate) fn plain_noise(self) -> Option<Instr> {
+        Some(match self {
+            Wide::Noise { dst, src, table } => Instr::Noise { dst, src, table },
+            Wide::Fractal {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+                bias,
+            } => Instr::Fractal {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+                bias,
+            },
+            Wide::NoiseGradient { dst, src, table } => Instr::NoiseGradient { dst, src, table },
+            Wide::FractalGradient {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+            } => Instr::FractalGradient {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+            },
+            _ => return None,
+        })
+    }
+}
+
 /// Where an output's value lives at the end of the tape.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TapeOutput {

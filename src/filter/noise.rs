@@ -38,16 +38,8 @@ pub struct Stats {
 pub fn stats(table: &NoiseTable) -> Stats {
     const N: usize = 1024;
     const H: f64 = 0.25;
-    let mut state = 0x9e37_79b9_7f4a_7c15u64;
-    let mut next = || {
-        // SplitMix64: a seeded, well-mixed sequence (no need for a crate here).
-        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64 * 128.0 - 64.0
-    };
+    let mut rng = crate::noise::SplitMix64::new(0x9e37_79b9_7f4a_7c15);
+    let mut next = || (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64 * 128.0 - 64.0;
     let (mut sum, mut sum2, mut diff2, mut grad2) = (0.0, 0.0, 0.0, 0.0);
     let mut count = 0.0;
     for i in 0..N {
@@ -118,19 +110,11 @@ fn fade(rules: &Rules, stats: &Stats, p: &[Dist; 3]) -> f64 {
         return 1.0;
     }
     let mut alpha = 1.0;
-    for e in rules.footprint.edges() {
-        // The footprint's edge in noise space: J e.
-        let mut l2 = 0.0;
-        for c in p {
-            let w: f64 = c
-                .grad
-                .iter()
-                .zip(&e)
-                .filter(|(g, e)| **g != 0.0 && **e != 0.0)
-                .map(|(g, e)| g * e)
-                .sum();
-            l2 += w * w;
-        }
+    // The footprint's edges in noise space, J e_k: their squared lengths from each component's
+    // widths along the edges.
+    let widths = p.map(|c| rules.footprint.widths(c.grad));
+    for k in 0..3 {
+        let l2: f64 = widths.iter().map(|w| w[k] * w[k]).sum();
         alpha /= (1.0 + stats.kappa2 * l2 / 12.0).sqrt();
     }
     let v: f64 = p.iter().map(|c| c.var).sum();
@@ -176,10 +160,24 @@ pub fn noise_gradient(rules: &Rules, s: &Sampler, p: &[Dist; 3], scale: f64) -> 
     })
 }
 
-/// One octave's sampler per octave of a fractal sum (tiled sums: each octave's own period).
+/// The samplers of a fractal sum's octaves: the instruction's table, or for a tiled sum each
+/// octave's periodic copy (the base table's statistics either way).
 pub struct FractalSamplers<'a> {
     pub octaves: &'a Octaves,
-    pub samplers: Vec<Sampler<'a>>,
+    pub base: Sampler<'a>,
+    pub periodic: Option<&'a [NoiseTable]>,
+}
+
+impl<'a> FractalSamplers<'a> {
+    fn octave(&self, k: usize) -> Sampler<'a> {
+        match self.periodic {
+            Some(tables) => Sampler {
+                table: &tables[k],
+                stats: self.base.stats,
+            },
+            None => Sampler { ..self.base },
+        }
+    }
 }
 
 /// A fractal sum over the footprint: every octave by [`noise`] on the scaled input, shaped by
@@ -200,14 +198,14 @@ pub fn fractal(
         .zip(&f.octaves.amplitudes)
         .enumerate()
     {
-        let q = p.map(|c| scale(&c, freq));
-        let n = noise(rules, &f.samplers[k], &q);
+        let q = p.map(|c| c.scale(freq));
+        let n = noise(rules, &f.octave(k), &q);
         let shaped = match style {
             Style::Fbm => n,
             Style::Turbulence => rules.unary(shapes, UnaryOp::Abs, &n),
             Style::Billow => {
                 let a = rules.unary(shapes, UnaryOp::Abs, &n);
-                rules.sub(&scale(&a, 2.0), &Dist::constant(1.0))
+                rules.sub(&a.scale(2.0), &Dist::constant(1.0))
             }
             Style::Ridged { offset, sharpness } => {
                 let a = rules.unary(shapes, UnaryOp::Abs, &n);
@@ -215,13 +213,13 @@ pub fn fractal(
                 let ridge = rules.binary(shapes, BinaryOp::Max, &ridge, &Dist::constant(0.0));
                 let ridge = rules.binary(shapes, BinaryOp::Pow, &ridge, &Dist::constant(sharpness));
                 let signal = rules.mul(&ridge, &weight);
-                let doubled = scale(&signal, 2.0);
+                let doubled = signal.scale(2.0);
                 let w = rules.binary(shapes, BinaryOp::Max, &doubled, &Dist::constant(0.0));
                 weight = rules.binary(shapes, BinaryOp::Min, &w, &Dist::constant(1.0));
                 signal
             }
         };
-        sum = rules.add(&sum, &scale(&shaped, amp));
+        sum = rules.add(&sum, &shaped.scale(amp));
     }
     sum
 }
@@ -245,8 +243,8 @@ pub fn fractal_gradient(
             .zip(&f.octaves.amplitudes)
             .enumerate()
         {
-            let q = p.map(|c| scale(&c, freq));
-            let g = noise_gradient(rules, &f.samplers[k], &q, amp * freq);
+            let q = p.map(|c| c.scale(freq));
+            let g = noise_gradient(rules, &f.octave(k), &q, amp * freq);
             for (o, g) in out.iter_mut().zip(&g) {
                 *o = rules.add(o, g);
             }
@@ -254,16 +252,8 @@ pub fn fractal_gradient(
         return out;
     }
     let alpha = match f.octaves.frequencies.first() {
-        Some(&freq) => fade(rules, &f.samplers[0].stats, &p.map(|c| scale(&c, freq))),
+        Some(&freq) => fade(rules, &f.base.stats, &p.map(|c| c.scale(freq))),
         None => 1.0,
     };
     point.map(|c| Dist::constant(alpha * c))
-}
-
-fn scale(d: &Dist, c: f64) -> Dist {
-    Dist {
-        mean: c * d.mean,
-        grad: d.grad.map(|g| c * g),
-        var: c * c * d.var,
-    }
 }

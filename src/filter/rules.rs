@@ -60,7 +60,8 @@ impl Dist {
         self.var == 0.0 && self.grad == [0.0; 3]
     }
 
-    fn scale(self, c: f64) -> Dist {
+    /// `c · V`: exact.
+    pub fn scale(self, c: f64) -> Dist {
         Dist {
             mean: c * self.mean,
             grad: self.grad.map(|g| c * g),
@@ -177,6 +178,7 @@ pub struct Shapes {
     sign: Piecewise,
     step: Piecewise,
     ramp: Piecewise,
+    unit_clamp: Piecewise,
     unit_smoothstep: Piecewise,
 }
 
@@ -187,7 +189,15 @@ impl Shapes {
             sign: Piecewise::new(vec![0.0], vec![[-1.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]]),
             step: Piecewise::new(vec![0.0], vec![[0.0; 4], [1.0, 0.0, 0.0, 0.0]]),
             ramp: Piecewise::new(vec![0.0], vec![[0.0; 4], [0.0, 1.0, 0.0, 0.0]]),
-            unit_smoothstep: smoothstep_shape(0.0, 1.0),
+            unit_clamp: Piecewise::new(
+                vec![0.0, 1.0],
+                vec![[0.0; 4], [0.0, 1.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]],
+            ),
+            // 3t² − 2t³ on [0, 1).
+            unit_smoothstep: Piecewise::new(
+                vec![0.0, 1.0],
+                vec![[0.0; 4], [0.0, 0.0, 3.0, -2.0], [1.0, 0.0, 0.0, 0.0]],
+            ),
         }
     }
 }
@@ -195,32 +205,6 @@ impl Shapes {
 impl Default for Shapes {
     fn default() -> Self {
         Shapes::new()
-    }
-}
-
-/// `smoothstep(e0, e1, x)` as a piecewise cubic in x (e0 ≠ e1, both finite).
-pub fn smoothstep_shape(e0: f64, e1: f64) -> Piecewise {
-    let w = e1 - e0;
-    if w > 0.0 {
-        // s = u / w on [e0, e1): 3s² − 2s³.
-        Piecewise::new(
-            vec![e0, e1],
-            vec![
-                [0.0; 4],
-                [0.0, 0.0, 3.0 / (w * w), -2.0 / (w * w * w)],
-                [1.0, 0.0, 0.0, 0.0],
-            ],
-        )
-    } else {
-        // Falling: 1 below e1, 0 from e0; on [e1, e0) with u = x − e1, s = 1 + u / w.
-        Piecewise::new(
-            vec![e1, e0],
-            vec![
-                [1.0, 0.0, 0.0, 0.0],
-                [1.0, 0.0, -3.0 / (w * w), -2.0 / (w * w * w)],
-                [0.0; 4],
-            ],
-        )
     }
 }
 
@@ -674,34 +658,25 @@ impl Rules<'_> {
         }
         match op {
             TernaryOp::Clamp => {
-                // clamp(x, lo, hi) = min(max(x, lo), hi).
                 if b.is_constant() && c.is_constant() && b.mean <= c.mean {
+                    // lo + (hi − lo) clamp((x − lo) / (hi − lo), 0, 1): affine maps of one
+                    // shape, exact.
                     let (lo, hi) = (b.mean, c.mean);
-                    let f = Piecewise::new(
-                        vec![lo, hi],
-                        vec![
-                            [lo, 0.0, 0.0, 0.0],
-                            [lo, 1.0, 0.0, 0.0],
-                            [hi, 0.0, 0.0, 0.0],
-                        ],
-                    );
-                    return self.piecewise(&f, a);
+                    if lo == hi {
+                        return Dist::constant(lo);
+                    }
+                    let t = self.sub(a, b).scale(1.0 / (hi - lo));
+                    let unit = self.piecewise(&shapes.unit_clamp, &t);
+                    return self.add(b, &unit.scale(hi - lo));
                 }
+                // clamp(x, lo, hi) = min(max(x, lo), hi).
                 let lower = self.min_max(shapes, a, b, true);
                 self.min_max(shapes, &lower, c, false)
             }
             TernaryOp::Mix => self.add(a, &self.mul(c, &self.sub(b, a))),
             TernaryOp::Smoothstep => {
-                if a.is_constant() && b.is_constant() {
-                    let (e0, e1) = (a.mean, b.mean);
-                    if e0 == e1 {
-                        return self.piecewise(&shapes.step, &self.sub(c, a));
-                    }
-                    if e0.is_finite() && e1.is_finite() {
-                        return self.piecewise(&smoothstep_shape(e0, e1), c);
-                    }
-                }
-                // Varying edges: t = (x − e0) / (e1 − e0), then the unit smoothstep.
+                // t = (x − e0) / (e1 − e0), then the unit smoothstep (constant edges: an exact
+                // affine map, `Div` by a constant being a scale); equal edges make a step.
                 let span = self.sub(b, a);
                 if span.mean == 0.0 {
                     return self.piecewise(&shapes.step, &self.sub(c, a));

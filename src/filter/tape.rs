@@ -105,7 +105,19 @@ impl<'t> Filtered<'t> {
             self.tape.channels(),
             "eval_point: output buffer has the wrong length"
         );
-        let slots = self.run(point, footprint);
+        let mut slots = self.slots();
+        self.eval_into(&mut slots, point, footprint, out);
+    }
+
+    /// [`Filtered::eval_point`] on slots made by [`Filtered::slots`] (reused across points).
+    fn eval_into<S: Real>(
+        &self,
+        slots: &mut Slots,
+        point: [f64; 3],
+        footprint: &Footprint,
+        out: &mut [S],
+    ) {
+        self.run(slots, point, footprint);
         for o in &self.tape.outputs {
             match o.ty {
                 Type::Scalar => {
@@ -154,7 +166,10 @@ impl<'t> Filtered<'t> {
             .par_chunks_mut(channels)
             .enumerate()
             .with_min_len(64)
-            .for_each(|(i, lane)| self.eval_point([x[i], y[i], z[i]], footprint(i), lane));
+            .for_each_init(
+                || self.slots(),
+                |slots, (i, lane)| self.eval_into(slots, [x[i], y[i], z[i]], footprint(i), lane),
+            );
         for i in 0..n {
             for c in 0..channels {
                 out[c * n + i] = lanes[i * channels + c];
@@ -162,7 +177,9 @@ impl<'t> Filtered<'t> {
         }
     }
 
-    fn run(&self, point: [f64; 3], footprint: &Footprint) -> Slots {
+    /// Slots for this tape with its constants written (no instruction writes a constant's slot,
+    /// as in the interpreter's `Workspace::bind`), reused from point to point.
+    fn slots(&self) -> Slots {
         let t = self.tape;
         let mut slots = Slots {
             scalars: vec![Dist::constant(0.0); t.scalar_slots],
@@ -178,11 +195,14 @@ impl<'t> Filtered<'t> {
         for &(slot, v) in &t.vec3_constants {
             slots.vec3s[slot as usize] = v.map(Dist::constant);
         }
-        let rules = Rules { footprint };
-        for (instr, integer) in t.instrs.iter().zip(&self.integer) {
-            self.step(&rules, instr, *integer, point, &mut slots);
-        }
         slots
+    }
+
+    fn run(&self, slots: &mut Slots, point: [f64; 3], footprint: &Footprint) {
+        let rules = Rules { footprint };
+        for (instr, integer) in self.tape.instrs.iter().zip(&self.integer) {
+            self.step(&rules, instr, *integer, point, slots);
+        }
     }
 
     fn sampler(&self, table: u32) -> Sampler<'_> {
@@ -193,18 +213,10 @@ impl<'t> Filtered<'t> {
     }
 
     fn fractal_samplers(&self, table: u32, octaves: u32) -> FractalSamplers<'_> {
-        let schedule = &self.tape.octaves[octaves as usize];
-        let stats = self.stats[table as usize];
-        let samplers = match self.octave_tables.get(&(table, octaves)) {
-            Some(tables) => tables
-                .iter()
-                .map(|table| Sampler { table, stats })
-                .collect(),
-            None => (0..schedule.len()).map(|_| self.sampler(table)).collect(),
-        };
         FractalSamplers {
-            octaves: schedule,
-            samplers,
+            octaves: &self.tape.octaves[octaves as usize],
+            base: self.sampler(table),
+            periodic: self.octave_tables.get(&(table, octaves)).map(Vec::as_slice),
         }
     }
 
@@ -347,46 +359,14 @@ impl<'t> Filtered<'t> {
                 let v = s.vec3s[src as usize];
                 s.vec3s[dst as usize] = rotate_varying(rules, axis, &v, &s.wides[degrees as usize]);
             }
-            Wide::Noise { dst, src, table } => {
-                self.noise_step(rules, &Instr::Noise { dst, src, table }, s, true)
-            }
-            Wide::Fractal {
-                dst,
-                src,
-                table,
-                octaves,
-                style,
-                bias,
-            } => {
-                let plain = Instr::Fractal {
-                    dst,
-                    src,
-                    table,
-                    octaves,
-                    style,
-                    bias,
-                };
-                self.noise_step(rules, &plain, s, true)
-            }
-            // Gradients write vec3 slots, f64 on both paths: the plain rule.
-            Wide::NoiseGradient { dst, src, table } => {
-                self.noise_step(rules, &Instr::NoiseGradient { dst, src, table }, s, true)
-            }
-            Wide::FractalGradient {
-                dst,
-                src,
-                table,
-                octaves,
-                style,
-            } => {
-                let plain = Instr::FractalGradient {
-                    dst,
-                    src,
-                    table,
-                    octaves,
-                    style,
-                };
-                self.noise_step(rules, &plain, s, true)
+            // Gradients write vec3 slots, f64 on both paths: the plain rule for all four.
+            Wide::Noise { .. }
+            | Wide::Fractal { .. }
+            | Wide::NoiseGradient { .. }
+            | Wide::FractalGradient { .. } => {
+                if let Some(plain) = w.plain_noise() {
+                    self.noise_step(rules, &plain, s, true);
+                }
             }
             Wide::Widen { dst, src } => s.wides[dst as usize] = s.scalars[src as usize],
             Wide::Narrow { dst, src } => s.scalars[dst as usize] = s.wides[src as usize],
