@@ -53,6 +53,9 @@ fn bench_gpu(c: &mut Criterion) {
     group.bench_function(format!("marble_{n}/read_back"), |b| {
         b.iter(|| gpu.eval_grid(&grid, false).expect("evaluates"))
     });
+    // A 1024³ bake takes seconds: flat sampling runs each of the 10 samples once instead of
+    // criterion's linear 1 + 2 + … + 10 iterations.
+    group.sampling_mode(criterion::SamplingMode::Flat);
     let n = size(1024);
     let out = std::env::temp_dir().join(format!("texgraph-gpu-bench-{}", std::process::id()));
     let exe = env!("CARGO_BIN_EXE_texgraph");

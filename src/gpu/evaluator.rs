@@ -134,8 +134,42 @@ pub struct GpuEvaluator {
     points: wgpu::ComputePipeline,
     tables: wgpu::Buffer,
     channels: usize,
-    /// One evaluation at a time per evaluator (buffers are made per call).
-    busy: Mutex<()>,
+    /// One evaluation at a time per evaluator, holding the results and read-back buffers of
+    /// the last call for the next one. Made per call, a buffer of a window's size (up to the
+    /// binding limit, 2 GiB and more on a discrete GPU) was cleared each time by wgpu's
+    /// zero-initialisation: on an H200 that, not the kernel, took most of a 512³ marble
+    /// (docs/performance.md).
+    buffers: Mutex<Buffers>,
+}
+
+/// Buffers kept between calls; each grows to the largest call's size and is bound or copied
+/// only over the bytes a call uses.
+#[derive(Default)]
+struct Buffers {
+    results: Option<wgpu::Buffer>,
+    readback: Option<wgpu::Buffer>,
+}
+
+impl Buffers {
+    /// `slot`'s buffer when it holds `size` bytes, else a new one of `size` bytes in its place.
+    fn take<'a>(
+        slot: &'a mut Option<wgpu::Buffer>,
+        device: &wgpu::Device,
+        label: &'static str,
+        size: u64,
+        usage: wgpu::BufferUsages,
+    ) -> &'a wgpu::Buffer {
+        if slot.as_ref().is_none_or(|b| b.size() < size) {
+            *slot = None;
+            *slot = Some(device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage,
+                mapped_at_creation: false,
+            }));
+        }
+        slot.as_ref().expect("made above")
+    }
 }
 
 impl std::fmt::Debug for GpuEvaluator {
@@ -223,7 +257,7 @@ impl GpuEvaluator {
             points,
             tables,
             channels: shader.channels,
-            busy: Mutex::new(()),
+            buffers: Mutex::new(Buffers::default()),
         })
     }
 
@@ -385,7 +419,7 @@ impl GpuEvaluator {
         out: &mut [f32],
         read_back: bool,
     ) -> Result<(), GpuError> {
-        let _busy = self.busy.lock().unwrap_or_else(|e| e.into_inner());
+        let mut buffers = self.buffers.lock().unwrap_or_else(|e| e.into_inner());
         let device = &self.context.device;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let bytes = |v: &[f64]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
@@ -400,23 +434,26 @@ impl GpuEvaluator {
             usage: wgpu::BufferUsages::UNIFORM,
         });
         let size = (out.len() * 4) as u64;
-        let results = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("results"),
+        let Buffers { results, readback } = &mut *buffers;
+        let results = Buffers::take(
+            results,
+            device,
+            "results",
             size,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let readback = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("read-back"),
-            size,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        );
         let entries = vec![
             binding(0, &self.tables),
             binding(1, &inputs),
             binding(2, &uniform),
-            binding(3, &results),
+            wgpu::BindGroupEntry {
+                binding: 3,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: results,
+                    offset: 0,
+                    size: std::num::NonZeroU64::new(size),
+                }),
+            },
         ];
         let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("texgraph"),
@@ -433,20 +470,29 @@ impl GpuEvaluator {
             pass.set_bind_group(0, &bind, &[]);
             pass.dispatch_workgroups(gx as u32, gy as u32, 1);
         }
-        if read_back {
-            encoder.copy_buffer_to_buffer(&results, 0, &readback, 0, size);
+        let readback = read_back.then(|| {
+            Buffers::take(
+                readback,
+                device,
+                "read-back",
+                size,
+                wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            )
+        });
+        if let Some(readback) = readback {
+            encoder.copy_buffer_to_buffer(results, 0, readback, 0, size);
         }
         self.context.queue.submit([encoder.finish()]);
         if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Device(error.to_string()));
         }
-        if !read_back {
+        let Some(readback) = readback else {
             return device
                 .poll(wgpu::PollType::wait_indefinitely())
                 .map(|_| ())
                 .map_err(|e| GpuError::Device(e.to_string()));
-        }
-        copy_back(device, &readback, out)
+        };
+        copy_back(device, readback, size, out)
     }
 }
 
@@ -461,9 +507,10 @@ fn binding(index: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
 fn copy_back(
     device: &wgpu::Device,
     buffer: &wgpu::Buffer,
+    size: u64,
     out: &mut [f32],
 ) -> Result<(), GpuError> {
-    let slice = buffer.slice(..);
+    let slice = buffer.slice(..size);
     let (tx, rx) = std::sync::mpsc::channel();
     slice.map_async(wgpu::MapMode::Read, move |r| {
         let _ = tx.send(r);
