@@ -1,6 +1,7 @@
-//! Level of detail per pixel on a plane to the horizon (`graphs/scenes/horizon.ron`): the scene
-//! at one sample per pixel with and without level of detail, each against a many-sample
-//! reference without it; prints the RMS errors, the texture times (median of several renders)
+//! Level of detail and box filtering per pixel on a plane to the horizon
+//! (`graphs/scenes/horizon.ron`): the scene at one sample per pixel with point samples (with
+//! and without level of detail) and box-filtered, and at four point samples per pixel, each
+//! against a many-sample reference without level of detail; prints the RMS errors, the texture times (median of several renders)
 //! and their ratios.
 //!
 //! ```text
@@ -53,7 +54,17 @@ fn main() {
         f.texture_seconds_lod * 1e3
     );
     println!(
-        "| ratio | {:.3}× | {:.3}× |",
+        "| box-filtered | {:.5} | {:.2} ms |",
+        f.rms_filtered,
+        f.texture_seconds_filtered * 1e3
+    );
+    println!(
+        "| 4 samples per pixel, point with LOD | {:.5} | {:.2} ms |",
+        f.rms_four,
+        f.texture_seconds_four * 1e3
+    );
+    println!(
+        "| ratio (with LOD / without) | {:.3}× | {:.3}× |",
         f.error_ratio(),
         f.time_ratio()
     );

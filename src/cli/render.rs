@@ -45,12 +45,19 @@ pub struct RenderArgs {
     /// Graph files only: override a param (repeatable).
     #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
     sets: Vec<(String, f64)>,
-    /// Evaluate every octave at every pixel (no level of detail per pixel): the preview then
-    /// aliases where a pixel covers more than the finest octave (toward the horizon).
+    /// What each texture sample shows: box (its mean over the sample's footprint, the pixel's
+    /// share carried into texture space by ray differentials; on the CPU) or point (its value
+    /// at the hit, with level of detail) [default: box; point with --no-lod or --device gpu].
+    #[arg(long, value_enum, value_name = "FILTER")]
+    filter: Option<FilterArg>,
+    /// Point samples with every octave at every pixel (no level of detail per pixel): the
+    /// image then aliases where a pixel covers more than the finest octave (toward the
+    /// horizon). Implies --filter point.
     #[arg(long = "no-lod")]
     no_lod: bool,
-    /// Shift level of detail by B octaves: positive drops octaves sooner (softer, faster),
-    /// negative keeps finer ones (sharper, may alias); within ±16 [default: 0].
+    /// Shift the footprints by B octaves (level of detail, or the box filter's size): positive
+    /// blurs sooner (softer, faster), negative keeps finer detail (sharper, may alias); within
+    /// ±16 [default: 0].
     #[arg(long = "lod-bias", value_name = "B", conflicts_with = "no_lod", value_parser = parse_lod_bias)]
     lod_bias: Option<f64>,
     /// Where the textures are evaluated: cpu, gpu (each texture's tape as a compute shader,
@@ -66,6 +73,36 @@ pub struct RenderArgs {
     /// marble) instead of rendering.
     #[arg(long = "timing-table")]
     timing_table: bool,
+}
+
+/// `render --filter`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum FilterArg {
+    Point,
+    Box,
+}
+
+/// The render filter the flags ask for: box unless point is named, implied by `--no-lod`, or
+/// the GPU is asked for (the filtered form runs on the CPU). A usage error where they disagree.
+pub fn render_filter(
+    filter: Option<FilterArg>,
+    no_lod: bool,
+    device: crate::gpu::Device,
+) -> Result<crate::render::RenderFilter, String> {
+    use crate::gpu::Device;
+    use crate::render::RenderFilter;
+    match filter {
+        Some(FilterArg::Box) if no_lod => Err(
+            "--no-lod turns off point sampling's level of detail; with --filter box the footprint is the filter (give --filter point, or leave out --no-lod)".into(),
+        ),
+        Some(FilterArg::Box) if device == Device::Gpu => Err(
+            "--filter box runs on the CPU (the GPU path has no filtered form yet): use --device cpu, or --filter point on the GPU".into(),
+        ),
+        Some(FilterArg::Box) => Ok(RenderFilter::Box),
+        Some(FilterArg::Point) => Ok(RenderFilter::Point),
+        None if no_lod || device == Device::Gpu => Ok(RenderFilter::Point),
+        None => Ok(RenderFilter::Box),
+    }
 }
 
 pub fn parse_image_size(text: &str) -> Result<(u32, u32), String> {
@@ -135,11 +172,12 @@ pub fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
                 bias: args.lod_bias.unwrap_or(0.0),
             }
         },
-        device: super::resolve_device(args.device, false)?,
+        filter: crate::render::RenderFilter::Point,
+        device: crate::gpu::Device::Cpu,
     };
     if args.timing_table {
-        if args.no_lod || args.lod_bias.is_some() {
-            eprintln!("error: --no-lod and --lod-bias do not apply to --timing-table, which renders every octave as seed 003's renderer did");
+        if args.no_lod || args.lod_bias.is_some() || args.filter.is_some() {
+            eprintln!("error: --filter, --no-lod and --lod-bias do not apply to --timing-table, which renders every octave as seed 003's renderer did");
             return Err(Failure::Usage);
         }
         if args.bump.is_some() {
@@ -161,6 +199,24 @@ pub fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
     let Some(file) = args.file.clone() else {
         eprintln!("error: give a graph or scene file");
         return Err(Failure::Usage);
+    };
+    let filter = render_filter(args.filter, args.no_lod, args.device).map_err(|e| {
+        eprintln!("error: {e}");
+        Failure::Usage
+    })?;
+    // `auto` never picks the GPU for a box-filtered render (the filtered form runs on the
+    // CPU): said on stderr, as for `bake --filter box`.
+    let device = match (args.device, filter) {
+        (crate::gpu::Device::Auto, crate::render::RenderFilter::Box) => {
+            eprintln!("texgraph: --device auto: evaluating on the CPU (box filtering runs on the CPU; --filter point to use a GPU)");
+            crate::gpu::Device::Cpu
+        }
+        (device, _) => super::resolve_device(device, false)?,
+    };
+    let options = RenderOptions {
+        filter,
+        device,
+        ..options
     };
     let out = args.out.clone().unwrap_or_else(|| {
         PathBuf::from(format!(

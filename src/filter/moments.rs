@@ -220,10 +220,11 @@ pub struct Spread {
 
 impl Spread {
     /// From the box widths (any order, each >= 0; negative taken as abs) and a residual variance
-    /// `residual` >= 0 (a part of the value not linear in position, modelled as one more
-    /// independent uniform of the same variance: width `sqrt(12 · residual)`; a negative residual
-    /// is taken as 0). With four widths, the two smallest are merged into one of the same
-    /// variance (`sqrt(a² + b²)`: `Var(aU) + Var(bU) = Var(sqrt(a² + b²) U)`); then sorted
+    /// `residual` >= 0 (a part of the value not linear in position, modelled as two more
+    /// independent uniforms of half its variance each, width `sqrt(6 · residual)`: a triangular
+    /// distribution; a negative residual is taken as 0). Beyond three widths, the two smallest
+    /// are merged into one of the same variance (`sqrt(a² + b²)`:
+    /// `Var(aU) + Var(bU) = Var(sqrt(a² + b²) U)`), twice at most; then sorted
     /// descending; then any width below `RATIO = 1e-4` times the one before it is merged into
     /// that one by variance and the rest shifted (so at most 3 widths, each >= `1e-4` × the
     /// previous, and zeros after). Widths below `f64::MIN_POSITIVE` (subnormal: their reciprocal,
@@ -233,14 +234,25 @@ impl Spread {
         if !residual.is_finite() || widths.iter().any(|w| !w.is_finite()) {
             return Spread::UNBOUNDED;
         }
-        let mut four = [
+        // The residual as two equal uniforms, a triangular distribution: its kurtosis 2.4 and
+        // E|X| = 0.816 σ are close to a noise's (kurtosis about 2.6, E|n| = 0.81 σ for the
+        // gradient bases), where one uniform (1.8, 0.866 σ) made `abs` of a faded octave,
+        // and so turbulence, 7 % too bright (docs/filtering.md).
+        let half = (6.0 * residual.max(0.0)).sqrt();
+        let mut five = [
             widths[0].abs(),
             widths[1].abs(),
             widths[2].abs(),
-            (12.0 * residual.max(0.0)).sqrt(),
+            half,
+            half,
         ];
-        four.sort_by(|a, b| b.total_cmp(a));
-        let mut three = [four[0], four[1], four[2].hypot(four[3])];
+        // The two smallest merged by variance until three are left.
+        five.sort_by(|a, b| b.total_cmp(a));
+        for n in [5, 4] {
+            five[n - 2] = five[n - 2].hypot(five[n - 1]);
+            five[..n - 1].sort_by(|a, b| b.total_cmp(a));
+        }
+        let mut three = [five[0], five[1], five[2]];
         three.sort_by(|a, b| b.total_cmp(a));
         let mut w = [0.0; 3];
         let mut k = 0;
@@ -1601,18 +1613,20 @@ mod tests {
         assert_eq!(Spread::point().widths(), [0.0; 3]);
         assert_eq!(Spread::point(), Spread::new([0.0; 3], 0.0));
         assert_eq!(Spread::new([0.0; 3], -1.0), Spread::point());
-        // The residual is one more uniform of the same variance.
+        // The residual is two more uniforms of half its variance each.
         let r: f64 = 0.37;
-        let c = (12.0 * r).sqrt();
+        let c = (6.0 * r).sqrt();
         assert_eq!(
-            Spread::new([3.0, 2.0, 0.0], r),
-            Spread::new([3.0, 2.0, c], 0.0)
+            Spread::new([3.0, 0.0, 0.0], r).widths(),
+            Spread::new([3.0, c, c], 0.0).widths()
         );
-        // Four widths: the two smallest merged by variance.
-        let s = Spread::new([3.0, 2.0, 1.0], 1.0 / 12.0);
-        assert_eq!(s.widths(), [3.0, 2.0, 2f64.sqrt()]);
-        let s = Spread::new([1.5, 2.0, 1.0], 3.0 / 12.0);
-        assert_eq!(s.widths(), [2.0, 1.5f64.hypot(1.0), 3f64.sqrt()]);
+        let s = Spread::new([0.0; 3], r).widths();
+        assert_eq!(s, [c, c, 0.0]);
+        // Five widths: the two smallest merged by variance, twice.
+        let s = Spread::new([3.0, 2.0, 1.0], 2.0 / 12.0);
+        assert_eq!(s.widths(), [3.0, 2.0, 1f64.hypot(1.0).hypot(1.0)]);
+        let s = Spread::new([1.5, 2.0, 0.5], 2.0 / 12.0);
+        assert_eq!(s.widths(), [2.0, 1.5, 1f64.hypot(1.0).hypot(0.5)]);
         // Widths below 1e-4 of the previous merged into it, and the rest shifted.
         let s = Spread::new([1.0, 5e-5, 0.0], 0.0);
         assert_eq!(s.widths(), [1f64.hypot(5e-5), 0.0, 0.0]);

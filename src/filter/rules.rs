@@ -150,9 +150,84 @@ impl Footprint {
         c
     }
 
-    fn linear_var(&self, grad: [f64; 3]) -> f64 {
+    pub(super) fn linear_var(&self, grad: [f64; 3]) -> f64 {
         self.covariance(grad, grad)
     }
+
+    /// `grad` with its increment along each edge `e_k` scaled by `beta[k]`: the smallest change
+    /// `g' = g + Σ_k y_k e_k` with `g' · e_k = beta[k] (g · e_k)` (a Gram system over the
+    /// non-zero edges). Where the edges are (nearly) parallel the system is singular and
+    /// `grad` is scaled by the smallest `beta` instead.
+    pub(super) fn damp(&self, grad: [f64; 3], beta: [f64; 3]) -> [f64; 3] {
+        if beta.iter().all(|&b| b == 1.0) {
+            return grad;
+        }
+        let live: Vec<usize> = (0..3)
+            .filter(|&k| dot(&self.edges[k], &self.edges[k]) > 0.0)
+            .collect();
+        let d: Vec<f64> = live
+            .iter()
+            .map(|&k| (beta[k] - 1.0) * proj(grad, &self.edges[k]))
+            .collect();
+        let gram = |i: usize, j: usize| dot(&self.edges[live[i]], &self.edges[live[j]]);
+        let y: Option<Vec<f64>> = match live.len() {
+            0 => return grad,
+            1 => Some(vec![d[0] / gram(0, 0)]),
+            2 => {
+                let (a, b, c) = (gram(0, 0), gram(0, 1), gram(1, 1));
+                let det = a * c - b * b;
+                (det > 1e-9 * a * c)
+                    .then(|| vec![(c * d[0] - b * d[1]) / det, (a * d[1] - b * d[0]) / det])
+            }
+            _ => {
+                let m: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| gram(i, j)));
+                solve3(m, [d[0], d[1], d[2]]).map(|y| y.to_vec())
+            }
+        };
+        let out = match y {
+            Some(y) => {
+                let mut g = grad;
+                for (yk, &k) in y.iter().zip(&live) {
+                    for (gi, ei) in g.iter_mut().zip(&self.edges[k]) {
+                        *gi += yk * ei;
+                    }
+                }
+                g
+            }
+            None => grad.map(|g| g * beta.iter().copied().fold(1.0, f64::min)),
+        };
+        if out.iter().all(|c| c.is_finite()) {
+            out
+        } else {
+            grad
+        }
+    }
+}
+
+fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// `m y = d` for a symmetric positive definite 3×3 `m` by Cramer's rule; `None` when (nearly)
+/// singular.
+fn solve3(m: [[f64; 3]; 3], d: [f64; 3]) -> Option<[f64; 3]> {
+    let det3 = |m: &[[f64; 3]; 3]| {
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    };
+    let det = det3(&m);
+    let scale = 1e-9 * m[0][0] * m[1][1] * m[2][2];
+    if det.is_nan() || det <= scale {
+        return None;
+    }
+    Some(std::array::from_fn(|c| {
+        let mut mc = m;
+        for (row, &v) in mc.iter_mut().zip(&d) {
+            row[c] = v;
+        }
+        det3(&mc) / det
+    }))
 }
 
 /// `a · e` with `0 · ∞` taken as 0.
@@ -725,7 +800,7 @@ impl Rules<'_> {
 /// The residual variance left when a linear part of variance `linear` is taken out of a total
 /// variance `total`: 0 where the difference is rounding (below 1e-9 of the total), and where
 /// either overflowed (an overflowing variance is dropped, not propagated as ∞ or NaN).
-fn residual(total: f64, linear: f64) -> f64 {
+pub(super) fn residual(total: f64, linear: f64) -> f64 {
     let r = total - linear;
     if r.is_finite() && r > 1e-9 * total.abs() {
         r
@@ -742,5 +817,46 @@ fn sinc(x: f64) -> f64 {
         0.0
     } else {
         x.sin() / x
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Footprint;
+
+    fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+        a.iter().zip(&b).map(|(x, y)| x * y).sum()
+    }
+
+    /// `damp` scales the increment along each edge by its factor, for three, two (a pixel) and
+    /// one non-zero edges, and leaves a slope alone where every factor is 1.
+    #[test]
+    fn damp_scales_each_edges_increment() {
+        let g = [0.7, -1.3, 2.1];
+        let cases = [
+            [[0.5, 0.1, 0.0], [0.2, 0.4, 0.3], [0.0, -0.1, 0.6]],
+            [[0.5, 0.1, 0.0], [0.2, 0.4, 0.3], [0.0; 3]],
+            [[0.0; 3], [0.2, 0.4, 0.3], [0.0; 3]],
+        ];
+        let beta = [0.25, 0.5, 0.9];
+        for edges in cases {
+            let f = Footprint::from_edges(edges).unwrap();
+            let d = f.damp(g, beta);
+            for (k, e) in edges.iter().enumerate() {
+                let want = if *e == [0.0; 3] {
+                    0.0
+                } else {
+                    beta[k] * dot(g, *e)
+                };
+                assert!(
+                    (dot(d, *e) - want).abs() < 1e-12,
+                    "{edges:?} edge {k}: {d:?}"
+                );
+            }
+            assert_eq!(f.damp(g, [1.0; 3]), g);
+        }
+        // Parallel edges: the Gram system is singular; the smallest factor scales the slope.
+        let f = Footprint::from_edges([[1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0; 3]]).unwrap();
+        assert_eq!(f.damp(g, beta), g.map(|c| c * 0.25));
     }
 }

@@ -84,6 +84,17 @@ impl NoiseTable {
         }
     }
 
+    /// [`NoiseTable::sample`] and [`NoiseTable::sample_grad`] at `p` from one walk of the
+    /// lattice (the value as the gradient kernel computes it: equal to `sample`'s up to
+    /// rounding, not bit for bit).
+    #[inline]
+    pub fn sample_value_grad<S: Real>(&self, p: [f64; 3]) -> (S, [S; 3]) {
+        match self.period {
+            None => with_kernel!(self, k => k.sample_grad::<S>(p)),
+            Some(period) => with_kernel!(self, k => k.sample_grad_periodic::<S>(p, period)),
+        }
+    }
+
     /// Batch form of [`NoiseTable::sample_grad`]: `out[c][i] = sample_grad::<S>(p_i)[c]`
     /// widened to f64, bit for bit.
     ///

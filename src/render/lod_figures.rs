@@ -1,10 +1,12 @@
-//! How much level of detail per pixel buys a render: the same scene at one sample per pixel
-//! with and without it, against a many-sample render without it (the pixel's true average,
-//! up to the reference's own noise), in RMS error and in texture time. `examples/horizon_lod.rs`
+//! How much level of detail and box filtering per pixel buy a render: the same scene at one
+//! sample per pixel with point samples (with and without level of detail) and box-filtered,
+//! and at four point samples per pixel, against a many-sample render without level of detail
+//! (the pixel's true average, up to the reference's own noise), in RMS error and in texture
+//! time. `examples/horizon_lod.rs`
 //! prints these figures for `graphs/scenes/horizon.ron`; `tests/it/render.rs` pins that level of
 //! detail brings a render closer to its reference.
 
-use super::{render, RenderError, RenderLod, RenderOptions, RenderedImage, Scene};
+use super::{render, RenderError, RenderFilter, RenderLod, RenderOptions, RenderedImage, Scene};
 
 /// What to render.
 #[derive(Clone, Debug)]
@@ -27,6 +29,13 @@ pub struct LodFigures {
     pub rms_plain: f64,
     pub texture_seconds_lod: f64,
     pub texture_seconds_plain: f64,
+    /// One box-filtered sample per pixel (issue 33's goal: at most `rms_four`'s error at
+    /// at most twice `texture_seconds_plain`).
+    pub rms_filtered: f64,
+    pub texture_seconds_filtered: f64,
+    /// Four point samples per pixel with level of detail.
+    pub rms_four: f64,
+    pub texture_seconds_four: f64,
     /// The median over the runs of each pair's texture-time ratio (with over without): robust
     /// to a machine whose speed drifts between runs.
     pub pair_time_ratio: f64,
@@ -47,29 +56,38 @@ impl LodFigures {
 
 /// Renders the reference and both one-sample images (alternately, `runs` times each).
 pub fn compare_lod(scene: &Scene, comparison: &LodComparison) -> Result<LodFigures, RenderError> {
-    let options = |samples: u32, lod: RenderLod| RenderOptions {
+    let options = |samples: u32, lod: RenderLod, filter: RenderFilter| RenderOptions {
         size: Some(comparison.size),
         samples: Some(samples),
         threads: comparison.threads,
         lod,
+        filter,
         ..Default::default()
     };
+    let point = RenderFilter::Point;
     let (reference, stats) = render(
         scene,
-        &options(comparison.reference_samples, RenderLod::Off),
+        &options(comparison.reference_samples, RenderLod::Off, point),
     )?;
     let lod = RenderLod::On {
         bias: comparison.bias,
     };
     let (mut lod_times, mut plain_times) = (Vec::new(), Vec::new());
-    let (mut rms_lod, mut rms_plain) = (0.0, 0.0);
+    let (mut filtered_times, mut four_times) = (Vec::new(), Vec::new());
+    let (mut rms_lod, mut rms_plain, mut rms_filtered, mut rms_four) = (0.0, 0.0, 0.0, 0.0);
     for _ in 0..comparison.runs.max(1) {
-        let (image, s) = render(scene, &options(1, lod))?;
+        let (image, s) = render(scene, &options(1, lod, point))?;
         rms_lod = rms(&image, &reference);
         lod_times.push(s.texture_seconds);
-        let (image, s) = render(scene, &options(1, RenderLod::Off))?;
+        let (image, s) = render(scene, &options(1, RenderLod::Off, point))?;
         rms_plain = rms(&image, &reference);
         plain_times.push(s.texture_seconds);
+        let (image, s) = render(scene, &options(1, lod, RenderFilter::Box))?;
+        rms_filtered = rms(&image, &reference);
+        filtered_times.push(s.texture_seconds);
+        let (image, s) = render(scene, &options(4, lod, point))?;
+        rms_four = rms(&image, &reference);
+        four_times.push(s.texture_seconds);
     }
     let mut ratios: Vec<f64> = lod_times
         .iter()
@@ -82,6 +100,10 @@ pub fn compare_lod(scene: &Scene, comparison: &LodComparison) -> Result<LodFigur
         pair_time_ratio: median(&mut ratios),
         texture_seconds_lod: median(&mut lod_times),
         texture_seconds_plain: median(&mut plain_times),
+        rms_filtered,
+        texture_seconds_filtered: median(&mut filtered_times),
+        rms_four,
+        texture_seconds_four: median(&mut four_times),
         reference_seconds: stats.seconds,
     })
 }

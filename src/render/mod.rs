@@ -117,13 +117,30 @@ pub struct RenderOptions {
     /// Stop early (at the next tile) when this says so: the render then fails with
     /// [`RenderError::Cancelled`] (`texgraph serve` drops work a newer edit made stale).
     pub cancel: Option<Cancel>,
-    /// Level of detail per pixel (on by default; `render --no-lod` turns it off).
+    /// Level of detail per pixel (on by default; `render --no-lod` turns it off). With
+    /// [`RenderFilter::Box`] its bias scales the footprints, and `Off` is refused.
     pub lod: RenderLod,
+    /// Point samples or each sample's texture mean over its footprint (`render --filter`;
+    /// box by default).
+    pub filter: RenderFilter,
     /// Where the textures are evaluated (`render --device`): `Gpu` runs each texture's tape
     /// on the GPU (one batch per tile, level of detail per point included); a texture the GPU
     /// cannot run stays on the CPU, said on stderr. `Auto` is the CPU here (the command line
     /// resolves it).
     pub device: crate::gpu::Device,
+}
+
+/// What a render's texture sample stands for.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum RenderFilter {
+    /// The texture's value at the hit, with the octaves the footprint resolves
+    /// ([`RenderLod`]).
+    Point,
+    /// The estimate of the texture's mean over the sample's footprint (its pixel's share,
+    /// carried into texture space by the ray differentials as an anisotropic parallelogram):
+    /// the filtered form of each tape (`crate::filter`), on the CPU.
+    #[default]
+    Box,
 }
 
 /// Level of detail per pixel: each texture point keeps only the fractal octaves its own
@@ -323,15 +340,43 @@ pub fn render(
         }
     }
     let cancel = options.cancel.as_ref();
+    let boxed = options.filter == RenderFilter::Box;
+    if boxed && options.lod == RenderLod::Off {
+        return Err(RenderError::Options(
+            "level of detail cannot be off with box filtering (the footprint is the filter): \
+             render with point samples to turn it off"
+                .into(),
+        ));
+    }
+    let factor = options.lod.spacing_factor(samples);
     let frame = shade::Frame {
         width,
         height,
         samples,
-        lod: options.lod.spacing_factor(samples),
+        lod: factor.filter(|_| !boxed),
+        filter: factor.filter(|_| boxed),
     };
-    let gpus = gpu_textures(scene, options.device);
+    let filtered: Vec<crate::filter::Filtered> = if boxed {
+        if options.device == crate::gpu::Device::Gpu {
+            eprintln!("warning: the filtered form runs on the CPU: textures are evaluated there (--filter point to evaluate them on the GPU)");
+        }
+        scene
+            .textures()
+            .iter()
+            .map(|t| crate::filter::Filtered::new(&t.tape))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let device = if boxed {
+        crate::gpu::Device::Cpu
+    } else {
+        options.device
+    };
+    let gpus = gpu_textures(scene, device);
     let run = || {
-        render_in_pool(scene, frame, options.progress, cancel, &gpus).ok_or(RenderError::Cancelled)
+        render_in_pool(scene, frame, options.progress, cancel, &gpus, &filtered)
+            .ok_or(RenderError::Cancelled)
     };
     let rendered = match options.threads {
         Some(threads) => {
@@ -400,6 +445,7 @@ fn render_in_pool(
     progress: bool,
     cancel: Option<&Cancel>,
     gpus: &[Option<std::sync::Arc<crate::gpu::GpuEvaluator>>],
+    filtered: &[crate::filter::Filtered],
 ) -> Option<(RenderedImage, RenderStats)> {
     let (width, height, samples) = (frame.width, frame.height, frame.samples);
     let started = Instant::now();
@@ -418,7 +464,7 @@ fn render_in_pool(
     let results: Vec<(Vec<Vec3>, Counters, Duration)> = tiles
         .par_iter()
         .map_init(
-            || shade::Scratch::new(scene, gpus),
+            || shade::Scratch::new(scene, gpus, filtered),
             |scratch, tile| {
                 let mut pixels = Vec::new();
                 if cancel.is_some_and(Cancel::is_cancelled) {
@@ -912,8 +958,9 @@ pub fn timing_table(graph: &Path, options: &TimingOptions) -> Result<TimingTable
             threads: options.threads,
             progress: false,
             cancel: None,
-            // Seed 003's renderer evaluates every octave: so does its timing table.
+            // Seed 003's renderer evaluates every octave at a point: so does its timing table.
             lod: RenderLod::Off,
+            filter: RenderFilter::Point,
             device: crate::gpu::Device::Cpu,
         };
         let mut best: Option<RenderStats> = None;

@@ -11,6 +11,7 @@
 use super::geometry::{self, LocalHit, Ray};
 use super::scene::{Channel, EvalGroup, LightKind, Material, Object, Scene, Shape, Space};
 use crate::eval::Workspace;
+use crate::filter::{Filtered, Footprint};
 use glam::Vec3;
 
 /// Pixels along a tile's side.
@@ -39,13 +40,15 @@ impl Counters {
 }
 
 /// What every tile of a render shares: the image size, the samples per pixel, and the factor
-/// from a pixel's footprint to one sample's spacing for level of detail (`None`: off).
+/// from a pixel's footprint to one sample's spacing for level of detail (`None`: off) or to
+/// one sample's box for filtered textures (`None`: point samples).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Frame {
     pub width: u32,
     pub height: u32,
     pub samples: u32,
     pub lod: Option<f64>,
+    pub filter: Option<f64>,
 }
 
 /// A tile: its first pixel and size.
@@ -73,20 +76,24 @@ pub(crate) fn tiles(width: u32, height: u32) -> Vec<Tile> {
 }
 
 /// Per-thread scratch: one workspace per compiled texture (so no re-binding between tapes).
-pub(crate) struct Scratch {
+pub(crate) struct Scratch<'a> {
     workspaces: Vec<Workspace<f32>>,
     /// Per texture, its GPU evaluator when the render runs it on the GPU.
     gpus: Vec<Option<std::sync::Arc<crate::gpu::GpuEvaluator>>>,
+    /// Per texture, its filtered form when the render filters (`Frame::filter`), else empty.
+    filtered: &'a [Filtered<'a>],
 }
 
-impl Scratch {
+impl<'a> Scratch<'a> {
     pub(crate) fn new(
         scene: &Scene,
         gpus: &[Option<std::sync::Arc<crate::gpu::GpuEvaluator>>],
-    ) -> Scratch {
+        filtered: &'a [Filtered<'a>],
+    ) -> Scratch<'a> {
         Scratch {
             workspaces: scene.textures().iter().map(|_| Workspace::new()).collect(),
             gpus: gpus.to_vec(),
+            filtered,
         }
     }
 }
@@ -185,7 +192,7 @@ fn occluded(objects: &[Object], origin: Vec3, direction: Vec3, t_max: f32) -> bo
 /// evaluating textures is added to `texture_time`.
 pub(crate) fn render_tile(
     scene: &Scene,
-    scratch: &mut Scratch,
+    scratch: &mut Scratch<'_>,
     tile: Tile,
     frame: Frame,
     out: &mut Vec<Vec3>,
@@ -196,14 +203,7 @@ pub(crate) fn render_tile(
     let n_samples = (tile.w * tile.h * samples) as usize;
     let hits = primary_hits(scene, tile, frame, &mut counters);
     counters.hits = hits.len() as u64;
-    let textures = evaluate_textures(
-        scene,
-        scratch,
-        &hits,
-        frame.lod,
-        &mut counters,
-        texture_time,
-    );
+    let textures = evaluate_textures(scene, scratch, &hits, frame, &mut counters, texture_time);
 
     // Pass 3: shade.
     let mut sample_colours = vec![scene.background; n_samples];
@@ -351,22 +351,43 @@ fn hit_differential(dd: Vec3, unnormalised: Vec3, t: f32, n: Vec3) -> Vec3 {
     t * (turn - d * along)
 }
 
-/// The sample spacing in texture space of a hit for `group`: the longer of its two pixel
-/// differentials through the linear parts of the object's (in object space) and the texture's
-/// transforms, times `factor`; the largest finite spacing where it is not finite (grazing
-/// incidence: every octave it can drop is dropped).
-fn texture_spacing(hit: &Hit, group: &EvalGroup, object: &Object, factor: f64) -> f64 {
+/// A hit's two pixel differentials in the texture space of `group`: through the linear parts
+/// of the object's (in object space) and the texture's transforms.
+fn texture_differentials(hit: &Hit, group: &EvalGroup, object: &Object) -> [Vec3; 2] {
     let to_texture = match group.space {
         Space::Object => group.transform.matrix3 * object.to_local.matrix3,
         Space::World => group.transform.matrix3,
     };
-    let across = hit.dp.map(|v| f64::from((to_texture * v).length()));
+    hit.dp.map(|v| to_texture * v)
+}
+
+/// The sample spacing in texture space of a hit for `group`: the longer of its two pixel
+/// differentials, times `factor`; the largest finite spacing where it is not finite (grazing
+/// incidence: every octave it can drop is dropped).
+fn texture_spacing(hit: &Hit, group: &EvalGroup, object: &Object, factor: f64) -> f64 {
+    let across = texture_differentials(hit, group, object).map(|v| f64::from(v.length()));
     let spacing = across[0].max(across[1]) * factor;
     if spacing.is_nan() || spacing == f64::INFINITY {
         f64::MAX
     } else {
         spacing
     }
+}
+
+/// A side beyond every feature of a texture: the footprint of a grazing hit, whose
+/// differentials are infinite (the filtered value is then the texture's mean).
+const GRAZING: f64 = 1e9;
+
+/// The footprint in texture space of a hit for `group`: the parallelogram its two pixel
+/// differentials span, times `factor` (anisotropic: long along the view at grazing angles,
+/// narrow across it; never collapsed to one side). A cube of side [`GRAZING`] where a
+/// differential is not finite.
+fn texture_footprint(hit: &Hit, group: &EvalGroup, object: &Object, factor: f64) -> Footprint {
+    let [a, b] = texture_differentials(hit, group, object)
+        .map(|v| v.to_array().map(|c| f64::from(c) * factor));
+    Footprint::from_edges([a, b, [0.0; 3]])
+        .or_else(|_| Footprint::cube(GRAZING))
+        .unwrap_or(Footprint::POINT)
 }
 
 /// The texture values of a tile's hits: per evaluation group, one batch of all its points.
@@ -411,9 +432,9 @@ fn gpu_failed(error: crate::gpu::GpuError) {
 /// Pass 2: texture points per evaluation group, one batch each.
 fn evaluate_textures(
     scene: &Scene,
-    scratch: &mut Scratch,
+    scratch: &mut Scratch<'_>,
     hits: &[Hit],
-    lod: Option<f64>,
+    frame: Frame,
     counters: &mut Counters,
     texture_time: &mut std::time::Duration,
 ) -> TextureValues {
@@ -422,6 +443,8 @@ fn evaluate_textures(
     let mut ys: Vec<Vec<f64>> = vec![Vec::new(); groups.len()];
     let mut zs: Vec<Vec<f64>> = vec![Vec::new(); groups.len()];
     let mut spacings: Vec<Vec<f64>> = vec![Vec::new(); groups.len()];
+    let mut footprints: Vec<Vec<Footprint>> = vec![Vec::new(); groups.len()];
+    let (lod, filter) = (frame.lod, frame.filter);
     let mut slot_base: Vec<u32> = Vec::with_capacity(hits.len());
     let mut slots: Vec<u32> = Vec::new();
     for hit in hits {
@@ -442,6 +465,9 @@ fn evaluate_textures(
             if let Some(factor) = lod {
                 spacings[g].push(texture_spacing(hit, group, object, factor));
             }
+            if let Some(factor) = filter {
+                footprints[g].push(texture_footprint(hit, group, object, factor));
+            }
         }
     }
     let mut values: Vec<Vec<f32>> = Vec::with_capacity(groups.len());
@@ -451,6 +477,12 @@ fn evaluate_textures(
         let texture = &scene.textures()[group.texture];
         let mut out = vec![0.0f32; texture.tape.channels() * n];
         let points = [&xs[g][..], &ys[g], &zs[g]];
+        if let (Some(filtered), true) = (scratch.filtered.get(group.texture), n > 0) {
+            filtered.eval_batch(points, &footprints[g], &mut out);
+            counters.texture_points += n as u64;
+            values.push(out);
+            continue;
+        }
         let on_gpu = match &scratch.gpus[group.texture] {
             Some(gpu) if n > 0 => {
                 let result = match lod {

@@ -581,8 +581,10 @@ pub fn preview(
         threads: None,
         progress: false,
         cancel: Some(cancel.clone()),
-        // Per-pixel level of detail: the preview does not alias toward its horizon.
+        // Each pixel's texture mean over its footprint (box filtering, as `render`): the
+        // preview does not alias toward its horizon.
         lod: render::RenderLod::default(),
+        filter: render::RenderFilter::Box,
         device: crate::gpu::Device::Cpu,
     };
     let began = Instant::now();

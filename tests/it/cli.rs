@@ -1376,3 +1376,56 @@ fn bake_filter_box_devices_and_conflicts() {
     let lod = expect_code(&[&base[..], &["--lod", "--force"]].concat(), 2);
     assert!(stderr(&lod).contains("--lod"), "{}", stderr(&lod));
 }
+
+/// `render --filter`: box by default (its texture points counted like point samples), point on
+/// request; `--no-lod` implies point and contradicts an explicit box; a box render never runs
+/// on the GPU (`--device gpu --filter box` is a usage error, `auto` picks the CPU and says so).
+#[test]
+fn render_filter_flags() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let png = dir.path().join("r.png");
+    let png = png.to_str().unwrap();
+    let base = [
+        "render",
+        "graphs/seed002_sine.ron",
+        "--size",
+        "12,8",
+        "--samples",
+        "1",
+        "--quiet",
+        "-o",
+        png,
+    ];
+    let image = |args: &[&str]| {
+        expect_code(&[&base[..], args].concat(), 0);
+        std::fs::read(png).expect("the PNG")
+    };
+    let default = image(&[]);
+    assert_eq!(default, image(&["--filter", "box"]), "box is the default");
+    assert_ne!(
+        default,
+        image(&["--filter", "point"]),
+        "box filtering shows"
+    );
+    assert_eq!(
+        image(&["--no-lod"]),
+        image(&["--no-lod", "--filter", "point"])
+    );
+    let both = expect_code(&[&base[..], &["--no-lod", "--filter", "box"]].concat(), 2);
+    assert!(stderr(&both).contains("--no-lod"), "{}", stderr(&both));
+    let gpu = expect_code(
+        &[&base[..], &["--device", "gpu", "--filter", "box"]].concat(),
+        2,
+    );
+    assert!(
+        stderr(&gpu).contains("--filter box runs on the CPU"),
+        "{}",
+        stderr(&gpu)
+    );
+    let auto = expect_code(&[&base[..], &["--device", "auto"]].concat(), 0);
+    assert!(
+        stderr(&auto).contains("evaluating on the CPU"),
+        "{}",
+        stderr(&auto)
+    );
+}

@@ -7,8 +7,8 @@
 use std::path::{Path, PathBuf};
 use texgraph::render::{
     self, load_input, load_scene, render, timing_table, InputKind, PreviewDefaults, PreviewObject,
-    Previewer, RenderError, RenderLod, RenderOptions, RenderedImage, Scene, SceneDesc, Space,
-    TimingOptions,
+    Previewer, RenderError, RenderFilter, RenderLod, RenderOptions, RenderedImage, Scene,
+    SceneDesc, Space, TimingOptions,
 };
 
 const MARBLE: &str = "graphs/seed003_marble.ron";
@@ -26,6 +26,7 @@ fn small(samples: u32) -> RenderOptions {
         progress: false,
         cancel: None,
         lod: RenderLod::Off,
+        filter: RenderFilter::Point,
         device: Default::default(),
     }
 }
@@ -227,7 +228,12 @@ fn images_do_not_depend_on_the_thread_count() {
     .unwrap();
     // With and without level of detail per pixel.
     let mut first: Vec<(RenderedImage, render::Counters)> = Vec::new();
-    for lod in [RenderLod::Off, RenderLod::default()] {
+    // Point samples with and without level of detail, and box-filtered.
+    for (lod, filter) in [
+        (RenderLod::Off, RenderFilter::Point),
+        (RenderLod::default(), RenderFilter::Point),
+        (RenderLod::default(), RenderFilter::Box),
+    ] {
         let mut images = Vec::new();
         for threads in [1, 2, 3, 8] {
             let options = RenderOptions {
@@ -237,6 +243,7 @@ fn images_do_not_depend_on_the_thread_count() {
                 progress: false,
                 cancel: None,
                 lod,
+                filter,
                 device: Default::default(),
             };
             let (image, stats) = render(&scene, &options).unwrap();
@@ -246,7 +253,7 @@ fn images_do_not_depend_on_the_thread_count() {
         for other in &images[1..] {
             assert!(
                 images[0].0 == other.0,
-                "pixels differ between thread counts ({lod:?})"
+                "pixels differ between thread counts ({lod:?}, {filter:?})"
             );
             assert_eq!(images[0].1, other.1);
         }
@@ -255,6 +262,10 @@ fn images_do_not_depend_on_the_thread_count() {
     assert!(
         first[0].0 != first[1].0,
         "level of detail changes this render"
+    );
+    assert!(
+        first[1].0 != first[2].0,
+        "box filtering changes this render"
     );
 }
 
@@ -1267,6 +1278,7 @@ fn bump_plane(graphs: &[(&str, String)], bump: &str, object_transform: &str) -> 
         size: Some(BUMP_SIZE),
         samples: Some(1),
         lod: RenderLod::Off,
+        filter: RenderFilter::Point,
         ..Default::default()
     };
     render(&scene, &options).unwrap().0
@@ -1778,7 +1790,7 @@ fn watch_follows_the_files_a_graph_imports() {
 /// Level of detail per pixel (issue 18): on the horizon scene at one sample per pixel, the
 /// render with it is closer to a many-sample reference without it than the render without it
 /// (the fine octaves alias into noise where a pixel covers metres; level of detail puts their
-/// mean there instead).
+/// mean there instead). Box filtering (issue 33) closer still.
 #[test]
 fn level_of_detail_brings_the_horizon_closer_to_its_reference() {
     let scene =
@@ -1796,6 +1808,15 @@ fn level_of_detail_brings_the_horizon_closer_to_its_reference() {
         "RMS error with LOD {} vs without {}",
         figures.rms_lod,
         figures.rms_plain
+    );
+    // Box filtering (issue 33's render goal): one filtered sample per pixel is as close to
+    // the reference as four point samples with level of detail, and closer than one.
+    assert!(
+        figures.rms_filtered <= figures.rms_four && figures.rms_filtered < figures.rms_lod,
+        "RMS error box-filtered {} vs 4 point samples {} vs 1 point sample with LOD {}",
+        figures.rms_filtered,
+        figures.rms_four,
+        figures.rms_lod
     );
     // The bias moves the trade-off: far finer footprints bring the aliasing back.
     let sharp = render::lod_figures::compare_lod(
