@@ -6,7 +6,9 @@
 //!   spread evenly through each voxel's box (cell-centred), i.e. the same `SUBSAMPLES`³ points per
 //!   level-0 voxel at every level: a heavily supersampled box filter of the exact field;
 //! - (a) graph-prefiltered: the f32 tape compiled with footprint level of detail for L's voxel
-//!   size, evaluated at L's voxel centres (what `bake --mips` writes);
+//!   size, evaluated at L's voxel centres (what `bake --mips --filter point` writes);
+//! - (f) box-filtered: the filtered form of the tape (`crate::filter`) at L's voxel centres,
+//!   each voxel's footprint its own box (what `bake --mips` writes by default);
 //! - (b) box-downsampled: level 0 baked without level of detail (f32, at the voxel centres),
 //!   then each level the mean of the 2×2×2 voxels below it (what every engine and baking tool's
 //!   mip generator does).
@@ -35,6 +37,8 @@ pub struct MipRow {
     pub octaves: Option<f64>,
     pub prefiltered_rms: f64,
     pub prefiltered_max: f64,
+    pub filtered_rms: f64,
+    pub filtered_max: f64,
     pub downsampled_rms: f64,
     pub downsampled_max: f64,
 }
@@ -62,6 +66,31 @@ fn at_centres(tape: &Tape, grid: &Grid) -> Vec<f64> {
         })
         .collect();
     slices.concat()
+}
+
+/// Values of every voxel of `grid` (channels interleaved, x fastest): the filtered form's
+/// estimate of each voxel's box mean (f32), the footprint the voxel.
+fn box_filtered(tape: &Tape, grid: &Grid) -> Vec<f64> {
+    let filtered = crate::filter::Filtered::new(tape);
+    let channels = tape.channels();
+    let [nx, ny, nz] = grid.size;
+    let side = |a: usize| (grid.region.max[a] - grid.region.min[a]) / grid.size[a] as f64;
+    let footprint = crate::filter::Footprint::from_sides([side(0), side(1), side(2)])
+        .unwrap_or(crate::filter::Footprint::POINT);
+    let xs: Vec<f64> = (0..nx).map(|i| grid.centre(0, i)).collect();
+    let mut out = vec![0f32; channels * nx];
+    let mut values = Vec::with_capacity(nx * ny * nz * channels);
+    for k in 0..nz {
+        for j in 0..ny {
+            let ys = vec![grid.centre(1, j); nx];
+            let zs = vec![grid.centre(2, k); nx];
+            filtered.eval_batch([&xs, &ys, &zs], &[footprint], &mut out);
+            for i in 0..nx {
+                values.extend((0..channels).map(|c| f64::from(out[c * nx + i])));
+            }
+        }
+    }
+    values
 }
 
 /// The box-filtered f64 reference of every voxel of `grid`: the mean over `s`³ cell-centred
@@ -189,12 +218,14 @@ pub fn mip_report(
         };
         let lod = compile(graph, &options)?;
         let prefiltered = at_centres(&lod, &lg);
+        let filtered = box_filtered(&exact, &lg);
         let reference = box_reference(&exact, &lg, SUBSAMPLES << level);
         let octaves = lod.fractal_octaves().first().map(|o| o.2);
         for output in exact.outputs() {
             let (first, width) = (output.first_channel, output.ty.channels());
             let (prefiltered_rms, prefiltered_max) =
                 error(&reference, &prefiltered, channels, first, width);
+            let (filtered_rms, filtered_max) = error(&reference, &filtered, channels, first, width);
             let (downsampled_rms, downsampled_max) =
                 error(&reference, &boxed, channels, first, width);
             rows.push(MipRow {
@@ -204,6 +235,8 @@ pub fn mip_report(
                 octaves,
                 prefiltered_rms,
                 prefiltered_max,
+                filtered_rms,
+                filtered_max,
                 downsampled_rms,
                 downsampled_max,
             });
@@ -216,12 +249,12 @@ pub fn mip_report(
 /// The rows as a Markdown table (one per output, levels in order).
 pub fn mip_table_markdown(rows: &[MipRow]) -> String {
     let mut text = String::from(
-        "| output | level | voxels | octaves kept | graph-prefiltered RMS | max | box-downsampled RMS | max |\n|---|---|---|---|---|---|---|---|\n",
+        "| output | level | voxels | octaves kept | graph-prefiltered RMS | max | box-filtered RMS | max | box-downsampled RMS | max |\n|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
         let octaves = r.octaves.map_or("–".to_string(), |o| format!("{o:.2}"));
         text.push_str(&format!(
-            "| {} | {} | {}×{}×{} | {octaves} | {:.2e} | {:.2e} | {:.2e} | {:.2e} |\n",
+            "| {} | {} | {}×{}×{} | {octaves} | {:.2e} | {:.2e} | {:.2e} | {:.2e} | {:.2e} | {:.2e} |\n",
             r.output,
             r.level,
             r.size[0],
@@ -229,6 +262,8 @@ pub fn mip_table_markdown(rows: &[MipRow]) -> String {
             r.size[2],
             r.prefiltered_rms,
             r.prefiltered_max,
+            r.filtered_rms,
+            r.filtered_max,
             r.downsampled_rms,
             r.downsampled_max
         ));
@@ -270,7 +305,7 @@ mod tests {
         assert_eq!(rows.len(), 4);
         for r in &rows {
             assert!(
-                r.prefiltered_max < 1e-6 && r.downsampled_max < 1e-6,
+                r.prefiltered_max < 1e-6 && r.downsampled_max < 1e-6 && r.filtered_max < 1e-6,
                 "{r:?}"
             );
         }

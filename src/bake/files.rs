@@ -14,6 +14,7 @@ use super::settings::atlas_shape;
 use super::settings::human_bytes;
 use super::settings::mip_grid;
 use super::settings::mip_level_count;
+use super::settings::mips_note;
 use super::settings::params_json;
 use super::settings::params_map;
 use super::settings::BakeFileOptions;
@@ -22,7 +23,6 @@ use super::settings::BakedFile;
 use super::settings::Format;
 use super::settings::RawSampleType;
 use super::settings::Transfer;
-use super::settings::MIPS_NOTE;
 use super::sinks::{Exr, PngAtlas, PngSlices, Raw, RawSamples};
 use crate::graph::Type;
 use crate::grid::Grid;
@@ -855,7 +855,7 @@ fn ktx2_key_values(grid: &Grid, options: &BakeFileOptions, output: &str) -> Vec<
         pairs.push(("KTXwriterScParams", format!("--zstd={level}")));
     }
     if options.levels > 1 {
-        pairs.push(("texgraph.mips", MIPS_NOTE.to_string()));
+        pairs.push(("texgraph.mips", mips_note(options.bake.filter).to_string()));
     }
     pairs.into_iter().map(|(k, v)| (k.to_string(), v)).collect()
 }

@@ -48,8 +48,8 @@ pub use engine::{
 };
 pub use files::{bake_files, bake_mipmapped, planned_outputs};
 pub use settings::{
-    human_bytes, mip_grid, mip_level_count, mip_spacing, BakeFileOptions, BakeReport, BakedFile,
-    ExrCompression, Format, Ktx2SampleType, RawSampleType, Transfer, DEFAULT_MAX_BAKE_BYTES,
-    DEFAULT_MAX_HELD_BYTES, DEFAULT_ZSTD_LEVEL, MIPS_NOTE, ZSTD_LEVELS,
+    human_bytes, mip_grid, mip_level_count, mip_spacing, mips_note, BakeFileOptions, BakeReport,
+    BakedFile, ExrCompression, Format, Ktx2SampleType, RawSampleType, Transfer,
+    DEFAULT_MAX_BAKE_BYTES, DEFAULT_MAX_HELD_BYTES, DEFAULT_ZSTD_LEVEL, ZSTD_LEVELS,
 };
 pub use sinks::{encode_u16, encode_u8, srgb_encode};

@@ -241,8 +241,13 @@ pub struct BakeReport {
 }
 
 /// What every mip level of a texgraph bake is, in words (KTX2 key `texgraph.mips`, zarr
-/// attributes, docs/baking.md).
-pub const MIPS_NOTE: &str = "level L has max(1, n >> L) voxels per axis over the same region, each baked from the graph at its own voxel centres with footprint level of detail for its spacing (octaves finer than the voxel left out, faded, their mean added back), not box-filtered from level 0";
+/// attributes, docs/baking.md), for the bake's filter.
+pub fn mips_note(filter: crate::filter::Filter) -> &'static str {
+    match filter {
+        crate::filter::Filter::Point => "level L has max(1, n >> L) voxels per axis over the same region, each baked from the graph at its own voxel centres with footprint level of detail for its spacing (octaves finer than the voxel left out, faded, their mean added back), not box-filtered from level 0",
+        crate::filter::Filter::Box => "level L has max(1, n >> L) voxels per axis over the same region, each voxel the graph's filtered estimate of its mean over its own cell (texgraph's filtered form, one evaluation per voxel), not box-filtered from level 0",
+    }
+}
 
 /// Levels of a full mip chain of `grid`: down to 1 voxel on every axis (⌊log2(largest side)⌋ + 1).
 pub fn mip_level_count(grid: &Grid) -> u32 {

@@ -733,6 +733,7 @@ fn ome_attributes(
     output: &crate::tape::TapeOutput,
     grid: &Grid,
     levels: usize,
+    filter: crate::filter::Filter,
 ) -> serde_json::Value {
     let mut axes = vec![
         serde_json::json!({"name": "z", "type": "space"}),
@@ -767,7 +768,10 @@ fn ome_attributes(
             "name": output.name,
             "axes": axes,
             "datasets": datasets,
-            "type": "graph-prefiltered: each level baked from the graph with footprint level of detail",
+            "type": match filter {
+                crate::filter::Filter::Point => "graph-prefiltered: each level baked from the graph with footprint level of detail",
+                crate::filter::Filter::Box => "box-filtered: each voxel the graph's filtered estimate of its mean over its cell",
+            },
         }],
     })
 }
@@ -782,12 +786,15 @@ fn output_groups(
     for output in &tapes[0].outputs {
         let mut attributes = texgraph_attributes(options, tapes[0]);
         if let Some(serde_json::Value::Object(t)) = attributes.get_mut("texgraph") {
-            t.insert("mips".into(), super::settings::MIPS_NOTE.into());
+            t.insert(
+                "mips".into(),
+                super::settings::mips_note(options.bake.filter).into(),
+            );
             t.insert("output".into(), output.name.clone().into());
         }
         attributes.insert(
             "ome".into(),
-            ome_attributes(output, &options.bake.grid, tapes.len()),
+            ome_attributes(output, &options.bake.grid, tapes.len(), options.bake.filter),
         );
         let group = zarrs::group::GroupBuilder::new()
             .attributes(attributes)

@@ -95,15 +95,16 @@ pub struct BakeArgs {
     /// one is usable, else the CPU, saying which on stderr).
     #[arg(long, value_enum, default_value_t)]
     device: crate::gpu::Device,
-    /// Prefiltered mip levels down to 1 voxel, each baked from the graph at its own voxel
-    /// centres with footprint level of detail for its spacing: KTX2 stores them in its file,
+    /// Prefiltered mip levels down to 1 voxel, each baked from the graph for its own voxels
+    /// (box-filtered by default; with --filter point at the voxel centres with footprint level
+    /// of detail for its spacing): KTX2 stores them in its file,
     /// zarr as OME-Zarr multiscales (a group per output, an array per level), PNG, EXR and raw
     /// in level folders OUT/mip0, OUT/mip1, ...
     #[arg(long)]
     mips: bool,
-    /// What each voxel stores: point (the graph at its centre; the default) or box (the
-    /// estimate of the graph's mean over its cell, docs/filtering.md; CPU only; with --mips,
-    /// every level the mean over its own voxels).
+    /// What each voxel stores: point (the graph at its centre) or box (the estimate of the
+    /// graph's mean over its cell, docs/filtering.md; CPU only) [default: point; box with
+    /// --mips, every level the mean over its own voxels, unless --device gpu].
     #[arg(long, value_enum, value_name = "point|box")]
     filter: Option<FilterArg>,
     /// No progress bar.
@@ -131,10 +132,16 @@ pub enum FilterArg {
 
 impl BakeArgs {
     /// The filter this bake uses: `--filter`, else point (docs/baking.md says why).
+    /// Box when asked for, and by default with `--mips` (every level its voxels' means)
+    /// unless the GPU is asked for (the filtered form runs on the CPU); else point.
     fn filter(&self) -> crate::filter::Filter {
         match self.filter {
             Some(FilterArg::Box) => crate::filter::Filter::Box,
-            _ => crate::filter::Filter::Point,
+            Some(FilterArg::Point) => crate::filter::Filter::Point,
+            None if self.mips && self.device != crate::gpu::Device::Gpu => {
+                crate::filter::Filter::Box
+            }
+            None => crate::filter::Filter::Point,
         }
     }
 }
@@ -320,7 +327,7 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
         }
         (crate::filter::Filter::Box, crate::gpu::Device::Auto) => {
             eprintln!(
-                "texgraph: --device auto: evaluating on the CPU (--filter box runs on the CPU)"
+                "texgraph: --device auto: evaluating on the CPU (box filtering runs on the CPU)"
             );
             crate::gpu::Device::Cpu
         }

@@ -39,6 +39,10 @@ struct Slots {
     scalars: Vec<Dist>,
     wides: Vec<Dist>,
     vec3s: Vec<[Dist; 3]>,
+    /// The last `Sin`/`Cos` of a scalar slot: (its output, whether a cosine, its argument), so
+    /// an `Abs` of a slot still holding that output (the same distribution, bit for bit) is
+    /// filtered from the argument (`Rules::abs_sin_cos`).
+    periodic: Option<(Dist, bool, Dist)>,
 }
 
 impl<'t> Filtered<'t> {
@@ -185,6 +189,7 @@ impl<'t> Filtered<'t> {
             scalars: vec![Dist::constant(0.0); t.scalar_slots],
             wides: vec![Dist::constant(0.0); t.wide_slots],
             vec3s: vec![[Dist::constant(0.0); 3]; t.vec3_slots],
+            periodic: None,
         };
         for &(slot, v) in &t.scalar_constants {
             slots.scalars[slot as usize] = Dist::constant(v);
@@ -200,6 +205,7 @@ impl<'t> Filtered<'t> {
 
     fn run(&self, slots: &mut Slots, point: [f64; 3], footprint: &Footprint) {
         let rules = Rules { footprint };
+        slots.periodic = None;
         for (instr, integer) in self.tape.instrs.iter().zip(&self.integer) {
             self.step(&rules, instr, *integer, point, slots);
         }
@@ -243,7 +249,18 @@ impl<'t> Filtered<'t> {
                 s.scalars[dst as usize] = s.vec3s[src as usize][axis as usize % 3];
             }
             Instr::UnaryScalar { op, dst, src } => {
-                s.scalars[dst as usize] = rules.unary(sh, op, &s.scalars[src as usize]);
+                let x = s.scalars[src as usize];
+                let fused = match (op, s.periodic) {
+                    (ops::UnaryOp::Abs, Some((out, cos, arg))) if out == x => {
+                        rules.abs_sin_cos(&arg, cos)
+                    }
+                    _ => None,
+                };
+                let y = fused.unwrap_or_else(|| rules.unary(sh, op, &x));
+                if matches!(op, ops::UnaryOp::Sin | ops::UnaryOp::Cos) {
+                    s.periodic = Some((y, op == ops::UnaryOp::Cos, x));
+                }
+                s.scalars[dst as usize] = y;
             }
             Instr::UnaryVec3 { op, dst, src } => {
                 s.vec3s[dst as usize] = s.vec3s[src as usize].map(|c| rules.unary(sh, op, &c));

@@ -228,3 +228,78 @@ fn cli_level_folders_and_misuse() {
         assert!(String::from_utf8_lossy(&bad.stderr).contains("--mips bakes every level"));
     }
 }
+
+/// `bake --mips` box-filters every level by default (each voxel the filtered estimate of its
+/// cell's mean: `Filtered` at the voxel centre, the footprint the voxel), says so in the KTX2
+/// key, and `--filter point` gives the level-of-detail levels instead.
+#[test]
+fn cli_mips_are_box_filtered_by_default() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("g.ron");
+    std::fs::write(&path, GRAPH).unwrap();
+    let out = dir.path().join("out");
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "bake",
+            path.to_str().unwrap(),
+            "--size",
+            "20,9,6",
+            "--region=-1,-0.5,0.25:1.5,0.75,1",
+            "-q",
+            "--force",
+            "--mips",
+            "--format",
+            "raw",
+            "--raw-type",
+            "f32",
+            "--output",
+            "height",
+        ];
+        args.extend_from_slice(&["--out", out.to_str().unwrap()]);
+        args.extend_from_slice(extra);
+        let done = Command::new(BIN).args(&args).output().unwrap();
+        assert!(
+            done.status.success(),
+            "{}",
+            String::from_utf8_lossy(&done.stderr)
+        );
+        let bytes = std::fs::read(out.join("mip1/g.height.raw")).unwrap();
+        bytes
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect::<Vec<f32>>()
+    };
+    let boxed = run(&[]);
+    let (g1, _) = level(&grid(), 1);
+    let tape = texgraph::compile(&graph(), &CompileOptions::default()).unwrap();
+    let filtered = texgraph::filter::Filtered::new(&tape);
+    let side = |a: usize| (g1.region.max[a] - g1.region.min[a]) / g1.size[a] as f64;
+    let footprint = texgraph::filter::Footprint::from_sides([side(0), side(1), side(2)]).unwrap();
+    let centre = |a: usize, i: usize| g1.region.min[a] + (i as f64 + 0.5) * side(a);
+    let height = tape
+        .outputs()
+        .iter()
+        .position(|o| o.name == "height")
+        .unwrap();
+    let first = tape.outputs()[height].first_channel;
+    let [nx, ny, nz] = g1.size;
+    assert_eq!(boxed.len(), nx * ny * nz);
+    let mut out = vec![0f32; tape.channels()];
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                filtered.eval_point(
+                    [centre(0, i), centre(1, j), centre(2, k)],
+                    &footprint,
+                    &mut out,
+                );
+                assert_eq!(
+                    boxed[(k * ny + j) * nx + i],
+                    out[first],
+                    "voxel {i} {j} {k}"
+                );
+            }
+        }
+    }
+    assert_ne!(boxed, run(&["--filter", "point"]));
+}
