@@ -11,7 +11,9 @@
 //! - [`structured_graph`]: a graph built valid by construction from the bytes (every node kind,
 //!   nested, stiff constants) checks; point and batch agree bit for bit in f32 and f64 at points
 //!   drawn from the bytes; noise of a scaled, rotated, translated position stays within the
-//!   accuracy issue's bound of f64 in f32 (|p| ≤ 1e4).
+//!   accuracy issue's bound of f64 in f32 (|p| ≤ 1e4); filtered at a footprint drawn from the
+//!   bytes, finite wherever the point value is (refused footprints with a message), batch =
+//!   point bit for bit.
 //! - [`scene_bytes`]: any bytes as a render input (a scene file, or a graph previewed on the
 //!   default stage) next to the seed graphs: it loads, or fails with messages that name a file
 //!   and show no Rust internals; what loads renders (8×6 pixels, one sample) without a panic.
@@ -232,6 +234,83 @@ fn random_graph_agrees(u: &mut Unstructured) {
         let tape = compile(&graph, &options).expect("a checked graph compiles");
         point_and_batch_agree::<f32>(&tape, &points);
         point_and_batch_agree::<f64>(&tape, &points);
+        if spacing.is_none() {
+            filtered_is_finite(u, &tape, &points, &text);
+        }
+    }
+}
+
+/// The filtered form (issue 33) at a footprint drawn from the bytes (a point, tiny, ordinary,
+/// huge or anisotropic; NaN, infinite and negative sides must be refused with a message):
+/// finite wherever the point value is, and the batch equal to the point evaluation bit for bit.
+fn filtered_is_finite(u: &mut Unstructured, tape: &Tape, points: &[[f64; 3]], text: &str) {
+    use texgraph::filter::{Filtered, Footprint};
+    let Ok(kind) = u.int_in_range(0u8..=5) else {
+        return;
+    };
+    let side = |u: &mut Unstructured| -> Result<f64> {
+        Ok(match u.int_in_range(0u8..=3)? {
+            0 => 0.0,
+            1 => in_range(u, 1e-12, 1e-6)?,
+            2 => in_range(u, 1e-3, 4.0)?,
+            _ => in_range(u, 1e3, 1e9)?,
+        })
+    };
+    let footprint = match kind {
+        0 => {
+            let bad = [f64::NAN, f64::INFINITY, -1.0][u.choose_index(3).unwrap_or(0)];
+            let e = Footprint::from_sides([bad, 0.5, 0.5]).expect_err("a refused side");
+            assert!(e.to_string().contains("side x"), "{e}");
+            return;
+        }
+        1 | 2 => {
+            let edge = |u: &mut Unstructured| -> Result<[f64; 3]> {
+                Ok([
+                    in_range(u, -2.0, 2.0)?,
+                    in_range(u, -2.0, 2.0)?,
+                    in_range(u, -2.0, 2.0)?,
+                ])
+            };
+            let (Ok(a), Ok(b)) = (edge(u), edge(u)) else {
+                return;
+            };
+            Footprint::from_edges([a, b, [0.0; 3]]).expect("finite edges")
+        }
+        _ => {
+            let (Ok(x), Ok(y), Ok(z)) = (side(u), side(u), side(u)) else {
+                return;
+            };
+            Footprint::from_sides([x, y, z]).expect("valid sides")
+        }
+    };
+    let filtered = Filtered::new(tape);
+    let channels = tape.channels();
+    let finite: Vec<[f64; 3]> = points
+        .iter()
+        .copied()
+        .filter(|p| p.iter().all(|c| c.is_finite()))
+        .collect();
+    let n = finite.len();
+    let [x, y, z] = [0, 1, 2].map(|c| finite.iter().map(|p| p[c]).collect::<Vec<f64>>());
+    let mut batch = vec![0f64; channels * n];
+    filtered.eval_batch([&x, &y, &z], &[footprint], &mut batch);
+    for (i, p) in finite.iter().enumerate() {
+        let mut exact = vec![0f64; channels];
+        tape.eval_point(&mut Workspace::new(), *p, &mut exact);
+        let mut value = vec![0f64; channels];
+        filtered.eval_point(*p, &footprint, &mut value);
+        for c in 0..channels {
+            let (v, b) = (value[c], batch[c * n + i]);
+            assert!(
+                v.to_bits() == b.to_bits() || (v.is_nan() && b.is_nan()),
+                "filtered batch {b} vs point {v} at {p:?}\n{text}"
+            );
+            assert!(
+                !exact[c].is_finite() || v.is_finite(),
+                "filtered {v} where the point value is {} at {p:?} over {footprint:?}\n{text}",
+                exact[c]
+            );
+        }
     }
 }
 

@@ -122,16 +122,34 @@ impl<'t> Filtered<'t> {
         out: &mut [S],
     ) {
         self.run(slots, point, footprint);
+        let mut overflowed = false;
         for o in &self.tape.outputs {
-            match o.ty {
-                Type::Scalar => {
-                    out[o.first_channel] = S::from_f64(slots.scalars[o.slot as usize].mean)
-                }
-                Type::Vec3 => {
-                    for (c, d) in slots.vec3s[o.slot as usize].iter().enumerate() {
-                        out[o.first_channel + c] = S::from_f64(d.mean);
-                    }
-                }
+            let means: &mut dyn Iterator<Item = f64> = match o.ty {
+                Type::Scalar => &mut std::iter::once(slots.scalars[o.slot as usize].mean),
+                Type::Vec3 => &mut slots.vec3s[o.slot as usize].iter().map(|d| d.mean),
+            };
+            for (c, mean) in means.enumerate() {
+                overflowed |= !mean.is_finite();
+                out[o.first_channel + c] = S::from_f64(mean);
+            }
+        }
+        if overflowed {
+            self.point_fallback(point, out);
+        }
+    }
+
+    /// Where a rule's mean is not finite (the mean of `exp` over an enormous box, a reciprocal
+    /// whose spread reaches 0), the channel takes the point value instead when that is finite
+    /// (docs/filtering.md, "What is approximate"): a filtered output is finite wherever the
+    /// point value is.
+    #[cold]
+    fn point_fallback<S: Real>(&self, point: [f64; 3], out: &mut [S]) {
+        let mut exact = vec![0f64; out.len()];
+        self.tape
+            .eval_point(&mut crate::eval::Workspace::new(), point, &mut exact);
+        for (o, e) in out.iter_mut().zip(exact) {
+            if !o.to_f64().is_finite() && e.is_finite() {
+                *o = S::from_f64(e);
             }
         }
     }
@@ -299,7 +317,14 @@ impl<'t> Filtered<'t> {
             Instr::Normalize { dst, src } => {
                 let v = s.vec3s[src as usize];
                 let l = length(rules, sh, &v);
-                s.vec3s[dst as usize] = v.map(|c| rules.binary(sh, ops::BinaryOp::Div, &c, &l));
+                let mut n = v.map(|c| rules.binary(sh, ops::BinaryOp::Div, &c, &l));
+                // A length whose spread reaches 0 (a vector through the origin within the
+                // footprint) has no finite reciprocal mean: the direction of the mean vector
+                // instead, as the point evaluation takes it (0 for the zero vector).
+                if n.iter().any(|c| !c.mean.is_finite()) && v.iter().all(|c| c.mean.is_finite()) {
+                    n = ops::normalize(v.map(|c| c.mean)).map(Dist::constant);
+                }
+                s.vec3s[dst as usize] = n;
             }
             Instr::RotateConst { dst, src, matrix } => {
                 let m = &self.tape.matrices[matrix as usize];
@@ -525,4 +550,30 @@ fn rotate_varying(rules: &Rules, axis: [f64; 3], v: &[Dist; 3], degrees: &Dist) 
         o.var += d * d * k * k * degrees.var;
     }
     out
+}
+
+/// The filtered form as methods of the tape (issue 33's library contract). Each call prepares a
+/// [`Filtered`] (per-table statistics are cached per process, but a tiled fractal's periodic
+/// octave tables are made again): for many calls, make one [`Filtered::new`] and reuse it.
+impl Tape {
+    /// [`Filtered::eval_point`]: every output's estimated mean over `footprint` around `point`.
+    pub fn eval_point_filtered<S: Real>(
+        &self,
+        point: [f64; 3],
+        footprint: &Footprint,
+        out: &mut [S],
+    ) {
+        Filtered::new(self).eval_point(point, footprint, out)
+    }
+
+    /// [`Filtered::eval_batch`]: the same over many points (one footprint per point, or one for
+    /// all), planar output as [`Tape::eval_batch`].
+    pub fn eval_batch_filtered<S: Real>(
+        &self,
+        points: [&[f64]; 3],
+        footprints: &[Footprint],
+        out: &mut [S],
+    ) {
+        Filtered::new(self).eval_batch(points, footprints, out)
+    }
 }

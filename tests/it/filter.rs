@@ -251,6 +251,19 @@ fn batch_equals_point_and_f32_rounds_f64() {
     f.eval_batch([&x, &y, &z], &footprints, &mut batch);
     let mut batch32 = vec![0.0f32; c * n];
     f.eval_batch([&x, &y, &z], &footprints, &mut batch32);
+    // The tape's own methods are the same evaluation.
+    let mut via_tape = vec![0.0f64; c * n];
+    t.eval_batch_filtered([&x, &y, &z], &footprints, &mut via_tape);
+    assert!(via_tape
+        .iter()
+        .zip(&batch)
+        .all(|(a, b)| a.to_bits() == b.to_bits()));
+    let mut one_via_tape = vec![0.0f32; c];
+    t.eval_point_filtered(pts[0], &footprints[0], &mut one_via_tape);
+    assert_eq!(
+        one_via_tape,
+        (0..c).map(|ch| batch32[ch * n]).collect::<Vec<_>>()
+    );
     for i in 0..n {
         let mut one = vec![0.0f64; c];
         f.eval_point(pts[i], &footprints[i], &mut one);

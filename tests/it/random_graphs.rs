@@ -228,6 +228,78 @@ proptest! {
     }
 }
 
+/// A footprint for the filtered harness: a point, tiny, ordinary, huge, anisotropic boxes and
+/// parallelograms, or sides that must be refused (NaN, infinite, negative).
+fn footprint() -> impl Strategy<Value = Result<texgraph::filter::Footprint, [f64; 3]>> {
+    use texgraph::filter::Footprint;
+    let side = prop_oneof![Just(0.0), 1e-12f64..1e-6, 1e-3f64..4.0, 1e3f64..1e9,];
+    let refused = prop_oneof![Just(f64::NAN), Just(f64::INFINITY), Just(-1.0)];
+    prop_oneof![
+        6 => [side.clone(), side.clone(), side].prop_map(|s| Ok(Footprint::from_sides(s).expect("valid sides"))),
+        2 => [[-2.0f64..2.0, -2.0f64..2.0, -2.0f64..2.0], [-2.0f64..2.0, -2.0f64..2.0, -2.0f64..2.0]]
+            .prop_map(|[a, b]| Ok(Footprint::from_edges([a, b, [0.0; 3]]).expect("finite edges"))),
+        1 => (refused, 0.0f64..1.0, 0.0f64..1.0).prop_map(|(a, b, c)| Err([a, b, c])),
+    ]
+}
+
+proptest! {
+    // The filtered form is a scalar f64 interpreter: slow in a debug build, fewer cases.
+    #![proptest_config(ProptestConfig { cases: 96, max_shrink_iters: 100, ..ProptestConfig::default() })]
+
+    /// Random graphs filtered at random footprints (issue 33): a refused footprint is an error
+    /// that names the side, never a panic; otherwise every channel is finite wherever the
+    /// point value is (f64), the batch equals the point evaluation bit for bit, and f32 is the
+    /// f64 estimate rounded.
+    #[test]
+    fn random_graphs_filter_at_random_footprints(
+        a in scalar(3),
+        b in vec3(3),
+        k in -10.0f64..10.0,
+        footprint in footprint(),
+        points in prop::collection::vec([-10.0f64..10.0, -10.0f64..10.0, -10.0f64..10.0], 1..8),
+    ) {
+        use texgraph::filter::{Filtered, Footprint};
+        let footprint = match footprint {
+            Ok(f) => f,
+            Err(sides) => {
+                let e = Footprint::from_sides(sides).expect_err("refused");
+                prop_assert!(e.to_string().contains("a side must be a finite number >= 0"), "{e}");
+                return Ok(());
+            }
+        };
+        let text = graph_text(&a, &b, k);
+        let Ok(graph) = check(SourceFile::new("random.ron", text.clone()), &CheckOptions::default()) else {
+            return Ok(());
+        };
+        let tape = compile(&graph, &CompileOptions::default()).expect("a checked graph compiles");
+        let filtered = Filtered::new(&tape);
+        let channels = tape.channels();
+        let n = points.len();
+        let [x, y, z] = [0, 1, 2].map(|c| points.iter().map(|p| p[c]).collect::<Vec<f64>>());
+        let mut batch = vec![0f64; channels * n];
+        filtered.eval_batch([&x, &y, &z], &[footprint], &mut batch);
+        for (i, p) in points.iter().enumerate() {
+            let mut exact = vec![0f64; channels];
+            tape.eval_point(&mut Workspace::new(), *p, &mut exact);
+            let mut f64s = vec![0f64; channels];
+            let mut f32s = vec![0f32; channels];
+            filtered.eval_point(*p, &footprint, &mut f64s);
+            filtered.eval_point(*p, &footprint, &mut f32s);
+            for c in 0..channels {
+                let v = f64s[c];
+                prop_assert!(v.to_bits() == batch[c * n + i].to_bits() || (v.is_nan() && batch[c * n + i].is_nan()),
+                    "batch {} vs point {v} at {p:?}\n{text}", batch[c * n + i]);
+                // (An f64 mean beyond f32's range takes the point value in f32.)
+                prop_assert!(f32s[c].to_bits() == (v as f32).to_bits() || (v.is_nan() && f32s[c].is_nan()) || !(v as f32).is_finite(),
+                    "f32 {} vs f64 {v}\n{text}", f32s[c]);
+                if exact[c].is_finite() {
+                    prop_assert!(v.is_finite(), "channel {c} at {p:?} over {footprint:?}: filtered {v}, point {}\n{text}", exact[c]);
+                }
+            }
+        }
+    }
+}
+
 #[cfg(feature = "gpu")]
 proptest! {
     // Each case compiles a shader (a second or so on lavapipe): fewer cases than the CPU tests.
@@ -277,5 +349,55 @@ fn the_generator_reaches_every_node_kind() {
         common::kinds_missing(&found),
         Vec::<&str>::new(),
         "node kinds the random-graph generator never produces"
+    );
+}
+
+/// Every node kind of the catalogue has a filtered rule (issue 33): the generator's graphs,
+/// filtered over a box and a pixel-like parallelogram, count a kind once it appears in a graph
+/// whose every filtered channel is finite wherever its point value is. A kind without a rule
+/// (or whose rule fails) is named here.
+#[test]
+fn every_node_kind_filters() {
+    use proptest::strategy::ValueTree;
+    use texgraph::filter::{Filtered, Footprint};
+    let mut runner = proptest::test_runner::TestRunner::deterministic();
+    let strategy = (scalar(3), vec3(3));
+    let footprints = [
+        Footprint::cube(0.25).unwrap(),
+        Footprint::from_edges([[0.3, 0.0, 0.1], [0.0, 0.02, -0.05], [0.0; 3]]).unwrap(),
+    ];
+    let points = [[0.3, -0.7, 1.9], [-2.5, 0.125, 0.6]];
+    let mut found = std::collections::BTreeSet::new();
+    for _ in 0..1500 {
+        let (a, b) = strategy.new_tree(&mut runner).unwrap().current();
+        let text = graph_text(&a, &b, 1.0);
+        let Ok(graph) = check(
+            SourceFile::new("random.ron", text.clone()),
+            &CheckOptions::default(),
+        ) else {
+            continue;
+        };
+        let tape = compile(&graph, &CompileOptions::default()).expect("a checked graph compiles");
+        let filtered = Filtered::new(&tape);
+        let channels = tape.channels();
+        let works = points.iter().all(|p| {
+            let mut exact = vec![0f64; channels];
+            tape.eval_point(&mut Workspace::new(), *p, &mut exact);
+            footprints.iter().all(|f| {
+                let mut v = vec![0f64; channels];
+                filtered.eval_point(*p, f, &mut v);
+                v.iter()
+                    .zip(&exact)
+                    .all(|(v, e)| v.is_finite() || !e.is_finite())
+            })
+        });
+        if works {
+            found.extend(common::kinds_used(&text));
+        }
+    }
+    assert_eq!(
+        common::kinds_missing(&found),
+        Vec::<&str>::new(),
+        "node kinds never filtered to a finite value"
     );
 }
