@@ -41,6 +41,7 @@ pub(crate) mod derive;
 pub mod diagnostic;
 pub mod eval;
 pub mod filter;
+pub mod filter_report;
 pub mod gpu;
 pub mod graph;
 pub mod grid;

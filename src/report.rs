@@ -538,17 +538,24 @@ pub fn table_markdown(rows: &[Row]) -> String {
 /// Draws RMS error (log) against time per point (log), one colour per output, each output's
 /// Pareto front (no other strategy is both faster and more accurate) joined and ringed.
 /// Exact strategies (zero error) sit on the bottom edge.
-pub fn plot(rows: &[Row], title: &str, path: &std::path::Path) -> Result<(), String> {
-    use plotters::prelude::*;
-    // The bitmap backend needs a font for its labels: DejaVu Sans ships with the crate
-    // (assets/, Bitstream Vera licence), so plots work on machines without fonts installed.
+/// Registers the plots' font once: the bitmap backend needs one for its labels, and DejaVu
+/// Sans ships with the crate (assets/, Bitstream Vera licence), so plots work on machines
+/// without fonts installed.
+pub(crate) fn plot_font() -> Result<(), String> {
     static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
     static REGISTERED: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     if !*REGISTERED.get_or_init(|| {
-        plotters::style::register_font("sans-serif", FontStyle::Normal, FONT).is_ok()
+        plotters::style::register_font("sans-serif", plotters::style::FontStyle::Normal, FONT)
+            .is_ok()
     }) {
         return Err("the embedded font could not be loaded".into());
     }
+    Ok(())
+}
+
+pub fn plot(rows: &[Row], title: &str, path: &std::path::Path) -> Result<(), String> {
+    use plotters::prelude::*;
+    plot_font()?;
     let (width, height) = (1000u32, 640u32);
     let mut buffer = vec![0u8; (width * height * 3) as usize];
     let positive: Vec<f64> = rows

@@ -40,6 +40,16 @@ pub struct ReportArgs {
     /// against the f64 reference box-filtered over each voxel (4³ points per level-0 voxel).
     #[arg(long, conflicts_with_all = ["stability", "markdown", "plot", "points", "runs"])]
     mips: bool,
+    /// Compare ways of showing a footprint instead (docs/filtering.md): for cubes of side 1/2,
+    /// 1/8 and 1/32 centred at --boxes random points of the region, the RMS error against a
+    /// 216-sample stratified f64 box mean of point sampling, 4 and 16 samples per box (Latin
+    /// hypercubes) and the filtered evaluation, with their times per box; --plot draws error
+    /// against time.
+    #[arg(long, conflicts_with_all = ["stability", "markdown", "mips", "points", "runs"])]
+    filtering: bool,
+    /// With --filtering: random boxes per side (1 to 100 000).
+    #[arg(long, value_name = "N", default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..=100_000), requires = "filtering")]
+    boxes: u64,
     /// With --mips: voxels per axis of level 0.
     #[arg(long = "mip-size", value_name = "N", default_value_t = 64, value_parser = clap::value_parser!(u64).range(1..=512), requires = "mips")]
     mip_size: u64,
@@ -88,6 +98,40 @@ pub fn report_command(args: ReportArgs) -> Result<(), Failure> {
             region: args.region.unwrap_or_default(),
             ..Default::default()
         };
+        if args.filtering {
+            let rows = match filtering_rows(&graph, &args) {
+                Ok(rows) => rows,
+                Err(failure) => {
+                    worst = Failure::worst(worst, failure);
+                    continue;
+                }
+            };
+            if let Some(path) = &args.plot {
+                let title = file.display().to_string();
+                if let Err(e) = crate::filter_report::filter_plot(&rows, &title, path) {
+                    eprintln!("error: {}: {e}", path.display());
+                    worst = Some(Failure::Usage);
+                }
+            }
+            if args.json {
+                json_rows.extend(
+                    rows.iter().map(
+                        |r| serde_json::json!({ "graph": file.display().to_string(), "row": r }),
+                    ),
+                );
+                continue;
+            }
+            let text = format!(
+                "{}: box means over {} random cubes per side in [{}], against {} stratified f64 samples per box; one thread\n{}",
+                file.display(),
+                args.boxes,
+                region_text(&args.region.unwrap_or_default()),
+                crate::filter_report::REFERENCE_SAMPLES,
+                crate::filter_report::filter_table_markdown(&rows)
+            );
+            write_stdout(|out| out.write_all(text.as_bytes()))?;
+            continue;
+        }
         if args.mips {
             let region = args.region.unwrap_or_default();
             let rows = crate::mip_report::mip_report(&graph, args.mip_size as usize, region)
@@ -180,6 +224,25 @@ pub fn report_command(args: ReportArgs) -> Result<(), Failure> {
         write_stdout(|out| out.write_all(text.as_bytes()))?;
     }
     worst.map_or(Ok(()), Err)
+}
+
+/// The filtering table's rows for `graph` (only the `--output`s asked for).
+fn filtering_rows(
+    graph: &crate::graph::CheckedGraph,
+    args: &ReportArgs,
+) -> Result<Vec<crate::filter_report::FilterRow>, Failure> {
+    let options = CompileOptions {
+        outputs: args.outputs.clone(),
+        ..Default::default()
+    };
+    let tape = crate::compile::compile(graph, &options)
+        .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
+    let options = crate::filter_report::FilterOptions {
+        boxes: args.boxes as usize,
+        region: args.region.unwrap_or_default(),
+        ..Default::default()
+    };
+    Ok(crate::filter_report::filter_report(&tape, &options))
 }
 
 /// "all outputs 10, colour 10, vein 8": tape length per output set.

@@ -1429,3 +1429,53 @@ fn render_filter_flags() {
         stderr(&auto)
     );
 }
+
+/// `report --filtering`: a row per box side with every strategy's RMS and time, the filtered
+/// marble closer to the box mean than point sampling at side 1/2; JSON rows and the plot; the
+/// flags it excludes are usage errors.
+#[test]
+fn report_filtering_table_json_and_plot() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let png = dir.path().join("f.png");
+    let base = [
+        "report",
+        "--filtering",
+        "graphs/seed003_marble.ron",
+        "--boxes",
+        "12",
+        "--region=-4,-4,-4:4,4,4",
+        "--output",
+        "vein",
+    ];
+    let table = stdout(&expect_code(&base, 0));
+    assert!(
+        table.contains("| side | point RMS | 4 samples RMS | 16 samples RMS | filtered RMS |"),
+        "{table}"
+    );
+    for side in ["| 1/2 |", "| 1/8 |", "| 1/32 |"] {
+        assert!(table.contains(side), "{table}");
+    }
+    let json = stdout(&expect_code(
+        &[&base[..], &["--json", "--plot", png.to_str().unwrap()]].concat(),
+        0,
+    ));
+    let rows: serde_json::Value = serde_json::from_str(&json).expect("JSON");
+    let rows = rows.as_array().expect("an array");
+    assert_eq!(rows.len(), 3);
+    let half = &rows[0]["row"];
+    assert_eq!(half["side"], 0.5);
+    let (point, filtered) = (
+        half["point_rms"].as_f64().unwrap(),
+        half["filtered_rms"].as_f64().unwrap(),
+    );
+    assert!(
+        filtered < 0.5 * point,
+        "filtered {filtered} vs point {point}"
+    );
+    assert!(half["filtered_us"].as_f64().unwrap() > 0.0);
+    let image = image::open(&png).expect("a PNG");
+    assert_eq!((image.width(), image.height()), (1000, 640));
+    for other in [["--mips"], ["--stability"]] {
+        expect_code(&[&base[..], &other[..]].concat(), 2);
+    }
+}

@@ -1,0 +1,362 @@
+//! `texgraph report --filtering`: how close each way of showing a footprint gets to the mean
+//! over it, and what each costs (issue 33).
+//!
+//! For each box side `W` (1/2, 1/8, 1/32 by default) and `boxes` random cubes of that side
+//! centred in the region (a fixed seed): the reference is the f64 mean of 216 stratified
+//! samples per box (6³ jittered cells); against it, over every channel of every box:
+//! - point: the f64 value at the box centre;
+//! - 4 and 16 samples: the mean of a Latin hypercube of 4 or 16 f64 samples in the box;
+//! - filtered: the filtered form's estimate of the box mean ([`crate::filter::Filtered`]).
+//!
+//! Each strategy's time is per box, one thread, summed over the boxes (a strategy with `k`
+//! samples makes `k` point evaluations).
+
+use crate::eval::Workspace;
+use crate::filter::{Filtered, Footprint};
+use crate::grid::Region;
+use crate::tape::Tape;
+use std::time::Instant;
+
+/// The box sides of the table.
+pub const SIDES: [f64; 3] = [0.5, 0.125, 1.0 / 32.0];
+/// Stratified samples per box of the reference (6³).
+pub const REFERENCE_SAMPLES: usize = 216;
+
+/// What to measure.
+#[derive(Clone, Debug)]
+pub struct FilterOptions {
+    /// Random boxes per side.
+    pub boxes: usize,
+    /// Where the box centres are drawn.
+    pub region: Region,
+    pub sides: Vec<f64>,
+}
+
+impl Default for FilterOptions {
+    fn default() -> FilterOptions {
+        FilterOptions {
+            boxes: 100,
+            region: Region::default(),
+            sides: SIDES.to_vec(),
+        }
+    }
+}
+
+/// One side's figures: RMS errors against the reference and microseconds per box.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct FilterRow {
+    pub side: f64,
+    pub point_rms: f64,
+    pub samples4_rms: f64,
+    pub samples16_rms: f64,
+    pub filtered_rms: f64,
+    pub point_us: f64,
+    pub samples4_us: f64,
+    pub samples16_us: f64,
+    pub filtered_us: f64,
+}
+
+impl FilterRow {
+    /// The strategies as (name, RMS, µs per box), in the table's order.
+    pub fn strategies(&self) -> [(&'static str, f64, f64); 4] {
+        [
+            ("point", self.point_rms, self.point_us),
+            ("4 samples", self.samples4_rms, self.samples4_us),
+            ("16 samples", self.samples16_rms, self.samples16_us),
+            ("filtered", self.filtered_rms, self.filtered_us),
+        ]
+    }
+}
+
+/// SplitMix64 in [0, 1): the same boxes and jitter on every run and machine.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// A Latin hypercube of `n` points in the cube of side `side` around `c`: `n` strata per
+    /// axis, each axis' strata permuted (Fisher–Yates), jittered within the stratum.
+    fn latin(&mut self, c: [f64; 3], side: f64, n: usize) -> Vec<[f64; 3]> {
+        let mut perms: [Vec<usize>; 3] = std::array::from_fn(|_| (0..n).collect());
+        for p in &mut perms {
+            for i in (1..n).rev() {
+                let j = ((self.next() * (i + 1) as f64) as usize).min(i);
+                p.swap(i, j);
+            }
+        }
+        (0..n)
+            .map(|s| {
+                std::array::from_fn(|a| {
+                    c[a] + side * ((perms[a][s] as f64 + self.next()) / n as f64 - 0.5)
+                })
+            })
+            .collect()
+    }
+}
+
+/// Sums of squared errors and seconds of one strategy.
+#[derive(Default)]
+struct Tally {
+    squares: f64,
+    seconds: f64,
+}
+
+/// The mean of `tape` over `points` (f64), timed into `tally`.
+fn mean_of(
+    tape: &Tape,
+    ws: &mut Workspace<f64>,
+    points: &[[f64; 3]],
+    tally: &mut Tally,
+) -> Vec<f64> {
+    let mut out = vec![0.0; tape.channels()];
+    let mut sum = vec![0.0; tape.channels()];
+    let started = Instant::now();
+    for p in points {
+        tape.eval_point(ws, *p, &mut out);
+        for (s, v) in sum.iter_mut().zip(&out) {
+            *s += v;
+        }
+    }
+    tally.seconds += started.elapsed().as_secs_f64();
+    sum.iter().map(|s| s / points.len() as f64).collect()
+}
+
+/// The figures of one side.
+fn measure(tape: &Tape, filtered: &Filtered, side: f64, options: &FilterOptions) -> FilterRow {
+    let channels = tape.channels();
+    let footprint = Footprint::cube(side).unwrap_or(Footprint::POINT);
+    let mut ws = Workspace::<f64>::new();
+    let mut rng = Rng(0x5eed ^ side.to_bits());
+    let mut tallies: [Tally; 4] = Default::default();
+    let mut ignore = Tally::default();
+    let mut count = 0.0f64;
+    let Region { min, max } = options.region;
+    for _ in 0..options.boxes {
+        let c: [f64; 3] = std::array::from_fn(|a| min[a] + (max[a] - min[a]) * rng.next());
+        let reference_points: Vec<[f64; 3]> = (0..REFERENCE_SAMPLES)
+            .map(|i| {
+                let cell = [i % 6, i / 6 % 6, i / 36];
+                std::array::from_fn(|a| c[a] + side * ((cell[a] as f64 + rng.next()) / 6.0 - 0.5))
+            })
+            .collect();
+        let reference = mean_of(tape, &mut ws, &reference_points, &mut ignore);
+        let four = rng.latin(c, side, 4);
+        let sixteen = rng.latin(c, side, 16);
+        let estimates = [
+            mean_of(tape, &mut ws, &[c], &mut tallies[0]),
+            mean_of(tape, &mut ws, &four, &mut tallies[1]),
+            mean_of(tape, &mut ws, &sixteen, &mut tallies[2]),
+            {
+                let mut f = vec![0.0; channels];
+                let started = Instant::now();
+                filtered.eval_point(c, &footprint, &mut f);
+                tallies[3].seconds += started.elapsed().as_secs_f64();
+                f
+            },
+        ];
+        for (ch, r) in reference.iter().enumerate() {
+            if !r.is_finite() {
+                continue;
+            }
+            for (tally, estimate) in tallies.iter_mut().zip(&estimates) {
+                tally.squares += (estimate[ch] - r).powi(2);
+            }
+            count += 1.0;
+        }
+    }
+    let rms = |t: &Tally| (t.squares / count.max(1.0)).sqrt();
+    let us = |t: &Tally| t.seconds * 1e6 / options.boxes.max(1) as f64;
+    FilterRow {
+        side,
+        point_rms: rms(&tallies[0]),
+        samples4_rms: rms(&tallies[1]),
+        samples16_rms: rms(&tallies[2]),
+        filtered_rms: rms(&tallies[3]),
+        point_us: us(&tallies[0]),
+        samples4_us: us(&tallies[1]),
+        samples16_us: us(&tallies[2]),
+        filtered_us: us(&tallies[3]),
+    }
+}
+
+/// The table's rows for `tape`, one per side.
+pub fn filter_report(tape: &Tape, options: &FilterOptions) -> Vec<FilterRow> {
+    let filtered = Filtered::new(tape);
+    options
+        .sides
+        .iter()
+        .map(|&side| measure(tape, &filtered, side, options))
+        .collect()
+}
+
+/// `1/8` for 0.125, else the number.
+fn side_text(side: f64) -> String {
+    let inverse = 1.0 / side;
+    if side < 1.0 && (inverse - inverse.round()).abs() < 1e-9 {
+        format!("1/{}", inverse.round())
+    } else {
+        format!("{side}")
+    }
+}
+
+/// The rows as a Markdown table.
+pub fn filter_table_markdown(rows: &[FilterRow]) -> String {
+    let mut text = String::from(
+        "| side | point RMS | 4 samples RMS | 16 samples RMS | filtered RMS | point µs | 4 samples µs | 16 samples µs | filtered µs |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for r in rows {
+        text.push_str(&format!(
+            "| {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.2} | {:.2} | {:.2} | {:.2} |\n",
+            side_text(r.side),
+            r.point_rms,
+            r.samples4_rms,
+            r.samples16_rms,
+            r.filtered_rms,
+            r.point_us,
+            r.samples4_us,
+            r.samples16_us,
+            r.filtered_us
+        ));
+    }
+    text
+}
+
+/// RMS error (log) against µs per box (log), one colour per strategy, each point labelled by
+/// its side, as a PNG.
+pub fn filter_plot(rows: &[FilterRow], title: &str, path: &std::path::Path) -> Result<(), String> {
+    use plotters::prelude::*;
+    crate::report::plot_font()?;
+    let (width, height) = (1000u32, 640u32);
+    let mut buffer = vec![0u8; (width * height * 3) as usize];
+    let all: Vec<(f64, f64)> = rows
+        .iter()
+        .flat_map(|r| r.strategies().map(|(_, e, t)| (t.max(1e-3), e)))
+        .collect();
+    let floor = all
+        .iter()
+        .map(|p| p.1)
+        .filter(|e| *e > 0.0)
+        .fold(1e-3, f64::min)
+        / 3.0;
+    let top = all.iter().map(|p| p.1).fold(floor * 10.0, f64::max) * 3.0;
+    let t_lo = all.iter().map(|p| p.0).fold(f64::INFINITY, f64::min) / 2.0;
+    let t_hi = all.iter().map(|p| p.0).fold(0.0, f64::max) * 2.0;
+    let error = |e: plotters::drawing::DrawingAreaErrorKind<_>| e.to_string();
+    {
+        let root = BitMapBackend::with_buffer(&mut buffer, (width, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(error)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                format!("{title}: box means, error against time"),
+                ("sans-serif", 20),
+            )
+            .margin(16)
+            .x_label_area_size(44)
+            .y_label_area_size(76)
+            .build_cartesian_2d((t_lo..t_hi).log_scale(), (floor..top).log_scale())
+            .map_err(error)?;
+        chart
+            .configure_mesh()
+            .x_desc("µs per box (one thread)")
+            .y_desc("RMS error against the 216-sample box mean")
+            .label_style(("sans-serif", 13))
+            .x_label_formatter(&|v| format!("{v:.2}"))
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .draw()
+            .map_err(error)?;
+        let palette = [
+            RGBColor(31, 119, 180),
+            RGBColor(255, 127, 14),
+            RGBColor(44, 160, 44),
+            RGBColor(214, 39, 40),
+        ];
+        for (s, colour) in palette.iter().enumerate() {
+            let name = rows.first().map_or("", |r| r.strategies()[s].0);
+            let at = |r: &FilterRow| {
+                let (_, e, t) = r.strategies()[s];
+                (t.max(1e-3), e.max(floor))
+            };
+            let colour = *colour;
+            chart
+                .draw_series(rows.iter().map(|r| Circle::new(at(r), 5, colour.filled())))
+                .map_err(error)?
+                .label(name)
+                .legend(move |(x, y)| Circle::new((x, y), 5, colour.filled()));
+            chart
+                .draw_series(LineSeries::new(rows.iter().map(at), colour.stroke_width(1)))
+                .map_err(error)?;
+            for r in rows {
+                let label = EmptyElement::at(at(r))
+                    + Text::new(
+                        side_text(r.side),
+                        (8, -6),
+                        ("sans-serif", 11).into_font().color(&colour),
+                    );
+                chart.draw_series(std::iter::once(label)).map_err(error)?;
+            }
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerLeft)
+            .border_style(BLACK)
+            .background_style(WHITE.mix(0.8))
+            .label_font(("sans-serif", 13))
+            .draw()
+            .map_err(error)?;
+        root.present().map_err(error)?;
+    }
+    let image = crate::output::RgbImage::from_raw(width, height, buffer)
+        .ok_or("plot buffer has the wrong size")?;
+    crate::output::write_png(path, &image).map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An affine field's box mean is its centre value: every strategy is exact (to rounding).
+    #[test]
+    fn an_affine_field_has_no_error() {
+        let source = crate::diagnostic::SourceFile::new(
+            "affine.ron",
+            r#"Graph(nodes: { "p": Position }, outputs: { "x": Add(Mul("p.x", 2.0), "p.z") })"#,
+        );
+        let graph = crate::check::check(source, &crate::check::CheckOptions::default()).unwrap();
+        let tape = crate::compile::compile(&graph, &Default::default()).unwrap();
+        let options = FilterOptions {
+            boxes: 5,
+            ..FilterOptions::default()
+        };
+        let rows = filter_report(&tape, &options);
+        assert_eq!(rows.len(), 3);
+        for r in &rows {
+            for (name, rms, us) in r.strategies() {
+                assert!(rms < 1e-12, "{name}: {rms}");
+                assert!(us >= 0.0);
+            }
+        }
+        assert_eq!(side_text(0.125), "1/8");
+        assert_eq!(side_text(2.0), "2");
+    }
+
+    /// A Latin hypercube puts one sample in each stratum of each axis.
+    #[test]
+    fn latin_hypercube_fills_every_stratum() {
+        let mut rng = Rng(7);
+        let points = rng.latin([0.0; 3], 1.0, 16);
+        for a in 0..3 {
+            let mut strata: Vec<usize> = points
+                .iter()
+                .map(|p| ((p[a] + 0.5) * 16.0).floor() as usize)
+                .collect();
+            strata.sort_unstable();
+            assert_eq!(strata, (0..16).collect::<Vec<_>>());
+        }
+    }
+}
