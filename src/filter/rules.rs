@@ -56,7 +56,7 @@ impl Dist {
         }
     }
 
-    fn is_constant(&self) -> bool {
+    pub fn is_constant(&self) -> bool {
         self.var == 0.0 && self.grad == [0.0; 3]
     }
 
@@ -159,35 +159,54 @@ impl Footprint {
     /// non-zero edges). Where the edges are (nearly) parallel the system is singular and
     /// `grad` is scaled by the smallest `beta` instead.
     pub(super) fn damp(&self, grad: [f64; 3], beta: [f64; 3]) -> [f64; 3] {
-        if beta.iter().all(|&b| b == 1.0) {
+        // A change below 1e-9 of the slope (a footprint far inside a cell) is left out.
+        if beta.iter().all(|&b| (1.0 - b).abs() < 1e-9) {
             return grad;
         }
-        let live: Vec<usize> = (0..3)
-            .filter(|&k| dot(&self.edges[k], &self.edges[k]) > 0.0)
-            .collect();
-        let d: Vec<f64> = live
-            .iter()
-            .map(|&k| (beta[k] - 1.0) * proj(grad, &self.edges[k]))
-            .collect();
+        // The non-zero edges, in order (no allocation: this runs per noise octave).
+        let mut live = [0usize; 3];
+        let mut n = 0;
+        for k in 0..3 {
+            if dot(&self.edges[k], &self.edges[k]) > 0.0 {
+                live[n] = k;
+                n += 1;
+            }
+        }
+        let d: [f64; 3] =
+            std::array::from_fn(|i| (beta[live[i]] - 1.0) * proj(grad, &self.edges[live[i]]));
         let gram = |i: usize, j: usize| dot(&self.edges[live[i]], &self.edges[live[j]]);
-        let y: Option<Vec<f64>> = match live.len() {
+        let orthogonal = (0..n).all(|i| (i + 1..n).all(|j| gram(i, j) == 0.0));
+        let y: Option<[f64; 3]> = match n {
+            // Orthogonal edges (every box): the Gram matrix is diagonal.
+            _ if orthogonal => Some(std::array::from_fn(|i| {
+                if i < n {
+                    d[i] / gram(i, i)
+                } else {
+                    0.0
+                }
+            })),
             0 => return grad,
-            1 => Some(vec![d[0] / gram(0, 0)]),
+            1 => Some([d[0] / gram(0, 0), 0.0, 0.0]),
             2 => {
                 let (a, b, c) = (gram(0, 0), gram(0, 1), gram(1, 1));
                 let det = a * c - b * b;
-                (det > 1e-9 * a * c)
-                    .then(|| vec![(c * d[0] - b * d[1]) / det, (a * d[1] - b * d[0]) / det])
+                (det > 1e-9 * a * c).then(|| {
+                    [
+                        (c * d[0] - b * d[1]) / det,
+                        (a * d[1] - b * d[0]) / det,
+                        0.0,
+                    ]
+                })
             }
             _ => {
                 let m: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| gram(i, j)));
-                solve3(m, [d[0], d[1], d[2]]).map(|y| y.to_vec())
+                solve3(m, d)
             }
         };
         let out = match y {
             Some(y) => {
                 let mut g = grad;
-                for (yk, &k) in y.iter().zip(&live) {
+                for (yk, &k) in y.iter().zip(&live[..n]) {
                     for (gi, ei) in g.iter_mut().zip(&self.edges[k]) {
                         *gi += yk * ei;
                     }
@@ -433,24 +452,67 @@ impl Rules<'_> {
             return None;
         }
         let widths = self.footprint.widths(x.grad);
-        let damping = |m: f64| {
-            widths.iter().map(|&a| sinc(m * a)).product::<f64>() * (-2.0 * m * m * x.var).exp()
-        };
+        // Where even the last term's damping bound (|sinc| ≤ 1/|m a|) is not below the
+        // tolerance, the series cannot converge: leave at once.
+        let last = TERMS as f64;
+        let bound = widths
+            .iter()
+            .map(|&a| (1.0 / (last * a).abs()).min(1.0))
+            .product::<f64>()
+            * (-2.0 * last * last * x.var).exp();
+        if bound.is_nan() || bound >= 1e-7 {
+            // One linear width (a line through the footprint, the residual too small for the
+            // series): the exact box mean by the antiderivative instead.
+            let live: Vec<f64> = widths.iter().copied().filter(|&a| a > 0.0).collect();
+            return match live[..] {
+                [a] if a.is_finite() => Some(self.abs_sin_line(x, a, cos)),
+                _ => None,
+            };
+        }
+        // cos(2mμ), sin(2mμ) and each sin(m a_k) by angle addition from m = 1 (one sin_cos per
+        // angle, not per term); e^(−2m²σ²) as a running product.
+        let (s1, c1) = (2.0 * x.mean).sin_cos();
+        let (mut sm, mut cm) = (s1, c1);
+        let steps: [(f64, f64); 3] = widths.map(|a| a.sin_cos());
+        let mut sines: [(f64, f64); 3] = steps;
+        let q = (-2.0 * x.var).exp();
+        let (mut gauss, mut ratio) = (q, q * q * q);
         let (mut series, mut slope) = (0.0, 0.0);
         let mut converged = false;
         for m in 1..=TERMS {
             let mf = m as f64;
-            let d = damping(mf);
+            let mut d = gauss;
+            for (k, &a) in widths.iter().enumerate() {
+                let ma = mf * a;
+                d *= if ma.abs() < 1e-4 {
+                    1.0 - ma * ma / 6.0
+                } else {
+                    sines[k].0 / ma
+                };
+            }
             let sign = if cos && m % 2 == 1 { -1.0 } else { 1.0 };
-            let (s2, c2) = (2.0 * mf * x.mean).sin_cos();
             let w = sign * d / (4.0 * mf * mf - 1.0);
-            series += w * c2;
-            slope += w * 2.0 * mf * s2;
+            series += w * cm;
+            slope += w * 2.0 * mf * sm;
             if d.abs() < 1e-7 {
                 converged = true;
                 break;
             }
+            // m → m + 1.
+            (sm, cm) = (sm * c1 + cm * s1, cm * c1 - sm * s1);
+            for (sine, step) in sines.iter_mut().zip(&steps) {
+                *sine = (
+                    sine.0 * step.1 + sine.1 * step.0,
+                    sine.1 * step.1 - sine.0 * step.0,
+                );
+            }
+            // e^(−2(m+1)²σ²) = e^(−2m²σ²) · e^(−2σ²(2m+1)).
+            gauss *= ratio;
+            ratio *= q * q;
         }
+        let damping = |m: f64| {
+            widths.iter().map(|&a| sinc(m * a)).product::<f64>() * (-2.0 * m * m * x.var).exp()
+        };
         if !converged {
             return None;
         }
@@ -469,6 +531,33 @@ impl Rules<'_> {
             slope: 4.0 / pi * slope,
         };
         Some(self.out_of_moments(x, m))
+    }
+
+    /// `|sin X|` (`|cos X|`) for `X = μ + a U`, `U` uniform on [−1/2, 1/2]: the mean by the
+    /// antiderivative `G(x) = ∫₀ˣ |sin| = 2k + 1 − cos(x − kπ)`, `k = ⌊x/π⌋`, as
+    /// `(G(μ + a/2) − G(μ − a/2)) / a`; the slope `(|sin(μ + a/2)| − |sin(μ − a/2)|) / a`; the
+    /// square's mean as for `Sin` (exact). `X`'s residual, if any, is left out (it is below what
+    /// the Fourier series resolves in 64 terms).
+    fn abs_sin_line(&self, x: &Dist, a: f64, cos: bool) -> Dist {
+        let pi = std::f64::consts::PI;
+        let x0 = x.mean + if cos { pi / 2.0 } else { 0.0 };
+        let (lo, hi) = (x0 - a / 2.0, x0 + a / 2.0);
+        let (klo, khi) = ((lo / pi).floor(), (hi / pi).floor());
+        let (rlo, rhi) = (lo - klo * pi, hi - khi * pi);
+        let mean = (2.0 * (khi - klo) + rlo.cos() - rhi.cos()) / a;
+        let slope = (hi.sin().abs() - lo.sin().abs()) / a;
+        let re2 = (2.0 * x.mean).cos() * sinc(a);
+        let square = if cos {
+            0.5 * (1.0 + re2)
+        } else {
+            0.5 * (1.0 - re2)
+        };
+        let m = Moments {
+            mean,
+            variance: (square - mean * mean).max(0.0),
+            slope,
+        };
+        self.out_of_moments(x, m)
     }
 
     pub fn add(&self, a: &Dist, b: &Dist) -> Dist {

@@ -43,6 +43,10 @@ struct Slots {
     /// an `Abs` of a slot still holding that output (the same distribution, bit for bit) is
     /// filtered from the argument (`Rules::abs_sin_cos`).
     periodic: Option<(Dist, bool, Dist)>,
+    /// Per scalar slot, the last `Abs` written there: (its output, its argument), so a
+    /// `Smoothstep` or `Step` of a slot still holding that output is filtered as one piecewise
+    /// function of the argument (`Filtered::folded`).
+    folded: Vec<Option<(Dist, Dist)>>,
 }
 
 impl<'t> Filtered<'t> {
@@ -208,6 +212,7 @@ impl<'t> Filtered<'t> {
             wides: vec![Dist::constant(0.0); t.wide_slots],
             vec3s: vec![[Dist::constant(0.0); 3]; t.vec3_slots],
             periodic: None,
+            folded: vec![None; t.scalar_slots],
         };
         for &(slot, v) in &t.scalar_constants {
             slots.scalars[slot as usize] = Dist::constant(v);
@@ -224,6 +229,7 @@ impl<'t> Filtered<'t> {
     fn run(&self, slots: &mut Slots, point: [f64; 3], footprint: &Footprint) {
         let rules = Rules { footprint };
         slots.periodic = None;
+        slots.folded.fill(None);
         for (instr, integer) in self.tape.instrs.iter().zip(&self.integer) {
             self.step(&rules, instr, *integer, point, slots);
         }
@@ -278,14 +284,27 @@ impl<'t> Filtered<'t> {
                 if matches!(op, ops::UnaryOp::Sin | ops::UnaryOp::Cos) {
                     s.periodic = Some((y, op == ops::UnaryOp::Cos, x));
                 }
+                if op == ops::UnaryOp::Abs {
+                    s.folded[dst as usize] = Some((y, x));
+                }
                 s.scalars[dst as usize] = y;
             }
             Instr::UnaryVec3 { op, dst, src } => {
                 s.vec3s[dst as usize] = s.vec3s[src as usize].map(|c| rules.unary(sh, op, &c));
             }
             Instr::BinaryScalar { op, dst, a, b } => {
+                let folded = match s.folded[b as usize] {
+                    Some((out, arg)) if out == s.scalars[b as usize] => Some(arg),
+                    _ => None,
+                };
                 let (a, b) = (s.scalars[a as usize], s.scalars[b as usize]);
-                s.scalars[dst as usize] = binary(rules, sh, op, &a, &b, integer[0]);
+                let fused = match (op, folded) {
+                    // step(edge, |y|): a smoothstep with equal edges.
+                    (ops::BinaryOp::Step, Some(arg)) => folded_step(rules, &a, &a, &arg),
+                    _ => None,
+                };
+                s.scalars[dst as usize] =
+                    fused.unwrap_or_else(|| binary(rules, sh, op, &a, &b, integer[0]));
             }
             Instr::BinaryVec3 { op, dst, a, b } => {
                 let (a, b) = (s.vec3s[a as usize], s.vec3s[b as usize]);
@@ -293,8 +312,17 @@ impl<'t> Filtered<'t> {
                     std::array::from_fn(|i| binary(rules, sh, op, &a[i], &b[i], integer[i]));
             }
             Instr::TernaryScalar { op, dst, a, b, c } => {
+                let folded = match s.folded[c as usize] {
+                    Some((out, arg)) if out == s.scalars[c as usize] => Some(arg),
+                    _ => None,
+                };
                 let [a, b, c] = [a, b, c].map(|x| s.scalars[x as usize]);
-                s.scalars[dst as usize] = rules.ternary(sh, op, &a, &b, &c);
+                let fused = match (op, folded) {
+                    (ops::TernaryOp::Smoothstep, Some(arg)) => folded_step(rules, &a, &b, &arg),
+                    _ => None,
+                };
+                s.scalars[dst as usize] =
+                    fused.unwrap_or_else(|| rules.ternary(sh, op, &a, &b, &c));
             }
             Instr::TernaryVec3 { op, dst, a, b, c } => {
                 let [a, b, c] = [a, b, c].map(|x| s.vec3s[x as usize]);
@@ -495,6 +523,42 @@ impl<'t> Filtered<'t> {
 
 /// A binary rule; `Mod` of an integer-valued value by a whole constant takes the lattice into
 /// account (`Rules::lattice_mod`).
+/// `smoothstep(e0, e1, |y|)` (a step where `e0 = e1`) as one piecewise function of `y`, for
+/// constant edges `0 <= e0 <= e1`: 1 beyond `±e1`, the mirrored smoothstep between `±e0` and
+/// `±e1`, 0 inside `±e0` (the unit smoothstep `3t² − 2t³` and its mirror `1 − 3s² + 2s³` in
+/// local coefficients). Filtering `|y|` first and then the smoothstep sees `|y|`'s folded
+/// distribution as unimodal: a thin line `smoothstep(0, w, |field|)` greys out wrongly. `None`
+/// for varying or negative edges (the plain rules then).
+fn folded_step(rules: &Rules, e0: &Dist, e1: &Dist, y: &Dist) -> Option<Dist> {
+    if !(e0.is_constant() && e1.is_constant()) {
+        return None;
+    }
+    let (lo, hi) = (e0.mean, e1.mean);
+    if !(lo >= 0.0 && hi >= lo && hi.is_finite()) {
+        return None;
+    }
+    let w = hi - lo;
+    let (rise, fall) = if w > 0.0 {
+        let (a2, a3) = (3.0 / (w * w), 2.0 / (w * w * w));
+        ([0.0, 0.0, a2, -a3], [1.0, 0.0, -a2, a3])
+    } else {
+        ([1.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0])
+    };
+    // At a point the step is 1 where |y| ≥ e (the point function's `x >= edge`): the pieces
+    // start at their left knot, so [−e, e) is 0 and {−e} is taken by the left piece (1).
+    let f = Piecewise::new(
+        vec![-hi, -lo, lo, hi],
+        vec![
+            [1.0, 0.0, 0.0, 0.0],
+            fall,
+            [0.0; 4],
+            rise,
+            [1.0, 0.0, 0.0, 0.0],
+        ],
+    );
+    Some(rules.piecewise(&f, y))
+}
+
 fn binary(
     rules: &Rules,
     sh: &Shapes,

@@ -107,6 +107,13 @@ fn linear_arguments_are_exact() {
         "Smoothstep(-0.3, 0.45, ARG)",
         "Abs(ARG)",
         "Clamp(input: ARG, min: -0.2, max: 0.7)",
+        // Composed exactly from the argument: |sin|, |cos| (a Fourier series) and a step or
+        // smoothstep of |x| (one piecewise function of x).
+        "Abs(Sin(ARG))",
+        "Abs(Cos(ARG))",
+        "Smoothstep(0.1, 0.4, Abs(ARG))",
+        "Smoothstep(0.0, 0.3, Abs(ARG))",
+        "Step(0.35, Abs(ARG))",
     ];
     let mut rng = Rng(7);
     for shape in shapes {
