@@ -30,11 +30,16 @@ pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 /// `(1, 0, 0)`); the zero vector stays `(0, 0, 0)`; an infinite or NaN component gives NaN.
 #[inline(always)]
 pub fn normalize(v: [f64; 3]) -> [f64; 3] {
+    // NaN first: `f64::max` skips a NaN, so `(0, 0, NaN)` would otherwise pass as the zero
+    // vector (the GPU's `max` need not skip it; found by the random-graph GPU test).
+    if v.iter().any(|c| c.is_nan()) {
+        return [f64::NAN; 3];
+    }
     let largest = v[0].abs().max(v[1].abs()).max(v[2].abs());
     if largest == 0.0 {
         return [0.0; 3];
     }
-    if !largest.is_finite() || v.iter().any(|c| c.is_nan()) {
+    if !largest.is_finite() {
         return [f64::NAN; 3];
     }
     let scaled = v.map(|c| c / largest);

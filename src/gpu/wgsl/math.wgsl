@@ -559,9 +559,11 @@ fn v_cross(a: vec3<f64>, b: vec3<f64>) -> vec3<f64> {
     return vec3<f64>(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }
 fn v_normalize(v: vec3<f64>) -> vec3<f64> {
+    // NaN first, as ops::normalize (WGSL's max need not skip a NaN, Rust's does).
+    if (is_nan_d(v.x) || is_nan_d(v.y) || is_nan_d(v.z)) { return vec3<f64>(nan_d()); }
     let largest = max(max(abs(v.x), abs(v.y)), abs(v.z));
     if (largest == 0.0lf) { return vec3<f64>(0.0lf); }
-    if (d_is_inf(largest) || is_nan_d(v.x) || is_nan_d(v.y) || is_nan_d(v.z)) { return vec3<f64>(nan_d()); }
+    if (d_is_inf(largest)) { return vec3<f64>(nan_d()); }
     let s = v / largest;
     return s / v_length(s);
 }
