@@ -68,16 +68,16 @@ impl FilterRow {
     }
 }
 
-/// SplitMix64 in [0, 1): the same boxes and jitter on every run and machine.
-struct Rng(u64);
+/// The crate's SplitMix64 in [0, 1): the same boxes and jitter on every run and machine.
+struct Rng(crate::noise::SplitMix64);
 
 impl Rng {
+    fn new(seed: u64) -> Rng {
+        Rng(crate::noise::SplitMix64::new(seed))
+    }
+
     fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        self.0.next_f64()
     }
 
     /// A Latin hypercube of `n` points in the cube of side `side` around `c`: `n` strata per
@@ -132,7 +132,7 @@ fn measure(tape: &Tape, filtered: &Filtered, side: f64, options: &FilterOptions)
     let channels = tape.channels();
     let footprint = Footprint::cube(side).unwrap_or(Footprint::POINT);
     let mut ws = Workspace::<f64>::new();
-    let mut rng = Rng(0x5eed ^ side.to_bits());
+    let mut rng = Rng::new(0x5eed ^ side.to_bits());
     let mut tallies: [Tally; 4] = Default::default();
     let mut ignore = Tally::default();
     let mut count = 0.0f64;
@@ -231,9 +231,6 @@ pub fn filter_table_markdown(rows: &[FilterRow]) -> String {
 /// its side, as a PNG.
 pub fn filter_plot(rows: &[FilterRow], title: &str, path: &std::path::Path) -> Result<(), String> {
     use plotters::prelude::*;
-    crate::report::plot_font()?;
-    let (width, height) = (1000u32, 640u32);
-    let mut buffer = vec![0u8; (width * height * 3) as usize];
     let all: Vec<(f64, f64)> = rows
         .iter()
         .flat_map(|r| r.strategies().map(|(_, e, t)| (t.max(1e-3), e)))
@@ -248,34 +245,22 @@ pub fn filter_plot(rows: &[FilterRow], title: &str, path: &std::path::Path) -> R
     let t_lo = all.iter().map(|p| p.0).fold(f64::INFINITY, f64::min) / 2.0;
     let t_hi = all.iter().map(|p| p.0).fold(0.0, f64::max) * 2.0;
     let error = |e: plotters::drawing::DrawingAreaErrorKind<_>| e.to_string();
-    {
-        let root = BitMapBackend::with_buffer(&mut buffer, (width, height)).into_drawing_area();
-        root.fill(&WHITE).map_err(error)?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(
-                format!("{title}: box means, error against time"),
-                ("sans-serif", 20),
-            )
-            .margin(16)
-            .x_label_area_size(44)
-            .y_label_area_size(76)
-            .build_cartesian_2d((t_lo..t_hi).log_scale(), (floor..top).log_scale())
-            .map_err(error)?;
-        chart
-            .configure_mesh()
-            .x_desc("µs per box (one thread)")
-            .y_desc("RMS error against the 216-sample box mean")
-            .label_style(("sans-serif", 13))
-            .x_label_formatter(&|v| format!("{v:.2}"))
-            .y_label_formatter(&|v| format!("{v:.0e}"))
-            .draw()
-            .map_err(error)?;
-        let palette = [
-            RGBColor(31, 119, 180),
-            RGBColor(255, 127, 14),
-            RGBColor(44, 160, 44),
-            RGBColor(214, 39, 40),
-        ];
+    let frame = crate::report::LogLogPlot {
+        title: format!("{title}: box means, error against time"),
+        x: (t_lo, t_hi),
+        y: (floor, top),
+        x_desc: "µs per box (one thread)",
+        y_desc: "RMS error against the 216-sample box mean",
+        x_decimals: 2,
+        legend: SeriesLabelPosition::LowerLeft,
+    };
+    let palette = [
+        RGBColor(31, 119, 180),
+        RGBColor(255, 127, 14),
+        RGBColor(44, 160, 44),
+        RGBColor(214, 39, 40),
+    ];
+    frame.draw(path, |chart| {
         for (s, colour) in palette.iter().enumerate() {
             let name = rows.first().map_or("", |r| r.strategies()[s].0);
             let at = |r: &FilterRow| {
@@ -301,19 +286,8 @@ pub fn filter_plot(rows: &[FilterRow], title: &str, path: &std::path::Path) -> R
                 chart.draw_series(std::iter::once(label)).map_err(error)?;
             }
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerLeft)
-            .border_style(BLACK)
-            .background_style(WHITE.mix(0.8))
-            .label_font(("sans-serif", 13))
-            .draw()
-            .map_err(error)?;
-        root.present().map_err(error)?;
-    }
-    let image = crate::output::RgbImage::from_raw(width, height, buffer)
-        .ok_or("plot buffer has the wrong size")?;
-    crate::output::write_png(path, &image).map_err(|e| e.to_string())
+        Ok(())
+    })
 }
 
 #[cfg(test)]
@@ -350,7 +324,7 @@ mod tests {
     /// A Latin hypercube puts one sample in each stratum of each axis.
     #[test]
     fn latin_hypercube_fills_every_stratum() {
-        let mut rng = Rng(7);
+        let mut rng = Rng::new(7);
         let points = rng.latin([0.0; 3], 1.0, 16);
         for a in 0..3 {
             let mut strata: Vec<usize> = points

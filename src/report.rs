@@ -553,11 +553,83 @@ pub(crate) fn plot_font() -> Result<(), String> {
     Ok(())
 }
 
+/// A log-log chart drawn on a 1000×640 bitmap (`LogLogPlot::draw`).
+pub(crate) type LogChart<'a, 'b> = plotters::chart::ChartContext<
+    'a,
+    plotters::prelude::BitMapBackend<'b>,
+    plotters::coord::cartesian::Cartesian2d<
+        plotters::coord::combinators::LogCoord<f64>,
+        plotters::coord::combinators::LogCoord<f64>,
+    >,
+>;
+
+/// The frame of an error-against-time plot, shared by `report --plot` and
+/// `report --filtering --plot`: title, log ranges, axis names, where the legend goes.
+pub(crate) struct LogLogPlot<'s> {
+    pub title: String,
+    pub x: (f64, f64),
+    pub y: (f64, f64),
+    pub x_desc: &'s str,
+    pub y_desc: &'s str,
+    /// Decimals of the x labels.
+    pub x_decimals: usize,
+    pub legend: plotters::chart::SeriesLabelPosition,
+}
+
+impl LogLogPlot<'_> {
+    /// Draws the frame, then `series` on it, then the legend, and writes the PNG at `path`.
+    pub(crate) fn draw(
+        &self,
+        path: &std::path::Path,
+        series: impl FnOnce(&mut LogChart) -> Result<(), String>,
+    ) -> Result<(), String> {
+        use plotters::prelude::*;
+        plot_font()?;
+        let (width, height) = (1000u32, 640u32);
+        let mut buffer = vec![0u8; (width * height * 3) as usize];
+        let error = |e: plotters::drawing::DrawingAreaErrorKind<_>| e.to_string();
+        {
+            let root = BitMapBackend::with_buffer(&mut buffer, (width, height)).into_drawing_area();
+            root.fill(&WHITE).map_err(error)?;
+            let mut chart = ChartBuilder::on(&root)
+                .caption(&self.title, ("sans-serif", 20))
+                .margin(16)
+                .x_label_area_size(44)
+                .y_label_area_size(76)
+                .build_cartesian_2d(
+                    (self.x.0..self.x.1).log_scale(),
+                    (self.y.0..self.y.1).log_scale(),
+                )
+                .map_err(error)?;
+            let decimals = self.x_decimals;
+            chart
+                .configure_mesh()
+                .x_desc(self.x_desc)
+                .y_desc(self.y_desc)
+                .label_style(("sans-serif", 13))
+                .x_label_formatter(&|v| format!("{v:.decimals$}"))
+                .y_label_formatter(&|v| format!("{v:.0e}"))
+                .draw()
+                .map_err(error)?;
+            series(&mut chart)?;
+            chart
+                .configure_series_labels()
+                .position(self.legend.clone())
+                .border_style(BLACK)
+                .background_style(WHITE.mix(0.8))
+                .label_font(("sans-serif", 13))
+                .draw()
+                .map_err(error)?;
+            root.present().map_err(error)?;
+        }
+        let image = crate::output::RgbImage::from_raw(width, height, buffer)
+            .ok_or("plot buffer has the wrong size")?;
+        crate::output::write_png(path, &image).map_err(|e| e.to_string())
+    }
+}
+
 pub fn plot(rows: &[Row], title: &str, path: &std::path::Path) -> Result<(), String> {
     use plotters::prelude::*;
-    plot_font()?;
-    let (width, height) = (1000u32, 640u32);
-    let mut buffer = vec![0u8; (width * height * 3) as usize];
     let positive: Vec<f64> = rows
         .iter()
         .map(|r| r.rms_error)
@@ -576,28 +648,16 @@ pub fn plot(rows: &[Row], title: &str, path: &std::path::Path) -> Result<(), Str
         times.iter().cloned().fold(0.0, f64::max) * 2.0,
     );
     let error = |e: plotters::drawing::DrawingAreaErrorKind<_>| e.to_string();
-    {
-        let root = BitMapBackend::with_buffer(&mut buffer, (width, height)).into_drawing_area();
-        root.fill(&WHITE).map_err(error)?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(
-                format!("{title}: error against run time"),
-                ("sans-serif", 20),
-            )
-            .margin(16)
-            .x_label_area_size(44)
-            .y_label_area_size(76)
-            .build_cartesian_2d((t_lo..t_hi).log_scale(), (floor..top).log_scale())
-            .map_err(error)?;
-        chart
-            .configure_mesh()
-            .x_desc("ns per point (one thread)")
-            .y_desc("RMS error against f64 (exact: bottom edge)")
-            .label_style(("sans-serif", 13))
-            .x_label_formatter(&|v| format!("{v:.0}"))
-            .y_label_formatter(&|v| format!("{v:.0e}"))
-            .draw()
-            .map_err(error)?;
+    let frame = LogLogPlot {
+        title: format!("{title}: error against run time"),
+        x: (t_lo, t_hi),
+        y: (floor, top),
+        x_desc: "ns per point (one thread)",
+        y_desc: "RMS error against f64 (exact: bottom edge)",
+        x_decimals: 0,
+        legend: SeriesLabelPosition::UpperRight,
+    };
+    frame.draw(path, |chart| {
         let palette = [
             RGBColor(31, 119, 180),
             RGBColor(214, 39, 40),
@@ -663,18 +723,8 @@ pub fn plot(rows: &[Row], title: &str, path: &std::path::Path) -> Result<(), Str
                 )
                 .map_err(error)?;
         }
-        chart
-            .configure_series_labels()
-            .border_style(BLACK)
-            .background_style(WHITE.mix(0.8))
-            .label_font(("sans-serif", 13))
-            .draw()
-            .map_err(error)?;
-        root.present().map_err(error)?;
-    }
-    let image = crate::output::RgbImage::from_raw(width, height, buffer)
-        .ok_or("plot buffer has the wrong size")?;
-    crate::output::write_png(path, &image).map_err(|e| e.to_string())
+        Ok(())
+    })
 }
 
 /// The introduction of docs/accuracy.md, printed once by `texgraph report --markdown`.

@@ -114,11 +114,7 @@ pub fn report_command(args: ReportArgs) -> Result<(), Failure> {
                 }
             }
             if args.json {
-                json_rows.extend(
-                    rows.iter().map(
-                        |r| serde_json::json!({ "graph": file.display().to_string(), "row": r }),
-                    ),
-                );
+                json_rows.extend(graph_rows(file, &rows));
                 continue;
             }
             let text = format!(
@@ -141,11 +137,7 @@ pub fn report_command(args: ReportArgs) -> Result<(), Failure> {
                 .filter(|r| args.outputs.is_empty() || args.outputs.contains(&r.output))
                 .collect();
             if args.json {
-                json_rows.extend(
-                    rows.iter().map(
-                        |r| serde_json::json!({ "graph": file.display().to_string(), "row": r }),
-                    ),
-                );
+                json_rows.extend(graph_rows(file, &rows));
                 continue;
             }
             let text = format!(
@@ -224,6 +216,15 @@ pub fn report_command(args: ReportArgs) -> Result<(), Failure> {
         write_stdout(|out| out.write_all(text.as_bytes()))?;
     }
     worst.map_or(Ok(()), Err)
+}
+
+/// `{ "graph": FILE, "row": ROW }` per row, the JSON of `--mips` and `--filtering`.
+fn graph_rows<'r, T: serde::Serialize>(
+    file: &'r std::path::Path,
+    rows: &'r [T],
+) -> impl Iterator<Item = serde_json::Value> + 'r {
+    rows.iter()
+        .map(move |r| serde_json::json!({ "graph": file.display().to_string(), "row": r }))
 }
 
 /// The filtering table's rows for `graph` (only the `--output`s asked for).

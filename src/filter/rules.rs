@@ -518,8 +518,13 @@ impl Rules<'_> {
         }
         let pi = std::f64::consts::PI;
         let mean = 2.0 / pi - 4.0 / pi * series;
-        // E[sin² X] = (1 − Re φ(2)) / 2, E[cos² X] = (1 + Re φ(2)) / 2.
         let re2 = (2.0 * x.mean).cos() * damping(1.0);
+        Some(self.abs_sin_out(x, mean, 4.0 / pi * slope, re2, cos))
+    }
+
+    /// `|sin X|`'s (`|cos X|`'s) distribution from its mean, slope and `Re φ(2) =
+    /// E[cos 2X]`: `E[sin² X] = (1 − Re φ(2)) / 2`, `E[cos² X] = (1 + Re φ(2)) / 2`.
+    fn abs_sin_out(&self, x: &Dist, mean: f64, slope: f64, re2: f64, cos: bool) -> Dist {
         let square = if cos {
             0.5 * (1.0 + re2)
         } else {
@@ -528,9 +533,9 @@ impl Rules<'_> {
         let m = Moments {
             mean,
             variance: (square - mean * mean).max(0.0),
-            slope: 4.0 / pi * slope,
+            slope,
         };
-        Some(self.out_of_moments(x, m))
+        self.out_of_moments(x, m)
     }
 
     /// `|sin X|` (`|cos X|`) for `X = μ + a U`, `U` uniform on [−1/2, 1/2]: the mean by the
@@ -547,17 +552,7 @@ impl Rules<'_> {
         let mean = (2.0 * (khi - klo) + rlo.cos() - rhi.cos()) / a;
         let slope = (hi.sin().abs() - lo.sin().abs()) / a;
         let re2 = (2.0 * x.mean).cos() * sinc(a);
-        let square = if cos {
-            0.5 * (1.0 + re2)
-        } else {
-            0.5 * (1.0 - re2)
-        };
-        let m = Moments {
-            mean,
-            variance: (square - mean * mean).max(0.0),
-            slope,
-        };
-        self.out_of_moments(x, m)
+        self.abs_sin_out(x, mean, slope, re2, cos)
     }
 
     pub fn add(&self, a: &Dist, b: &Dist) -> Dist {
