@@ -324,7 +324,9 @@ impl Worker {
         self.preview(generation, since, scene, image, "draft", output, cancel)
     }
 
-    /// The full preview: the settings' size at the scene's samples per pixel.
+    /// The full preview: the settings' size at the scene's samples per pixel, else one: the
+    /// preview box-filters its textures (each sample is its pixel's texture mean already), so
+    /// more samples would only smooth silhouettes, at several times the cost.
     fn full(
         &mut self,
         generation: u64,
@@ -334,7 +336,7 @@ impl Worker {
         cancel: &Cancel,
     ) -> Result<(), Stop> {
         let size = lock(&self.shared.settings).preview_size;
-        let samples = scene.samples().unwrap_or(crate::render::DEFAULT_SAMPLES);
+        let samples = scene.samples().unwrap_or(1);
         self.preview(
             generation,
             since,
