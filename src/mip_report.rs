@@ -70,8 +70,8 @@ fn at_centres(tape: &Tape, grid: &Grid) -> Vec<f64> {
 
 /// Values of every voxel of `grid` (channels interleaved, x fastest): the filtered form's
 /// estimate of each voxel's box mean (f32), the footprint the voxel.
-fn box_filtered(tape: &Tape, grid: &Grid) -> Vec<f64> {
-    let filtered = crate::filter::Filtered::new(tape);
+fn box_filtered(filtered: &crate::filter::Filtered, grid: &Grid) -> Vec<f64> {
+    let tape = filtered.tape();
     let channels = tape.channels();
     let [nx, ny, nz] = grid.size;
     let side = |a: usize| (grid.region.max[a] - grid.region.min[a]) / grid.size[a] as f64;
@@ -202,6 +202,7 @@ pub fn mip_report(
         region,
     };
     let exact = compile(graph, &CompileOptions::default())?;
+    let filtered_form = crate::filter::Filtered::new(&exact);
     let channels = exact.channels();
     let mut rows = Vec::new();
     let mut boxed = at_centres(&exact, &grid);
@@ -218,7 +219,7 @@ pub fn mip_report(
         };
         let lod = compile(graph, &options)?;
         let prefiltered = at_centres(&lod, &lg);
-        let filtered = box_filtered(&exact, &lg);
+        let filtered = box_filtered(&filtered_form, &lg);
         let reference = box_reference(&exact, &lg, SUBSAMPLES << level);
         let octaves = lod.fractal_octaves().first().map(|o| o.2);
         for output in exact.outputs() {

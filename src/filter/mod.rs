@@ -5,9 +5,11 @@
 //! slopes of piecewise polynomials, `fract` and truncated powers of a value spread over a
 //! footprint) → `rules` (a value's distribution, [`Dist`], through each operation; the
 //! [`Footprint`]) → `noise` (noise and fractal sums over a footprint), `integers` (which values are
-//! integer-valued) → `tape` ([`Filtered`]: a
+//! integer-valued), `fusions` (which instructions are computed with their operand's producer)
+//! → `tape` ([`Filtered`]: a
 //! compiled tape run on distributions). docs/filtering.md has every rule's derivation.
 
+pub mod fusions;
 pub mod integers;
 pub mod moments;
 pub mod noise;

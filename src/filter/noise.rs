@@ -197,14 +197,21 @@ pub struct FractalSamplers<'a> {
 }
 
 impl<'a> FractalSamplers<'a> {
-    fn octave(&self, k: usize) -> Sampler<'a> {
-        match self.periodic {
-            Some(tables) => Sampler {
-                table: &tables[k],
-                stats: self.base.stats,
-            },
-            None => Sampler { ..self.base },
-        }
+    /// Each octave's sampler, frequency and amplitude.
+    fn each(&self) -> impl Iterator<Item = (Sampler<'a>, f64, f64)> + '_ {
+        let octaves = &self.octaves;
+        (octaves.frequencies.iter().zip(&octaves.amplitudes))
+            .enumerate()
+            .map(|(k, (&freq, &amp))| {
+                let sampler = match self.periodic {
+                    Some(tables) => Sampler {
+                        table: &tables[k],
+                        stats: self.base.stats,
+                    },
+                    None => Sampler { ..self.base },
+                };
+                (sampler, freq, amp)
+            })
     }
 }
 
@@ -219,15 +226,9 @@ pub fn fractal(
 ) -> Dist {
     let mut sum = Dist::constant(0.0);
     let mut weight = Dist::constant(1.0);
-    for (k, (&freq, &amp)) in f
-        .octaves
-        .frequencies
-        .iter()
-        .zip(&f.octaves.amplitudes)
-        .enumerate()
-    {
+    for (sampler, freq, amp) in f.each() {
         let q = p.map(|c| c.scale(freq));
-        let n = noise(rules, &f.octave(k), &q);
+        let n = noise(rules, &sampler, &q);
         let shaped = match style {
             Style::Fbm => n,
             Style::Turbulence => rules.unary(shapes, UnaryOp::Abs, &n),
@@ -264,15 +265,9 @@ pub fn fractal_gradient(
 ) -> [Dist; 3] {
     if style == Style::Fbm {
         let mut out = [Dist::constant(0.0); 3];
-        for (k, (&freq, &amp)) in f
-            .octaves
-            .frequencies
-            .iter()
-            .zip(&f.octaves.amplitudes)
-            .enumerate()
-        {
+        for (sampler, freq, amp) in f.each() {
             let q = p.map(|c| c.scale(freq));
-            let g = noise_gradient(rules, &f.octave(k), &q, amp * freq);
+            let g = noise_gradient(rules, &sampler, &q, amp * freq);
             for (o, g) in out.iter_mut().zip(&g) {
                 *o = rules.add(o, g);
             }

@@ -463,9 +463,9 @@ impl Rules<'_> {
         if bound.is_nan() || bound >= 1e-7 {
             // One linear width (a line through the footprint, the residual too small for the
             // series): the exact box mean by the antiderivative instead.
-            let live: Vec<f64> = widths.iter().copied().filter(|&a| a > 0.0).collect();
-            return match live[..] {
-                [a] if a.is_finite() => Some(self.abs_sin_line(x, a, cos)),
+            let mut live = widths.iter().copied().filter(|&a| a > 0.0);
+            return match (live.next(), live.next()) {
+                (Some(a), None) if a.is_finite() => Some(self.abs_sin_line(x, a, cos)),
                 _ => None,
             };
         }

@@ -7,6 +7,7 @@
 //! per tape ([`Filtered::new`]): each noise table's statistics, each tiled fractal's per-octave
 //! tables, each spline as piecewise cubics.
 
+use super::fusions::{scalar_dst, Fusion, Fusions};
 use super::noise::{self as fnoise, FractalSamplers, Sampler, Stats};
 use super::rules::{hermite_shape, spline_shape, Dist, Footprint, Rules, Shapes};
 use crate::graph::Type;
@@ -32,6 +33,8 @@ pub struct Filtered<'t> {
     shapes: Shapes,
     /// Per instruction: whether its operand `a` is integer-valued (`integers.rs`).
     integer: Vec<[bool; 3]>,
+    /// Which instructions are computed with their operand's producer (`fusions.rs`).
+    fusions: Fusions,
 }
 
 /// The slots of one filtered evaluation.
@@ -39,14 +42,8 @@ struct Slots {
     scalars: Vec<Dist>,
     wides: Vec<Dist>,
     vec3s: Vec<[Dist; 3]>,
-    /// The last `Sin`/`Cos` of a scalar slot: (its output, whether a cosine, its argument), so
-    /// an `Abs` of a slot still holding that output (the same distribution, bit for bit) is
-    /// filtered from the argument (`Rules::abs_sin_cos`).
-    periodic: Option<(Dist, bool, Dist)>,
-    /// Per scalar slot, the last `Abs` written there: (its output, its argument), so a
-    /// `Smoothstep` or `Step` of a slot still holding that output is filtered as one piecewise
-    /// function of the argument (`Filtered::folded`).
-    folded: Vec<Option<(Dist, Dist)>>,
+    /// Arguments saved for fused instructions (`Fusions::save`).
+    saved: Vec<Dist>,
 }
 
 impl<'t> Filtered<'t> {
@@ -95,6 +92,7 @@ impl<'t> Filtered<'t> {
                 .collect(),
             shapes: Shapes::new(),
             integer: super::integers::integer_operands(tape),
+            fusions: super::fusions::fusions(tape),
         }
     }
 
@@ -211,8 +209,7 @@ impl<'t> Filtered<'t> {
             scalars: vec![Dist::constant(0.0); t.scalar_slots],
             wides: vec![Dist::constant(0.0); t.wide_slots],
             vec3s: vec![[Dist::constant(0.0); 3]; t.vec3_slots],
-            periodic: None,
-            folded: vec![None; t.scalar_slots],
+            saved: vec![Dist::constant(0.0); self.fusions.saved],
         };
         for &(slot, v) in &t.scalar_constants {
             slots.scalars[slot as usize] = Dist::constant(v);
@@ -228,10 +225,17 @@ impl<'t> Filtered<'t> {
 
     fn run(&self, slots: &mut Slots, point: [f64; 3], footprint: &Footprint) {
         let rules = Rules { footprint };
-        slots.periodic = None;
-        slots.folded.fill(None);
-        for (instr, integer) in self.tape.instrs.iter().zip(&self.integer) {
-            self.step(&rules, instr, *integer, point, slots);
+        let f = &self.fusions;
+        let per_instruction = self.integer.iter().zip(f.save.iter().zip(&f.fused));
+        for (instr, (integer, (save, fusion))) in self.tape.instrs.iter().zip(per_instruction) {
+            if let (Some(k), Instr::UnaryScalar { src, .. }) = (save, instr) {
+                slots.saved[*k as usize] = slots.scalars[*src as usize];
+            }
+            let fused = fusion.as_ref().and_then(|f| self.fused(&rules, f, slots));
+            match (fused, scalar_dst(instr)) {
+                (Some(value), Some(dst)) => slots.scalars[dst as usize] = value,
+                _ => self.step(&rules, instr, *integer, point, slots),
+            }
         }
     }
 
@@ -247,6 +251,18 @@ impl<'t> Filtered<'t> {
             octaves: &self.tape.octaves[octaves as usize],
             base: self.sampler(table),
             periodic: self.octave_tables.get(&(table, octaves)).map(Vec::as_slice),
+        }
+    }
+
+    /// A fused instruction's value (`fusions.rs`): its rule on its operand's producer's
+    /// argument; `None` where that rule declines (a `|sin|` series that cannot converge: the
+    /// plain rules are then accurate).
+    fn fused(&self, rules: &Rules, fusion: &Fusion, s: &Slots) -> Option<Dist> {
+        match fusion {
+            Fusion::AbsSin { saved, cos } => rules.abs_sin_cos(&s.saved[*saved as usize], *cos),
+            Fusion::Folded { saved, shape } => {
+                Some(rules.piecewise(shape, &s.saved[*saved as usize]))
+            }
         }
     }
 
@@ -273,38 +289,14 @@ impl<'t> Filtered<'t> {
                 s.scalars[dst as usize] = s.vec3s[src as usize][axis as usize % 3];
             }
             Instr::UnaryScalar { op, dst, src } => {
-                let x = s.scalars[src as usize];
-                let fused = match (op, s.periodic) {
-                    (ops::UnaryOp::Abs, Some((out, cos, arg))) if out == x => {
-                        rules.abs_sin_cos(&arg, cos)
-                    }
-                    _ => None,
-                };
-                let y = fused.unwrap_or_else(|| rules.unary(sh, op, &x));
-                if matches!(op, ops::UnaryOp::Sin | ops::UnaryOp::Cos) {
-                    s.periodic = Some((y, op == ops::UnaryOp::Cos, x));
-                }
-                if op == ops::UnaryOp::Abs {
-                    s.folded[dst as usize] = Some((y, x));
-                }
-                s.scalars[dst as usize] = y;
+                s.scalars[dst as usize] = rules.unary(sh, op, &s.scalars[src as usize]);
             }
             Instr::UnaryVec3 { op, dst, src } => {
                 s.vec3s[dst as usize] = s.vec3s[src as usize].map(|c| rules.unary(sh, op, &c));
             }
             Instr::BinaryScalar { op, dst, a, b } => {
-                let folded = match s.folded[b as usize] {
-                    Some((out, arg)) if out == s.scalars[b as usize] => Some(arg),
-                    _ => None,
-                };
                 let (a, b) = (s.scalars[a as usize], s.scalars[b as usize]);
-                let fused = match (op, folded) {
-                    // step(edge, |y|): a smoothstep with equal edges.
-                    (ops::BinaryOp::Step, Some(arg)) => folded_step(rules, &a, &a, &arg),
-                    _ => None,
-                };
-                s.scalars[dst as usize] =
-                    fused.unwrap_or_else(|| binary(rules, sh, op, &a, &b, integer[0]));
+                s.scalars[dst as usize] = binary(rules, sh, op, &a, &b, integer[0]);
             }
             Instr::BinaryVec3 { op, dst, a, b } => {
                 let (a, b) = (s.vec3s[a as usize], s.vec3s[b as usize]);
@@ -312,17 +304,8 @@ impl<'t> Filtered<'t> {
                     std::array::from_fn(|i| binary(rules, sh, op, &a[i], &b[i], integer[i]));
             }
             Instr::TernaryScalar { op, dst, a, b, c } => {
-                let folded = match s.folded[c as usize] {
-                    Some((out, arg)) if out == s.scalars[c as usize] => Some(arg),
-                    _ => None,
-                };
                 let [a, b, c] = [a, b, c].map(|x| s.scalars[x as usize]);
-                let fused = match (op, folded) {
-                    (ops::TernaryOp::Smoothstep, Some(arg)) => folded_step(rules, &a, &b, &arg),
-                    _ => None,
-                };
-                s.scalars[dst as usize] =
-                    fused.unwrap_or_else(|| rules.ternary(sh, op, &a, &b, &c));
+                s.scalars[dst as usize] = rules.ternary(sh, op, &a, &b, &c);
             }
             Instr::TernaryVec3 { op, dst, a, b, c } => {
                 let [a, b, c] = [a, b, c].map(|x| s.vec3s[x as usize]);
@@ -523,42 +506,6 @@ impl<'t> Filtered<'t> {
 
 /// A binary rule; `Mod` of an integer-valued value by a whole constant takes the lattice into
 /// account (`Rules::lattice_mod`).
-/// `smoothstep(e0, e1, |y|)` (a step where `e0 = e1`) as one piecewise function of `y`, for
-/// constant edges `0 <= e0 <= e1`: 1 beyond `±e1`, the mirrored smoothstep between `±e0` and
-/// `±e1`, 0 inside `±e0` (the unit smoothstep `3t² − 2t³` and its mirror `1 − 3s² + 2s³` in
-/// local coefficients). Filtering `|y|` first and then the smoothstep sees `|y|`'s folded
-/// distribution as unimodal: a thin line `smoothstep(0, w, |field|)` greys out wrongly. `None`
-/// for varying or negative edges (the plain rules then).
-fn folded_step(rules: &Rules, e0: &Dist, e1: &Dist, y: &Dist) -> Option<Dist> {
-    if !(e0.is_constant() && e1.is_constant()) {
-        return None;
-    }
-    let (lo, hi) = (e0.mean, e1.mean);
-    if !(lo >= 0.0 && hi >= lo && hi.is_finite()) {
-        return None;
-    }
-    let w = hi - lo;
-    let (rise, fall) = if w > 0.0 {
-        let (a2, a3) = (3.0 / (w * w), 2.0 / (w * w * w));
-        ([0.0, 0.0, a2, -a3], [1.0, 0.0, -a2, a3])
-    } else {
-        ([1.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0])
-    };
-    // At a point the step is 1 where |y| ≥ e (the point function's `x >= edge`): the pieces
-    // start at their left knot, so [−e, e) is 0 and {−e} is taken by the left piece (1).
-    let f = Piecewise::new(
-        vec![-hi, -lo, lo, hi],
-        vec![
-            [1.0, 0.0, 0.0, 0.0],
-            fall,
-            [0.0; 4],
-            rise,
-            [1.0, 0.0, 0.0, 0.0],
-        ],
-    );
-    Some(rules.piecewise(&f, y))
-}
-
 fn binary(
     rules: &Rules,
     sh: &Shapes,

@@ -1,0 +1,209 @@
+//! Which instructions the filtered form computes together with the instruction that produced
+//! their operand, from that instruction's own argument (docs/filtering.md): an `Abs` of a `Sin`
+//! or `Cos` (a Fourier series of the sine's argument), and a `Smoothstep` or `Step` with
+//! constant edges `0 ≤ e0 ≤ e1` of an `Abs` (one piecewise function of the `Abs`'s argument).
+//! Applying the rules one after the other would treat the intermediate value's spread as
+//! unimodal, where it is arcsine-shaped or folded.
+//!
+//! One forward walk over the tape, as `integers.rs`: each scalar slot remembers which
+//! instruction last wrote it. A pair's first instruction saves its argument in a side slot
+//! when it runs (the argument's own slot may be reused before the second runs), and the second
+//! reads it from there.
+
+use super::moments::Piecewise;
+use crate::ops::{BinaryOp, TernaryOp, UnaryOp};
+use crate::tape::{Instr, Slot, Tape, Wide};
+
+/// An instruction computed from its operand's producer's argument, saved in side slot `saved`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Fusion {
+    /// `|sin arg|`, or `|cos arg|` with `cos`.
+    AbsSin { saved: Slot, cos: bool },
+    /// `shape(arg)`: `smoothstep(e0, e1, |arg|)` or `step(e, |arg|)` as one piecewise function.
+    Folded { saved: Slot, shape: Piecewise },
+}
+
+/// The fusions of a tape.
+#[derive(Clone, Debug, Default)]
+pub struct Fusions {
+    /// Per instruction: the side slot its (scalar) operand is saved in before it runs.
+    pub save: Vec<Option<Slot>>,
+    /// Per instruction: its fusion, if any.
+    pub fused: Vec<Option<Fusion>>,
+    /// Side slots.
+    pub saved: usize,
+}
+
+/// What produced a scalar slot's value: the `Sin`/`Cos` or the `Abs` at instruction `at`.
+#[derive(Clone, Copy)]
+enum Origin {
+    Other,
+    Sin { at: usize, cos: bool },
+    Abs { at: usize },
+}
+
+/// The side slot of the producer at `at`, made on first use.
+fn side_slot(f: &mut Fusions, at: usize) -> Slot {
+    *f.save[at].get_or_insert_with(|| {
+        f.saved += 1;
+        (f.saved - 1) as Slot
+    })
+}
+
+/// Every fusion of `tape`.
+pub fn fusions(tape: &Tape) -> Fusions {
+    let n = tape.instrs.len();
+    let mut f = Fusions {
+        save: vec![None; n],
+        fused: vec![None; n],
+        saved: 0,
+    };
+    let mut origin = vec![Origin::Other; tape.scalar_slots];
+    let mut constant: Vec<Option<f64>> = vec![None; tape.scalar_slots];
+    for &(slot, v) in &tape.scalar_constants {
+        constant[slot as usize] = Some(v);
+    }
+    for (i, instr) in tape.instrs.iter().enumerate() {
+        // A step or smoothstep of the `Abs` that produced `x`, with constant edges `e0`, `e1`.
+        let folded = |f: &mut Fusions, x: Slot, e0: Slot, e1: Slot| {
+            let Origin::Abs { at } = origin[x as usize] else {
+                return;
+            };
+            let (Some(lo), Some(hi)) = (constant[e0 as usize], constant[e1 as usize]) else {
+                return;
+            };
+            if let Some(shape) = folded_step(lo, hi) {
+                let saved = side_slot(f, at);
+                f.fused[i] = Some(Fusion::Folded { saved, shape });
+            }
+        };
+        let made = match *instr {
+            Instr::UnaryScalar { op, src, .. } => {
+                if let (UnaryOp::Abs, Origin::Sin { at, cos }) = (op, origin[src as usize]) {
+                    let saved = side_slot(&mut f, at);
+                    f.fused[i] = Some(Fusion::AbsSin { saved, cos });
+                }
+                match op {
+                    UnaryOp::Sin | UnaryOp::Cos => Origin::Sin {
+                        at: i,
+                        cos: op == UnaryOp::Cos,
+                    },
+                    UnaryOp::Abs => Origin::Abs { at: i },
+                    _ => Origin::Other,
+                }
+            }
+            Instr::BinaryScalar {
+                op: BinaryOp::Step,
+                a,
+                b,
+                ..
+            } => {
+                folded(&mut f, b, a, a);
+                Origin::Other
+            }
+            Instr::TernaryScalar {
+                op: TernaryOp::Smoothstep,
+                a,
+                b,
+                c,
+                ..
+            } => {
+                folded(&mut f, c, a, b);
+                Origin::Other
+            }
+            _ => Origin::Other,
+        };
+        if let Some(dst) = scalar_dst(instr) {
+            origin[dst as usize] = made;
+        }
+    }
+    f
+}
+
+/// The scalar slot an instruction writes, if it writes one.
+pub(super) fn scalar_dst(instr: &Instr) -> Option<Slot> {
+    match *instr {
+        Instr::Component { dst, .. }
+        | Instr::UnaryScalar { dst, .. }
+        | Instr::BinaryScalar { dst, .. }
+        | Instr::TernaryScalar { dst, .. }
+        | Instr::Dot { dst, .. }
+        | Instr::Length { dst, .. }
+        | Instr::Noise { dst, .. }
+        | Instr::Fractal { dst, .. }
+        | Instr::Hermite { dst, .. }
+        | Instr::Curve { dst, .. }
+        | Instr::Wide(Wide::Narrow { dst, .. }) => Some(dst),
+        _ => None,
+    }
+}
+
+/// `smoothstep(e0, e1, |y|)` (a step where `e0 = e1`) as one piecewise function of `y`, for
+/// edges `0 <= e0 <= e1`: 1 beyond `±e1`, the mirrored smoothstep between `±e0` and `±e1`, 0
+/// inside `±e0` (the unit smoothstep `3t² − 2t³` and its mirror `1 − 3s² + 2s³` in local
+/// coefficients). `None` for other edges (the plain rules then).
+fn folded_step(lo: f64, hi: f64) -> Option<Piecewise> {
+    if !(lo >= 0.0 && hi >= lo && hi.is_finite()) {
+        return None;
+    }
+    let w = hi - lo;
+    let (rise, fall) = if w > 0.0 {
+        let (a2, a3) = (3.0 / (w * w), 2.0 / (w * w * w));
+        ([0.0, 0.0, a2, -a3], [1.0, 0.0, -a2, a3])
+    } else {
+        ([1.0, 0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0])
+    };
+    Some(Piecewise::new(
+        vec![-hi, -lo, lo, hi],
+        vec![
+            [1.0, 0.0, 0.0, 0.0],
+            fall,
+            [0.0; 4],
+            rise,
+            [1.0, 0.0, 0.0, 0.0],
+        ],
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tape(text: &str) -> Tape {
+        let source = crate::diagnostic::SourceFile::new("f.ron", text);
+        let graph = crate::check::check(source, &crate::check::CheckOptions::default()).unwrap();
+        crate::compile::compile(&graph, &Default::default()).unwrap()
+    }
+
+    fn kinds(t: &Tape) -> Vec<&'static str> {
+        fusions(t)
+            .fused
+            .iter()
+            .flatten()
+            .map(|f| match f {
+                Fusion::AbsSin { cos: false, .. } => "abs sin",
+                Fusion::AbsSin { cos: true, .. } => "abs cos",
+                Fusion::Folded { .. } => "folded",
+            })
+            .collect()
+    }
+
+    /// The pairs are found, also when a value feeds several and its argument's slot is reused
+    /// in between (the argument is saved once per producer), and not with varying or negative
+    /// edges.
+    #[test]
+    fn pairs_are_found_where_the_argument_holds() {
+        let t = tape(
+            r#"Graph(nodes: { "p": Position, "a": Abs("p.x") }, outputs: {
+                "v": Abs(Sin("p.y")), "w": Abs(Cos("p.z")),
+                "s": Smoothstep(0.0, 0.2, "a"), "h": Smoothstep(0.1, 0.5, "a"),
+                "t": Step(0.3, "a"), "x": Smoothstep(0.0, "p.y", "a"), "n": Step(-1.0, "a") })"#,
+        );
+        let mut found = kinds(&t);
+        found.sort_unstable();
+        assert_eq!(found, ["abs cos", "abs sin", "folded", "folded", "folded"]);
+        assert_eq!(fusions(&t).saved, 3, "one side slot per producer");
+        assert_eq!(folded_step(0.5, 0.2), None);
+        assert_eq!(folded_step(-0.1, 0.2), None);
+    }
+}
