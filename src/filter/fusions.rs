@@ -11,6 +11,7 @@
 //! reads it from there.
 
 use super::moments::Piecewise;
+use super::periodic::Periodic;
 use crate::ops::{BinaryOp, TernaryOp, UnaryOp};
 use crate::tape::{Instr, Slot, Tape, Wide};
 
@@ -21,13 +22,32 @@ pub enum Fusion {
     AbsSin { saved: Slot, cos: bool },
     /// `shape(arg)`: `smoothstep(e0, e1, |arg|)` or `step(e, |arg|)` as one piecewise function.
     Folded { saved: Slot, shape: Piecewise },
+    /// A periodic chain (`chains.rs`): per component of the result (one for a scalar, three
+    /// for a vec3), `shape(fract(scale · arg))`.
+    Periodic { parts: Vec<Part> },
+}
+
+/// One component of a periodic chain's result.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Part {
+    pub saved: Slot,
+    pub scale: f64,
+    pub shape: Periodic,
+}
+
+/// An operand saved before its instruction runs: a scalar slot, or a vec3 slot's component.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Source {
+    Scalar(Slot),
+    Vec3(Slot, u8),
+    Wide(Slot),
 }
 
 /// The fusions of a tape.
 #[derive(Clone, Debug, Default)]
 pub struct Fusions {
-    /// Per instruction: the side slot its (scalar) operand is saved in before it runs.
-    pub save: Vec<Option<Slot>>,
+    /// Per instruction: the operands saved before it runs, each with its side slot.
+    pub save: Vec<Vec<(Source, Slot)>>,
     /// Per instruction: its fusion, if any.
     pub fused: Vec<Option<Fusion>>,
     /// Side slots.
@@ -42,19 +62,24 @@ enum Origin {
     Abs { at: usize },
 }
 
-/// The side slot of the producer at `at`, made on first use.
-fn side_slot(f: &mut Fusions, at: usize) -> Slot {
-    *f.save[at].get_or_insert_with(|| {
-        f.saved += 1;
-        (f.saved - 1) as Slot
-    })
+/// The side slot of operand `source` of the instruction at `at`, made on first use.
+pub(super) fn side_slot(f: &mut Fusions, at: usize, source: Source) -> Slot {
+    if let Some(&(_, slot)) = f.save[at].iter().find(|(s, _)| *s == source) {
+        return slot;
+    }
+    f.saved += 1;
+    let slot = (f.saved - 1) as Slot;
+    f.save[at].push((source, slot));
+    slot
 }
 
-/// Every fusion of `tape`.
-pub fn fusions(tape: &Tape) -> Fusions {
+/// Every fusion of `tape` (`integer`: per instruction, whether each operand `a` component is
+/// integer-valued, `integers.rs`).
+pub fn fusions(tape: &Tape, integer: &[[bool; 3]]) -> Fusions {
     let n = tape.instrs.len();
+    let mut chains = super::chains::Chains::new(tape);
     let mut f = Fusions {
-        save: vec![None; n],
+        save: vec![Vec::new(); n],
         fused: vec![None; n],
         saved: 0,
     };
@@ -73,14 +98,14 @@ pub fn fusions(tape: &Tape) -> Fusions {
                 return;
             };
             if let Some(shape) = folded_step(lo, hi) {
-                let saved = side_slot(f, at);
+                let saved = side_slot(f, at, Source::Scalar(src_of(&tape.instrs[at])));
                 f.fused[i] = Some(Fusion::Folded { saved, shape });
             }
         };
         let made = match *instr {
             Instr::UnaryScalar { op, src, .. } => {
                 if let (UnaryOp::Abs, Origin::Sin { at, cos }) = (op, origin[src as usize]) {
-                    let saved = side_slot(&mut f, at);
+                    let saved = side_slot(&mut f, at, Source::Scalar(src_of(&tape.instrs[at])));
                     f.fused[i] = Some(Fusion::AbsSin { saved, cos });
                 }
                 match op {
@@ -116,8 +141,60 @@ pub fn fusions(tape: &Tape) -> Fusions {
         if let Some(dst) = scalar_dst(instr) {
             origin[dst as usize] = made;
         }
+        chains.visit(tape, i, instr, integer[i], &mut f);
     }
     f
+}
+
+/// The operand of a unary scalar instruction (the producers of the plain fusions).
+fn src_of(instr: &Instr) -> Slot {
+    match *instr {
+        Instr::UnaryScalar { src, .. } => src,
+        _ => unreachable!("plain fusions start at unary scalar instructions"),
+    }
+}
+
+/// The wide (promoted f64) scalar slot an instruction writes, if it writes one.
+pub(super) fn wide_dst(instr: &Instr) -> Option<Slot> {
+    match *instr {
+        Instr::Wide(
+            Wide::Component { dst, .. }
+            | Wide::Unary { dst, .. }
+            | Wide::Binary { dst, .. }
+            | Wide::Ternary { dst, .. }
+            | Wide::Dot { dst, .. }
+            | Wide::Length { dst, .. }
+            | Wide::Noise { dst, .. }
+            | Wide::Fractal { dst, .. }
+            | Wide::Widen { dst, .. },
+        ) => Some(dst),
+        _ => None,
+    }
+}
+
+/// The vec3 slot an instruction writes, if it writes one.
+pub(super) fn vec3_dst(instr: &Instr) -> Option<Slot> {
+    match *instr {
+        Instr::Position { dst }
+        | Instr::Splat { dst, .. }
+        | Instr::Combine { dst, .. }
+        | Instr::UnaryVec3 { dst, .. }
+        | Instr::BinaryVec3 { dst, .. }
+        | Instr::TernaryVec3 { dst, .. }
+        | Instr::Cross { dst, .. }
+        | Instr::Normalize { dst, .. }
+        | Instr::RotateConst { dst, .. }
+        | Instr::RotateVarying { dst, .. }
+        | Instr::NoiseGradient { dst, .. }
+        | Instr::FractalGradient { dst, .. }
+        | Instr::Ramp { dst, .. }
+        | Instr::Wide(Wide::Splat { dst, .. })
+        | Instr::Wide(Wide::Combine { dst, .. })
+        | Instr::Wide(Wide::Rotate { dst, .. })
+        | Instr::Wide(Wide::NoiseGradient { dst, .. })
+        | Instr::Wide(Wide::FractalGradient { dst, .. }) => Some(dst),
+        _ => None,
+    }
 }
 
 /// The scalar slot an instruction writes, if it writes one.
@@ -176,7 +253,7 @@ mod tests {
     }
 
     fn kinds(t: &Tape) -> Vec<&'static str> {
-        fusions(t)
+        fusions(t, &crate::filter::integers::integer_operands(t))
             .fused
             .iter()
             .flatten()
@@ -184,6 +261,7 @@ mod tests {
                 Fusion::AbsSin { cos: false, .. } => "abs sin",
                 Fusion::AbsSin { cos: true, .. } => "abs cos",
                 Fusion::Folded { .. } => "folded",
+                Fusion::Periodic { .. } => "periodic",
             })
             .collect()
     }
@@ -202,7 +280,8 @@ mod tests {
         let mut found = kinds(&t);
         found.sort_unstable();
         assert_eq!(found, ["abs cos", "abs sin", "folded", "folded", "folded"]);
-        assert_eq!(fusions(&t).saved, 3, "one side slot per producer");
+        let integer = crate::filter::integers::integer_operands(&t);
+        assert_eq!(fusions(&t, &integer).saved, 3, "one side slot per producer");
         assert_eq!(folded_step(0.5, 0.2), None);
         assert_eq!(folded_step(-0.1, 0.2), None);
     }

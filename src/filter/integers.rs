@@ -64,7 +64,13 @@ pub fn integer_operands(tape: &Tape) -> Vec<[bool; 3]> {
                 scalars[dst as usize] = vec3s[src as usize][axis as usize % 3];
             }
             Instr::Wide(w) => operand = wide(w, &mut scalars, &mut wides, &mut vec3s),
-            ref other => clear(other, &mut scalars, &mut vec3s),
+            ref other => {
+                // A noise's operand is its input point (`noise::white` reads its lattice).
+                if let Instr::Noise { src, .. } = *other {
+                    operand = vec3s[src as usize];
+                }
+                clear(other, &mut scalars, &mut vec3s)
+            }
         }
         out.push(operand);
     }
@@ -107,10 +113,11 @@ fn wide(w: Wide, scalars: &mut [bool], wides: &mut [bool], vec3s: &mut [[bool; 3
             scalars[dst as usize] = wides[src as usize];
             [false; 3]
         }
-        Wide::Dot { dst, .. }
-        | Wide::Length { dst, .. }
-        | Wide::Noise { dst, .. }
-        | Wide::Fractal { dst, .. } => {
+        Wide::Noise { dst, src, .. } => {
+            wides[dst as usize] = false;
+            vec3s[src as usize]
+        }
+        Wide::Dot { dst, .. } | Wide::Length { dst, .. } | Wide::Fractal { dst, .. } => {
             wides[dst as usize] = false;
             [false; 3]
         }

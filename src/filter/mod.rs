@@ -9,10 +9,12 @@
 //! → `tape` ([`Filtered`]: a
 //! compiled tape run on distributions). docs/filtering.md has every rule's derivation.
 
+mod chains;
 pub mod fusions;
 pub mod integers;
 pub mod moments;
 pub mod noise;
+pub mod periodic;
 pub mod rules;
 pub mod tape;
 

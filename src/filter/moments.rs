@@ -571,6 +571,11 @@ impl Piecewise {
         Piecewise { knots, polys }
     }
 
+    /// The knots and local coefficients, as given to [`Piecewise::new`].
+    pub fn parts(&self) -> (&[f64], &[[f64; 4]]) {
+        (&self.knots, &self.polys)
+    }
+
     /// `f` at a point (the point evaluation, used when the spread is a point). NaN gives NaN.
     pub fn eval(&self, x: f64) -> f64 {
         if x.is_nan() {
@@ -846,6 +851,40 @@ fn periodic_mean(x: f64, ws: &Widths, level: usize, n: usize) -> f64 {
     let plus = periodic_mean(x + w1 / 2.0, ws, level + 1, n + 1);
     let minus = periodic_mean(x - w1 / 2.0, ws, level + 1, n + 1);
     (plus - minus) / w1
+}
+
+/// The periodic means `Φ_n(x) = E[P_n(x + S)] / n!` of a bounded spread (module docs,
+/// "fract"), for any 1-periodic piecewise polynomial (`periodic.rs`, which writes one as a sum of
+/// shifted `P_n`).
+pub struct PeriodicMeans {
+    ws: Widths,
+}
+
+impl PeriodicMeans {
+    /// `None` for an unbounded or point spread (no `Φ_n` is needed there).
+    pub fn new(s: &Spread) -> Option<PeriodicMeans> {
+        let ws = Widths::new(s);
+        (!s.unbounded && ws.k > 0).then_some(PeriodicMeans { ws })
+    }
+
+    /// Half the support of `S`: `Σ w / 2`.
+    pub fn half(&self) -> f64 {
+        self.ws.half[0]
+    }
+
+    /// `Φ_n(x)` for `1 <= n <= 3`.
+    pub fn phi(&self, x: f64, n: usize) -> f64 {
+        debug_assert!((1..=3).contains(&n));
+        periodic_mean(x, &self.ws, 0, n)
+    }
+
+    /// `d/dx Φ_1(x) = E[P_1'(x + S)]` (`P_1' = 1 − Σ_m δ(· − m)`): the one-width step of (D)
+    /// over the largest width.
+    pub fn phi1_slope(&self, x: f64) -> f64 {
+        let w1 = self.ws.w[0];
+        (periodic_mean(x + w1 / 2.0, &self.ws, 1, 1) - periodic_mean(x - w1 / 2.0, &self.ws, 1, 1))
+            / w1
+    }
 }
 
 /// `fract(x) = x − floor(x)`: its mean, variance and slope over `X = t + S`, exact (module docs,

@@ -18,7 +18,7 @@
 //! add; turbulence, billow and ridged shape each faded octave by the exact rules of `abs` and
 //! the ramp, so a faded octave's non-zero mean `E|n|` is in the sum.
 
-use super::rules::{Dist, Rules, Shapes};
+use super::rules::{Dist, Footprint, Rules, Shapes};
 use crate::noise::{NoiseTable, Octaves, Style};
 use crate::ops::{BinaryOp, UnaryOp};
 
@@ -138,24 +138,49 @@ fn fade(rules: &Rules, stats: &Stats, p: &[Dist; 3]) -> (f64, [f64; 3]) {
 /// becomes here.
 const FADED: f64 = 1e-6;
 
-/// A noise sample of `p` over the footprint.
+/// A noise sample of `p` over the footprint (one lane of [`noise_lanes`]).
 pub fn noise(rules: &Rules, s: &Sampler, p: &[Dist; 3]) -> Dist {
-    let m = p.map(|c| c.mean);
-    let (alpha, beta) = fade(rules, &s.stats, p);
+    let mut out = [Dist::constant(0.0)];
+    let mut scratch = LaneScratch::default();
+    noise_lanes(
+        Lanes::new(std::slice::from_ref(rules.footprint), 1),
+        s,
+        std::slice::from_ref(p),
+        &mut out,
+        &mut scratch,
+    );
+    out[0]
+}
+
+/// The value of one octave (or noise sample) at a lane whose fade left it unsampled: fully
+/// faded (the basis' global statistics), or a constant input (the plain sample).
+fn unsampled(s: &Sampler, p: &[Dist; 3], alpha: f64) -> Option<Dist> {
     if alpha < FADED {
-        return Dist {
+        return Some(Dist {
             mean: s.stats.mean,
             grad: [0.0; 3],
             var: s.stats.var,
-        };
+        });
     }
     if alpha == 1.0 && p.iter().all(|c| c.var == 0.0 && c.grad == [0.0; 3]) {
-        return Dist::constant(s.table.sample(m));
+        return Some(Dist::constant(s.table.sample(p.map(|c| c.mean))));
     }
-    let (value, g): (f64, [f64; 3]) = s.table.sample_value_grad(m);
+    None
+}
+
+/// One sampled octave over the footprint from the noise's value and gradient at the centre.
+fn sampled(
+    rules: &Rules,
+    stats: &Stats,
+    p: &[Dist; 3],
+    fade: &Fade,
+    value: f64,
+    g: [f64; 3],
+) -> Dist {
+    let alpha = fade.alpha;
     let g = g.map(|c| if c.is_finite() { c } else { 0.0 });
     let grad = std::array::from_fn(|j| alpha * (0..3).map(|i| g[i] * p[i].grad[j]).sum::<f64>());
-    let grad = rules.footprint.damp(grad, beta);
+    let grad = super::rules::apply(&fade.damp, grad);
     let carried: f64 = (0..3).map(|i| g[i] * g[i] * p[i].var).sum();
     // The noise's variance within the footprint is what its fade takes from the box mean,
     // (1 − α²) σ² (the law of total variance, the box mean's variance being α² σ²); the linear
@@ -163,15 +188,261 @@ pub fn noise(rules: &Rules, s: &Sampler, p: &[Dist; 3]) -> Dist {
     // equal Σ_k G L_k² / 12, so the linear part is not added on top (which doubled the
     // variance of small footprints and brightened turbulence by 12 % at a cell's size).
     let within = super::rules::residual(
-        (1.0 - alpha * alpha) * s.stats.var,
+        (1.0 - alpha * alpha) * stats.var,
         rules.footprint.linear_var(grad),
     );
     let var = within + alpha * alpha * carried;
     Dist {
-        mean: alpha * value + (1.0 - alpha) * s.stats.mean,
+        mean: alpha * value + (1.0 - alpha) * stats.mean,
         grad,
         var: if var.is_finite() { var.max(0.0) } else { 0.0 },
     }
+}
+
+/// The footprints of a chunk of lanes: one per lane, or one for all.
+#[derive(Clone, Copy)]
+pub struct Lanes<'a> {
+    footprints: &'a [Footprint],
+    pub width: usize,
+}
+
+impl<'a> Lanes<'a> {
+    /// # Panics
+    /// If `footprints` is neither one long nor `width` long (a caller bug).
+    pub fn new(footprints: &'a [Footprint], width: usize) -> Lanes<'a> {
+        assert!(footprints.len() == 1 || footprints.len() == width);
+        Lanes { footprints, width }
+    }
+
+    pub fn rules(&self, lane: usize) -> Rules<'a> {
+        let i = if self.footprints.len() == 1 { 0 } else { lane };
+        Rules {
+            footprint: &self.footprints[i],
+        }
+    }
+}
+
+/// Working arrays of the lane rules, kept from chunk to chunk.
+#[derive(Default)]
+pub struct LaneScratch {
+    q: Vec<[Dist; 3]>,
+    fades: Vec<Fade>,
+    sampled: Vec<usize>,
+    coords: [Vec<f64>; 3],
+    value: Vec<f64>,
+    grad: [Vec<f64>; 3],
+    weight: Vec<Dist>,
+    octave: Vec<Dist>,
+    same: Vec<bool>,
+}
+
+/// A lane's fade: `α`, and the damping of its slope (`Footprint::damp_matrix` of the `β`s).
+#[derive(Clone, Copy)]
+struct Fade {
+    alpha: f64,
+    damp: Option<[[f64; 3]; 3]>,
+}
+
+/// Per lane, whether its footprint and input spread (linear part, residual) equal the previous
+/// lane's, as along any affine chain: its fade is then the previous lane's.
+fn same_spread(lanes: Lanes, p: &[[Dist; 3]], same: &mut Vec<bool>) {
+    same.clear();
+    same.push(false);
+    let one_footprint = lanes.footprints.len() == 1;
+    same.extend(p.windows(2).enumerate().map(|(i, w)| {
+        let spread = |q: &[Dist; 3]| (q.map(|c| c.grad), q.map(|c| c.var));
+        spread(&w[0]) == spread(&w[1])
+            && (one_footprint || lanes.footprints[i] == lanes.footprints[i + 1])
+    }));
+}
+
+/// Each lane's fade of `p` (computed again only where `same` says the spread changed).
+fn lane_fades(lanes: Lanes, stats: &Stats, p: &[[Dist; 3]], same: &[bool], fades: &mut Vec<Fade>) {
+    fades.clear();
+    for (lane, q) in p.iter().enumerate() {
+        let fade = match fades.last() {
+            Some(&f) if same[lane] => f,
+            _ => {
+                let rules = lanes.rules(lane);
+                let (alpha, beta) = fade(&rules, stats, q);
+                Fade {
+                    alpha,
+                    damp: rules.footprint.damp_matrix(beta),
+                }
+            }
+        };
+        fades.push(fade);
+    }
+}
+
+/// [`noise`] at every lane of a chunk: each lane's fade, then one batch sample (the noise
+/// kernels' SIMD value and gradient) of the lanes the fade leaves sampled.
+pub fn noise_lanes(
+    lanes: Lanes,
+    s: &Sampler,
+    p: &[[Dist; 3]],
+    out: &mut [Dist],
+    scratch: &mut LaneScratch,
+) {
+    let mut same = std::mem::take(&mut scratch.same);
+    same_spread(lanes, p, &mut same);
+    octave_lanes(lanes, s, p, &same, out, scratch);
+    scratch.same = same;
+}
+
+/// [`noise_lanes`] with each lane's [`same_spread`] given.
+fn octave_lanes(
+    lanes: Lanes,
+    s: &Sampler,
+    p: &[[Dist; 3]],
+    same: &[bool],
+    out: &mut [Dist],
+    scratch: &mut LaneScratch,
+) {
+    let LaneScratch {
+        fades,
+        sampled: todo,
+        coords,
+        value,
+        grad,
+        ..
+    } = scratch;
+    lane_fades(lanes, &s.stats, p, same, fades);
+    todo.clear();
+    for (lane, (o, q)) in out.iter_mut().zip(p).enumerate() {
+        match unsampled(s, q, fades[lane].alpha) {
+            Some(d) => *o = d,
+            None => todo.push(lane),
+        }
+    }
+    if todo.is_empty() {
+        return;
+    }
+    for (axis, c) in coords.iter_mut().enumerate() {
+        c.clear();
+        c.extend(todo.iter().map(|&lane| p[lane][axis].mean));
+    }
+    value.resize(todo.len(), 0.0);
+    grad.iter_mut().for_each(|g| g.resize(todo.len(), 0.0));
+    let [gx, gy, gz] = grad;
+    s.table.sample_value_grad_batch(
+        [&coords[0], &coords[1], &coords[2]],
+        value,
+        [gx.as_mut_slice(), gy.as_mut_slice(), gz.as_mut_slice()],
+    );
+    for (k, &lane) in todo.iter().enumerate() {
+        let g = [gx[k], gy[k], gz[k]];
+        out[lane] = sampled(
+            &lanes.rules(lane),
+            &s.stats,
+            &p[lane],
+            &fades[lane],
+            value[k],
+            g,
+        );
+    }
+}
+
+/// At most this many cells per axis, and in all, for [`white`]'s mixture: a wider box takes
+/// the fade (towards the global mean) instead.
+const WHITE_CELLS: usize = 64;
+
+/// White noise (one random value per unit cell) over the footprint, exactly as a mixture of
+/// the cells the input reaches: per axis the probability of each cell index `n = floor(X_i)`
+/// (`P(X_i ≥ n) − P(X_i ≥ n + 1)`, the exact step means; for an integer-valued component, as
+/// `integers.rs` marks them, the lattice's two-point law where the spread allows it, else
+/// `round(Y)` with Sheppard's correction, as `Rules::lattice_mod`), the axes taken as
+/// independent (exact where each depends on its own box axis), and the mean, second moment and
+/// slopes summed over the cells. `None` for wider boxes or a non-finite input: the fade rule
+/// then (a white noise's fade is total at any width, so a box inside one cell would otherwise
+/// lose its cell's value).
+pub fn white(rules: &Rules, s: &Sampler, p: &[Dist; 3], integer: [bool; 3]) -> Option<Dist> {
+    let axes: [Option<Cells>; 3] = std::array::from_fn(|i| cells(rules, &p[i], integer[i]));
+    let [x, y, z] = axes;
+    let (x, y, z) = (x?, y?, z?);
+    if x.count * y.count * z.count > WHITE_CELLS {
+        return None;
+    }
+    let (mut mean, mut square, mut slope) = (0.0, 0.0, [0.0; 3]);
+    for i in 0..x.count {
+        for j in 0..y.count {
+            for k in 0..z.count {
+                let centre = [x.first + i as f64, y.first + j as f64, z.first + k as f64];
+                let w: f64 = s.table.sample(centre.map(|c| c + 0.5));
+                let (px, py, pz) = (x.prob[i], y.prob[j], z.prob[k]);
+                mean += px * py * pz * w;
+                square += px * py * pz * w * w;
+                slope[0] += x.slope[i] * py * pz * w;
+                slope[1] += px * y.slope[j] * pz * w;
+                slope[2] += px * py * z.slope[k] * w;
+            }
+        }
+    }
+    let grad: [f64; 3] = std::array::from_fn(|j| (0..3).map(|i| slope[i] * p[i].grad[j]).sum());
+    let var = super::rules::residual(square - mean * mean, rules.footprint.linear_var(grad));
+    mean.is_finite().then_some(Dist { mean, grad, var })
+}
+
+/// The cells one input component reaches: indices `first..first + count`, each with its
+/// probability and its derivative along the component's mean.
+struct Cells {
+    first: f64,
+    count: usize,
+    prob: [f64; WHITE_CELLS],
+    slope: [f64; WHITE_CELLS],
+}
+
+fn cells(rules: &Rules, d: &Dist, integer: bool) -> Option<Cells> {
+    use super::moments::{density, ramp_mean, Spread};
+    let mu = d.mean;
+    if !mu.is_finite() {
+        return None;
+    }
+    let mut c = Cells {
+        first: mu.floor(),
+        count: 1,
+        prob: [0.0; WHITE_CELLS],
+        slope: [0.0; WHITE_CELLS],
+    };
+    c.prob[0] = 1.0;
+    if d.is_constant() {
+        return Some(c);
+    }
+    let widths = rules.footprint.widths(d.grad);
+    // The cell edges relative to the value (an integer-valued K = round(Y): edges at n ± 1/2).
+    let (spread, shift, residual) = if integer {
+        let t = rules.total_var(d);
+        let q = mu - c.first;
+        if t <= q * (1.0 - q) + 1e-12 {
+            c.count = 2;
+            c.prob[..2].copy_from_slice(&[1.0 - q, q]);
+            c.slope[..2].copy_from_slice(&[-1.0, 1.0]);
+            return Some(c);
+        }
+        let r = (d.var - 1.0 / 12.0).max(0.0);
+        (Spread::new(widths, r), 0.5, r)
+    } else {
+        (Spread::new(widths, d.var), 0.0, d.var)
+    };
+    let half = widths.iter().sum::<f64>() / 2.0 + (6.0 * residual).sqrt();
+    let first = (mu + shift - half).floor();
+    let last = (mu + shift + half).floor();
+    // (NaN-safe: a NaN count is refused too.)
+    if (last - first).partial_cmp(&(WHITE_CELLS as f64)) != Some(std::cmp::Ordering::Less) {
+        return None;
+    }
+    c.first = first;
+    c.count = (last - first) as usize + 1;
+    // P(cell n) = P(X ≥ n − shift) − P(X ≥ n + 1 − shift), X = mu + S.
+    let at_least = |e: f64| (ramp_mean(mu - e, &spread, 0), density(mu - e, &spread));
+    let mut below = at_least(first - shift);
+    for n in 0..c.count {
+        let above = at_least(first + n as f64 + 1.0 - shift);
+        c.prob[n] = below.0 - above.0;
+        c.slope[n] = below.1 - above.1;
+        below = above;
+    }
+    Some(c)
 }
 
 /// The analytic gradient of the noise at `p` over the footprint: faded like the value, the
@@ -215,42 +486,65 @@ impl<'a> FractalSamplers<'a> {
     }
 }
 
-/// A fractal sum over the footprint: every octave by [`noise`] on the scaled input, shaped by
-/// the style's rules, summed (independent octaves: means, linear parts and variances add).
-pub fn fractal(
-    rules: &Rules,
+/// A fractal sum over the footprint at every lane of a chunk: every octave by
+/// [`noise_lanes`] on the scaled input, shaped by the style's rules, summed (independent
+/// octaves: means, linear parts and variances add).
+pub fn fractal_lanes(
+    lanes: Lanes,
     shapes: &Shapes,
     f: &FractalSamplers,
     style: Style,
-    p: &[Dist; 3],
-) -> Dist {
-    let mut sum = Dist::constant(0.0);
-    let mut weight = Dist::constant(1.0);
+    p: &[[Dist; 3]],
+    out: &mut [Dist],
+    scratch: &mut LaneScratch,
+) {
+    out.fill(Dist::constant(0.0));
+    let mut q = std::mem::take(&mut scratch.q);
+    let mut weight = std::mem::take(&mut scratch.weight);
+    let mut n = std::mem::take(&mut scratch.octave);
+    n.clear();
+    n.resize(p.len(), Dist::constant(0.0));
+    weight.clear();
+    weight.resize(p.len(), Dist::constant(1.0));
+    let mut same = std::mem::take(&mut scratch.same);
+    same_spread(lanes, p, &mut same);
     for (sampler, freq, amp) in f.each() {
-        let q = p.map(|c| c.scale(freq));
-        let n = noise(rules, &sampler, &q);
-        let shaped = match style {
-            Style::Fbm => n,
-            Style::Turbulence => rules.unary(shapes, UnaryOp::Abs, &n),
-            Style::Billow => {
-                let a = rules.unary(shapes, UnaryOp::Abs, &n);
-                rules.sub(&a.scale(2.0), &Dist::constant(1.0))
-            }
-            Style::Ridged { offset, sharpness } => {
-                let a = rules.unary(shapes, UnaryOp::Abs, &n);
-                let ridge = rules.sub(&Dist::constant(offset), &a);
-                let ridge = rules.binary(shapes, BinaryOp::Max, &ridge, &Dist::constant(0.0));
-                let ridge = rules.binary(shapes, BinaryOp::Pow, &ridge, &Dist::constant(sharpness));
-                let signal = rules.mul(&ridge, &weight);
-                let doubled = signal.scale(2.0);
-                let w = rules.binary(shapes, BinaryOp::Max, &doubled, &Dist::constant(0.0));
-                weight = rules.binary(shapes, BinaryOp::Min, &w, &Dist::constant(1.0));
-                signal
-            }
-        };
-        sum = rules.add(&sum, &shaped.scale(amp));
+        q.clear();
+        q.extend(p.iter().map(|v| v.map(|c| c.scale(freq))));
+        octave_lanes(lanes, &sampler, &q, &same, &mut n, scratch);
+        for (lane, (sum, n)) in out.iter_mut().zip(&n).enumerate() {
+            let rules = lanes.rules(lane);
+            let shaped = shape(&rules, shapes, style, n, &mut weight[lane]);
+            *sum = rules.add(sum, &shaped.scale(amp));
+        }
     }
-    sum
+    scratch.q = q;
+    scratch.weight = weight;
+    scratch.octave = n;
+    scratch.same = same;
+}
+
+/// One octave shaped by the fractal's style (`weight`: ridged's running weight).
+fn shape(rules: &Rules, shapes: &Shapes, style: Style, n: &Dist, weight: &mut Dist) -> Dist {
+    match style {
+        Style::Fbm => *n,
+        Style::Turbulence => rules.unary(shapes, UnaryOp::Abs, n),
+        Style::Billow => {
+            let a = rules.unary(shapes, UnaryOp::Abs, n);
+            rules.sub(&a.scale(2.0), &Dist::constant(1.0))
+        }
+        Style::Ridged { offset, sharpness } => {
+            let a = rules.unary(shapes, UnaryOp::Abs, n);
+            let ridge = rules.sub(&Dist::constant(offset), &a);
+            let ridge = rules.binary(shapes, BinaryOp::Max, &ridge, &Dist::constant(0.0));
+            let ridge = rules.binary(shapes, BinaryOp::Pow, &ridge, &Dist::constant(sharpness));
+            let signal = rules.mul(&ridge, weight);
+            let doubled = signal.scale(2.0);
+            let w = rules.binary(shapes, BinaryOp::Max, &doubled, &Dist::constant(0.0));
+            *weight = rules.binary(shapes, BinaryOp::Min, &w, &Dist::constant(1.0));
+            signal
+        }
+    }
 }
 
 /// The gradient of a fractal sum over the footprint: Fbm as the sum of the octaves' faded

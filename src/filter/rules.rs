@@ -76,6 +76,9 @@ impl Dist {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Footprint {
     edges: [[f64; 3]; 3],
+    /// `Σ_k e_k e_kᵀ / 12`: the covariance of linear parts over the footprint as one quadratic
+    /// form (made once per footprint; `covariance` runs per rule and per noise octave).
+    quad: [[f64; 3]; 3],
 }
 
 /// Why a footprint was refused.
@@ -94,7 +97,15 @@ impl Footprint {
     /// No footprint: filtered evaluation is then point evaluation.
     pub const POINT: Footprint = Footprint {
         edges: [[0.0; 3]; 3],
+        quad: [[0.0; 3]; 3],
     };
+
+    fn new(edges: [[f64; 3]; 3]) -> Footprint {
+        let quad = std::array::from_fn(|i| {
+            std::array::from_fn(|j| edges.iter().map(|e| e[i] * e[j]).sum::<f64>() / 12.0)
+        });
+        Footprint { edges, quad }
+    }
 
     /// An axis-aligned box of sides `(wx, wy, wz)` (a voxel). Each side must be finite and
     /// ≥ 0 (an infinite box has no mean for most graphs: |x| over all x).
@@ -107,9 +118,11 @@ impl Footprint {
             }
         }
         let [x, y, z] = sides;
-        Ok(Footprint {
-            edges: [[x, 0.0, 0.0], [0.0, y, 0.0], [0.0, 0.0, z]],
-        })
+        Ok(Footprint::new([
+            [x, 0.0, 0.0],
+            [0.0, y, 0.0],
+            [0.0, 0.0, z],
+        ]))
     }
 
     /// A cube of side `w`.
@@ -125,7 +138,7 @@ impl Footprint {
                 "footprint edges {edges:?}: every component must be finite"
             )));
         }
-        Ok(Footprint { edges })
+        Ok(Footprint::new(edges))
     }
 
     pub fn edges(&self) -> [[f64; 3]; 3] {
@@ -140,6 +153,13 @@ impl Footprint {
 
     /// The covariance over the footprint of two linear parts: `Σ_k (a · e_k)(b · e_k) / 12`.
     fn covariance(&self, a: [f64; 3], b: [f64; 3]) -> f64 {
+        if a.iter().chain(&b).all(|c| c.is_finite()) {
+            let q = &self.quad;
+            return (0..3)
+                .map(|i| a[i] * (0..3).map(|j| q[i][j] * b[j]).sum::<f64>())
+                .sum();
+        }
+        // 0 · ∞ as 0 along each edge.
         let mut c = 0.0;
         for e in &self.edges {
             let (x, y) = (proj(a, e), proj(b, e));
@@ -151,7 +171,23 @@ impl Footprint {
     }
 
     pub(super) fn linear_var(&self, grad: [f64; 3]) -> f64 {
-        self.covariance(grad, grad)
+        self.covariance(grad, grad).max(0.0)
+    }
+
+    /// [`Footprint::damp`] as a matrix (`damp` is linear in `grad`): `None` where it leaves
+    /// every slope as it is. Made once per fade, applied per lane by [`apply`].
+    pub(super) fn damp_matrix(&self, beta: [f64; 3]) -> Option<[[f64; 3]; 3]> {
+        if beta.iter().all(|&b| (1.0 - b).abs() < 1e-9) {
+            return None;
+        }
+        let columns: [[f64; 3]; 3] = std::array::from_fn(|j| {
+            let mut e = [0.0; 3];
+            e[j] = 1.0;
+            self.damp(e, beta)
+        });
+        Some(std::array::from_fn(|i| {
+            std::array::from_fn(|j| columns[j][i])
+        }))
     }
 
     /// `grad` with its increment along each edge `e_k` scaled by `beta[k]`: the smallest change
@@ -220,6 +256,17 @@ impl Footprint {
         } else {
             grad
         }
+    }
+}
+
+/// `m g`, or `g` where that is not finite (as `damp` keeps a slope it cannot damp).
+pub(super) fn apply(m: &Option<[[f64; 3]; 3]>, g: [f64; 3]) -> [f64; 3] {
+    let Some(m) = m else { return g };
+    let out: [f64; 3] = std::array::from_fn(|i| dot(&m[i], &g));
+    if out.iter().all(|c| c.is_finite()) {
+        out
+    } else {
+        g
     }
 }
 
@@ -385,6 +432,15 @@ impl Rules<'_> {
             return Dist::constant(f.eval(d.mean));
         }
         let m = f.moments(d.mean, &self.spread(d));
+        self.out_of_moments(d, m)
+    }
+
+    /// `g(fract d)` for a periodic piecewise-linear `g` (`periodic.rs`), exact.
+    pub fn periodic(&self, g: &super::periodic::Periodic, d: &Dist) -> Dist {
+        if d.is_constant() {
+            return Dist::constant(g.eval(d.mean).0);
+        }
+        let m = g.moments(d.mean, &self.spread(d));
         self.out_of_moments(d, m)
     }
 

@@ -7,11 +7,11 @@
 //! per tape ([`Filtered::new`]): each noise table's statistics, each tiled fractal's per-octave
 //! tables, each spline as piecewise cubics.
 
-use super::fusions::{scalar_dst, Fusion, Fusions};
-use super::noise::{self as fnoise, FractalSamplers, Sampler, Stats};
+use super::fusions::{scalar_dst, vec3_dst, wide_dst, Fusion, Fusions, Part, Source};
+use super::noise::{self as fnoise, FractalSamplers, LaneScratch, Lanes, Sampler, Stats};
 use super::rules::{hermite_shape, spline_shape, Dist, Footprint, Rules, Shapes};
 use crate::graph::Type;
-use crate::noise::{NoiseTable, Style};
+use crate::noise::{Basis, NoiseTable, Style};
 use crate::ops;
 use crate::real::Real;
 use crate::tape::{Instr, Tape, Wide};
@@ -37,14 +37,20 @@ pub struct Filtered<'t> {
     fusions: Fusions,
 }
 
-/// The slots of one filtered evaluation.
+/// The slots of one chunk of lanes: slot `k` of lane `i` at `k * width + i` in its file.
 struct Slots {
+    width: usize,
     scalars: Vec<Dist>,
     wides: Vec<Dist>,
     vec3s: Vec<[Dist; 3]>,
     /// Arguments saved for fused instructions (`Fusions::save`).
     saved: Vec<Dist>,
+    scratch: LaneScratch,
 }
+
+/// Lanes per chunk of a batch: the instruction loop runs over this many lanes at a time, so
+/// each noise instruction samples them in one SIMD batch.
+const WIDTH: usize = 64;
 
 impl<'t> Filtered<'t> {
     pub fn new(tape: &'t Tape) -> Filtered<'t> {
@@ -75,6 +81,7 @@ impl<'t> Filtered<'t> {
                 .collect();
             octave_tables.insert((table, octaves), tables);
         }
+        let integer = super::integers::integer_operands(tape);
         Filtered {
             tape,
             stats,
@@ -91,8 +98,8 @@ impl<'t> Filtered<'t> {
                 .map(|c| spline_shape(c.as_ref(), 0))
                 .collect(),
             shapes: Shapes::new(),
-            integer: super::integers::integer_operands(tape),
-            fusions: super::fusions::fusions(tape),
+            fusions: super::fusions::fusions(tape, &integer),
+            integer,
         }
     }
 
@@ -102,6 +109,7 @@ impl<'t> Filtered<'t> {
 
     /// Every output's estimated mean over `footprint` around `point`, channels in output order
     /// (as [`Tape::eval_point`]). `S` is the output's type; the rules run in f64 either way.
+    /// The same arithmetic as one lane of [`Filtered::eval_batch`] (bit for bit).
     ///
     /// # Panics
     /// If `out.len() != tape.channels()`.
@@ -111,32 +119,45 @@ impl<'t> Filtered<'t> {
             self.tape.channels(),
             "eval_point: output buffer has the wrong length"
         );
-        let mut slots = self.slots();
-        self.eval_into(&mut slots, point, footprint, out);
+        let mut slots = self.slots(1);
+        let p = ([point[0]], [point[1]], [point[2]]);
+        self.eval_chunk(
+            &mut slots,
+            [&p.0, &p.1, &p.2],
+            std::slice::from_ref(footprint),
+            out,
+        );
     }
 
-    /// [`Filtered::eval_point`] on slots made by [`Filtered::slots`] (reused across points).
-    fn eval_into<S: Real>(
+    /// One chunk of lanes (as many as `slots.width`): lane `i`'s channels at
+    /// `out[i * channels..]`.
+    fn eval_chunk<S: Real>(
         &self,
         slots: &mut Slots,
-        point: [f64; 3],
-        footprint: &Footprint,
+        points: [&[f64]; 3],
+        footprints: &[Footprint],
         out: &mut [S],
     ) {
-        self.run(slots, point, footprint);
-        let mut overflowed = false;
-        for o in &self.tape.outputs {
-            let means: &mut dyn Iterator<Item = f64> = match o.ty {
-                Type::Scalar => &mut std::iter::once(slots.scalars[o.slot as usize].mean),
-                Type::Vec3 => &mut slots.vec3s[o.slot as usize].iter().map(|d| d.mean),
-            };
-            for (c, mean) in means.enumerate() {
-                overflowed |= !mean.is_finite();
-                out[o.first_channel + c] = S::from_f64(mean);
+        let lanes = Lanes::new(footprints, slots.width);
+        self.run(slots, points, lanes);
+        let channels = self.tape.channels();
+        let w = slots.width;
+        for (lane, out) in out.chunks_exact_mut(channels).enumerate() {
+            let mut overflowed = false;
+            for o in &self.tape.outputs {
+                let at = o.slot as usize * w + lane;
+                let means: &mut dyn Iterator<Item = f64> = match o.ty {
+                    Type::Scalar => &mut std::iter::once(slots.scalars[at].mean),
+                    Type::Vec3 => &mut slots.vec3s[at].iter().map(|d| d.mean),
+                };
+                for (c, mean) in means.enumerate() {
+                    overflowed |= !mean.is_finite();
+                    out[o.first_channel + c] = S::from_f64(mean);
+                }
             }
-        }
-        if overflowed {
-            self.point_fallback(point, out);
+            if overflowed {
+                self.point_fallback(points.map(|c| c[lane]), out);
+            }
         }
     }
 
@@ -184,15 +205,25 @@ impl<'t> Filtered<'t> {
             channels * n,
             "eval_batch: output buffer has the wrong length"
         );
-        let footprint = |i: usize| &footprints[if footprints.len() == 1 { 0 } else { i }];
         let mut lanes = vec![S::ZERO; channels * n];
         lanes
-            .par_chunks_mut(channels)
+            .par_chunks_mut(channels * WIDTH)
             .enumerate()
-            .with_min_len(64)
             .for_each_init(
-                || self.slots(),
-                |slots, (i, lane)| self.eval_into(slots, [x[i], y[i], z[i]], footprint(i), lane),
+                || self.slots(WIDTH),
+                |slots, (k, out)| {
+                    let r = k * WIDTH..(k * WIDTH + WIDTH).min(n);
+                    let fp = if footprints.len() == 1 {
+                        footprints
+                    } else {
+                        &footprints[r.clone()]
+                    };
+                    if slots.width != r.len() {
+                        *slots = self.slots(r.len());
+                    }
+                    let points = [&x[r.clone()], &y[r.clone()], &z[r.clone()]];
+                    self.eval_chunk(slots, points, fp, out);
+                },
             );
         for i in 0..n {
             for c in 0..channels {
@@ -203,38 +234,80 @@ impl<'t> Filtered<'t> {
 
     /// Slots for this tape with its constants written (no instruction writes a constant's slot,
     /// as in the interpreter's `Workspace::bind`), reused from point to point.
-    fn slots(&self) -> Slots {
+    fn slots(&self, width: usize) -> Slots {
         let t = self.tape;
+        let file = |n: usize| vec![Dist::constant(0.0); n * width];
         let mut slots = Slots {
-            scalars: vec![Dist::constant(0.0); t.scalar_slots],
-            wides: vec![Dist::constant(0.0); t.wide_slots],
-            vec3s: vec![[Dist::constant(0.0); 3]; t.vec3_slots],
-            saved: vec![Dist::constant(0.0); self.fusions.saved],
+            width,
+            scalars: file(t.scalar_slots),
+            wides: file(t.wide_slots),
+            vec3s: vec![[Dist::constant(0.0); 3]; t.vec3_slots * width],
+            saved: file(self.fusions.saved),
+            scratch: LaneScratch::default(),
         };
+        let lanes = |slot: u32| slot as usize * width..(slot as usize + 1) * width;
         for &(slot, v) in &t.scalar_constants {
-            slots.scalars[slot as usize] = Dist::constant(v);
+            slots.scalars[lanes(slot)].fill(Dist::constant(v));
         }
         for &(slot, v) in &t.wide_constants {
-            slots.wides[slot as usize] = Dist::constant(v);
+            slots.wides[lanes(slot)].fill(Dist::constant(v));
         }
         for &(slot, v) in &t.vec3_constants {
-            slots.vec3s[slot as usize] = v.map(Dist::constant);
+            slots.vec3s[lanes(slot)].fill(v.map(Dist::constant));
         }
         slots
     }
 
-    fn run(&self, slots: &mut Slots, point: [f64; 3], footprint: &Footprint) {
-        let rules = Rules { footprint };
+    /// The tape over a chunk: instruction by instruction, each over every lane (a noise
+    /// instruction samples all lanes in one batch, `noise_chunk`).
+    fn run(&self, s: &mut Slots, points: [&[f64]; 3], lanes: Lanes) {
         let f = &self.fusions;
+        let w = s.width;
         let per_instruction = self.integer.iter().zip(f.save.iter().zip(&f.fused));
         for (instr, (integer, (save, fusion))) in self.tape.instrs.iter().zip(per_instruction) {
-            if let (Some(k), Instr::UnaryScalar { src, .. }) = (save, instr) {
-                slots.saved[*k as usize] = slots.scalars[*src as usize];
+            if let Some(noise) = noise_instr(instr) {
+                self.noise_chunk(lanes, &noise, *integer, s);
+                continue;
             }
-            let fused = fusion.as_ref().and_then(|f| self.fused(&rules, f, slots));
-            match (fused, scalar_dst(instr)) {
-                (Some(value), Some(dst)) => slots.scalars[dst as usize] = value,
-                _ => self.step(&rules, instr, *integer, point, slots),
+            for &(source, k) in save {
+                let k = k as usize * w;
+                match source {
+                    Source::Scalar(src) => {
+                        let src = src as usize * w;
+                        s.saved[k..k + w].copy_from_slice(&s.scalars[src..src + w]);
+                    }
+                    Source::Vec3(src, c) => {
+                        for lane in 0..w {
+                            s.saved[k + lane] = s.vec3s[src as usize * w + lane][c as usize];
+                        }
+                    }
+                    Source::Wide(src) => {
+                        let src = src as usize * w;
+                        s.saved[k..k + w].copy_from_slice(&s.wides[src..src + w]);
+                    }
+                }
+            }
+            for lane in 0..w {
+                let rules = lanes.rules(lane);
+                let fused = fusion.as_ref().and_then(|f| self.fused(&rules, f, s, lane));
+                let scalar = scalar_dst(instr).map(|d| (d, false));
+                match (
+                    fused,
+                    scalar.or(wide_dst(instr).map(|d| (d, true))),
+                    vec3_dst(instr),
+                ) {
+                    (Some(Fused::Scalar(v)), Some((dst, false)), _) => {
+                        s.scalars[dst as usize * w + lane] = v
+                    }
+                    (Some(Fused::Scalar(v)), Some((dst, true)), _) => {
+                        s.wides[dst as usize * w + lane] = v
+                    }
+                    (Some(Fused::Vec3(v)), _, Some(dst)) => s.vec3s[dst as usize * w + lane] = v,
+                    _ => {
+                        let point = points.map(|c| c[lane]);
+                        self.step(&rules, instr, *integer, point, s, lane)
+                    }
+                }
             }
         }
     }
@@ -257,11 +330,23 @@ impl<'t> Filtered<'t> {
     /// A fused instruction's value (`fusions.rs`): its rule on its operand's producer's
     /// argument; `None` where that rule declines (a `|sin|` series that cannot converge: the
     /// plain rules are then accurate).
-    fn fused(&self, rules: &Rules, fusion: &Fusion, s: &Slots) -> Option<Dist> {
+    fn fused(&self, rules: &Rules, fusion: &Fusion, s: &Slots, lane: usize) -> Option<Fused> {
+        let at = |k: u32| k as usize * s.width + lane;
         match fusion {
-            Fusion::AbsSin { saved, cos } => rules.abs_sin_cos(&s.saved[*saved as usize], *cos),
+            Fusion::AbsSin { saved, cos } => rules
+                .abs_sin_cos(&s.saved[at(*saved)], *cos)
+                .map(Fused::Scalar),
             Fusion::Folded { saved, shape } => {
-                Some(rules.piecewise(shape, &s.saved[*saved as usize]))
+                Some(Fused::Scalar(rules.piecewise(shape, &s.saved[at(*saved)])))
+            }
+            Fusion::Periodic { parts } => {
+                let part =
+                    |p: &Part| rules.periodic(&p.shape, &s.saved[at(p.saved)].scale(p.scale));
+                match parts.as_slice() {
+                    [one] => Some(Fused::Scalar(part(one))),
+                    [x, y, z] => Some(Fused::Vec3([part(x), part(y), part(z)])),
+                    _ => None,
+                }
             }
         }
     }
@@ -275,58 +360,61 @@ impl<'t> Filtered<'t> {
         integer: [bool; 3],
         point: [f64; 3],
         s: &mut Slots,
+        lane: usize,
     ) {
         let sh = &self.shapes;
+        let w = s.width;
+        let at = move |x: u32| x as usize * w + lane;
         match *instr {
             Instr::Position { dst } => {
-                s.vec3s[dst as usize] = std::array::from_fn(|i| Dist::position(point, i));
+                s.vec3s[at(dst)] = std::array::from_fn(|i| Dist::position(point, i));
             }
-            Instr::Splat { dst, src } => s.vec3s[dst as usize] = [s.scalars[src as usize]; 3],
+            Instr::Splat { dst, src } => s.vec3s[at(dst)] = [s.scalars[at(src)]; 3],
             Instr::Combine { dst, x, y, z } => {
-                s.vec3s[dst as usize] = [x, y, z].map(|c| s.scalars[c as usize]);
+                s.vec3s[at(dst)] = [x, y, z].map(|c| s.scalars[at(c)]);
             }
             Instr::Component { dst, src, axis } => {
-                s.scalars[dst as usize] = s.vec3s[src as usize][axis as usize % 3];
+                s.scalars[at(dst)] = s.vec3s[at(src)][axis as usize % 3];
             }
             Instr::UnaryScalar { op, dst, src } => {
-                s.scalars[dst as usize] = rules.unary(sh, op, &s.scalars[src as usize]);
+                s.scalars[at(dst)] = rules.unary(sh, op, &s.scalars[at(src)]);
             }
             Instr::UnaryVec3 { op, dst, src } => {
-                s.vec3s[dst as usize] = s.vec3s[src as usize].map(|c| rules.unary(sh, op, &c));
+                s.vec3s[at(dst)] = s.vec3s[at(src)].map(|c| rules.unary(sh, op, &c));
             }
             Instr::BinaryScalar { op, dst, a, b } => {
-                let (a, b) = (s.scalars[a as usize], s.scalars[b as usize]);
-                s.scalars[dst as usize] = binary(rules, sh, op, &a, &b, integer[0]);
+                let (a, b) = (s.scalars[at(a)], s.scalars[at(b)]);
+                s.scalars[at(dst)] = binary(rules, sh, op, &a, &b, integer[0]);
             }
             Instr::BinaryVec3 { op, dst, a, b } => {
-                let (a, b) = (s.vec3s[a as usize], s.vec3s[b as usize]);
-                s.vec3s[dst as usize] =
+                let (a, b) = (s.vec3s[at(a)], s.vec3s[at(b)]);
+                s.vec3s[at(dst)] =
                     std::array::from_fn(|i| binary(rules, sh, op, &a[i], &b[i], integer[i]));
             }
             Instr::TernaryScalar { op, dst, a, b, c } => {
-                let [a, b, c] = [a, b, c].map(|x| s.scalars[x as usize]);
-                s.scalars[dst as usize] = rules.ternary(sh, op, &a, &b, &c);
+                let [a, b, c] = [a, b, c].map(|x| s.scalars[at(x)]);
+                s.scalars[at(dst)] = rules.ternary(sh, op, &a, &b, &c);
             }
             Instr::TernaryVec3 { op, dst, a, b, c } => {
-                let [a, b, c] = [a, b, c].map(|x| s.vec3s[x as usize]);
-                s.vec3s[dst as usize] =
+                let [a, b, c] = [a, b, c].map(|x| s.vec3s[at(x)]);
+                s.vec3s[at(dst)] =
                     std::array::from_fn(|i| rules.ternary(sh, op, &a[i], &b[i], &c[i]));
             }
             Instr::Dot { dst, a, b } => {
-                s.scalars[dst as usize] = dot(rules, &s.vec3s[a as usize], &s.vec3s[b as usize]);
+                s.scalars[at(dst)] = dot(rules, &s.vec3s[at(a)], &s.vec3s[at(b)]);
             }
             Instr::Length { dst, src } => {
-                s.scalars[dst as usize] = length(rules, sh, &s.vec3s[src as usize]);
+                s.scalars[at(dst)] = length(rules, sh, &s.vec3s[at(src)]);
             }
             Instr::Cross { dst, a, b } => {
-                let (a, b) = (s.vec3s[a as usize], s.vec3s[b as usize]);
+                let (a, b) = (s.vec3s[at(a)], s.vec3s[at(b)]);
                 let term = |i: usize, j: usize| {
                     rules.sub(&rules.mul(&a[i], &b[j]), &rules.mul(&a[j], &b[i]))
                 };
-                s.vec3s[dst as usize] = [term(1, 2), term(2, 0), term(0, 1)];
+                s.vec3s[at(dst)] = [term(1, 2), term(2, 0), term(0, 1)];
             }
             Instr::Normalize { dst, src } => {
-                let v = s.vec3s[src as usize];
+                let v = s.vec3s[at(src)];
                 let l = length(rules, sh, &v);
                 let mut n = v.map(|c| rules.binary(sh, ops::BinaryOp::Div, &c, &l));
                 // A length whose spread reaches 0 (a vector through the origin within the
@@ -335,11 +423,11 @@ impl<'t> Filtered<'t> {
                 if n.iter().any(|c| !c.mean.is_finite()) && v.iter().all(|c| c.mean.is_finite()) {
                     n = ops::normalize(v.map(|c| c.mean)).map(Dist::constant);
                 }
-                s.vec3s[dst as usize] = n;
+                s.vec3s[at(dst)] = n;
             }
             Instr::RotateConst { dst, src, matrix } => {
                 let m = &self.tape.matrices[matrix as usize];
-                s.vec3s[dst as usize] = rotate(rules, m, &s.vec3s[src as usize]);
+                s.vec3s[at(dst)] = rotate(rules, m, &s.vec3s[at(src)]);
             }
             Instr::RotateVarying {
                 dst,
@@ -348,59 +436,61 @@ impl<'t> Filtered<'t> {
                 axis,
             } => {
                 let axis = self.tape.axes[axis as usize];
-                let v = s.vec3s[src as usize];
-                s.vec3s[dst as usize] =
-                    rotate_varying(rules, axis, &v, &s.scalars[degrees as usize]);
+                let v = s.vec3s[at(src)];
+                s.vec3s[at(dst)] = rotate_varying(rules, axis, &v, &s.scalars[at(degrees)]);
             }
+            // Run per chunk by `run` (`noise_chunk`), never per lane.
             Instr::Noise { .. }
             | Instr::Fractal { .. }
             | Instr::NoiseGradient { .. }
-            | Instr::FractalGradient { .. } => self.noise_step(rules, instr, s, false),
+            | Instr::FractalGradient { .. } => {}
             Instr::Hermite { dst, src, spline } => {
                 let f = &self.hermites[spline as usize];
-                s.scalars[dst as usize] = rules.piecewise(f, &s.scalars[src as usize]);
+                s.scalars[at(dst)] = rules.piecewise(f, &s.scalars[at(src)]);
             }
             Instr::Ramp { dst, src, ramp } => {
-                let t = s.scalars[src as usize];
-                s.vec3s[dst as usize] = self.ramps[ramp as usize]
+                let t = s.scalars[at(src)];
+                s.vec3s[at(dst)] = self.ramps[ramp as usize]
                     .each_ref()
                     .map(|f| rules.piecewise(f, &t));
             }
             Instr::Curve { dst, src, curve } => {
                 let f = &self.curves[curve as usize];
-                s.scalars[dst as usize] = rules.piecewise(f, &s.scalars[src as usize]);
+                s.scalars[at(dst)] = rules.piecewise(f, &s.scalars[at(src)]);
             }
-            Instr::Wide(w) => self.wide(rules, w, integer[0], s),
+            Instr::Wide(wide) => self.wide(rules, wide, integer[0], s, lane),
         }
     }
 
     /// A promoted instruction: the plain one's rule on the wide slots.
-    fn wide(&self, rules: &Rules, w: Wide, integer: bool, s: &mut Slots) {
+    fn wide(&self, rules: &Rules, w: Wide, integer: bool, s: &mut Slots, lane: usize) {
         let sh = &self.shapes;
+        let width = s.width;
+        let at = move |x: u32| x as usize * width + lane;
         match w {
             Wide::Component { dst, src, axis } => {
-                s.wides[dst as usize] = s.vec3s[src as usize][axis as usize % 3];
+                s.wides[at(dst)] = s.vec3s[at(src)][axis as usize % 3];
             }
             Wide::Unary { op, dst, src } => {
-                s.wides[dst as usize] = rules.unary(sh, op, &s.wides[src as usize]);
+                s.wides[at(dst)] = rules.unary(sh, op, &s.wides[at(src)]);
             }
             Wide::Binary { op, dst, a, b } => {
-                let (a, b) = (s.wides[a as usize], s.wides[b as usize]);
-                s.wides[dst as usize] = binary(rules, sh, op, &a, &b, integer);
+                let (a, b) = (s.wides[at(a)], s.wides[at(b)]);
+                s.wides[at(dst)] = binary(rules, sh, op, &a, &b, integer);
             }
             Wide::Ternary { op, dst, a, b, c } => {
-                let [a, b, c] = [a, b, c].map(|x| s.wides[x as usize]);
-                s.wides[dst as usize] = rules.ternary(sh, op, &a, &b, &c);
+                let [a, b, c] = [a, b, c].map(|x| s.wides[at(x)]);
+                s.wides[at(dst)] = rules.ternary(sh, op, &a, &b, &c);
             }
             Wide::Dot { dst, a, b } => {
-                s.wides[dst as usize] = dot(rules, &s.vec3s[a as usize], &s.vec3s[b as usize]);
+                s.wides[at(dst)] = dot(rules, &s.vec3s[at(a)], &s.vec3s[at(b)]);
             }
             Wide::Length { dst, src } => {
-                s.wides[dst as usize] = length(rules, sh, &s.vec3s[src as usize]);
+                s.wides[at(dst)] = length(rules, sh, &s.vec3s[at(src)]);
             }
-            Wide::Splat { dst, src } => s.vec3s[dst as usize] = [s.wides[src as usize]; 3],
+            Wide::Splat { dst, src } => s.vec3s[at(dst)] = [s.wides[at(src)]; 3],
             Wide::Combine { dst, x, y, z } => {
-                s.vec3s[dst as usize] = [x, y, z].map(|c| s.wides[c as usize]);
+                s.vec3s[at(dst)] = [x, y, z].map(|c| s.wides[at(c)]);
             }
             Wide::Rotate {
                 dst,
@@ -409,30 +499,48 @@ impl<'t> Filtered<'t> {
                 axis,
             } => {
                 let axis = self.tape.axes[axis as usize];
-                let v = s.vec3s[src as usize];
-                s.vec3s[dst as usize] = rotate_varying(rules, axis, &v, &s.wides[degrees as usize]);
+                let v = s.vec3s[at(src)];
+                s.vec3s[at(dst)] = rotate_varying(rules, axis, &v, &s.wides[at(degrees)]);
             }
-            // Gradients write vec3 slots, f64 on both paths: the plain rule for all four.
+            // Run per chunk by `run` (`noise_chunk`), never per lane.
             Wide::Noise { .. }
             | Wide::Fractal { .. }
             | Wide::NoiseGradient { .. }
-            | Wide::FractalGradient { .. } => {
-                if let Some(plain) = w.plain_noise() {
-                    self.noise_step(rules, &plain, s, true);
-                }
-            }
-            Wide::Widen { dst, src } => s.wides[dst as usize] = s.scalars[src as usize],
-            Wide::Narrow { dst, src } => s.scalars[dst as usize] = s.wides[src as usize],
+            | Wide::FractalGradient { .. } => {}
+            Wide::Widen { dst, src } => s.wides[at(dst)] = s.scalars[at(src)],
+            Wide::Narrow { dst, src } => s.scalars[at(dst)] = s.wides[at(src)],
         }
     }
 
-    /// The noise instructions' rules; a scalar result goes to the wide slots when `wide` (a
-    /// promoted instruction: the same rule, every filtered value being f64).
-    fn noise_step(&self, rules: &Rules, instr: &Instr, s: &mut Slots, wide: bool) {
-        let (dst, value) = match *instr {
-            Instr::Noise { dst, src, table } => (
-                dst,
-                fnoise::noise(rules, &self.sampler(table), &s.vec3s[src as usize]),
+    /// A noise instruction over every lane of the chunk; a scalar result goes to the wide
+    /// slots when `noise.wide` (a promoted instruction: the same rule, every filtered value
+    /// being f64).
+    fn noise_chunk(&self, lanes: Lanes, noise: &NoiseInstr, integer: [bool; 3], s: &mut Slots) {
+        let w = s.width;
+        let range = |slot: u32| slot as usize * w..(slot as usize + 1) * w;
+        let file = if noise.wide {
+            &mut s.wides
+        } else {
+            &mut s.scalars
+        };
+        match noise.instr {
+            Instr::Noise { dst, src, table }
+                if self.tape.tables[table as usize].1.basis() == Basis::White =>
+            {
+                let sampler = self.sampler(table);
+                let (p, out) = (&s.vec3s[range(src)], &mut file[range(dst)]);
+                for (lane, (o, p)) in out.iter_mut().zip(p).enumerate() {
+                    let rules = lanes.rules(lane);
+                    *o = fnoise::white(&rules, &sampler, p, integer)
+                        .unwrap_or_else(|| fnoise::noise(&rules, &sampler, p));
+                }
+            }
+            Instr::Noise { dst, src, table } => fnoise::noise_lanes(
+                lanes,
+                &self.sampler(table),
+                &s.vec3s[range(src)],
+                &mut file[range(dst)],
+                &mut s.scratch,
             ),
             Instr::Fractal {
                 dst,
@@ -441,14 +549,24 @@ impl<'t> Filtered<'t> {
                 octaves,
                 style,
                 bias,
-            } => (
-                dst,
-                self.fractal(rules, table, octaves, style, bias, &s.vec3s[src as usize]),
-            ),
+            } => {
+                let f = self.fractal_samplers(table, octaves);
+                let out = &mut file[range(dst)];
+                let p = &s.vec3s[range(src)];
+                fnoise::fractal_lanes(lanes, &self.shapes, &f, style, p, out, &mut s.scratch);
+                if bias != 0.0 {
+                    for (lane, o) in out.iter_mut().enumerate() {
+                        *o = lanes.rules(lane).add(o, &Dist::constant(bias));
+                    }
+                }
+            }
             Instr::NoiseGradient { dst, src, table } => {
-                let p = &s.vec3s[src as usize];
-                s.vec3s[dst as usize] = fnoise::noise_gradient(rules, &self.sampler(table), p, 1.0);
-                return;
+                for lane in 0..w {
+                    let p = &s.vec3s[src as usize * w + lane];
+                    let rules = lanes.rules(lane);
+                    s.vec3s[dst as usize * w + lane] =
+                        fnoise::noise_gradient(&rules, &self.sampler(table), p, 1.0);
+                }
             }
             Instr::FractalGradient {
                 dst,
@@ -457,31 +575,14 @@ impl<'t> Filtered<'t> {
                 octaves,
                 style,
             } => {
-                let p = &s.vec3s[src as usize];
-                s.vec3s[dst as usize] = self.fractal_gradient(rules, table, octaves, style, p);
-                return;
+                for lane in 0..w {
+                    let p = s.vec3s[src as usize * w + lane];
+                    let rules = lanes.rules(lane);
+                    s.vec3s[dst as usize * w + lane] =
+                        self.fractal_gradient(&rules, table, octaves, style, &p);
+                }
             }
-            _ => unreachable!("noise_step takes only noise instructions"),
-        };
-        let file = if wide { &mut s.wides } else { &mut s.scalars };
-        file[dst as usize] = value;
-    }
-
-    fn fractal(
-        &self,
-        rules: &Rules,
-        table: u32,
-        octaves: u32,
-        style: Style,
-        bias: f64,
-        p: &[Dist; 3],
-    ) -> Dist {
-        let f = self.fractal_samplers(table, octaves);
-        let sum = fnoise::fractal(rules, &self.shapes, &f, style, p);
-        if bias != 0.0 {
-            rules.add(&sum, &Dist::constant(bias))
-        } else {
-            sum
+            _ => {}
         }
     }
 
@@ -501,6 +602,35 @@ impl<'t> Filtered<'t> {
             crate::noise::fractal_styled_grad::<f64>(base, f.octaves, style, p.map(|c| c.mean))
         };
         fnoise::fractal_gradient(rules, &f, style, p, point)
+    }
+}
+
+/// A fused instruction's result.
+enum Fused {
+    Scalar(Dist),
+    Vec3([Dist; 3]),
+}
+
+/// A noise instruction in its plain form (`wide`: promoted, its scalar result in the wide
+/// slots).
+struct NoiseInstr {
+    instr: Instr,
+    wide: bool,
+}
+
+fn noise_instr(instr: &Instr) -> Option<NoiseInstr> {
+    match *instr {
+        Instr::Noise { .. }
+        | Instr::Fractal { .. }
+        | Instr::NoiseGradient { .. }
+        | Instr::FractalGradient { .. } => Some(NoiseInstr {
+            instr: instr.clone(),
+            wide: false,
+        }),
+        Instr::Wide(w) => w
+            .plain_noise()
+            .map(|instr| NoiseInstr { instr, wide: true }),
+        _ => None,
     }
 }
 

@@ -112,6 +112,37 @@ impl NoiseTable {
     }
 }
 
+impl NoiseTable {
+    /// Batch form of [`NoiseTable::sample_value_grad`] in f64: `value[i]` and `grad[c][i]` are
+    /// `sample_value_grad::<f64>(p_i)`'s, bit for bit (the kernels' batch gradient with its
+    /// values; the filtered form samples each octave this way, `filter/noise.rs`).
+    ///
+    /// Panics only if the slices' lengths differ (a caller bug).
+    pub fn sample_value_grad_batch(
+        &self,
+        [x, y, z]: [&[f64]; 3],
+        value: &mut [f64],
+        grad: [&mut [f64]; 3],
+    ) {
+        check_grad_lengths(x, y, z, &grad);
+        assert_eq!(value.len(), x.len(), "noise gradient batch: value length");
+        let period = self.period;
+        let [gx, gy, gz] = grad;
+        let mut start = 0;
+        while start < x.len() {
+            let m = CHUNK.min(x.len() - start);
+            let r = start..start + m;
+            with_kernel!(self, k => k.sample_grad_batch::<f64, true>(
+                period,
+                [&x[r.clone()], &y[r.clone()], &z[r.clone()]],
+                &mut value[r.clone()],
+                [&mut gx[r.clone()], &mut gy[r.clone()], &mut gz[r.clone()]],
+            ));
+            start += m;
+        }
+    }
+}
+
 /// The length check of the gradient batch entry points (see `check_lengths`).
 fn check_grad_lengths(x: &[f64], y: &[f64], z: &[f64], out: &[&mut [f64]; 3]) {
     let n = out[0].len();

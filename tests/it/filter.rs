@@ -114,6 +114,18 @@ fn linear_arguments_are_exact() {
         "Smoothstep(0.1, 0.4, Abs(ARG))",
         "Smoothstep(0.0, 0.3, Abs(ARG))",
         "Step(0.35, Abs(ARG))",
+        // Periodic chains: a piecewise-linear function of a `Fract` or `Mod`, from its
+        // argument (a tent, a clamped fold, stripes, a sawtooth of another period, a constant
+        // ramp, a vec3 chain).
+        "Sub(1.0, Abs(Sub(Mul(2.0, Fract(ARG)), 1.0)))",
+        "Clamp(input: Mul(3.0, Abs(Sub(Fract(ARG), 0.5))), min: 0.2, max: 0.9)",
+        "Step(0.65, Fract(ARG))",
+        "Max(Neg(Div(Mod(ARG, 0.7), 0.7)), -0.6)",
+        "Dot(ColorRamp(input: Fract(ARG), stops: [(0.0, (0.1, 0.2, 0.3)), (0.4, (0.9, 0.5, 0.1)), \
+         (0.7, (0.3, 0.3, 0.8))], interpolation: Constant), (1.0, 0.5, 0.25))",
+        "Dot(ColorRamp(input: Fract(ARG), stops: [(0.0, (0.1, 0.2, 0.3)), (0.6, (0.9, 0.5, 0.1)), \
+         (1.0, (0.1, 0.2, 0.3))], interpolation: Linear), (1.0, 0.5, 0.25))",
+        "Dot(Sub(1.0, Abs(Sub(Mul(2.0, Fract((ARG, ARG, ARG))), 1.0))), (0.2, 0.3, 0.5))",
     ];
     let mut rng = Rng(7);
     for shape in shapes {
@@ -134,6 +146,41 @@ fn linear_arguments_are_exact() {
             assert!(
                 (got - want).abs() <= 1e-4 * want.abs().max(1.0),
                 "{shape} with a = {a}, c = {c}, side {w} at {p:?}: filtered {got}, exact {want}"
+            );
+        }
+    }
+}
+
+/// White noise (one value per unit cell) over a line is the mixture of the cells it crosses,
+/// exactly; of an integer-valued input (a `Floor`), the lattice's two-point law across one face.
+#[test]
+fn white_noise_is_a_mixture_of_its_cells() {
+    let mut rng = Rng(13);
+    for (shape, integer) in [
+        ("WhiteNoise(input: (ARG, 0.5, 0.5), seed: 3)", false),
+        ("WhiteNoise(input: (Floor(ARG), 0.5, 0.5), seed: 3)", true),
+    ] {
+        for case in 0..12 {
+            let (a, c) = (rng.range(-3.0, 3.0), rng.range(-2.0, 2.0));
+            let arg = format!("Add(Mul({a:.6}, \"p.x\"), {c:.6})");
+            let t = tape(&format!(
+                "Graph(nodes: {{ \"p\": Position }}, outputs: {{ \"f\": {} }})",
+                shape.replace("ARG", &arg)
+            ));
+            // Across at most one face of the lattice for the integer-valued input.
+            let w = if integer {
+                rng.range(0.01, 0.95) / a.abs()
+            } else {
+                [1e-3, 0.05, 0.5, 2.0, 7.0, 12.0][case % 6]
+            };
+            let p = [rng.range(-2.0, 2.0), 0.3, 0.7];
+            let footprint = Footprint::from_sides([w, 0.25, 0.5]).unwrap();
+            let got = filtered(&t, p, &footprint)[0];
+            let panels = (20_000.0 * (w * a.abs()).max(1.0)) as usize;
+            let want = line_mean(&t, p, w, panels);
+            assert!(
+                (got - want).abs() <= 1e-4,
+                "{shape}, a = {a}, c = {c}, side {w}: filtered {got}, exact {want}"
             );
         }
     }

@@ -1,0 +1,368 @@
+//! Periodic chains (`periodic.rs`): which values are `g(fract X)` of a `Fract`'s (or a `Mod` by
+//! a constant's) argument `X`, with `g` piecewise linear, so that the filtered form computes
+//! them from `X` exactly instead of rule after rule.
+//!
+//! One forward walk over the tape beside `fusions.rs`'s: each scalar slot and each component of
+//! a vec3 slot remembers the chain it holds (its root's instruction and operand, and `g`), and
+//! which slots hold constants. A `Fract` or `Mod` starts a chain (its own rule is exact); an
+//! `Abs`, `Neg`, an affine map, `Min`/`Max`/`Clamp`/`Step`/`Mix` with constants, a linear or
+//! constant `Curve` or `ColorRamp` of a chained value extends it and is fused; copies
+//! (`Splat`, `Combine`, `Component`) carry it. Anything else ends it.
+
+use super::fusions::{side_slot, vec3_dst, wide_dst, Fusion, Fusions, Part, Source};
+use super::periodic::{Linear, Periodic};
+use super::rules::spline_shape;
+use crate::ops::{BinaryOp, TernaryOp, UnaryOp};
+use crate::tape::{Instr, Slot, Tape, Wide};
+
+/// A value `g(fract(scale · X))`, `X` the operand `source` of instruction `at`.
+#[derive(Clone, Debug)]
+struct Chain {
+    at: usize,
+    source: Source,
+    scale: f64,
+    g: Periodic,
+}
+
+/// An operand of an instruction, one component.
+#[derive(Clone, Copy)]
+enum Operand<'c> {
+    Chained(&'c Chain),
+    Constant(f64),
+    Other,
+}
+
+/// The walk's state.
+pub(super) struct Chains {
+    scalar: Vec<Option<Chain>>,
+    wide: Vec<Option<Chain>>,
+    vec3: Vec<[Option<Chain>; 3]>,
+    constant: Vec<Option<f64>>,
+    wconstant: Vec<Option<f64>>,
+    vconstant: Vec<Option<[f64; 3]>>,
+}
+
+impl Chains {
+    pub(super) fn new(tape: &Tape) -> Chains {
+        let mut c = Chains {
+            scalar: vec![None; tape.scalar_slots],
+            wide: vec![None; tape.wide_slots],
+            vec3: vec![[None, None, None]; tape.vec3_slots],
+            constant: vec![None; tape.scalar_slots],
+            wconstant: vec![None; tape.wide_slots],
+            vconstant: vec![None; tape.vec3_slots],
+        };
+        for &(slot, v) in &tape.scalar_constants {
+            c.constant[slot as usize] = Some(v);
+        }
+        for &(slot, v) in &tape.wide_constants {
+            c.wconstant[slot as usize] = Some(v);
+        }
+        for &(slot, v) in &tape.vec3_constants {
+            c.vconstant[slot as usize] = Some(v);
+        }
+        c
+    }
+
+    fn scalar_operand(&self, slot: Slot) -> Operand<'_> {
+        match (&self.scalar[slot as usize], self.constant[slot as usize]) {
+            (Some(chain), _) => Operand::Chained(chain),
+            (None, Some(v)) => Operand::Constant(v),
+            _ => Operand::Other,
+        }
+    }
+
+    fn wide_operand(&self, slot: Slot) -> Operand<'_> {
+        match (&self.wide[slot as usize], self.wconstant[slot as usize]) {
+            (Some(chain), _) => Operand::Chained(chain),
+            (None, Some(v)) => Operand::Constant(v),
+            _ => Operand::Other,
+        }
+    }
+
+    fn vec3_operand(&self, slot: Slot, k: usize) -> Operand<'_> {
+        match (&self.vec3[slot as usize][k], self.vconstant[slot as usize]) {
+            (Some(chain), _) => Operand::Chained(chain),
+            (None, Some(v)) => Operand::Constant(v[k]),
+            _ => Operand::Other,
+        }
+    }
+
+    /// Instruction `i`: what its result holds, and its fusion where it extends chains (set in
+    /// `f`, replacing a plain fusion: the chain's rule is exact).
+    pub(super) fn visit(
+        &mut self,
+        tape: &Tape,
+        i: usize,
+        instr: &Instr,
+        integer: [bool; 3],
+        f: &mut Fusions,
+    ) {
+        let (scalar, vector, extends) = self.made(tape, i, instr, integer);
+        if extends {
+            let chains: Vec<&Chain> = match (&scalar, &vector) {
+                (Some(c), _) => vec![c],
+                (None, Some(v)) => v.iter().flatten().collect(),
+                _ => Vec::new(),
+            };
+            let complete = chains.len() == if scalar.is_some() { 1 } else { 3 };
+            if complete {
+                let parts = chains
+                    .into_iter()
+                    .map(|c| Part {
+                        saved: side_slot(f, c.at, c.source),
+                        scale: c.scale,
+                        shape: c.g.clone(),
+                    })
+                    .collect();
+                f.fused[i] = Some(Fusion::Periodic { parts });
+            }
+        }
+        if let Some(dst) = super::fusions::scalar_dst(instr) {
+            self.scalar[dst as usize] = scalar;
+        } else if let Some(dst) = wide_dst(instr) {
+            self.wide[dst as usize] = scalar;
+        }
+        if let Some(dst) = vec3_dst(instr) {
+            self.vconstant[dst as usize] = self.made_constant(instr);
+            self.vec3[dst as usize] = vector.unwrap_or([None, None, None]);
+        }
+    }
+
+    /// A vec3 result that is constant: a splat or combination of constants (the pinned
+    /// constant slots are never written).
+    fn made_constant(&self, instr: &Instr) -> Option<[f64; 3]> {
+        match *instr {
+            Instr::Splat { src, .. } => self.constant[src as usize].map(|v| [v; 3]),
+            Instr::Combine { x, y, z, .. } => Some([
+                self.constant[x as usize]?,
+                self.constant[y as usize]?,
+                self.constant[z as usize]?,
+            ]),
+            _ => None,
+        }
+    }
+
+    /// The chains an instruction's result holds (scalar, or per component), and whether it
+    /// extends a chain (a fused instruction) rather than starting or copying one.
+    #[allow(clippy::type_complexity)]
+    fn made(
+        &self,
+        tape: &Tape,
+        i: usize,
+        instr: &Instr,
+        integer: [bool; 3],
+    ) -> (Option<Chain>, Option<[Option<Chain>; 3]>, bool) {
+        let each = |f: &dyn Fn(usize) -> Option<Chain>| Some(std::array::from_fn(f));
+        match *instr {
+            Instr::UnaryScalar { op, src, .. } => {
+                let root = Source::Scalar(src);
+                match (op, self.scalar_operand(src)) {
+                    (UnaryOp::Fract, _) => (Some(start(i, root, 1.0)), None, false),
+                    (_, Operand::Chained(c)) => (unary(op, c), None, true),
+                    _ => (None, None, false),
+                }
+            }
+            Instr::UnaryVec3 { op, src, .. } => {
+                let made = each(&|k| match (op, self.vec3_operand(src, k)) {
+                    (UnaryOp::Fract, _) => Some(start(i, Source::Vec3(src, k as u8), 1.0)),
+                    (_, Operand::Chained(c)) => unary(op, c),
+                    _ => None,
+                });
+                (None, made, op != UnaryOp::Fract)
+            }
+            Instr::BinaryScalar { op, a, b, .. } => {
+                let (x, y) = (self.scalar_operand(a), self.scalar_operand(b));
+                match modulo(i, op, Source::Scalar(a), x, y, integer[0]) {
+                    Some(root) => (Some(root), None, false),
+                    None => (binary(op, x, y), None, true),
+                }
+            }
+            Instr::BinaryVec3 { op, a, b, .. } => {
+                let made = each(&|k| {
+                    let (x, y) = (self.vec3_operand(a, k), self.vec3_operand(b, k));
+                    let root = Source::Vec3(a, k as u8);
+                    modulo(i, op, root, x, y, integer[k]).or_else(|| binary(op, x, y))
+                });
+                (None, made, op != BinaryOp::Mod)
+            }
+            Instr::TernaryScalar { op, a, b, c, .. } => {
+                let [x, y, z] = [a, b, c].map(|s| self.scalar_operand(s));
+                (ternary(op, x, y, z), None, true)
+            }
+            Instr::TernaryVec3 { op, a, b, c, .. } => {
+                let made = each(&|k| {
+                    let [x, y, z] = [a, b, c].map(|s| self.vec3_operand(s, k));
+                    ternary(op, x, y, z)
+                });
+                (None, made, true)
+            }
+            Instr::Curve { src, curve, .. } => {
+                let h =
+                    Linear::from_piecewise(&spline_shape(tape.curves[curve as usize].as_ref(), 0));
+                let made = chained(self.scalar_operand(src)).and_then(|c| then(c, h.as_ref()?));
+                (made, None, true)
+            }
+            Instr::Ramp { src, ramp, .. } => {
+                let r = tape.ramps[ramp as usize].as_ref();
+                let made = each(&|k| {
+                    let h = Linear::from_piecewise(&spline_shape(r, k))?;
+                    then(chained(self.scalar_operand(src))?, &h)
+                });
+                (None, made, true)
+            }
+            Instr::Splat { src, .. } => {
+                let c = self.scalar[src as usize].clone();
+                (None, Some([c.clone(), c.clone(), c]), false)
+            }
+            Instr::Combine { x, y, z, .. } => {
+                let made = [x, y, z].map(|s| self.scalar[s as usize].clone());
+                (None, Some(made), false)
+            }
+            Instr::Component { src, axis, .. } => {
+                let c = self.vec3[src as usize][axis as usize % 3].clone();
+                (c, None, false)
+            }
+            Instr::Wide(w) => self.made_wide(i, w, integer),
+            _ => (None, None, false),
+        }
+    }
+
+    /// [`Chains::made`] for a promoted instruction: the same chains on the wide slots (a
+    /// promoted tape filters as the plain one).
+    #[allow(clippy::type_complexity)]
+    fn made_wide(
+        &self,
+        i: usize,
+        w: Wide,
+        integer: [bool; 3],
+    ) -> (Option<Chain>, Option<[Option<Chain>; 3]>, bool) {
+        match w {
+            Wide::Unary { op, src, .. } => match (op, self.wide_operand(src)) {
+                (UnaryOp::Fract, _) => (Some(start(i, Source::Wide(src), 1.0)), None, false),
+                (_, Operand::Chained(c)) => (unary(op, c), None, true),
+                _ => (None, None, false),
+            },
+            Wide::Binary { op, a, b, .. } => {
+                let (x, y) = (self.wide_operand(a), self.wide_operand(b));
+                match modulo(i, op, Source::Wide(a), x, y, integer[0]) {
+                    Some(root) => (Some(root), None, false),
+                    None => (binary(op, x, y), None, true),
+                }
+            }
+            Wide::Ternary { op, a, b, c, .. } => {
+                let [x, y, z] = [a, b, c].map(|s| self.wide_operand(s));
+                (ternary(op, x, y, z), None, true)
+            }
+            Wide::Widen { src, .. } => (self.scalar[src as usize].clone(), None, false),
+            Wide::Narrow { src, .. } => (self.wide[src as usize].clone(), None, false),
+            Wide::Component { src, axis, .. } => (
+                self.vec3[src as usize][axis as usize % 3].clone(),
+                None,
+                false,
+            ),
+            Wide::Splat { src, .. } => {
+                let c = self.wide[src as usize].clone();
+                (None, Some([c.clone(), c.clone(), c]), false)
+            }
+            Wide::Combine { x, y, z, .. } => (
+                None,
+                Some([x, y, z].map(|s| self.wide[s as usize].clone())),
+                false,
+            ),
+            _ => (None, None, false),
+        }
+    }
+}
+
+fn start(at: usize, source: Source, scale: f64) -> Chain {
+    Chain {
+        at,
+        source,
+        scale,
+        g: Periodic::sawtooth(),
+    }
+}
+
+fn chained(o: Operand<'_>) -> Option<&Chain> {
+    match o {
+        Operand::Chained(c) => Some(c),
+        _ => None,
+    }
+}
+
+fn with(c: &Chain, g: Option<Periodic>) -> Option<Chain> {
+    Some(Chain { g: g?, ..c.clone() })
+}
+
+fn then(c: &Chain, h: &Linear) -> Option<Chain> {
+    with(c, c.g.then(h))
+}
+
+fn affine(c: &Chain, a: f64, b: f64) -> Option<Chain> {
+    with(c, c.g.affine(a, b))
+}
+
+fn unary(op: UnaryOp, c: &Chain) -> Option<Chain> {
+    match op {
+        UnaryOp::Abs => then(c, &Linear::abs()),
+        UnaryOp::Neg => affine(c, 0.0, -1.0),
+        _ => None,
+    }
+}
+
+/// `Mod(x, c)` by a constant `c > 0` of a value not integer-valued (the lattice rule takes
+/// those) and not chained: `c · fract(x / c)`, a new chain.
+fn modulo(
+    at: usize,
+    op: BinaryOp,
+    source: Source,
+    x: Operand,
+    y: Operand,
+    integer: bool,
+) -> Option<Chain> {
+    match (op, x, y) {
+        (BinaryOp::Mod, Operand::Other, Operand::Constant(c))
+            if c > 0.0 && c.is_finite() && !integer =>
+        {
+            let chain = start(at, source, 1.0 / c);
+            affine(&chain, 0.0, c)
+        }
+        _ => None,
+    }
+}
+
+fn binary(op: BinaryOp, x: Operand, y: Operand) -> Option<Chain> {
+    use Operand::{Chained, Constant};
+    match (op, x, y) {
+        (BinaryOp::Add, Chained(c), Constant(v)) | (BinaryOp::Add, Constant(v), Chained(c)) => {
+            affine(c, v, 1.0)
+        }
+        (BinaryOp::Sub, Chained(c), Constant(v)) => affine(c, -v, 1.0),
+        (BinaryOp::Sub, Constant(v), Chained(c)) => affine(c, v, -1.0),
+        (BinaryOp::Mul, Chained(c), Constant(v)) | (BinaryOp::Mul, Constant(v), Chained(c)) => {
+            affine(c, 0.0, v)
+        }
+        (BinaryOp::Div, Chained(c), Constant(v)) if v != 0.0 => affine(c, 0.0, 1.0 / v),
+        (BinaryOp::Min, Chained(c), Constant(v)) | (BinaryOp::Min, Constant(v), Chained(c)) => {
+            then(c, &Linear::min_max(v, false)?)
+        }
+        (BinaryOp::Max, Chained(c), Constant(v)) | (BinaryOp::Max, Constant(v), Chained(c)) => {
+            then(c, &Linear::min_max(v, true)?)
+        }
+        (BinaryOp::Step, Constant(edge), Chained(c)) => then(c, &Linear::step(edge)?),
+        _ => None,
+    }
+}
+
+fn ternary(op: TernaryOp, x: Operand, y: Operand, z: Operand) -> Option<Chain> {
+    use Operand::{Chained, Constant};
+    match (op, x, y, z) {
+        (TernaryOp::Clamp, Chained(c), Constant(lo), Constant(hi)) => {
+            then(c, &Linear::clamp(lo, hi)?)
+        }
+        // a + t (b − a).
+        (TernaryOp::Mix, Constant(a), Constant(b), Chained(c)) => affine(c, a, b - a),
+        _ => None,
+    }
+}
