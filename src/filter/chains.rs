@@ -1,17 +1,20 @@
 //! Periodic chains (`periodic.rs`): which values are `g(fract X)` of a `Fract`'s (or a `Mod` by
-//! a constant's) argument `X`, with `g` piecewise linear, so that the filtered form computes
+//! a constant's) argument `X`, with `g` piecewise cubic, so that the filtered form computes
 //! them from `X` exactly instead of rule after rule.
 //!
 //! One forward walk over the tape beside `fusions.rs`'s: each scalar slot and each component of
 //! a vec3 slot remembers the chain it holds (its root's instruction and operand, and `g`), and
 //! which slots hold constants. A `Fract` or `Mod` starts a chain (its own rule is exact); an
 //! `Abs`, `Neg`, an affine map, `Min`/`Max`/`Clamp`/`Step`/`Mix` with constants, a linear or
-//! constant `Curve` or `ColorRamp` of a chained value extends it and is fused; copies
+//! constant `Curve` or `ColorRamp` of a chained value extends it and is fused, and so does one
+//! piecewise-cubic shape (a `Smoothstep` with constant edges, a smooth ramp or curve, a
+//! `Hermite`) after which only affine maps may follow; copies
 //! (`Splat`, `Combine`, `Component`) carry it. Anything else ends it.
 
 use super::fusions::{side_slot, vec3_dst, wide_dst, Fusion, Fusions, Part, Source};
-use super::periodic::{Linear, Periodic};
-use super::rules::spline_shape;
+use super::moments::Piecewise;
+use super::periodic::{Periodic, Shape};
+use super::rules::{hermite_shape, spline_shape};
 use crate::ops::{BinaryOp, TernaryOp, UnaryOp};
 use crate::tape::{Instr, Slot, Tape, Wide};
 
@@ -198,17 +201,18 @@ impl Chains {
                 (None, made, true)
             }
             Instr::Curve { src, curve, .. } => {
-                let h =
-                    Linear::from_piecewise(&spline_shape(tape.curves[curve as usize].as_ref(), 0));
-                let made = chained(self.scalar_operand(src)).and_then(|c| then(c, h.as_ref()?));
+                let h = spline_shape(tape.curves[curve as usize].as_ref(), 0);
+                let made = chained(self.scalar_operand(src)).and_then(|c| then(c, &h));
+                (made, None, true)
+            }
+            Instr::Hermite { src, spline, .. } => {
+                let h = hermite_shape(&tape.hermites[spline as usize]);
+                let made = chained(self.scalar_operand(src)).and_then(|c| then(c, &h));
                 (made, None, true)
             }
             Instr::Ramp { src, ramp, .. } => {
                 let r = tape.ramps[ramp as usize].as_ref();
-                let made = each(&|k| {
-                    let h = Linear::from_piecewise(&spline_shape(r, k))?;
-                    then(chained(self.scalar_operand(src))?, &h)
-                });
+                let made = each(&|k| then(chained(self.scalar_operand(src))?, &spline_shape(r, k)));
                 (None, made, true)
             }
             Instr::Splat { src, .. } => {
@@ -295,7 +299,7 @@ fn with(c: &Chain, g: Option<Periodic>) -> Option<Chain> {
     Some(Chain { g: g?, ..c.clone() })
 }
 
-fn then(c: &Chain, h: &Linear) -> Option<Chain> {
+fn then(c: &Chain, h: &Piecewise) -> Option<Chain> {
     with(c, c.g.then(h))
 }
 
@@ -305,7 +309,7 @@ fn affine(c: &Chain, a: f64, b: f64) -> Option<Chain> {
 
 fn unary(op: UnaryOp, c: &Chain) -> Option<Chain> {
     match op {
-        UnaryOp::Abs => then(c, &Linear::abs()),
+        UnaryOp::Abs => then(c, &Shape::abs()),
         UnaryOp::Neg => affine(c, 0.0, -1.0),
         _ => None,
     }
@@ -345,12 +349,12 @@ fn binary(op: BinaryOp, x: Operand, y: Operand) -> Option<Chain> {
         }
         (BinaryOp::Div, Chained(c), Constant(v)) if v != 0.0 => affine(c, 0.0, 1.0 / v),
         (BinaryOp::Min, Chained(c), Constant(v)) | (BinaryOp::Min, Constant(v), Chained(c)) => {
-            then(c, &Linear::min_max(v, false)?)
+            then(c, &Shape::min_max(v, false)?)
         }
         (BinaryOp::Max, Chained(c), Constant(v)) | (BinaryOp::Max, Constant(v), Chained(c)) => {
-            then(c, &Linear::min_max(v, true)?)
+            then(c, &Shape::min_max(v, true)?)
         }
-        (BinaryOp::Step, Constant(edge), Chained(c)) => then(c, &Linear::step(edge)?),
+        (BinaryOp::Step, Constant(edge), Chained(c)) => then(c, &Shape::step(edge)?),
         _ => None,
     }
 }
@@ -359,10 +363,13 @@ fn ternary(op: TernaryOp, x: Operand, y: Operand, z: Operand) -> Option<Chain> {
     use Operand::{Chained, Constant};
     match (op, x, y, z) {
         (TernaryOp::Clamp, Chained(c), Constant(lo), Constant(hi)) => {
-            then(c, &Linear::clamp(lo, hi)?)
+            then(c, &Shape::clamp(lo, hi)?)
         }
         // a + t (b − a).
         (TernaryOp::Mix, Constant(a), Constant(b), Chained(c)) => affine(c, a, b - a),
+        (TernaryOp::Smoothstep, Constant(e0), Constant(e1), Chained(c)) => {
+            then(c, &Shape::smoothstep(e0, e1)?)
+        }
         _ => None,
     }
 }

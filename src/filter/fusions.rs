@@ -285,4 +285,28 @@ mod tests {
         assert_eq!(folded_step(0.5, 0.2), None);
         assert_eq!(folded_step(-0.1, 0.2), None);
     }
+
+    /// Periodic chains: each instruction after a `Fract` or a `Mod` by a constant that is
+    /// piecewise linear in it is fused (scalar and per component); a chain ends at anything
+    /// else, and a `Mod` of an integer-valued value is left to the lattice rule.
+    #[test]
+    fn periodic_chains_are_found() {
+        let t = tape(
+            r#"Graph(nodes: { "p": Position, "f": Fract("p.x"), "v": Fract("p") }, outputs: {
+                "tent": Sub(1.0, Abs(Sub(Mul(2.0, "f"), 1.0))),
+                "vec": Abs(Sub("v", 0.5)),
+                "ramp": ColorRamp(input: "f", stops: [(0.0, (0, 0, 0)), (0.5, (1, 1, 1))],
+                                  interpolation: Constant),
+                "smooth": Smoothstep(0.0, 0.4, "f"),
+                "folded": Abs(Sub(Smoothstep(0.1, 0.3, "f"), 0.5)),
+                "moved": Div(Mod("p.y", 0.3), 0.3),
+                "parity": Mod(Floor("p.z"), 2.0),
+                "ended": Sin(Mul(3.0, "f")) })"#,
+        );
+        let periodic = kinds(&t).iter().filter(|k| **k == "periodic").count();
+        // tent: Mul, Sub, Abs, Sub; vec: Sub, Abs; ramp; smooth; folded: Smoothstep, Sub;
+        // moved: Div; ended: the Mul. Not the Abs of a cubic, the sine, or either Mod (a
+        // chain's start; an integer's parity).
+        assert_eq!(periodic, 12, "{}", t);
+    }
 }

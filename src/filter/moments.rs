@@ -170,7 +170,7 @@ const RATIO: f64 = 1e-4;
 /// The support length up to which `fract` and the periodic recursion expand around the
 /// integers inside the support instead of differencing over the largest width (see the module
 /// docs): above it the largest width exceeds `2/3`.
-const LOCAL_SPAN: f64 = 2.0;
+pub(super) const LOCAL_SPAN: f64 = 2.0;
 
 /// `n!` for `n <= 15`, exact in f64.
 const FACT: [f64; 16] = [
@@ -195,17 +195,118 @@ const FACT: [f64; 16] = [
 /// The length of the moment and power series (`e_j = E[S^j]/j!`, `x^j/j!` for `j < SERIES`).
 const SERIES: usize = 16;
 
-/// Bernoulli polynomials `B_0..B_6`, coefficients in ascending powers of `u`
+/// Bernoulli polynomials `B_0..B_10`, coefficients in ascending powers of `u`
 /// (`B_n(u) = Σ_k C(n,k) B_k u^{n−k}` with the Bernoulli numbers
-/// `1, −1/2, 1/6, 0, −1/30, 0, 1/42`).
-const BERNOULLI: [[f64; 7]; 7] = [
-    [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-    [-0.5, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-    [1.0 / 6.0, -1.0, 1.0, 0.0, 0.0, 0.0, 0.0],
-    [0.0, 0.5, -1.5, 1.0, 0.0, 0.0, 0.0],
-    [-1.0 / 30.0, 0.0, 1.0, -2.0, 1.0, 0.0, 0.0],
-    [0.0, -1.0 / 6.0, 0.0, 5.0 / 3.0, -2.5, 1.0, 0.0],
-    [1.0 / 42.0, 0.0, -0.5, 0.0, 2.5, -3.0, 1.0],
+/// `1, −1/2, 1/6, 0, −1/30, 0, 1/42, 0, −1/30, 0, 5/66`): up to `B_7` for the second moment of
+/// a periodic cubic (`periodic.rs`), three more for the nested widths.
+const BERNOULLI: [[f64; 11]; 11] = [
+    [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [-1.0 / 2.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [1.0 / 6.0, -1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [
+        0.0,
+        1.0 / 2.0,
+        -3.0 / 2.0,
+        1.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+    ],
+    [
+        -1.0 / 30.0,
+        0.0,
+        1.0,
+        -2.0,
+        1.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+    ],
+    [
+        0.0,
+        -1.0 / 6.0,
+        0.0,
+        5.0 / 3.0,
+        -5.0 / 2.0,
+        1.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+    ],
+    [
+        1.0 / 42.0,
+        0.0,
+        -1.0 / 2.0,
+        0.0,
+        5.0 / 2.0,
+        -3.0,
+        1.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+    ],
+    [
+        0.0,
+        1.0 / 6.0,
+        0.0,
+        -7.0 / 6.0,
+        0.0,
+        7.0 / 2.0,
+        -7.0 / 2.0,
+        1.0,
+        0.0,
+        0.0,
+        0.0,
+    ],
+    [
+        -1.0 / 30.0,
+        0.0,
+        2.0 / 3.0,
+        0.0,
+        -7.0 / 3.0,
+        0.0,
+        14.0 / 3.0,
+        -4.0,
+        1.0,
+        0.0,
+        0.0,
+    ],
+    [
+        0.0,
+        -3.0 / 10.0,
+        0.0,
+        2.0,
+        0.0,
+        -21.0 / 5.0,
+        0.0,
+        6.0,
+        -9.0 / 2.0,
+        1.0,
+        0.0,
+    ],
+    [
+        5.0 / 66.0,
+        0.0,
+        -3.0 / 2.0,
+        0.0,
+        5.0,
+        0.0,
+        -7.0,
+        0.0,
+        15.0 / 2.0,
+        -5.0,
+        1.0,
+    ],
 ];
 
 /// The spread of a value over a footprint: `S = Σ w_k U_k` (see the module docs).
@@ -298,6 +399,14 @@ impl Spread {
     }
 
     /// `Var S = Σ w² / 12` (inf when unbounded).
+    /// Half the width of the support, `Σ w / 2` (infinite for an unbounded spread).
+    pub fn half_support(&self) -> f64 {
+        if self.unbounded {
+            return f64::INFINITY;
+        }
+        self.active().iter().sum::<f64>() / 2.0
+    }
+
     pub fn variance(&self) -> f64 {
         if self.unbounded {
             f64::INFINITY
@@ -337,20 +446,28 @@ impl Moments {
 /// `e_j = E[S^j] / j!` for `j < SERIES` (odd ones 0): the product of the series
 /// `Σ_i (w/2)^{2i} z^{2i} / (2i + 1)!` of the widths (module docs, "The moments of S").
 fn moment_series(w: &[f64]) -> [f64; SERIES] {
+    // Plain index loops over the even orders (the odd ones are 0): this runs once per rule
+    // application and level, and stepped iterators did not optimise well (a fifth of a
+    // turbulence render's time).
+    const HALF: usize = SERIES / 2;
     let mut e = [0.0; SERIES];
     e[0] = 1.0;
     for &wk in w {
-        // u_i = E[(wU)^i] / i! = (w/2)^i / (i + 1)! for even i.
+        // u_i = E[(wU)^i] / i! = (w/2)^i / (i + 1)! for even i, kept at u[i / 2].
         let h2 = (wk / 2.0) * (wk / 2.0);
-        let mut u = [0.0; SERIES];
+        let mut u = [0.0; HALF];
         let mut p = 1.0;
-        for i in (0..SERIES - 1).step_by(2) {
-            u[i] = p / FACT[i + 1];
+        for (i, ui) in u.iter_mut().enumerate() {
+            *ui = p / FACT[2 * i + 1];
             p *= h2;
         }
         let mut next = [0.0; SERIES];
-        for j in (0..SERIES).step_by(2) {
-            next[j] = (0..=j).step_by(2).map(|i| e[i] * u[j - i]).sum();
+        for j in 0..HALF {
+            let mut acc = 0.0;
+            for i in 0..=j {
+                acc += e[2 * i] * u[j - i];
+            }
+            next[2 * j] = acc;
         }
         e = next;
     }
@@ -413,22 +530,29 @@ impl Widths {
 
 /// `E[(x + S_level)^m / m!]` for `m = n0..n0 + 6` by (P), `S_level` over the widths
 /// `w[level..]`.
-fn poly_means(x: f64, ws: &Widths, level: usize, n0: usize) -> [f64; 7] {
+fn poly_means(x: f64, ws: &Widths, level: usize, n0: usize, len: usize) -> [f64; 7] {
     debug_assert!(n0 + 6 < SERIES);
     let e = &ws.series[level];
     let p = power_series(x);
     array::from_fn(|d| {
+        if d >= len {
+            return 0.0;
+        }
         let m = n0 + d;
-        (0..=m).step_by(2).map(|i| p[m - i] * e[i]).sum()
+        let mut acc = 0.0;
+        for i in 0..=m / 2 {
+            acc += p[m - 2 * i] * e[2 * i];
+        }
+        acc
     })
 }
 
 /// `E[T_m(x + S_level)]` (`T_m(x) = x₊^m / m!`) for `m = n0..n0 + 6`, `S_level` over the widths
 /// `w[level..]`: the nested evaluation of (D) with its two shortcuts (module docs).
-fn tp_means(x: f64, ws: &Widths, level: usize, n0: usize) -> [f64; 7] {
+fn tp_means(x: f64, ws: &Widths, level: usize, n0: usize, len: usize) -> [f64; 7] {
     let half = ws.half[level];
     if x - half >= 0.0 {
-        return poly_means(x, ws, level, n0);
+        return poly_means(x, ws, level, n0, len);
     }
     if x + half <= 0.0 {
         return [0.0; 7];
@@ -437,8 +561,8 @@ fn tp_means(x: f64, ws: &Widths, level: usize, n0: usize) -> [f64; 7] {
         return [f64::NAN; 7]; // only for a NaN x
     }
     let w1 = ws.w[level];
-    let hi = tp_means(x + w1 / 2.0, ws, level + 1, n0 + 1);
-    let lo = tp_means(x - w1 / 2.0, ws, level + 1, n0 + 1);
+    let hi = tp_means(x + w1 / 2.0, ws, level + 1, n0 + 1, len);
+    let lo = tp_means(x - w1 / 2.0, ws, level + 1, n0 + 1, len);
     array::from_fn(|d| (hi[d] - lo[d]) / w1)
 }
 
@@ -455,7 +579,7 @@ fn density_s(u: f64, ws: &Widths) -> f64 {
         return 0.0;
     }
     let w1 = ws.w[0];
-    (tp_means(x + w1 / 2.0, ws, 1, 0)[0] - tp_means(x - w1 / 2.0, ws, 1, 0)[0]) / w1
+    (tp_means(x + w1 / 2.0, ws, 1, 0, 1)[0] - tp_means(x - w1 / 2.0, ws, 1, 0, 1)[0]) / w1
 }
 
 /// `E[(X)₊^d / d!]` with `X = t + S` (truncated power; `(x)₊^0` = 1 for `x >= 0`, 0 below),
@@ -474,7 +598,7 @@ pub fn ramp_mean(t: f64, s: &Spread, d: u32) -> f64 {
     if s.unbounded {
         return if d == 0 { 0.5 } else { f64::INFINITY };
     }
-    tp_means(t, &Widths::new(s), 0, 0)[d as usize]
+    tp_means(t, &Widths::new(s), 0, 0, d as usize + 1)[d as usize]
 }
 
 /// `E[X^d / d!]`, `d <= 6`, by (P): exact, no cancellation at any `t`.
@@ -498,7 +622,7 @@ pub fn power_mean(t: f64, s: &Spread, d: u32) -> f64 {
             _ => t.signum() * f64::INFINITY,
         };
     }
-    poly_means(t, &Widths::new(s), 0, 0)[d as usize]
+    poly_means(t, &Widths::new(s), 0, 0, d as usize + 1)[d as usize]
 }
 
 /// The density of `X` at 0 (`d/dt` of `P(X >= 0)`), `p_S(−t) = p_S(t)`, by one step of (D)
@@ -526,7 +650,7 @@ fn horner(c: &[f64], u: f64) -> f64 {
 
 /// The Taylor coefficients at `u0` of the cubic with coefficients `a` (in `u`):
 /// `b_d = a^{(d)}(u0) / d!`.
-fn taylor_at(a: [f64; 4], u0: f64) -> [f64; 4] {
+pub(super) fn taylor_at(a: [f64; 4], u0: f64) -> [f64; 4] {
     [
         horner(&a, u0),
         horner(&[a[1], 2.0 * a[2], 3.0 * a[3]], u0),
@@ -571,9 +695,15 @@ impl Piecewise {
         Piecewise { knots, polys }
     }
 
-    /// The knots and local coefficients, as given to [`Piecewise::new`].
-    pub fn parts(&self) -> (&[f64], &[[f64; 4]]) {
-        (&self.knots, &self.polys)
+    /// The piece at `x`: its anchor and local coefficients (`f(x) = Σ a_i (x − anchor)^i`).
+    pub fn piece(&self, x: f64) -> (f64, [f64; 4]) {
+        let j = self.knots.partition_point(|&c| c <= x);
+        (anchor(&self.knots, j), self.polys[j])
+    }
+
+    /// The knots.
+    pub fn knots(&self) -> &[f64] {
+        &self.knots
     }
 
     /// `f` at a point (the point evaluation, used when the spread is a point). NaN gives NaN.
@@ -667,7 +797,7 @@ struct Plan {
 }
 
 /// Chooses how each piece meeting the support `[t − Σw/2, t + Σw/2]` is integrated.
-fn plan(knots: &[f64], t: f64, ws: &Widths) -> Plan {
+fn plan(knots: &[f64], polys: &[[f64; 4]], t: f64, ws: &Widths) -> Plan {
     let (sum, n) = (ws.sum(), knots.len());
     let (xl, xr) = (t - ws.half[0], t + ws.half[0]);
     let lo_of = |i: usize| {
@@ -678,16 +808,22 @@ fn plan(knots: &[f64], t: f64, ws: &Widths) -> Plan {
         }
     };
     let hi_of = |i: usize| if i == n { f64::INFINITY } else { knots[i] };
+    let first = knots.partition_point(|&c| c <= xl);
+    let last = knots.partition_point(|&c| c < xr).max(first);
+    // The orders the integrands need: up to twice the pieces' degree (the centred square).
+    let degree = (first..=last)
+        .map(|i| polys[i].iter().rposition(|&a| a != 0.0).unwrap_or(0))
+        .max()
+        .unwrap_or(3);
+    let len = 2 * degree + 1;
     let upper = |c: f64| Part::Upper {
         c,
-        tp: tp_means(t - c, ws, 0, 0),
+        tp: tp_means(t - c, ws, 0, 0, len),
     };
     let lower = |c: f64| Part::Lower {
         c,
-        tp: tp_means(c - t, ws, 0, 0),
+        tp: tp_means(c - t, ws, 0, 0, len),
     };
-    let first = knots.partition_point(|&c| c <= xl);
-    let last = knots.partition_point(|&c| c < xr).max(first);
     let mut plan = Plan {
         parts: Vec::with_capacity(last - first + 2),
         nodes: Vec::new(),
@@ -776,7 +912,7 @@ fn plan_mean(
 }
 
 /// [`Piecewise::moments`] over slices (also used by [`fract_moments`] with stack arrays).
-fn piecewise_moments(knots: &[f64], polys: &[[f64; 4]], t: f64, s: &Spread) -> Moments {
+pub(super) fn piecewise_moments(knots: &[f64], polys: &[[f64; 4]], t: f64, s: &Spread) -> Moments {
     if t.is_nan() {
         return Moments::NAN;
     }
@@ -793,8 +929,21 @@ fn piecewise_moments(knots: &[f64], polys: &[[f64; 4]], t: f64, s: &Spread) -> M
             slope: 0.0,
         };
     }
+    // No knot inside the support and a piece of degree <= 1 there: that line alone (the
+    // common case of a sharp noise octave through `abs`), without the moment series.
+    let half = s.active().iter().sum::<f64>() / 2.0;
+    let j = knots.partition_point(|&c| c <= t);
+    let line = polys[j][2] == 0.0 && polys[j][3] == 0.0;
+    if line && !knots.iter().any(|&c| c > t - half && c < t + half) {
+        let b = polys[j][1];
+        return Moments {
+            mean: horner(&polys[j], t - anchor(knots, j)),
+            variance: b * b * s.variance(),
+            slope: b,
+        };
+    }
     let ws = Widths::new(s);
-    let plan = plan(knots, t, &ws);
+    let plan = plan(knots, polys, t, &ws);
     let mean = plan_mean(&plan, knots, polys, t, &ws, Integrand::Value);
     let mut slope = plan_mean(&plan, knots, polys, t, &ws, Integrand::Derivative);
     // The Dirac terms of f' at its jumps inside the support.
@@ -815,7 +964,7 @@ fn piecewise_moments(knots: &[f64], polys: &[[f64; 4]], t: f64, s: &Spread) -> M
     }
 }
 
-/// `B_n(u) / n!` (`n <= 6`).
+/// `B_n(u) / n!` (`n <= 10`).
 fn bernoulli_over_factorial(n: usize, u: f64) -> f64 {
     horner(&BERNOULLI[n], u) / FACT[n]
 }
@@ -839,7 +988,7 @@ fn periodic_mean(x: f64, ws: &Widths, level: usize, n: usize) -> f64 {
             .sum::<f64>();
         let mut m = m0 + 1.0;
         while m <= hi {
-            acc -= tp_means(x - m, ws, level, n - 1)[0];
+            acc -= tp_means(x - m, ws, level, n - 1, 1)[0];
             m += 1.0;
         }
         return acc;
@@ -872,9 +1021,9 @@ impl PeriodicMeans {
         self.ws.half[0]
     }
 
-    /// `Φ_n(x)` for `1 <= n <= 3`.
+    /// `Φ_n(x)` for `1 <= n <= 7`.
     pub fn phi(&self, x: f64, n: usize) -> f64 {
-        debug_assert!((1..=3).contains(&n));
+        debug_assert!((1..=7).contains(&n));
         periodic_mean(x, &self.ws, 0, n)
     }
 

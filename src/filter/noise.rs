@@ -512,9 +512,29 @@ pub fn fractal_lanes(
         q.clear();
         q.extend(p.iter().map(|v| v.map(|c| c.scale(freq))));
         octave_lanes(lanes, &sampler, &q, &same, &mut n, scratch);
+        if style == Style::Fbm {
+            for (lane, (sum, n)) in out.iter_mut().zip(&n).enumerate() {
+                *sum = lanes.rules(lane).add(sum, &n.scale(amp));
+            }
+            continue;
+        }
+        // A fully faded octave is the same at every lane (no slope: the footprint does not
+        // enter its shaping): shaped once, not per lane.
+        let mut last: Option<(Dist, Dist, Dist, Dist)> = None;
         for (lane, (sum, n)) in out.iter_mut().zip(&n).enumerate() {
             let rules = lanes.rules(lane);
-            let shaped = shape(&rules, shapes, style, n, &mut weight[lane]);
+            let key = (*n, weight[lane]);
+            let shaped = match last {
+                Some((ln, lw, shaped, w)) if n.grad == [0.0; 3] && (ln, lw) == key => {
+                    weight[lane] = w;
+                    shaped
+                }
+                _ => {
+                    let shaped = shape(&rules, shapes, style, n, &mut weight[lane]);
+                    last = Some((key.0, key.1, shaped, weight[lane]));
+                    shaped
+                }
+            };
             *sum = rules.add(sum, &shaped.scale(amp));
         }
     }

@@ -1,12 +1,13 @@
-//! Periodic piecewise-linear functions of a value over a footprint: `g(fract X)` where `g` is
-//! piecewise linear on `[0, 1)`, exactly (docs/filtering.md, "Periodic chains").
+//! Periodic piecewise-cubic functions of a value over a footprint: `g(fract X)` where `g` is
+//! piecewise cubic on `[0, 1)`, exactly (docs/filtering.md, "Periodic chains").
 //!
 //! A `Fract` (or `Mod` by a constant) followed by affine maps, `Abs`, `Min`/`Max`/`Clamp`/`Step`
-//! with constants and linear or constant ramps is one such `g` of the `Fract`'s argument
-//! (`fusions.rs` finds the chains). Applying the rules one after the other would model the
-//! `fract`'s spread as unimodal, where across a jump it is two clusters near 0 and near 1: a
-//! tent `1 − |2 fract(x) − 1|` over a small box on a jump is near 0, the unimodal model gives
-//! about 0.2.
+//! with constants (all keeping `g` piecewise linear), then at most one piecewise-cubic shape (a
+//! `Smoothstep` with constant edges, a `ColorRamp`, a `Curve`) and affine maps, is one such `g`
+//! of the `Fract`'s argument (`chains.rs` finds the chains). Applying the rules one after the
+//! other would model the `fract`'s spread as unimodal, where across a jump it is two clusters
+//! near 0 and near 1: a tent `1 − |2 fract(x) − 1|` over a small box on a jump is near 0, the
+//! unimodal model gives about 0.2.
 //!
 //! # The rule
 //!
@@ -21,127 +22,182 @@
 //! E[g(fract X)] = ḡ − Σ_j Σ_k J_{jk} Φ_{k+1}(t − c_j)
 //! ```
 //!
-//! (`J_{jk}` the jump of `g^(k)` at knot `c_j`, wrapping at 0; `Φ_n(x) = E[P_n(x + S)]/n!`,
-//! `moments::PeriodicMeans`). The second moment is the same formula for `g²` (degree 2, jumps of
-//! `g²`, `2gg'`, `2g'²`), the slope the formula differentiated (`Φ_{n+1}' = Φ_n`, and `Φ_1'` by
-//! one step of the box formula). Where the support holds no knot the linear piece is exact on
-//! its own (mean `g(t)`, variance `b² Var S`, slope `b`), with no cancellation.
+//! (`J_{jk}` the jump of the `k`-th derivative of `g` at knot `c_j`, wrapping at 0;
+//! `Φ_n(x) = E[P_n(x + S)]/n!`, `moments::PeriodicMeans`). The second moment is the same formula
+//! for `g²` (degree 6), the slope the formula differentiated (`Φ_{n+1}' = Φ_n`, and `Φ_1'` by
+//! one step of the box formula). A support of at most two periods instead unrolls `g` over the
+//! periods it covers and takes the exact piecewise-polynomial rule (`moments::Piecewise`):
+//! centred, so the variance keeps its relative accuracy for small boxes.
 
-use super::moments::{Moments, PeriodicMeans, Piecewise, Spread};
+use super::moments::{
+    piecewise_moments, taylor_at, Moments, PeriodicMeans, Piecewise, Spread, LOCAL_SPAN,
+};
 
 /// At most this many pieces per period: a longer chain is left to the plain rules.
 const MAX_PIECES: usize = 64;
 
-/// A piecewise-linear function of `u` on the real line: `pieces[0]` on `(−∞, knots[0])`,
-/// `pieces[i]` on `[knots[i−1], knots[i])`, the last on `[knots[n−1], ∞)`, each `a + b u`.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Linear {
-    knots: Vec<f64>,
-    pieces: Vec<[f64; 2]>,
-}
+/// The shapes a chain applies, as piecewise polynomials of their input.
+pub struct Shape;
 
-impl Linear {
+impl Shape {
     /// `|u|`.
-    pub fn abs() -> Linear {
-        Linear {
-            knots: vec![0.0],
-            pieces: vec![[0.0, -1.0], [0.0, 1.0]],
-        }
+    pub fn abs() -> Piecewise {
+        Piecewise::new(vec![0.0], vec![[0.0, -1.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]])
     }
 
     /// `min(u, c)` or (`max`) `max(u, c)`.
-    pub fn min_max(c: f64, max: bool) -> Option<Linear> {
-        let pieces = if max {
-            vec![[c, 0.0], [0.0, 1.0]]
+    pub fn min_max(c: f64, max: bool) -> Option<Piecewise> {
+        let (line, flat) = ([c, 1.0, 0.0, 0.0], [c, 0.0, 0.0, 0.0]);
+        let polys = if max {
+            vec![flat, line]
         } else {
-            vec![[0.0, 1.0], [c, 0.0]]
+            vec![line, flat]
         };
-        c.is_finite().then(|| Linear {
-            knots: vec![c],
-            pieces,
-        })
+        c.is_finite().then(|| Piecewise::new(vec![c], polys))
     }
 
     /// `clamp(u, lo, hi)` (as the interpreter: `min(max(u, lo), hi)`).
-    pub fn clamp(lo: f64, hi: f64) -> Option<Linear> {
-        (lo.is_finite() && hi.is_finite() && lo <= hi).then(|| Linear {
-            knots: vec![lo, hi],
-            pieces: vec![[lo, 0.0], [0.0, 1.0], [hi, 0.0]],
+    pub fn clamp(lo: f64, hi: f64) -> Option<Piecewise> {
+        (lo.is_finite() && hi.is_finite() && lo <= hi).then(|| {
+            Piecewise::new(
+                vec![lo, hi],
+                vec![
+                    [lo, 0.0, 0.0, 0.0],
+                    [lo, 1.0, 0.0, 0.0],
+                    [hi, 0.0, 0.0, 0.0],
+                ],
+            )
         })
+    }
+
+    /// `smoothstep(e0, e1, u)` with constant edges `e0 <= e1` (a step at `e0 = e1`).
+    pub fn smoothstep(e0: f64, e1: f64) -> Option<Piecewise> {
+        if !(e0.is_finite() && e1.is_finite() && e0 <= e1) {
+            return None;
+        }
+        let w = e1 - e0;
+        if w == 0.0 {
+            return Shape::step(e0);
+        }
+        let rise = [0.0, 0.0, 3.0 / (w * w), -2.0 / (w * w * w)];
+        Some(Piecewise::new(
+            vec![e0, e1],
+            vec![[0.0; 4], rise, [1.0, 0.0, 0.0, 0.0]],
+        ))
     }
 
     /// `step(edge, u)`: 1 for `u >= edge`, else 0.
-    pub fn step(edge: f64) -> Option<Linear> {
-        edge.is_finite().then(|| Linear {
-            knots: vec![edge],
-            pieces: vec![[0.0, 0.0], [1.0, 0.0]],
-        })
-    }
-
-    /// A piecewise polynomial whose pieces are all of degree <= 1 (a linear or constant ramp
-    /// channel), else `None`.
-    pub fn from_piecewise(f: &Piecewise) -> Option<Linear> {
-        let (knots, polys) = f.parts();
-        let mut pieces = Vec::with_capacity(polys.len());
-        for (i, p) in polys.iter().enumerate() {
-            if p[2] != 0.0 || p[3] != 0.0 {
-                return None;
-            }
-            // Local `a0 + a1 (u − anchor)` to `a + b u`.
-            let anchor = match i {
-                0 => knots.first().copied().unwrap_or(0.0),
-                _ => knots[i - 1],
-            };
-            pieces.push([p[0] - p[1] * anchor, p[1]]);
-        }
-        Some(Linear {
-            knots: knots.to_vec(),
-            pieces,
-        })
-    }
-
-    fn piece_at(&self, u: f64) -> [f64; 2] {
-        self.pieces[self.knots.partition_point(|&c| c <= u)]
+    pub fn step(edge: f64) -> Option<Piecewise> {
+        edge.is_finite()
+            .then(|| Piecewise::new(vec![edge], vec![[0.0; 4], [1.0, 0.0, 0.0, 0.0]]))
     }
 }
 
-/// `g(fract x)` for `g` piecewise linear on `[0, 1)`, with what its moments need.
+/// `Σ c_i u^i` and its derivative.
+fn poly(c: &[f64; 4], u: f64) -> (f64, f64) {
+    (
+        c[0] + u * (c[1] + u * (c[2] + u * c[3])),
+        c[1] + u * (2.0 * c[2] + u * 3.0 * c[3]),
+    )
+}
+
+fn degree(c: &[f64]) -> usize {
+    c.iter().rposition(|&a| a != 0.0).unwrap_or(0)
+}
+
+/// The `k`-th derivative at `u` of the polynomial `c` (ascending coefficients).
+fn derivative(c: &[f64], k: usize, u: f64) -> f64 {
+    let mut acc = 0.0;
+    for i in (k..c.len()).rev() {
+        let falling: f64 = (i - k + 1..=i).map(|f| f as f64).product();
+        acc = acc * u + c[i] * falling;
+    }
+    acc
+}
+
+/// `∫_{u0}^{u1}` of the polynomial `c`.
+fn integral(c: &[f64], u0: f64, u1: f64) -> f64 {
+    let antiderivative = |u: f64| {
+        let mut acc = 0.0;
+        for (i, &a) in c.iter().enumerate().rev() {
+            acc = acc * u + a / (i + 1) as f64;
+        }
+        acc * u
+    };
+    antiderivative(u1) - antiderivative(u0)
+}
+
+fn square(c: &[f64; 4]) -> [f64; 7] {
+    let mut out = [0.0; 7];
+    for i in 0..4 {
+        for j in 0..4 {
+            out[i + j] += c[i] * c[j];
+        }
+    }
+    out
+}
+
+/// `q(α + b u)` for a cubic `q`: the binomial expansion, ascending in `u`.
+fn compose(q: &[f64; 4], alpha: f64, b: f64) -> [f64; 4] {
+    const BINOMIAL: [[f64; 4]; 4] = [
+        [1.0, 0.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0, 0.0],
+        [1.0, 2.0, 1.0, 0.0],
+        [1.0, 3.0, 3.0, 1.0],
+    ];
+    let mut r = [0.0; 4];
+    for (k, &qk) in q.iter().enumerate() {
+        for (m, rm) in r.iter_mut().enumerate().take(k + 1) {
+            *rm += qk * BINOMIAL[k][m] * alpha.powi((k - m) as i32) * b.powi(m as i32);
+        }
+    }
+    r
+}
+
+/// `g(fract x)` for `g` piecewise cubic on `[0, 1)`, with what its moments need.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Periodic {
     /// Piece starts in `[0, 1)`, increasing, the first 0.
     starts: Vec<f64>,
-    /// `a + b u` per piece.
-    pieces: Vec<[f64; 2]>,
+    /// Per piece, `Σ c_i u^i` in the period's own `u`.
+    pieces: Vec<[f64; 4]>,
     /// `∫₀¹ g` and `∫₀¹ g²`.
     mean: f64,
     mean_sq: f64,
-    /// Per knot `c`: the jumps of `g`, `g'` there.
-    jumps: Vec<(f64, [f64; 2])>,
-    /// Per knot: the jumps of `g²`, `(g²)'`, `(g²)''`.
-    jumps_sq: Vec<(f64, [f64; 3])>,
+    /// Per knot `c`: the jumps of `g` and of its first three derivatives there.
+    jumps: Vec<(f64, [f64; 4])>,
+    /// Per knot: the jumps of `g²` and of its derivatives up to the sixth.
+    jumps_sq: Vec<(f64, [f64; 7])>,
 }
 
 impl Periodic {
     /// `fract x` itself.
     pub fn sawtooth() -> Periodic {
-        Periodic::finish(vec![0.0], vec![[0.0, 1.0]])
+        Periodic::finish(vec![0.0], vec![[0.0, 1.0, 0.0, 0.0]])
     }
 
     /// `a + b g`.
     pub fn affine(&self, a: f64, b: f64) -> Option<Periodic> {
-        let pieces = self.pieces.iter().map(|p| [a + b * p[0], b * p[1]]);
-        Periodic::checked(self.starts.clone(), pieces.collect())
+        let pieces = (self.pieces.iter())
+            .map(|p| [a + b * p[0], b * p[1], b * p[2], b * p[3]])
+            .collect();
+        Periodic::checked(self.starts.clone(), pieces)
     }
 
-    /// `h(g)` for a piecewise-linear `h`: each piece of `g` split where it crosses a knot of `h`.
-    pub fn then(&self, h: &Linear) -> Option<Periodic> {
+    /// `h(g)` for a piecewise polynomial `h`, where `g` is piecewise linear (else `None`): each
+    /// piece of `g` split where it crosses a knot of `h`, `h`'s piece there composed with it.
+    pub fn then(&self, h: &Piecewise) -> Option<Periodic> {
+        if self.pieces.iter().any(|p| degree(p) > 1) {
+            return None;
+        }
         let mut starts = Vec::new();
         let mut pieces = Vec::new();
-        for (j, &[a, b]) in self.pieces.iter().enumerate() {
+        for (j, p) in self.pieces.iter().enumerate() {
+            let (a, b) = (p[0], p[1]);
             let (u0, u1) = (self.starts[j], self.end(j));
             let mut cuts = vec![u0];
             if b != 0.0 {
-                let mut inside: Vec<f64> = (h.knots.iter())
+                let mut inside: Vec<f64> = (h.knots().iter())
                     .map(|&k| (k - a) / b)
                     .filter(|&u| u > u0 && u < u1)
                     .collect();
@@ -150,33 +206,36 @@ impl Periodic {
             }
             for (i, &c) in cuts.iter().enumerate() {
                 let next = cuts.get(i + 1).copied().unwrap_or(u1);
-                let [p, q] = h.piece_at(a + b * (c + next) / 2.0);
+                let (anchor, q) = h.piece(a + b * (c + next) / 2.0);
                 starts.push(c);
-                pieces.push([p + q * a, q * b]);
+                pieces.push(compose(&q, a - anchor, b));
             }
         }
         Periodic::checked(starts, pieces)
     }
 
-    /// The value at `x` (a point spread).
+    /// The value and slope at `x` (a point spread).
     pub fn eval(&self, x: f64) -> (f64, f64) {
         let u = x - x.floor();
-        let [a, b] = self.pieces[self.starts.partition_point(|&c| c <= u).max(1) - 1];
-        (a + b * u, b)
+        poly(&self.pieces[self.piece_at(u)], u)
+    }
+
+    fn piece_at(&self, u: f64) -> usize {
+        self.starts.partition_point(|&c| c <= u).max(1) - 1
     }
 
     fn end(&self, j: usize) -> f64 {
         self.starts.get(j + 1).copied().unwrap_or(1.0)
     }
 
-    fn checked(starts: Vec<f64>, pieces: Vec<[f64; 2]>) -> Option<Periodic> {
+    fn checked(starts: Vec<f64>, pieces: Vec<[f64; 4]>) -> Option<Periodic> {
         let finite = pieces.iter().flatten().all(|c| c.is_finite());
         (finite && pieces.len() <= MAX_PIECES).then(|| Periodic::finish(starts, pieces))
     }
 
     /// Merges equal neighbours and computes the integrals and jumps.
-    fn finish(starts: Vec<f64>, pieces: Vec<[f64; 2]>) -> Periodic {
-        let (mut s, mut p): (Vec<f64>, Vec<[f64; 2]>) = (Vec::new(), Vec::new());
+    fn finish(starts: Vec<f64>, pieces: Vec<[f64; 4]>) -> Periodic {
+        let (mut s, mut p): (Vec<f64>, Vec<[f64; 4]>) = (Vec::new(), Vec::new());
         for (c, piece) in starts.into_iter().zip(pieces) {
             if p.last() != Some(&piece) {
                 s.push(c);
@@ -193,20 +252,17 @@ impl Periodic {
         };
         let n = g.pieces.len();
         for j in 0..n {
-            let [a, b] = g.pieces[j];
+            let (piece, sq) = (g.pieces[j], square(&g.pieces[j]));
             let (u0, u1) = (g.starts[j], g.end(j));
-            let (g0, g1) = (a + b * u0, a + b * u1);
-            g.mean += (u1 - u0) * (g0 + g1) / 2.0;
-            g.mean_sq += (u1 - u0) * (g0 * g0 + g0 * g1 + g1 * g1) / 3.0;
-            // The jump at this piece's start, from the previous piece (the last one at u = 1).
-            let [pa, pb] = g.pieces[(j + n - 1) % n];
-            let before = pa + pb * if j == 0 { 1.0 } else { u0 };
-            let jump = [g0 - before, b - pb];
-            let jump_sq = [
-                g0 * g0 - before * before,
-                2.0 * (g0 * b - before * pb),
-                2.0 * (b * b - pb * pb),
-            ];
+            g.mean += integral(&piece, u0, u1);
+            g.mean_sq += integral(&sq, u0, u1);
+            // The jumps at this piece's start, from the previous piece (the last one at u = 1).
+            let prev = g.pieces[(j + n - 1) % n];
+            let (prev_sq, at) = (square(&prev), if j == 0 { 1.0 } else { u0 });
+            let jump: [f64; 4] =
+                std::array::from_fn(|k| derivative(&piece, k, u0) - derivative(&prev, k, at));
+            let jump_sq: [f64; 7] =
+                std::array::from_fn(|k| derivative(&sq, k, u0) - derivative(&prev_sq, k, at));
             if jump.iter().any(|&c| c != 0.0) {
                 g.jumps.push((u0, jump));
             }
@@ -235,41 +291,50 @@ impl Periodic {
             };
         }
         let x = t - t.floor();
-        let Some(phi) = PeriodicMeans::new(s) else {
-            let (value, slope) = self.eval(x);
-            return Moments {
-                mean: value,
-                variance: 0.0,
-                slope,
-            };
+        let phi = match PeriodicMeans::new(s) {
+            Some(phi) if 2.0 * s.half_support() > LOCAL_SPAN => phi,
+            _ => return self.local(x, s),
         };
-        // The support inside one piece: that piece alone, exactly.
-        let j = self.starts.partition_point(|&c| c <= x).max(1) - 1;
-        let half = phi.half();
-        if x - half >= self.starts[j] && x + half < self.end(j) {
-            let [a, b] = self.pieces[j];
-            return Moments {
-                mean: a + b * x,
-                variance: b * b * s.variance(),
-                slope: b,
-            };
-        }
         let mut mean = self.mean;
         let mut slope = 0.0;
-        for &(c, [j0, j1]) in &self.jumps {
-            let (p1, p2) = (phi.phi(x - c, 1), phi.phi(x - c, 2));
-            mean -= j0 * p1 + j1 * p2;
-            slope -= j0 * phi.phi1_slope(x - c) + j1 * p1;
+        for &(c, j) in &self.jumps {
+            let p: [f64; 5] = std::array::from_fn(|n| match n {
+                0 => phi.phi1_slope(x - c),
+                _ => phi.phi(x - c, n),
+            });
+            mean -= (0..4).map(|k| j[k] * p[k + 1]).sum::<f64>();
+            slope -= (0..4).map(|k| j[k] * p[k]).sum::<f64>();
         }
-        let mut square = self.mean_sq;
-        for &(c, [k0, k1, k2]) in &self.jumps_sq {
-            square -= k0 * phi.phi(x - c, 1) + k1 * phi.phi(x - c, 2) + k2 * phi.phi(x - c, 3);
+        let mut second = self.mean_sq;
+        for &(c, j) in &self.jumps_sq {
+            second -= (0..7)
+                .filter(|&k| j[k] != 0.0)
+                .map(|k| j[k] * phi.phi(x - c, k + 1))
+                .sum::<f64>();
         }
         Moments {
             mean,
-            variance: (square - mean * mean).max(0.0),
+            variance: (second - mean * mean).max(0.0),
             slope,
         }
+    }
+
+    /// A short support: `g` unrolled over the periods it covers (`x` in `[0, 1)`), the exact
+    /// piecewise-polynomial rule.
+    fn local(&self, x: f64, s: &Spread) -> Moments {
+        let half = s.half_support();
+        let (first, last) = ((x - half).floor() as i64, (x + half).floor() as i64);
+        let mut knots = Vec::new();
+        // Before the first knot: the previous period's last piece, anchored at that knot.
+        let last_piece = self.pieces[self.pieces.len() - 1];
+        let mut polys = vec![taylor_at(last_piece, 1.0)];
+        for m in first..=last {
+            for (c, p) in self.starts.iter().zip(&self.pieces) {
+                knots.push(m as f64 + c);
+                polys.push(taylor_at(*p, *c));
+            }
+        }
+        piecewise_moments(&knots, &polys, x, s)
     }
 }
 
@@ -282,7 +347,14 @@ mod tests {
 
     use super::*;
 
-    /// `∫ g(fract x) dx` over `[lo, hi]`, piece by piece.
+    const GL4: [(f64, f64); 4] = [
+        (-0.861_136_311_594_052_6, 0.347_854_845_137_453_9),
+        (-0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
+        (0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
+        (0.861_136_311_594_052_6, 0.347_854_845_137_453_9),
+    ];
+
+    /// `∫ g(fract x) dx` and `∫ g(fract x)² dx` over `[lo, hi]`, piece by piece.
     fn integral(g: &Periodic, lo: f64, hi: f64) -> (f64, f64) {
         let mut cuts = vec![lo, hi];
         let mut m = lo.floor();
@@ -300,12 +372,14 @@ mod tests {
         for w in cuts.windows(2) {
             let mid = (w[0] + w[1]) / 2.0;
             let u = mid - mid.floor();
-            let [a, b] = g.pieces[g.starts.partition_point(|&c| c <= u).max(1) - 1];
-            // Linear on the cut: the value at the ends from the piece at the middle.
-            let at = |x: f64| a + b * (x - mid.floor());
-            let (f0, f1) = (at(w[0]), at(w[1]));
-            s1 += (w[1] - w[0]) * (f0 + f1) / 2.0;
-            s2 += (w[1] - w[0]) * (f0 * f0 + f0 * f1 + f1 * f1) / 3.0;
+            let c = g.pieces[g.starts.partition_point(|&c| c <= u).max(1) - 1];
+            // Gauss–Legendre with 4 nodes on the cut: exact for g²'s degree, at most 6.
+            let (h, centre) = ((w[1] - w[0]) / 2.0, mid - mid.floor());
+            for (node, weight) in GL4 {
+                let v = poly(&c, centre + h * node).0;
+                s1 += h * weight * v;
+                s2 += h * weight * v * v;
+            }
         }
         (s1, s2)
     }
@@ -355,22 +429,29 @@ mod tests {
         let saw = Periodic::sawtooth();
         let tent = saw
             .affine(-1.0, 2.0)
-            .and_then(|g| g.then(&Linear::abs()))
+            .and_then(|g| g.then(&Shape::abs()))
             .and_then(|g| g.affine(1.0, -1.0))
             .unwrap();
         let clipped = tent
             .affine(-0.3, 1.7)
-            .and_then(|g| g.then(&Linear::clamp(0.0, 1.0).unwrap()))
+            .and_then(|g| g.then(&Shape::clamp(0.0, 1.0).unwrap()))
             .unwrap();
-        let stripes = saw.then(&Linear::step(0.65).unwrap()).unwrap();
-        vec![saw, tent, clipped, stripes]
+        let stripes = saw.then(&Shape::step(0.65).unwrap()).unwrap();
+        // A line of laminae, 1 − smoothstep(0, 0.2, |fract − 0.5|): cubic pieces.
+        let line = saw
+            .affine(-0.5, 1.0)
+            .and_then(|g| g.then(&Shape::abs()))
+            .and_then(|g| g.then(&Shape::smoothstep(0.0, 0.2).unwrap()))
+            .and_then(|g| g.affine(1.0, -1.0))
+            .unwrap();
+        vec![saw, tent, clipped, stripes, line]
     }
 
     #[test]
     fn tent_is_composed_exactly() {
         let tent = &shapes()[1];
         assert_eq!(tent.starts, [0.0, 0.5]);
-        assert_eq!(tent.pieces, [[0.0, 2.0], [2.0, -2.0]]);
+        assert_eq!(tent.pieces, [[0.0, 2.0, 0.0, 0.0], [2.0, -2.0, 0.0, 0.0]]);
         assert!((tent.mean - 0.5).abs() < 1e-15 && (tent.mean_sq - 1.0 / 3.0).abs() < 1e-15);
     }
 

@@ -174,30 +174,22 @@ impl Footprint {
         self.covariance(grad, grad).max(0.0)
     }
 
-    /// [`Footprint::damp`] as a matrix (`damp` is linear in `grad`): `None` where it leaves
-    /// every slope as it is. Made once per fade, applied per lane by [`apply`].
-    pub(super) fn damp_matrix(&self, beta: [f64; 3]) -> Option<[[f64; 3]; 3]> {
-        if beta.iter().all(|&b| (1.0 - b).abs() < 1e-9) {
-            return None;
-        }
-        let columns: [[f64; 3]; 3] = std::array::from_fn(|j| {
-            let mut e = [0.0; 3];
-            e[j] = 1.0;
-            self.damp(e, beta)
-        });
-        Some(std::array::from_fn(|i| {
-            std::array::from_fn(|j| columns[j][i])
-        }))
-    }
-
     /// `grad` with its increment along each edge `e_k` scaled by `beta[k]`: the smallest change
     /// `g' = g + Σ_k y_k e_k` with `g' · e_k = beta[k] (g · e_k)` (a Gram system over the
     /// non-zero edges). Where the edges are (nearly) parallel the system is singular and
-    /// `grad` is scaled by the smallest `beta` instead.
+    /// `grad` is scaled by the smallest `beta` instead. ([`Footprint::damp_matrix`] applied.)
+    #[cfg(test)]
     pub(super) fn damp(&self, grad: [f64; 3], beta: [f64; 3]) -> [f64; 3] {
-        // A change below 1e-9 of the slope (a footprint far inside a cell) is left out.
+        apply(&self.damp_matrix(beta), grad)
+    }
+
+    /// [`Footprint::damp`] as a matrix (it is linear in `grad`): `D = I + E M⁻¹ diag(β − 1) Eᵀ`
+    /// over the non-zero edges `E` with Gram matrix `M`; `None` where it leaves every slope as
+    /// it is (every factor within 1e-9 of 1: a footprint far inside a cell). Made once per
+    /// fade, applied per lane by [`apply`].
+    pub(super) fn damp_matrix(&self, beta: [f64; 3]) -> Option<[[f64; 3]; 3]> {
         if beta.iter().all(|&b| (1.0 - b).abs() < 1e-9) {
-            return grad;
+            return None;
         }
         // The non-zero edges, in order (no allocation: this runs per noise octave).
         let mut live = [0usize; 3];
@@ -208,54 +200,38 @@ impl Footprint {
                 n += 1;
             }
         }
-        let d: [f64; 3] =
-            std::array::from_fn(|i| (beta[live[i]] - 1.0) * proj(grad, &self.edges[live[i]]));
-        let gram = |i: usize, j: usize| dot(&self.edges[live[i]], &self.edges[live[j]]);
-        let orthogonal = (0..n).all(|i| (i + 1..n).all(|j| gram(i, j) == 0.0));
-        let y: Option<[f64; 3]> = match n {
-            // Orthogonal edges (every box): the Gram matrix is diagonal.
-            _ if orthogonal => Some(std::array::from_fn(|i| {
-                if i < n {
-                    d[i] / gram(i, i)
+        if n == 0 {
+            return None;
+        }
+        let gram: [[f64; 3]; 3] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| {
+                if i < n && j < n {
+                    dot(&self.edges[live[i]], &self.edges[live[j]])
                 } else {
                     0.0
                 }
-            })),
-            0 => return grad,
-            1 => Some([d[0] / gram(0, 0), 0.0, 0.0]),
-            2 => {
-                let (a, b, c) = (gram(0, 0), gram(0, 1), gram(1, 1));
-                let det = a * c - b * b;
-                (det > 1e-9 * a * c).then(|| {
-                    [
-                        (c * d[0] - b * d[1]) / det,
-                        (a * d[1] - b * d[0]) / det,
-                        0.0,
-                    ]
-                })
-            }
-            _ => {
-                let m: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| gram(i, j)));
-                solve3(m, d)
-            }
+            })
+        });
+        let Some(inverse) = invert(&gram, n) else {
+            let least = beta.iter().copied().fold(1.0, f64::min);
+            return Some(std::array::from_fn(|i| {
+                std::array::from_fn(|j| if i == j { least } else { 0.0 })
+            }));
         };
-        let out = match y {
-            Some(y) => {
-                let mut g = grad;
-                for (yk, &k) in y.iter().zip(&live[..n]) {
-                    for (gi, ei) in g.iter_mut().zip(&self.edges[k]) {
-                        *gi += yk * ei;
+        let mut d: [[f64; 3]; 3] =
+            std::array::from_fn(|i| std::array::from_fn(|j| if i == j { 1.0 } else { 0.0 }));
+        for a in 0..n {
+            for b in 0..n {
+                let c = inverse[a][b] * (beta[live[b]] - 1.0);
+                let (ea, eb) = (&self.edges[live[a]], &self.edges[live[b]]);
+                for (i, row) in d.iter_mut().enumerate() {
+                    for (j, x) in row.iter_mut().enumerate() {
+                        *x += ea[i] * c * eb[j];
                     }
                 }
-                g
             }
-            None => grad.map(|g| g * beta.iter().copied().fold(1.0, f64::min)),
-        };
-        if out.iter().all(|c| c.is_finite()) {
-            out
-        } else {
-            grad
         }
+        d.iter().flatten().all(|c| c.is_finite()).then_some(d)
     }
 }
 
@@ -274,26 +250,44 @@ fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-/// `m y = d` for a symmetric positive definite 3×3 `m` by Cramer's rule; `None` when (nearly)
-/// singular.
-fn solve3(m: [[f64; 3]; 3], d: [f64; 3]) -> Option<[f64; 3]> {
-    let det3 = |m: &[[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+/// The inverse of the leading `n × n` block (`n <= 3`) of a symmetric positive semi-definite
+/// Gram matrix, by cofactors; `None` where it is (nearly) singular (determinant below 1e-9 of
+/// the product of the diagonal: nearly parallel edges).
+fn invert(m: &[[f64; 3]; 3], n: usize) -> Option<[[f64; 3]; 3]> {
+    let mut out = [[0.0; 3]; 3];
+    let diagonal: f64 = (0..n).map(|i| m[i][i]).product();
+    let det = match n {
+        1 => m[0][0],
+        2 => m[0][0] * m[1][1] - m[0][1] * m[1][0],
+        _ => {
+            m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+                - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+        }
     };
-    let det = det3(&m);
-    let scale = 1e-9 * m[0][0] * m[1][1] * m[2][2];
-    if det.is_nan() || det <= scale {
+    if det.is_nan() || det <= 1e-9 * diagonal || det <= 0.0 {
         return None;
     }
-    Some(std::array::from_fn(|c| {
-        let mut mc = m;
-        for (row, &v) in mc.iter_mut().zip(&d) {
-            row[c] = v;
+    match n {
+        1 => out[0][0] = 1.0 / det,
+        2 => {
+            out[0][0] = m[1][1] / det;
+            out[1][1] = m[0][0] / det;
+            out[0][1] = -m[0][1] / det;
+            out[1][0] = -m[1][0] / det;
         }
-        det3(&mc) / det
-    }))
+        _ => {
+            for (i, row) in out.iter_mut().enumerate() {
+                for (j, x) in row.iter_mut().enumerate() {
+                    // The cofactor of m[j][i] (the adjugate's entry).
+                    let (r0, r1) = ((j + 1) % 3, (j + 2) % 3);
+                    let (c0, c1) = ((i + 1) % 3, (i + 2) % 3);
+                    *x = (m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0]) / det;
+                }
+            }
+        }
+    }
+    Some(out)
 }
 
 /// `a · e` with `0 · ∞` taken as 0.

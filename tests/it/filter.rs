@@ -126,6 +126,11 @@ fn linear_arguments_are_exact() {
         "Dot(ColorRamp(input: Fract(ARG), stops: [(0.0, (0.1, 0.2, 0.3)), (0.6, (0.9, 0.5, 0.1)), \
          (1.0, (0.1, 0.2, 0.3))], interpolation: Linear), (1.0, 0.5, 0.25))",
         "Dot(Sub(1.0, Abs(Sub(Mul(2.0, Fract((ARG, ARG, ARG))), 1.0))), (0.2, 0.3, 0.5))",
+        // ... and through one piecewise cubic (a smoothstep, a smooth ramp).
+        "Smoothstep(0.1, 0.4, Fract(ARG))",
+        "Sub(1.0, Smoothstep(0.0, 0.2, Abs(Sub(Fract(ARG), 0.5))))",
+        "Dot(ColorRamp(input: Fract(ARG), stops: [(0.0, (0.1, 0.2, 0.3)), (0.6, (0.9, 0.5, 0.1)), \
+         (1.0, (0.1, 0.2, 0.3))], interpolation: Smooth), (1.0, 0.5, 0.25))",
     ];
     let mut rng = Rng(7);
     for shape in shapes {
