@@ -445,6 +445,69 @@ fn cells(rules: &Rules, d: &Dist, integer: bool) -> Option<Cells> {
     Some(c)
 }
 
+/// Cellular noise over a footprint within about one cell in noise space (its edges' lengths
+/// there at most [`SUB_SPAN`]): the documented fallback of sub-footprint evaluation. A cellular
+/// value has kinks and jumps at cell borders (`F1`'s ridges, `CellValue`'s steps) that the
+/// fade, fitted to its average correlation, does not see: a box inside one cell would lose its
+/// cell's value. The value and gradient are taken at the centres of the footprint's eight
+/// half-size sub-boxes: the mean of the eight values, the mean gradient as the linear part (the
+/// chain rule through the input's), and as variance the spread of the eight values plus each
+/// sub-box's own linear variance (a quarter of the whole box's), plus the input's residual
+/// carried through the gradient. `None` for a larger footprint or a non-finite input: the fade
+/// then, which averages many cells.
+pub fn cellular(rules: &Rules, s: &Sampler, p: &[Dist; 3]) -> Option<Dist> {
+    const SUB_SPAN: f64 = 1.0;
+    let edges = rules.footprint.edges();
+    // The footprint's edges in noise space: J e_k.
+    let noise_edges: [[f64; 3]; 3] =
+        std::array::from_fn(|k| std::array::from_fn(|i| dot(&p[i].grad, &edges[k])));
+    let longest = noise_edges.iter().map(|e| dot(e, e)).fold(0.0, f64::max);
+    let centre = p.map(|c| c.mean);
+    if !(longest <= SUB_SPAN * SUB_SPAN) || centre.iter().any(|c| !c.is_finite()) {
+        return None;
+    }
+    let mut coords: [[f64; 8]; 3] = [[0.0; 8]; 3];
+    for j in 0..8 {
+        let u = [j & 1, (j >> 1) & 1, (j >> 2) & 1].map(|b| if b == 1 { 0.25 } else { -0.25 });
+        for (i, axis) in coords.iter_mut().enumerate() {
+            axis[j] = centre[i] + (0..3).map(|k| u[k] * noise_edges[k][i]).sum::<f64>();
+        }
+    }
+    let (mut value, mut grad) = ([0.0; 8], [[0.0; 8]; 3]);
+    let [gx, gy, gz] = &mut grad;
+    s.table.sample_value_grad_batch(
+        [&coords[0], &coords[1], &coords[2]],
+        &mut value,
+        [gx.as_mut_slice(), gy.as_mut_slice(), gz.as_mut_slice()],
+    );
+    let mean = value.iter().sum::<f64>() / 8.0;
+    let finite = |c: f64| if c.is_finite() { c } else { 0.0 };
+    let mut g_mean = [0.0; 3];
+    let (mut within, mut carried) = (0.0, 0.0);
+    for j in 0..8 {
+        let g = [finite(grad[0][j]), finite(grad[1][j]), finite(grad[2][j])];
+        for (m, gi) in g_mean.iter_mut().zip(g) {
+            *m += gi / 8.0;
+        }
+        let slope: [f64; 3] = std::array::from_fn(|a| (0..3).map(|i| g[i] * p[i].grad[a]).sum());
+        within += rules.footprint.linear_var(slope) / 4.0 / 8.0;
+        carried += (0..3).map(|i| g[i] * g[i] * p[i].var).sum::<f64>() / 8.0;
+    }
+    let between = value.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / 8.0;
+    let slope: [f64; 3] = std::array::from_fn(|a| (0..3).map(|i| g_mean[i] * p[i].grad[a]).sum());
+    let total = between + within;
+    let var = super::rules::residual(total, rules.footprint.linear_var(slope)) + carried;
+    mean.is_finite().then_some(Dist {
+        mean,
+        grad: slope,
+        var: if var.is_finite() { var } else { 0.0 },
+    })
+}
+
+fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
 /// The analytic gradient of the noise at `p` over the footprint: faded like the value, the
 /// lost part as residual variance (its own linear part is left out: second derivatives).
 pub fn noise_gradient(rules: &Rules, s: &Sampler, p: &[Dist; 3], scale: f64) -> [Dist; 3] {

@@ -312,6 +312,15 @@ impl<'t> Filtered<'t> {
         }
     }
 
+    /// Whether a noise table takes a rule of its own per lane: white noise (a mixture of
+    /// cells) and cellular noise (sub-footprint evaluation), `noise.rs`.
+    fn per_lane(&self, table: u32) -> bool {
+        matches!(
+            self.tape.tables[table as usize].1.basis(),
+            Basis::White | Basis::Cellular(_)
+        )
+    }
+
     fn sampler(&self, table: u32) -> Sampler<'_> {
         Sampler {
             table: &self.tape.tables[table as usize].1,
@@ -524,15 +533,18 @@ impl<'t> Filtered<'t> {
             &mut s.scalars
         };
         match noise.instr {
-            Instr::Noise { dst, src, table }
-                if self.tape.tables[table as usize].1.basis() == Basis::White =>
-            {
+            Instr::Noise { dst, src, table } if self.per_lane(table) => {
                 let sampler = self.sampler(table);
+                let white = sampler.table.basis() == Basis::White;
                 let (p, out) = (&s.vec3s[range(src)], &mut file[range(dst)]);
                 for (lane, (o, p)) in out.iter_mut().zip(p).enumerate() {
                     let rules = lanes.rules(lane);
-                    *o = fnoise::white(&rules, &sampler, p, integer)
-                        .unwrap_or_else(|| fnoise::noise(&rules, &sampler, p));
+                    let special = if white {
+                        fnoise::white(&rules, &sampler, p, integer)
+                    } else {
+                        fnoise::cellular(&rules, &sampler, p)
+                    };
+                    *o = special.unwrap_or_else(|| fnoise::noise(&rules, &sampler, p));
                 }
             }
             Instr::Noise { dst, src, table } => fnoise::noise_lanes(

@@ -191,6 +191,39 @@ fn white_noise_is_a_mixture_of_its_cells() {
     }
 }
 
+/// Cellular noise over boxes within a cell (sub-footprint evaluation): a cell's value over a box
+/// inside it is that value exactly, and across cell borders the filtered estimates are far
+/// closer to the box means than the centre values.
+#[test]
+fn cellular_boxes_see_their_cells() {
+    let t = tape(
+        "Graph(nodes: { \"p\": Position }, outputs: { \"v\": Cellular(input: \"p\", seed: 4, \
+         value: CellValue), \"f\": Cellular(input: \"p\", seed: 4, value: F2MinusF1) })",
+    );
+    let mut rng = Rng(17);
+    let (mut inside, mut filtered_err, mut point_err) = (0, 0.0, 0.0);
+    for _ in 0..60 {
+        let p = [rng.range(-3.0, 3.0), rng.range(-3.0, 3.0), rng.range(-3.0, 3.0)];
+        let tiny = filtered(&t, p, &Footprint::cube(1e-4).unwrap());
+        if (tiny[0] - point(&t, p)[0]).abs() < 1e-12 {
+            inside += 1;
+        }
+        let side = 0.3;
+        let want = box_mean(&t, p, [side; 3], 8, &mut rng);
+        let got = filtered(&t, p, &Footprint::cube(side).unwrap());
+        let centre = point(&t, p);
+        for c in 0..2 {
+            filtered_err += (got[c] - want[c]).powi(2);
+            point_err += (centre[c] - want[c]).powi(2);
+        }
+    }
+    assert!(inside >= 58, "a tiny box keeps its cell's value: {inside} of 60");
+    assert!(
+        filtered_err < point_err / 2.0,
+        "filtered squared error {filtered_err}, point {point_err}"
+    );
+}
+
 /// The rules compose: a linear argument in all three axes (a box, not a line), and products
 /// and sums of such values, within a stratified 3-D reference's own error.
 #[test]
