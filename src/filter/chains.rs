@@ -11,10 +11,10 @@
 //! `Hermite`) after which only affine maps may follow; copies
 //! (`Splat`, `Combine`, `Component`) carry it. Anything else ends it.
 
-use super::fusions::{side_slot, vec3_dst, wide_dst, Fusion, Fusions, Part, Source};
 use super::moments::Piecewise;
 use super::periodic::{Periodic, Shape};
 use super::rules::{hermite_shape, spline_shape};
+use super::writes::{scalar_dst, vec3_dst, wide_dst, Source};
 use crate::ops::{BinaryOp, TernaryOp, UnaryOp};
 use crate::tape::{Instr, Slot, Tape, Wide};
 
@@ -25,6 +25,15 @@ struct Chain {
     source: Source,
     scale: f64,
     g: Periodic,
+}
+
+/// One component of a fused chain's result: `shape(fract(scale · X))`, `X` the operand
+/// `source` of instruction `at` (saved before it runs).
+pub(super) struct ChainPart {
+    pub at: usize,
+    pub source: Source,
+    pub scale: f64,
+    pub shape: Periodic,
 }
 
 /// An operand of an instruction, one component.
@@ -91,17 +100,17 @@ impl Chains {
         }
     }
 
-    /// Instruction `i`: what its result holds, and its fusion where it extends chains (set in
-    /// `f`, replacing a plain fusion: the chain's rule is exact).
+    /// Instruction `i`: records what its result holds, and returns its parts (one per
+    /// component of its result) where it extends chains: a fused instruction.
     pub(super) fn visit(
         &mut self,
         tape: &Tape,
         i: usize,
         instr: &Instr,
         integer: [bool; 3],
-        f: &mut Fusions,
-    ) {
+    ) -> Option<Vec<ChainPart>> {
         let (scalar, vector, extends) = self.made(tape, i, instr, integer);
+        let mut fused = None;
         if extends {
             let chains: Vec<&Chain> = match (&scalar, &vector) {
                 (Some(c), _) => vec![c],
@@ -110,18 +119,16 @@ impl Chains {
             };
             let complete = chains.len() == if scalar.is_some() { 1 } else { 3 };
             if complete {
-                let parts = chains
-                    .into_iter()
-                    .map(|c| Part {
-                        saved: side_slot(f, c.at, c.source),
-                        scale: c.scale,
-                        shape: c.g.clone(),
-                    })
-                    .collect();
-                f.fused[i] = Some(Fusion::Periodic { parts });
+                let parts = chains.into_iter().map(|c| ChainPart {
+                    at: c.at,
+                    source: c.source,
+                    scale: c.scale,
+                    shape: c.g.clone(),
+                });
+                fused = Some(parts.collect());
             }
         }
-        if let Some(dst) = super::fusions::scalar_dst(instr) {
+        if let Some(dst) = scalar_dst(instr) {
             self.scalar[dst as usize] = scalar;
         } else if let Some(dst) = wide_dst(instr) {
             self.wide[dst as usize] = scalar;
@@ -130,6 +137,7 @@ impl Chains {
             self.vconstant[dst as usize] = self.made_constant(instr);
             self.vec3[dst as usize] = vector.unwrap_or([None, None, None]);
         }
+        fused
     }
 
     /// A vec3 result that is constant: a splat or combination of constants (the pinned

@@ -12,8 +12,9 @@
 
 use super::moments::Piecewise;
 use super::periodic::Periodic;
+use super::writes::{scalar_dst, Source};
 use crate::ops::{BinaryOp, TernaryOp, UnaryOp};
-use crate::tape::{Instr, Slot, Tape, Wide};
+use crate::tape::{Instr, Slot, Tape};
 
 /// An instruction computed from its operand's producer's argument, saved in side slot `saved`.
 #[derive(Clone, Debug, PartialEq)]
@@ -33,14 +34,6 @@ pub struct Part {
     pub saved: Slot,
     pub scale: f64,
     pub shape: Periodic,
-}
-
-/// An operand saved before its instruction runs: a scalar slot, or a vec3 slot's component.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Source {
-    Scalar(Slot),
-    Vec3(Slot, u8),
-    Wide(Slot),
 }
 
 /// The fusions of a tape.
@@ -141,7 +134,17 @@ pub fn fusions(tape: &Tape, integer: &[[bool; 3]]) -> Fusions {
         if let Some(dst) = scalar_dst(instr) {
             origin[dst as usize] = made;
         }
-        chains.visit(tape, i, instr, integer[i], &mut f);
+        if let Some(parts) = chains.visit(tape, i, instr, integer[i]) {
+            // A chain's rule is exact: it replaces a plain fusion of the same instruction.
+            let parts = parts.into_iter().map(|c| Part {
+                saved: side_slot(&mut f, c.at, c.source),
+                scale: c.scale,
+                shape: c.shape,
+            });
+            f.fused[i] = Some(Fusion::Periodic {
+                parts: parts.collect(),
+            });
+        }
     }
     f
 }
@@ -151,67 +154,6 @@ fn src_of(instr: &Instr) -> Slot {
     match *instr {
         Instr::UnaryScalar { src, .. } => src,
         _ => unreachable!("plain fusions start at unary scalar instructions"),
-    }
-}
-
-/// The wide (promoted f64) scalar slot an instruction writes, if it writes one.
-pub(super) fn wide_dst(instr: &Instr) -> Option<Slot> {
-    match *instr {
-        Instr::Wide(
-            Wide::Component { dst, .. }
-            | Wide::Unary { dst, .. }
-            | Wide::Binary { dst, .. }
-            | Wide::Ternary { dst, .. }
-            | Wide::Dot { dst, .. }
-            | Wide::Length { dst, .. }
-            | Wide::Noise { dst, .. }
-            | Wide::Fractal { dst, .. }
-            | Wide::Widen { dst, .. },
-        ) => Some(dst),
-        _ => None,
-    }
-}
-
-/// The vec3 slot an instruction writes, if it writes one.
-pub(super) fn vec3_dst(instr: &Instr) -> Option<Slot> {
-    match *instr {
-        Instr::Position { dst }
-        | Instr::Splat { dst, .. }
-        | Instr::Combine { dst, .. }
-        | Instr::UnaryVec3 { dst, .. }
-        | Instr::BinaryVec3 { dst, .. }
-        | Instr::TernaryVec3 { dst, .. }
-        | Instr::Cross { dst, .. }
-        | Instr::Normalize { dst, .. }
-        | Instr::RotateConst { dst, .. }
-        | Instr::RotateVarying { dst, .. }
-        | Instr::NoiseGradient { dst, .. }
-        | Instr::FractalGradient { dst, .. }
-        | Instr::Ramp { dst, .. }
-        | Instr::Wide(Wide::Splat { dst, .. })
-        | Instr::Wide(Wide::Combine { dst, .. })
-        | Instr::Wide(Wide::Rotate { dst, .. })
-        | Instr::Wide(Wide::NoiseGradient { dst, .. })
-        | Instr::Wide(Wide::FractalGradient { dst, .. }) => Some(dst),
-        _ => None,
-    }
-}
-
-/// The scalar slot an instruction writes, if it writes one.
-pub(super) fn scalar_dst(instr: &Instr) -> Option<Slot> {
-    match *instr {
-        Instr::Component { dst, .. }
-        | Instr::UnaryScalar { dst, .. }
-        | Instr::BinaryScalar { dst, .. }
-        | Instr::TernaryScalar { dst, .. }
-        | Instr::Dot { dst, .. }
-        | Instr::Length { dst, .. }
-        | Instr::Noise { dst, .. }
-        | Instr::Fractal { dst, .. }
-        | Instr::Hermite { dst, .. }
-        | Instr::Curve { dst, .. }
-        | Instr::Wide(Wide::Narrow { dst, .. }) => Some(dst),
-        _ => None,
     }
 }
 

@@ -3,11 +3,13 @@
 //!
 //! From the bottom up: `moments` (the one-variable mathematics: exact box means, variances and
 //! slopes of piecewise polynomials, `fract` and truncated powers of a value spread over a
-//! footprint) → `rules` (a value's distribution, [`Dist`], through each operation; the
-//! [`Footprint`]) → `noise` (noise and fractal sums over a footprint), `integers` (which values are
-//! integer-valued), `fusions` (which instructions are computed with their operand's producer)
-//! → `tape` ([`Filtered`]: a
-//! compiled tape run on distributions). docs/filtering.md has every rule's derivation.
+//! footprint) → `periodic` (`g(fract x)` for a piecewise-cubic `g`, exactly), `rules` (a value's
+//! distribution, [`Dist`], through each operation; the [`Footprint`]), `writes` (which slot an
+//! instruction writes) → `noise` (noise and fractal sums over a footprint, white and cellular
+//! noise), `integers` (which values are integer-valued), `chains` (periodic chains) → `fusions`
+//! (which instructions are computed from an earlier argument) → `tape` ([`Filtered`]: a compiled
+//! tape run on distributions, chunk by chunk of lanes). docs/filtering.md has every rule's
+//! derivation.
 
 mod chains;
 pub mod fusions;
@@ -17,6 +19,7 @@ pub mod noise;
 pub mod periodic;
 pub mod rules;
 pub mod tape;
+mod writes;
 
 pub use rules::{Dist, Footprint, FootprintError};
 pub use tape::Filtered;

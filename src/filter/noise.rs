@@ -463,7 +463,8 @@ pub fn cellular(rules: &Rules, s: &Sampler, p: &[Dist; 3]) -> Option<Dist> {
         std::array::from_fn(|k| std::array::from_fn(|i| dot(&p[i].grad, &edges[k])));
     let longest = noise_edges.iter().map(|e| dot(e, e)).fold(0.0, f64::max);
     let centre = p.map(|c| c.mean);
-    if !(longest <= SUB_SPAN * SUB_SPAN) || centre.iter().any(|c| !c.is_finite()) {
+    let small = longest <= SUB_SPAN * SUB_SPAN; // false for NaN
+    if !small || centre.iter().any(|c| !c.is_finite()) {
         return None;
     }
     let mut coords: [[f64; 8]; 3] = [[0.0; 8]; 3];
@@ -484,8 +485,9 @@ pub fn cellular(rules: &Rules, s: &Sampler, p: &[Dist; 3]) -> Option<Dist> {
     let finite = |c: f64| if c.is_finite() { c } else { 0.0 };
     let mut g_mean = [0.0; 3];
     let (mut within, mut carried) = (0.0, 0.0);
-    for j in 0..8 {
-        let g = [finite(grad[0][j]), finite(grad[1][j]), finite(grad[2][j])];
+    let [gx, gy, gz] = &grad;
+    for ((&x, &y), &z) in gx.iter().zip(gy).zip(gz) {
+        let g = [finite(x), finite(y), finite(z)];
         for (m, gi) in g_mean.iter_mut().zip(g) {
             *m += gi / 8.0;
         }

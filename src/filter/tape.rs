@@ -7,9 +7,10 @@
 //! per tape ([`Filtered::new`]): each noise table's statistics, each tiled fractal's per-octave
 //! tables, each spline as piecewise cubics.
 
-use super::fusions::{scalar_dst, vec3_dst, wide_dst, Fusion, Fusions, Part, Source};
+use super::fusions::{Fusion, Fusions, Part};
 use super::noise::{self as fnoise, FractalSamplers, LaneScratch, Lanes, Sampler, Stats};
 use super::rules::{hermite_shape, spline_shape, Dist, Footprint, Rules, Shapes};
+use super::writes::{scalar_dst, vec3_dst, wide_dst, Source};
 use crate::graph::Type;
 use crate::noise::{Basis, NoiseTable, Style};
 use crate::ops;

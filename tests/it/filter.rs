@@ -203,7 +203,11 @@ fn cellular_boxes_see_their_cells() {
     let mut rng = Rng(17);
     let (mut inside, mut filtered_err, mut point_err) = (0, 0.0, 0.0);
     for _ in 0..60 {
-        let p = [rng.range(-3.0, 3.0), rng.range(-3.0, 3.0), rng.range(-3.0, 3.0)];
+        let p = [
+            rng.range(-3.0, 3.0),
+            rng.range(-3.0, 3.0),
+            rng.range(-3.0, 3.0),
+        ];
         let tiny = filtered(&t, p, &Footprint::cube(1e-4).unwrap());
         if (tiny[0] - point(&t, p)[0]).abs() < 1e-12 {
             inside += 1;
@@ -217,7 +221,10 @@ fn cellular_boxes_see_their_cells() {
             point_err += (centre[c] - want[c]).powi(2);
         }
     }
-    assert!(inside >= 58, "a tiny box keeps its cell's value: {inside} of 60");
+    assert!(
+        inside >= 58,
+        "a tiny box keeps its cell's value: {inside} of 60"
+    );
     assert!(
         filtered_err < point_err / 2.0,
         "filtered squared error {filtered_err}, point {point_err}"
