@@ -45,6 +45,9 @@ pub struct Fusions {
     pub fused: Vec<Option<Fusion>>,
     /// Side slots.
     pub saved: usize,
+    /// Per instruction: not run, its only reader being a fused `|sin|` that computes from its
+    /// argument (and falls back to the plain rules on that argument itself).
+    pub skip: Vec<bool>,
 }
 
 /// What produced a scalar slot's value: the `Sin`/`Cos` or the `Abs` at instruction `at`.
@@ -75,6 +78,7 @@ pub fn fusions(tape: &Tape, integer: &[[bool; 3]]) -> Fusions {
         save: vec![Vec::new(); n],
         fused: vec![None; n],
         saved: 0,
+        skip: vec![false; n],
     };
     let mut origin = vec![Origin::Other; tape.scalar_slots];
     let mut constant: Vec<Option<f64>> = vec![None; tape.scalar_slots];
@@ -146,7 +150,65 @@ pub fn fusions(tape: &Tape, integer: &[[bool; 3]]) -> Fusions {
             });
         }
     }
+    skip_sole_producers(tape, &mut f);
     f
+}
+
+/// Marks the `Sin`/`Cos` of each fused `|sin|` whose value nothing else reads (before its slot
+/// is written again, and not an output) as skipped.
+fn skip_sole_producers(tape: &Tape, f: &mut Fusions) {
+    for consumer in 0..tape.instrs.len() {
+        let (Some(Fusion::AbsSin { .. }), Instr::UnaryScalar { src, .. }) =
+            (&f.fused[consumer], &tape.instrs[consumer])
+        else {
+            continue;
+        };
+        let slot = *src;
+        // The producer: the last writer of the slot before the consumer.
+        let Some(at) = (0..consumer)
+            .rev()
+            .find(|&j| scalar_dst(&tape.instrs[j]) == Some(slot))
+        else {
+            continue;
+        };
+        let mut sole = true;
+        let mut rewritten = false;
+        for (j, instr) in tape.instrs.iter().enumerate().skip(at + 1) {
+            if j != consumer && reads_scalar(instr, slot) {
+                sole = false;
+                break;
+            }
+            if scalar_dst(instr) == Some(slot) {
+                rewritten = true;
+                break;
+            }
+        }
+        let output = tape
+            .outputs
+            .iter()
+            .any(|o| o.ty == crate::graph::Type::Scalar && o.slot == slot);
+        if sole && (rewritten || !output) {
+            f.skip[at] = true;
+        }
+    }
+}
+
+/// Whether an instruction reads scalar slot `slot`.
+fn reads_scalar(instr: &Instr, slot: Slot) -> bool {
+    use crate::tape::Wide;
+    match *instr {
+        Instr::Splat { src, .. }
+        | Instr::UnaryScalar { src, .. }
+        | Instr::Hermite { src, .. }
+        | Instr::Ramp { src, .. }
+        | Instr::Curve { src, .. }
+        | Instr::Wide(Wide::Widen { src, .. }) => src == slot,
+        Instr::RotateVarying { degrees, .. } => degrees == slot,
+        Instr::Combine { x, y, z, .. } => [x, y, z].contains(&slot),
+        Instr::BinaryScalar { a, b, .. } => a == slot || b == slot,
+        Instr::TernaryScalar { a, b, c, .. } => [a, b, c].contains(&slot),
+        _ => false,
+    }
 }
 
 /// The operand of a unary scalar instruction (the producers of the plain fusions).
@@ -250,5 +312,24 @@ mod tests {
         // moved: Div; ended: the Mul. Not the Abs of a cubic, the sine, or either Mod (a
         // chain's start; an integer's parity).
         assert_eq!(periodic, 12, "{}", t);
+    }
+
+    /// A `Sin` read only by its fused `|sin|` is skipped; one that is also an output, or read
+    /// by another instruction, is not.
+    #[test]
+    fn sole_producers_are_skipped() {
+        let skipped = |text: &str| {
+            let t = tape(text);
+            let f = fusions(&t, &crate::filter::integers::integer_operands(&t));
+            f.skip.iter().filter(|&&s| s).count()
+        };
+        let graph = |outputs: &str| {
+            format!(
+                r#"Graph(nodes: {{ "p": Position, "s": Sin(Mul(3.0, "p.x")) }}, outputs: {{ {outputs} }})"#
+            )
+        };
+        assert_eq!(skipped(&graph(r#""v": Abs("s")"#)), 1);
+        assert_eq!(skipped(&graph(r#""v": Abs("s"), "s": "s""#)), 0);
+        assert_eq!(skipped(&graph(r#""v": Abs("s"), "w": Mul("s", 2.0)"#)), 0);
     }
 }

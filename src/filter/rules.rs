@@ -529,6 +529,8 @@ impl Rules<'_> {
         let (mut gauss, mut ratio) = (q, q * q * q);
         let (mut series, mut slope) = (0.0, 0.0);
         let mut converged = false;
+        // The first term's damping, Π sinc(a_k) e^(−2σ²): Re φ(2) = cos(2μ) times it.
+        let mut first = 0.0;
         for m in 1..=TERMS {
             let mf = m as f64;
             let mut d = gauss;
@@ -539,6 +541,9 @@ impl Rules<'_> {
                 } else {
                     sines[k].0 / ma
                 };
+            }
+            if m == 1 {
+                first = d;
             }
             let sign = if cos && m % 2 == 1 { -1.0 } else { 1.0 };
             let w = sign * d / (4.0 * mf * mf - 1.0);
@@ -560,15 +565,12 @@ impl Rules<'_> {
             gauss *= ratio;
             ratio *= q * q;
         }
-        let damping = |m: f64| {
-            widths.iter().map(|&a| sinc(m * a)).product::<f64>() * (-2.0 * m * m * x.var).exp()
-        };
         if !converged {
             return None;
         }
         let pi = std::f64::consts::PI;
         let mean = 2.0 / pi - 4.0 / pi * series;
-        let re2 = (2.0 * x.mean).cos() * damping(1.0);
+        let re2 = c1 * first;
         Some(self.abs_sin_out(x, mean, 4.0 / pi * slope, re2, cos))
     }
 

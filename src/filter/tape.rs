@@ -265,7 +265,9 @@ impl<'t> Filtered<'t> {
         let f = &self.fusions;
         let w = s.width;
         let per_instruction = self.integer.iter().zip(f.save.iter().zip(&f.fused));
-        for (instr, (integer, (save, fusion))) in self.tape.instrs.iter().zip(per_instruction) {
+        for (index, (instr, (integer, (save, fusion)))) in
+            self.tape.instrs.iter().zip(per_instruction).enumerate()
+        {
             if let Some(noise) = noise_instr(instr) {
                 self.noise_chunk(lanes, &noise, *integer, s);
                 continue;
@@ -287,6 +289,9 @@ impl<'t> Filtered<'t> {
                         s.saved[k..k + w].copy_from_slice(&s.wides[src..src + w]);
                     }
                 }
+            }
+            if f.skip[index] {
+                continue;
             }
             for lane in 0..w {
                 let rules = lanes.rules(lane);
@@ -343,9 +348,23 @@ impl<'t> Filtered<'t> {
     fn fused(&self, rules: &Rules, fusion: &Fusion, s: &Slots, lane: usize) -> Option<Fused> {
         let at = |k: u32| k as usize * s.width + lane;
         match fusion {
-            Fusion::AbsSin { saved, cos } => rules
-                .abs_sin_cos(&s.saved[at(*saved)], *cos)
-                .map(Fused::Scalar),
+            Fusion::AbsSin { saved, cos } => {
+                // Where the series declines, the plain rules on the argument itself (the
+                // `Sin` may have been skipped, `Fusions::skip`).
+                let arg = &s.saved[at(*saved)];
+                let plain = || {
+                    let op = if *cos {
+                        ops::UnaryOp::Cos
+                    } else {
+                        ops::UnaryOp::Sin
+                    };
+                    let sh = &self.shapes;
+                    rules.unary(sh, ops::UnaryOp::Abs, &rules.unary(sh, op, arg))
+                };
+                Some(Fused::Scalar(
+                    rules.abs_sin_cos(arg, *cos).unwrap_or_else(plain),
+                ))
+            }
             Fusion::Folded { saved, shape } => {
                 Some(Fused::Scalar(rules.piecewise(shape, &s.saved[at(*saved)])))
             }
