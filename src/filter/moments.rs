@@ -695,6 +695,36 @@ impl Piecewise {
         Piecewise { knots, polys }
     }
 
+    /// The same function with each knot dropped where the pieces on its two sides are one
+    /// polynomial (within 1e-12 of the coefficients' scale): a ramp's collinear stops, equal
+    /// constant stops. Fewer knots, the same values (the rules' cost grows with the knots a
+    /// support covers).
+    pub fn simplified(self) -> Piecewise {
+        let (mut knots, mut polys) = (Vec::new(), vec![self.polys[0]]);
+        for (i, &c) in self.knots.iter().enumerate() {
+            let before = polys[polys.len() - 1];
+            // Piece 0 keeps its given anchor (the first original knot) until the end.
+            let anchor_before = knots.last().copied().unwrap_or(self.knots[0]);
+            let continued = taylor_at(before, c - anchor_before);
+            let next = self.polys[i + 1];
+            let scale = continued
+                .iter()
+                .chain(&next)
+                .fold(0.0f64, |m, a| m.max(a.abs()));
+            let same = (0..4).all(|d| (continued[d] - next[d]).abs() <= 1e-12 * scale);
+            if !same {
+                knots.push(c);
+                polys.push(next);
+            }
+        }
+        // Piece 0 was given anchored at the first original knot: re-anchor it at the first
+        // knot kept (or 0 without knots).
+        let first_old = self.knots.first().copied().unwrap_or(0.0);
+        let first_new = knots.first().copied().unwrap_or(0.0);
+        polys[0] = taylor_at(self.polys[0], first_new - first_old);
+        Piecewise { knots, polys }
+    }
+
     /// The piece at `x`: its anchor and local coefficients (`f(x) = Σ a_i (x − anchor)^i`).
     pub fn piece(&self, x: f64) -> (f64, [f64; 4]) {
         let j = self.knots.partition_point(|&c| c <= x);
@@ -713,6 +743,17 @@ impl Piecewise {
         }
         let j = self.knots.partition_point(|&c| c <= x);
         horner(&self.polys[j], x - anchor(&self.knots, j))
+    }
+
+    /// [`Piecewise::moments`] of several piecewise polynomials over one spread, sharing the
+    /// work where they have the same knots (a ramp's channels).
+    pub fn moments_of<const C: usize>(fs: [&Piecewise; C], t: f64, s: &Spread) -> [Moments; C] {
+        let knots = &fs[0].knots;
+        if fs.iter().all(|f| &f.knots == knots) {
+            piecewise_moments_shared(knots, fs.map(|f| f.polys.as_slice()), t, s)
+        } else {
+            fs.map(|f| f.moments(t, s))
+        }
     }
 
     /// Mean, variance (`E[(f − mean)²]`, clamped >= 0) and slope of `f(X)`, exact (module docs,
@@ -797,7 +838,7 @@ struct Plan {
 }
 
 /// Chooses how each piece meeting the support `[t − Σw/2, t + Σw/2]` is integrated.
-fn plan(knots: &[f64], polys: &[[f64; 4]], t: f64, ws: &Widths) -> Plan {
+fn plan(knots: &[f64], polys: &[&[[f64; 4]]], t: f64, ws: &Widths) -> Plan {
     let (sum, n) = (ws.sum(), knots.len());
     let (xl, xr) = (t - ws.half[0], t + ws.half[0]);
     let lo_of = |i: usize| {
@@ -812,7 +853,11 @@ fn plan(knots: &[f64], polys: &[[f64; 4]], t: f64, ws: &Widths) -> Plan {
     let last = knots.partition_point(|&c| c < xr).max(first);
     // The orders the integrands need: up to twice the pieces' degree (the centred square).
     let degree = (first..=last)
-        .map(|i| polys[i].iter().rposition(|&a| a != 0.0).unwrap_or(0))
+        .flat_map(|i| {
+            polys
+                .iter()
+                .map(move |p| p[i].iter().rposition(|&a| a != 0.0).unwrap_or(0))
+        })
         .max()
         .unwrap_or(3);
     let len = 2 * degree + 1;
@@ -913,55 +958,89 @@ fn plan_mean(
 
 /// [`Piecewise::moments`] over slices (also used by [`fract_moments`] with stack arrays).
 pub(super) fn piecewise_moments(knots: &[f64], polys: &[[f64; 4]], t: f64, s: &Spread) -> Moments {
+    let [m] = piecewise_moments_shared(knots, [polys], t, s);
+    m
+}
+
+/// [`piecewise_moments`] of several piecewise polynomials on the same knots (a ramp's
+/// channels) over one spread: the moment series, the plan (its truncated-power means at each
+/// knot) and the densities at the knots computed once for all.
+pub(super) fn piecewise_moments_shared<const C: usize>(
+    knots: &[f64],
+    polys: [&[[f64; 4]]; C],
+    t: f64,
+    s: &Spread,
+) -> [Moments; C] {
+    let early: [Option<Moments>; C] = polys.map(|p| piecewise_early(knots, p, t, s));
+    if early.iter().all(Option::is_some) {
+        return early.map(|m| m.unwrap_or(Moments::NAN));
+    }
+    let ws = Widths::new(s);
+    let plan = plan(knots, &polys, t, &ws);
+    let (xl, xr) = (t - ws.half[0], t + ws.half[0]);
+    let densities: Vec<f64> = (knots.iter())
+        .map(|&c| {
+            if c > xl && c < xr {
+                density_s(c - t, &ws)
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    std::array::from_fn(|k| {
+        if let Some(m) = early[k] {
+            return m;
+        }
+        let polys = polys[k];
+        let mean = plan_mean(&plan, knots, polys, t, &ws, Integrand::Value);
+        let mut slope = plan_mean(&plan, knots, polys, t, &ws, Integrand::Derivative);
+        // The Dirac terms of f' at its jumps inside the support.
+        for (i, &c) in knots.iter().enumerate() {
+            if densities[i] != 0.0 {
+                let jump = polys[i + 1][0] - horner(&polys[i], c - anchor(knots, i));
+                slope += jump * densities[i];
+            }
+        }
+        let variance = plan_mean(&plan, knots, polys, t, &ws, Integrand::CentredSquare(mean));
+        Moments {
+            mean,
+            variance: variance.max(0.0),
+            slope,
+        }
+    })
+}
+
+/// The cases of [`piecewise_moments`] that need no plan: NaN, an unbounded spread, and a line
+/// with no knot inside the support (the common case of a sharp noise octave through `abs`).
+fn piecewise_early(knots: &[f64], polys: &[[f64; 4]], t: f64, s: &Spread) -> Option<Moments> {
     if t.is_nan() {
-        return Moments::NAN;
+        return Some(Moments::NAN);
     }
     if s.unbounded {
         let (l, r) = (polys[0], polys[polys.len() - 1]);
         let constant = |a: [f64; 4]| a[1] == 0.0 && a[2] == 0.0 && a[3] == 0.0;
         if !constant(l) || !constant(r) {
-            return Moments::NAN;
+            return Some(Moments::NAN);
         }
         let half_gap = (l[0] - r[0]) / 2.0;
-        return Moments {
+        return Some(Moments {
             mean: (l[0] + r[0]) / 2.0,
             variance: half_gap * half_gap,
             slope: 0.0,
-        };
+        });
     }
-    // No knot inside the support and a piece of degree <= 1 there: that line alone (the
-    // common case of a sharp noise octave through `abs`), without the moment series.
     let half = s.active().iter().sum::<f64>() / 2.0;
     let j = knots.partition_point(|&c| c <= t);
     let line = polys[j][2] == 0.0 && polys[j][3] == 0.0;
     if line && !knots.iter().any(|&c| c > t - half && c < t + half) {
         let b = polys[j][1];
-        return Moments {
+        return Some(Moments {
             mean: horner(&polys[j], t - anchor(knots, j)),
             variance: b * b * s.variance(),
             slope: b,
-        };
+        });
     }
-    let ws = Widths::new(s);
-    let plan = plan(knots, polys, t, &ws);
-    let mean = plan_mean(&plan, knots, polys, t, &ws, Integrand::Value);
-    let mut slope = plan_mean(&plan, knots, polys, t, &ws, Integrand::Derivative);
-    // The Dirac terms of f' at its jumps inside the support.
-    let (xl, xr) = (t - ws.half[0], t + ws.half[0]);
-    for (i, &c) in knots.iter().enumerate() {
-        if c > xl && c < xr {
-            let jump = polys[i + 1][0] - horner(&polys[i], c - anchor(knots, i));
-            if jump != 0.0 {
-                slope += jump * density_s(c - t, &ws);
-            }
-        }
-    }
-    let variance = plan_mean(&plan, knots, polys, t, &ws, Integrand::CentredSquare(mean));
-    Moments {
-        mean,
-        variance: variance.max(0.0),
-        slope,
-    }
+    None
 }
 
 /// `B_n(u) / n!` (`n <= 10`).
@@ -1525,6 +1604,30 @@ mod tests {
     }
 
     /// The pieces agree with the closures (so the closures are a valid reference).
+    /// Dropping knots between pieces of one polynomial keeps every value.
+    #[test]
+    fn simplified_keeps_the_function() {
+        // A ramp with collinear stops, equal constants, and one real corner and jump.
+        let f = Piecewise::new(
+            vec![0.0, 0.25, 0.5, 0.75, 1.0],
+            vec![
+                [0.0, 0.0, 0.0, 0.0],
+                [0.0, 2.0, 0.0, 0.0],
+                [0.5, 2.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0, 0.0],
+                [3.0, 0.0, 0.0, 0.0],
+            ],
+        );
+        let g = f.clone().simplified();
+        assert_eq!(g.knots, [0.0, 0.5, 1.0]);
+        let mut x = -0.3;
+        while x < 1.3 {
+            assert!((f.eval(x) - g.eval(x)).abs() < 1e-15, "at {x}");
+            x += 0.01;
+        }
+    }
+
     #[test]
     fn piecewise_eval_matches_the_functions() {
         let mut rng = Rng(11);

@@ -392,7 +392,7 @@ pub fn spline_shape<const N: usize>(spline: &ops::Spline<N>, channel: usize) -> 
             (I::Smooth, true) => [0.0, 6.0 * d / (w * w), -6.0 * d / (w * w * w), 0.0],
         });
     }
-    Piecewise::new(knots.to_vec(), polys)
+    Piecewise::new(knots.to_vec(), polys).simplified()
 }
 
 impl Rules<'_> {
@@ -429,7 +429,16 @@ impl Rules<'_> {
         self.out_of_moments(d, m)
     }
 
-    /// `g(fract d)` for a periodic piecewise-linear `g` (`periodic.rs`), exact.
+    /// `f_c(d)` for several piecewise polynomials (a ramp's channels), sharing the work.
+    pub fn piecewise3(&self, fs: &[Piecewise; 3], d: &Dist) -> [Dist; 3] {
+        if d.is_constant() {
+            return fs.each_ref().map(|f| Dist::constant(f.eval(d.mean)));
+        }
+        let spread = self.spread(d);
+        Piecewise::moments_of(fs.each_ref(), d.mean, &spread).map(|m| self.out_of_moments(d, m))
+    }
+
+    /// `g(fract d)` for a periodic piecewise-cubic `g` (`periodic.rs`), exact.
     pub fn periodic(&self, g: &super::periodic::Periodic, d: &Dist) -> Dist {
         if d.is_constant() {
             return Dist::constant(g.eval(d.mean).0);

@@ -479,9 +479,7 @@ impl<'t> Filtered<'t> {
             }
             Instr::Ramp { dst, src, ramp } => {
                 let t = s.scalars[at(src)];
-                s.vec3s[at(dst)] = self.ramps[ramp as usize]
-                    .each_ref()
-                    .map(|f| rules.piecewise(f, &t));
+                s.vec3s[at(dst)] = rules.piecewise3(&self.ramps[ramp as usize], &t);
             }
             Instr::Curve { dst, src, curve } => {
                 let f = &self.curves[curve as usize];
