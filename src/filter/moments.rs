@@ -978,15 +978,20 @@ pub(super) fn piecewise_moments_shared<const C: usize>(
     let ws = Widths::new(s);
     let plan = plan(knots, &polys, t, &ws);
     let (xl, xr) = (t - ws.half[0], t + ws.half[0]);
-    let densities: Vec<f64> = (knots.iter())
-        .map(|&c| {
-            if c > xl && c < xr {
-                density_s(c - t, &ws)
-            } else {
-                0.0
-            }
-        })
-        .collect();
+    // The density of X at each knot inside the support (0 outside), on the stack for the
+    // usual few knots (this runs per rule application).
+    let (mut stack, mut heap) = ([0.0; 16], Vec::new());
+    let densities: &mut [f64] = if knots.len() <= stack.len() {
+        &mut stack[..knots.len()]
+    } else {
+        heap.resize(knots.len(), 0.0);
+        &mut heap
+    };
+    for (d, &c) in densities.iter_mut().zip(knots) {
+        if c > xl && c < xr {
+            *d = density_s(c - t, &ws);
+        }
+    }
     std::array::from_fn(|k| {
         if let Some(m) = early[k] {
             return m;
