@@ -218,10 +218,14 @@ impl Build<'_> {
         let red = sector(self, g, b, 0.0);
         let green = sector(self, b, r, 2.0);
         let blue = sector(self, r, g, 4.0);
-        // Step(max, x) is 1 where x >= max: that channel is the largest.
-        let g_max = self.binary(BinaryOp::Step, max, g);
+        // r is the largest where r >= max(g, b); else g where g >= b. (The same choice as
+        // `r >= max` and `g >= max`, but a difference with no point mass at 0: over a
+        // footprint `r − max(r, g, b)` is never positive, and the filtered `Step` took it as a
+        // continuous spread around its mean, mixing the hue's sectors.)
+        let g_max = self.binary(BinaryOp::Step, b, g);
         let green_or_blue = self.ternary(TernaryOp::Select, g_max, green, blue);
-        let r_max = self.binary(BinaryOp::Step, max, r);
+        let gb = self.binary(BinaryOp::Max, g, b);
+        let r_max = self.binary(BinaryOp::Step, gb, r);
         let sector = self.ternary(TernaryOp::Select, r_max, red, green_or_blue);
         let sixth = self.scalar(1.0 / 6.0);
         let turns = self.binary(BinaryOp::Mul, sector, sixth);
