@@ -728,7 +728,10 @@ impl Rules<'_> {
         let m = d.mean;
         match op {
             UnaryOp::Neg => d.scale(-1.0),
-            UnaryOp::Abs => self.piecewise(&shapes.abs, d),
+            UnaryOp::Abs => match moments::abs_moments(d.mean, &self.spread(d)) {
+                Some(m) if !d.is_constant() => self.out_of_moments(d, m),
+                _ => self.piecewise(&shapes.abs, d),
+            },
             UnaryOp::Sign => self.piecewise(&shapes.sign, d),
             UnaryOp::Sin => self.sin_cos(d, false),
             UnaryOp::Cos => self.sin_cos(d, true),
