@@ -116,20 +116,104 @@ fn fade(rules: &Rules, stats: &Stats, p: &[Dist; 3]) -> (f64, [f64; 3]) {
     if stats.kappa2 == 0.0 {
         return (1.0, [1.0; 3]);
     }
-    let mut alpha = 1.0;
-    let mut beta = [1.0; 3];
     // The footprint's edges in noise space, J e_k: their squared lengths from each component's
     // widths along the edges.
     let widths = p.map(|c| rules.footprint.widths(c.grad));
-    for (k, b) in beta.iter_mut().enumerate() {
-        let l2: f64 = widths.iter().map(|w| w[k] * w[k]).sum();
+    let l2: [f64; 3] = std::array::from_fn(|k| widths.iter().map(|w| w[k] * w[k]).sum());
+    let v: f64 = p.iter().map(|c| c.var).sum();
+    fade_of(stats, l2, v)
+}
+
+/// [`fade`] from the squared lengths of the footprint's edges in noise space and the input's
+/// total residual variance.
+fn fade_of(stats: &Stats, l2: [f64; 3], v: f64) -> (f64, [f64; 3]) {
+    if stats.kappa2 == 0.0 {
+        return (1.0, [1.0; 3]);
+    }
+    let mut alpha = 1.0;
+    let mut beta = [1.0; 3];
+    for (b, l2) in beta.iter_mut().zip(l2) {
         let t = 1.0 + stats.kappa2 * l2 / 12.0;
         alpha /= t.sqrt();
         *b = if t.is_finite() { 1.0 / t } else { 0.0 };
     }
-    let v: f64 = p.iter().map(|c| c.var).sum();
     let alpha = alpha * (-stats.kappa2 * v / 2.0).exp();
     (if alpha.is_nan() { 0.0 } else { alpha }, beta)
+}
+
+/// Octaves faded by at least `SUB_BAND.0` and at most `SUB_BAND.1` (their cells about the
+/// footprint's size) are sampled at the centres of the footprint's eight half-size sub-boxes
+/// ([`subsampled`]): there the centre value is a poor estimate of the box mean, and beyond
+/// the band either the box is well inside a cell (the centre value and slope suffice) or it
+/// spans many (the fade is the mean).
+const SUB_BAND: (f64, f64) = (0.01, 0.99);
+
+/// The footprint's edges in noise space, `J e_k` (`J`'s rows the input's linear parts).
+fn noise_edges(rules: &Rules, p: &[Dist; 3]) -> [[f64; 3]; 3] {
+    let edges = rules.footprint.edges();
+    std::array::from_fn(|k| std::array::from_fn(|i| dot(&p[i].grad, &edges[k])))
+}
+
+/// The eight sub-box centres in noise space: `m + Σ_k s_k E_k / 4`, `s ∈ {±1}³`, sub-box `j`
+/// with `s_k = +1` where bit `k` of `j` is set.
+fn sub_centres(p: &[Dist; 3], e: &[[f64; 3]; 3]) -> [[f64; 3]; 8] {
+    std::array::from_fn(|j| {
+        std::array::from_fn(|i| {
+            let s = |k: usize| if j >> k & 1 == 1 { 0.25 } else { -0.25 };
+            p[i].mean + (0..3).map(|k| s(k) * e[k][i]).sum::<f64>()
+        })
+    })
+}
+
+/// One octave over the footprint from its eight sub-boxes (the value and gradient at each
+/// centre): each sub-box faded by its own (half-size) fade; the mean of the eight; the linear
+/// part the least-squares slope of the eight along each edge (`grad · e_k = 2 (mean of the
+/// s_k = +1 half − mean of the other)`, the smallest such `grad`); the variance the eight's
+/// spread plus what each sub-box's fade takes, less the linear part's. `None` where the edges
+/// are degenerate (the centre rule then).
+fn subsampled(
+    rules: &Rules,
+    stats: &Stats,
+    p: &[Dist; 3],
+    e: &[[f64; 3]; 3],
+    values: &[f64],
+    grads: [&[f64]; 3],
+) -> Option<Dist> {
+    let l2 = e.map(|ek| dot(&ek, &ek) / 4.0);
+    let v: f64 = p.iter().map(|c| c.var).sum();
+    let (alpha, _) = fade_of(stats, l2, v);
+    let finite = |c: f64| if c.is_finite() { c } else { 0.0 };
+    let means: [f64; 8] =
+        std::array::from_fn(|j| alpha * finite(values[j]) + (1.0 - alpha) * stats.mean);
+    let mean = means.iter().sum::<f64>() / 8.0;
+    let du: [f64; 3] = std::array::from_fn(|k| {
+        let (mut plus, mut minus) = (0.0, 0.0);
+        for (j, m) in means.iter().enumerate() {
+            if j >> k & 1 == 1 {
+                plus += m / 4.0;
+            } else {
+                minus += m / 4.0;
+            }
+        }
+        2.0 * (plus - minus)
+    });
+    let grad = rules.footprint.slope_with(du)?;
+    let between = means.iter().map(|m| (m - mean) * (m - mean)).sum::<f64>() / 8.0;
+    let carried = (0..8)
+        .map(|j| {
+            (0..3)
+                .map(|i| finite(grads[i][j]).powi(2) * p[i].var)
+                .sum::<f64>()
+        })
+        .sum::<f64>()
+        / 8.0;
+    let within = (1.0 - alpha * alpha) * stats.var + alpha * alpha * carried;
+    let var = super::rules::residual(between + within, rules.footprint.linear_var(grad));
+    mean.is_finite().then_some(Dist {
+        mean,
+        grad,
+        var: if var.is_finite() { var } else { 0.0 },
+    })
 }
 
 /// A fade below which an octave is not sampled: its value would move the mean by less than
@@ -318,28 +402,48 @@ fn octave_lanes(
     if todo.is_empty() {
         return;
     }
-    for (axis, c) in coords.iter_mut().enumerate() {
-        c.clear();
-        c.extend(todo.iter().map(|&lane| p[lane][axis].mean));
+    // Each lane's points: its centre, or its eight sub-box centres in the band.
+    let mid = |lane: usize| (SUB_BAND.0..=SUB_BAND.1).contains(&fades[lane].alpha);
+    coords.iter_mut().for_each(Vec::clear);
+    for &lane in todo.iter() {
+        if mid(lane) {
+            let e = noise_edges(&lanes.rules(lane), &p[lane]);
+            for c in sub_centres(&p[lane], &e) {
+                (0..3).for_each(|i| coords[i].push(c[i]));
+            }
+        } else {
+            (0..3).for_each(|i| coords[i].push(p[lane][i].mean));
+        }
     }
-    value.resize(todo.len(), 0.0);
-    grad.iter_mut().for_each(|g| g.resize(todo.len(), 0.0));
+    let n = coords[0].len();
+    value.resize(n, 0.0);
+    grad.iter_mut().for_each(|g| g.resize(n, 0.0));
     let [gx, gy, gz] = grad;
     s.table.sample_value_grad_batch(
         [&coords[0], &coords[1], &coords[2]],
         value,
         [gx.as_mut_slice(), gy.as_mut_slice(), gz.as_mut_slice()],
     );
-    for (k, &lane) in todo.iter().enumerate() {
-        let g = [gx[k], gy[k], gz[k]];
-        out[lane] = sampled(
-            &lanes.rules(lane),
-            &s.stats,
-            &p[lane],
-            &fades[lane],
-            value[k],
-            g,
-        );
+    let mut k = 0;
+    for &lane in todo.iter() {
+        let rules = lanes.rules(lane);
+        let centre = |k: usize| {
+            let g = [gx[k], gy[k], gz[k]];
+            sampled(&rules, &s.stats, &p[lane], &fades[lane], value[k], g)
+        };
+        if mid(lane) {
+            let e = noise_edges(&rules, &p[lane]);
+            let r = k..k + 8;
+            let grads = [&gx[r.clone()], &gy[r.clone()], &gz[r.clone()]];
+            let sub = subsampled(&rules, &s.stats, &p[lane], &e, &value[r.clone()], grads);
+            // Degenerate edges: the first sub-box centre stands for the centre (they agree
+            // along any zero edge; a degenerate box has no volume to split).
+            out[lane] = sub.unwrap_or_else(|| centre(k));
+            k += 8;
+        } else {
+            out[lane] = centre(k);
+            k += 1;
+        }
     }
 }
 

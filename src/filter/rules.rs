@@ -174,6 +174,40 @@ impl Footprint {
         self.covariance(grad, grad).max(0.0)
     }
 
+    /// The smallest slope `g` with `g · e_k = du[k]` along each non-zero edge (`g = Σ y_a e_a`,
+    /// the Gram system); `None` where the edges are (nearly) parallel.
+    pub(super) fn slope_with(&self, du: [f64; 3]) -> Option<[f64; 3]> {
+        let mut live = [0usize; 3];
+        let mut n = 0;
+        for k in 0..3 {
+            if dot(&self.edges[k], &self.edges[k]) > 0.0 {
+                live[n] = k;
+                n += 1;
+            }
+        }
+        if n == 0 {
+            return Some([0.0; 3]);
+        }
+        let gram: [[f64; 3]; 3] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| {
+                if i < n && j < n {
+                    dot(&self.edges[live[i]], &self.edges[live[j]])
+                } else {
+                    0.0
+                }
+            })
+        });
+        let inverse = invert(&gram, n)?;
+        let mut g = [0.0; 3];
+        for a in 0..n {
+            let y: f64 = (0..n).map(|b| inverse[a][b] * du[live[b]]).sum();
+            for (gi, ei) in g.iter_mut().zip(&self.edges[live[a]]) {
+                *gi += y * ei;
+            }
+        }
+        g.iter().all(|c| c.is_finite()).then_some(g)
+    }
+
     /// `grad` with its increment along each edge `e_k` scaled by `beta[k]`: the smallest change
     /// `g' = g + Σ_k y_k e_k` with `g' · e_k = beta[k] (g · e_k)` (a Gram system over the
     /// non-zero edges). Where the edges are (nearly) parallel the system is singular and
