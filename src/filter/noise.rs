@@ -318,6 +318,8 @@ pub struct LaneScratch {
     weight: Vec<Dist>,
     octave: Vec<Dist>,
     same: Vec<bool>,
+    /// Per sub-sampled lane, the footprint's edges in noise space.
+    edges: Vec<[[f64; 3]; 3]>,
 }
 
 /// A lane's fade: `α`, and the damping of its slope (`Footprint::damp_matrix` of the `β`s).
@@ -389,6 +391,7 @@ fn octave_lanes(
         coords,
         value,
         grad,
+        edges,
         ..
     } = scratch;
     lane_fades(lanes, &s.stats, p, same, fades);
@@ -405,9 +408,11 @@ fn octave_lanes(
     // Each lane's points: its centre, or its eight sub-box centres in the band.
     let mid = |lane: usize| (SUB_BAND.0..=SUB_BAND.1).contains(&fades[lane].alpha);
     coords.iter_mut().for_each(Vec::clear);
+    edges.clear();
     for &lane in todo.iter() {
         if mid(lane) {
             let e = noise_edges(&lanes.rules(lane), &p[lane]);
+            edges.push(e);
             for c in sub_centres(&p[lane], &e) {
                 (0..3).for_each(|i| coords[i].push(c[i]));
             }
@@ -424,7 +429,7 @@ fn octave_lanes(
         value,
         [gx.as_mut_slice(), gy.as_mut_slice(), gz.as_mut_slice()],
     );
-    let mut k = 0;
+    let (mut k, mut m) = (0, 0);
     for &lane in todo.iter() {
         let rules = lanes.rules(lane);
         let centre = |k: usize| {
@@ -432,7 +437,8 @@ fn octave_lanes(
             sampled(&rules, &s.stats, &p[lane], &fades[lane], value[k], g)
         };
         if mid(lane) {
-            let e = noise_edges(&rules, &p[lane]);
+            let e = edges[m];
+            m += 1;
             let r = k..k + 8;
             let grads = [&gx[r.clone()], &gy[r.clone()], &gz[r.clone()]];
             let sub = subsampled(&rules, &s.stats, &p[lane], &e, &value[r.clone()], grads);

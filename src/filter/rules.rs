@@ -79,6 +79,8 @@ pub struct Footprint {
     /// `Σ_k e_k e_kᵀ / 12`: the covariance of linear parts over the footprint as one quadratic
     /// form (made once per footprint; `covariance` runs per rule and per noise octave).
     quad: [[f64; 3]; 3],
+    /// [`Footprint::slope_with`]'s matrix (`None`: nearly parallel edges).
+    slopes: Option<[[f64; 3]; 3]>,
 }
 
 /// Why a footprint was refused.
@@ -98,13 +100,19 @@ impl Footprint {
     pub const POINT: Footprint = Footprint {
         edges: [[0.0; 3]; 3],
         quad: [[0.0; 3]; 3],
+        slopes: Some([[0.0; 3]; 3]),
     };
 
     fn new(edges: [[f64; 3]; 3]) -> Footprint {
         let quad = std::array::from_fn(|i| {
             std::array::from_fn(|j| edges.iter().map(|e| e[i] * e[j]).sum::<f64>() / 12.0)
         });
-        Footprint { edges, quad }
+        let slopes = Footprint::slope_matrix(&edges);
+        Footprint {
+            edges,
+            quad,
+            slopes,
+        }
     }
 
     /// An axis-aligned box of sides `(wx, wy, wz)` (a voxel). Each side must be finite and
@@ -175,37 +183,47 @@ impl Footprint {
     }
 
     /// The smallest slope `g` with `g · e_k = du[k]` along each non-zero edge (`g = Σ y_a e_a`,
-    /// the Gram system); `None` where the edges are (nearly) parallel.
+    /// the Gram system, solved once per footprint); `None` where the edges are (nearly)
+    /// parallel.
     pub(super) fn slope_with(&self, du: [f64; 3]) -> Option<[f64; 3]> {
+        let m = self.slopes.as_ref()?;
+        let g: [f64; 3] = std::array::from_fn(|i| dot(&m[i], &du));
+        g.iter().all(|c| c.is_finite()).then_some(g)
+    }
+
+    /// The matrix of [`Footprint::slope_with`]: `g = M du`, `M = Σ_{a,b} e_a (M⁻¹)_{ab} ê_bᵀ`
+    /// over the non-zero edges (`ê_b` selecting `du`'s component `b`).
+    fn slope_matrix(edges: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
         let mut live = [0usize; 3];
         let mut n = 0;
-        for k in 0..3 {
-            if dot(&self.edges[k], &self.edges[k]) > 0.0 {
+        for (k, e) in edges.iter().enumerate() {
+            if dot(e, e) > 0.0 {
                 live[n] = k;
                 n += 1;
             }
         }
+        let mut m = [[0.0; 3]; 3];
         if n == 0 {
-            return Some([0.0; 3]);
+            return Some(m);
         }
         let gram: [[f64; 3]; 3] = std::array::from_fn(|i| {
             std::array::from_fn(|j| {
                 if i < n && j < n {
-                    dot(&self.edges[live[i]], &self.edges[live[j]])
+                    dot(&edges[live[i]], &edges[live[j]])
                 } else {
                     0.0
                 }
             })
         });
         let inverse = invert(&gram, n)?;
-        let mut g = [0.0; 3];
         for a in 0..n {
-            let y: f64 = (0..n).map(|b| inverse[a][b] * du[live[b]]).sum();
-            for (gi, ei) in g.iter_mut().zip(&self.edges[live[a]]) {
-                *gi += y * ei;
+            for b in 0..n {
+                for (i, row) in m.iter_mut().enumerate() {
+                    row[live[b]] += edges[live[a]][i] * inverse[a][b];
+                }
             }
         }
-        g.iter().all(|c| c.is_finite()).then_some(g)
+        Some(m)
     }
 
     /// `grad` with its increment along each edge `e_k` scaled by `beta[k]`: the smallest change
