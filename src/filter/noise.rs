@@ -556,7 +556,7 @@ fn cells(rules: &Rules, d: &Dist, integer: bool) -> Option<Cells> {
 }
 
 /// Cellular noise over a footprint within about one cell in noise space (its edges' lengths
-/// there at most [`SUB_SPAN`]): the documented fallback of sub-footprint evaluation. A cellular
+/// there at most `SUB_SPAN`): the documented fallback of sub-footprint evaluation. A cellular
 /// value has kinks and jumps at cell borders (`F1`'s ridges, `CellValue`'s steps) that the
 /// fade, fitted to its average correlation, does not see: a box inside one cell would lose its
 /// cell's value. The value and gradient are taken at the centres of the footprint's eight
