@@ -8,6 +8,7 @@
 //! One forward walk over the tape, tracking each slot's flag as instructions write it (slots
 //! are reused, so the flag is the one of the value a slot holds at that instruction).
 
+use super::writes::{scalar_dst, vec3_dst};
 use crate::ops::{BinaryOp, TernaryOp, UnaryOp};
 use crate::tape::{Instr, Tape, Wide};
 
@@ -130,24 +131,14 @@ fn wide(w: Wide, scalars: &mut [bool], wides: &mut [bool], vec3s: &mut [[bool; 3
     }
 }
 
-/// Every other instruction writes a value that is not integer-valued.
+/// Every other instruction writes a value that is not integer-valued (wide instructions are
+/// `wide`'s).
 fn clear(instr: &Instr, scalars: &mut [bool], vec3s: &mut [[bool; 3]]) {
-    match *instr {
-        Instr::Dot { dst, .. }
-        | Instr::Length { dst, .. }
-        | Instr::Noise { dst, .. }
-        | Instr::Fractal { dst, .. }
-        | Instr::Hermite { dst, .. }
-        | Instr::Curve { dst, .. } => scalars[dst as usize] = false,
-        Instr::Position { dst }
-        | Instr::Cross { dst, .. }
-        | Instr::Normalize { dst, .. }
-        | Instr::RotateConst { dst, .. }
-        | Instr::RotateVarying { dst, .. }
-        | Instr::NoiseGradient { dst, .. }
-        | Instr::FractalGradient { dst, .. }
-        | Instr::Ramp { dst, .. } => vec3s[dst as usize] = [false; 3],
-        _ => {}
+    if let Some(dst) = scalar_dst(instr) {
+        scalars[dst as usize] = false;
+    }
+    if let Some(dst) = vec3_dst(instr) {
+        vec3s[dst as usize] = [false; 3];
     }
 }
 
