@@ -1034,7 +1034,7 @@ fn piecewise_early(knots: &[f64], polys: &[[f64; 4]], t: f64, s: &Spread) -> Opt
             slope: 0.0,
         });
     }
-    let half = s.active().iter().sum::<f64>() / 2.0;
+    let half = s.half_support();
     let j = knots.partition_point(|&c| c <= t);
     let line = polys[j][2] == 0.0 && polys[j][3] == 0.0;
     if line && !knots.iter().any(|&c| c > t - half && c < t + half) {
@@ -1095,8 +1095,7 @@ fn periodic_mean(x: f64, ws: &Widths, level: usize, n: usize) -> f64 {
 /// very different sizes). A noise octave through `abs` (turbulence) takes this at every lane:
 /// the general plan costs several times as much.
 pub fn abs_moments(t: f64, s: &Spread) -> Option<Moments> {
-    let w = s.active();
-    let half = w.iter().sum::<f64>() / 2.0;
+    let (w, half) = (s.active(), s.half_support());
     let inside = t.abs() < half; // false for a NaN t
     if s.unbounded || w.is_empty() || !inside {
         return None;

@@ -18,7 +18,7 @@
 //! add; turbulence, billow and ridged shape each faded octave by the exact rules of `abs` and
 //! the ramp, so a faded octave's non-zero mean `E|n|` is in the sum.
 
-use super::rules::{Dist, Footprint, Rules, Shapes};
+use super::rules::{dot, Dist, Footprint, Rules, Shapes};
 use crate::noise::{NoiseTable, Octaves, Style};
 use crate::ops::{BinaryOp, UnaryOp};
 
@@ -223,15 +223,14 @@ fn subsampled(
 const FADED: f64 = 1e-6;
 
 /// A noise sample of `p` over the footprint (one lane of [`noise_lanes`]).
-pub fn noise(rules: &Rules, s: &Sampler, p: &[Dist; 3]) -> Dist {
+pub fn noise(rules: &Rules, s: &Sampler, p: &[Dist; 3], scratch: &mut LaneScratch) -> Dist {
     let mut out = [Dist::constant(0.0)];
-    let mut scratch = LaneScratch::default();
     noise_lanes(
         Lanes::new(std::slice::from_ref(rules.footprint), 1),
         s,
         std::slice::from_ref(p),
         &mut out,
-        &mut scratch,
+        scratch,
     );
     out[0]
 }
@@ -567,23 +566,15 @@ fn cells(rules: &Rules, d: &Dist, integer: bool) -> Option<Cells> {
 /// then, which averages many cells.
 pub fn cellular(rules: &Rules, s: &Sampler, p: &[Dist; 3]) -> Option<Dist> {
     const SUB_SPAN: f64 = 1.0;
-    let edges = rules.footprint.edges();
-    // The footprint's edges in noise space: J e_k.
-    let noise_edges: [[f64; 3]; 3] =
-        std::array::from_fn(|k| std::array::from_fn(|i| dot(&p[i].grad, &edges[k])));
+    let noise_edges = noise_edges(rules, p);
     let longest = noise_edges.iter().map(|e| dot(e, e)).fold(0.0, f64::max);
     let centre = p.map(|c| c.mean);
     let small = longest <= SUB_SPAN * SUB_SPAN; // false for NaN
     if !small || centre.iter().any(|c| !c.is_finite()) {
         return None;
     }
-    let mut coords: [[f64; 8]; 3] = [[0.0; 8]; 3];
-    for j in 0..8 {
-        let u = [j & 1, (j >> 1) & 1, (j >> 2) & 1].map(|b| if b == 1 { 0.25 } else { -0.25 });
-        for (i, axis) in coords.iter_mut().enumerate() {
-            axis[j] = centre[i] + (0..3).map(|k| u[k] * noise_edges[k][i]).sum::<f64>();
-        }
-    }
+    let centres = sub_centres(p, &noise_edges);
+    let coords: [[f64; 8]; 3] = std::array::from_fn(|i| centres.map(|c| c[i]));
     let (mut value, mut grad) = ([0.0; 8], [[0.0; 8]; 3]);
     let [gx, gy, gz] = &mut grad;
     s.table.sample_value_grad_batch(
@@ -614,10 +605,6 @@ pub fn cellular(rules: &Rules, s: &Sampler, p: &[Dist; 3]) -> Option<Dist> {
         grad: slope,
         var: if var.is_finite() { var } else { 0.0 },
     })
-}
-
-fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// The analytic gradient of the noise at `p` over the footprint: faded like the value, the
@@ -693,23 +680,9 @@ pub fn fractal_lanes(
             }
             continue;
         }
-        // A fully faded octave is the same at every lane (no slope: the footprint does not
-        // enter its shaping): shaped once, not per lane.
-        let mut last: Option<(Dist, Dist, Dist, Dist)> = None;
         for (lane, (sum, n)) in out.iter_mut().zip(&n).enumerate() {
             let rules = lanes.rules(lane);
-            let key = (*n, weight[lane]);
-            let shaped = match last {
-                Some((ln, lw, shaped, w)) if n.grad == [0.0; 3] && (ln, lw) == key => {
-                    weight[lane] = w;
-                    shaped
-                }
-                _ => {
-                    let shaped = shape(&rules, shapes, style, n, &mut weight[lane]);
-                    last = Some((key.0, key.1, shaped, weight[lane]));
-                    shaped
-                }
-            };
+            let shaped = shape(&rules, shapes, style, n, &mut weight[lane]);
             *sum = rules.add(sum, &shaped.scale(amp));
         }
     }

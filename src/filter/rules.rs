@@ -79,8 +79,46 @@ pub struct Footprint {
     /// `Σ_k e_k e_kᵀ / 12`: the covariance of linear parts over the footprint as one quadratic
     /// form (made once per footprint; `covariance` runs per rule and per noise octave).
     quad: [[f64; 3]; 3],
-    /// [`Footprint::slope_with`]'s matrix (`None`: nearly parallel edges).
-    slopes: Option<[[f64; 3]; 3]>,
+    /// The non-zero edges and the inverse of their Gram matrix, once per footprint (the slope
+    /// damping and the slope fit solve with it per octave).
+    gram: Gram,
+}
+
+/// The non-zero edges `live[..n]` of a footprint and the inverse of their Gram matrix
+/// (`None`: nearly parallel edges).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Gram {
+    live: [usize; 3],
+    n: usize,
+    inverse: Option<[[f64; 3]; 3]>,
+}
+
+impl Gram {
+    fn new(edges: &[[f64; 3]; 3]) -> Gram {
+        let mut live = [0usize; 3];
+        let mut n = 0;
+        for (k, e) in edges.iter().enumerate() {
+            if dot(e, e) > 0.0 {
+                live[n] = k;
+                n += 1;
+            }
+        }
+        let gram: [[f64; 3]; 3] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| {
+                if i < n && j < n {
+                    dot(&edges[live[i]], &edges[live[j]])
+                } else {
+                    0.0
+                }
+            })
+        });
+        let inverse = if n == 0 {
+            Some([[0.0; 3]; 3])
+        } else {
+            invert(&gram, n)
+        };
+        Gram { live, n, inverse }
+    }
 }
 
 /// Why a footprint was refused.
@@ -100,19 +138,19 @@ impl Footprint {
     pub const POINT: Footprint = Footprint {
         edges: [[0.0; 3]; 3],
         quad: [[0.0; 3]; 3],
-        slopes: Some([[0.0; 3]; 3]),
+        gram: Gram {
+            live: [0; 3],
+            n: 0,
+            inverse: Some([[0.0; 3]; 3]),
+        },
     };
 
     fn new(edges: [[f64; 3]; 3]) -> Footprint {
         let quad = std::array::from_fn(|i| {
             std::array::from_fn(|j| edges.iter().map(|e| e[i] * e[j]).sum::<f64>() / 12.0)
         });
-        let slopes = Footprint::slope_matrix(&edges);
-        Footprint {
-            edges,
-            quad,
-            slopes,
-        }
+        let gram = Gram::new(&edges);
+        Footprint { edges, quad, gram }
     }
 
     /// An axis-aligned box of sides `(wx, wy, wz)` (a voxel). Each side must be finite and
@@ -183,47 +221,19 @@ impl Footprint {
     }
 
     /// The smallest slope `g` with `g · e_k = du[k]` along each non-zero edge (`g = Σ y_a e_a`,
-    /// the Gram system, solved once per footprint); `None` where the edges are (nearly)
-    /// parallel.
+    /// `y = M⁻¹ du` with the Gram matrix `M` inverted once per footprint); `None` where the
+    /// edges are (nearly) parallel.
     pub(super) fn slope_with(&self, du: [f64; 3]) -> Option<[f64; 3]> {
-        let m = self.slopes.as_ref()?;
-        let g: [f64; 3] = std::array::from_fn(|i| dot(&m[i], &du));
-        g.iter().all(|c| c.is_finite()).then_some(g)
-    }
-
-    /// The matrix of [`Footprint::slope_with`]: `g = M du`, `M = Σ_{a,b} e_a (M⁻¹)_{ab} ê_bᵀ`
-    /// over the non-zero edges (`ê_b` selecting `du`'s component `b`).
-    fn slope_matrix(edges: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
-        let mut live = [0usize; 3];
-        let mut n = 0;
-        for (k, e) in edges.iter().enumerate() {
-            if dot(e, e) > 0.0 {
-                live[n] = k;
-                n += 1;
-            }
-        }
-        let mut m = [[0.0; 3]; 3];
-        if n == 0 {
-            return Some(m);
-        }
-        let gram: [[f64; 3]; 3] = std::array::from_fn(|i| {
-            std::array::from_fn(|j| {
-                if i < n && j < n {
-                    dot(&edges[live[i]], &edges[live[j]])
-                } else {
-                    0.0
-                }
-            })
-        });
-        let inverse = invert(&gram, n)?;
+        let Gram { live, n, inverse } = self.gram;
+        let inverse = inverse?;
+        let mut g = [0.0; 3];
         for a in 0..n {
-            for b in 0..n {
-                for (i, row) in m.iter_mut().enumerate() {
-                    row[live[b]] += edges[live[a]][i] * inverse[a][b];
-                }
+            let y: f64 = (0..n).map(|b| inverse[a][b] * du[live[b]]).sum();
+            for (gi, ei) in g.iter_mut().zip(&self.edges[live[a]]) {
+                *gi += y * ei;
             }
         }
-        Some(m)
+        g.iter().all(|c| c.is_finite()).then_some(g)
     }
 
     /// `grad` with its increment along each edge `e_k` scaled by `beta[k]`: the smallest change
@@ -243,28 +253,11 @@ impl Footprint {
         if beta.iter().all(|&b| (1.0 - b).abs() < 1e-9) {
             return None;
         }
-        // The non-zero edges, in order (no allocation: this runs per noise octave).
-        let mut live = [0usize; 3];
-        let mut n = 0;
-        for k in 0..3 {
-            if dot(&self.edges[k], &self.edges[k]) > 0.0 {
-                live[n] = k;
-                n += 1;
-            }
-        }
+        let Gram { live, n, inverse } = self.gram;
         if n == 0 {
             return None;
         }
-        let gram: [[f64; 3]; 3] = std::array::from_fn(|i| {
-            std::array::from_fn(|j| {
-                if i < n && j < n {
-                    dot(&self.edges[live[i]], &self.edges[live[j]])
-                } else {
-                    0.0
-                }
-            })
-        });
-        let Some(inverse) = invert(&gram, n) else {
+        let Some(inverse) = inverse else {
             let least = beta.iter().copied().fold(1.0, f64::min);
             return Some(std::array::from_fn(|i| {
                 std::array::from_fn(|j| if i == j { least } else { 0.0 })
@@ -298,7 +291,7 @@ pub(super) fn apply(m: &Option<[[f64; 3]; 3]>, g: [f64; 3]) -> [f64; 3] {
     }
 }
 
-fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+pub(super) fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 

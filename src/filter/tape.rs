@@ -562,7 +562,8 @@ impl<'t> Filtered<'t> {
                     } else {
                         fnoise::cellular(&rules, &sampler, p)
                     };
-                    *o = special.unwrap_or_else(|| fnoise::noise(&rules, &sampler, p));
+                    *o = special
+                        .unwrap_or_else(|| fnoise::noise(&rules, &sampler, p, &mut s.scratch));
                 }
             }
             Instr::Noise { dst, src, table } => fnoise::noise_lanes(
