@@ -12,7 +12,7 @@
 
 use super::moments::Piecewise;
 use super::periodic::Periodic;
-use super::writes::{scalar_dst, Source};
+use super::writes::{reads_scalar, scalar_dst, Source};
 use crate::ops::{BinaryOp, TernaryOp, UnaryOp};
 use crate::tape::{Instr, Slot, Tape};
 
@@ -190,24 +190,6 @@ fn skip_sole_producers(tape: &Tape, f: &mut Fusions) {
         if sole && (rewritten || !output) {
             f.skip[at] = true;
         }
-    }
-}
-
-/// Whether an instruction reads scalar slot `slot`.
-fn reads_scalar(instr: &Instr, slot: Slot) -> bool {
-    use crate::tape::Wide;
-    match *instr {
-        Instr::Splat { src, .. }
-        | Instr::UnaryScalar { src, .. }
-        | Instr::Hermite { src, .. }
-        | Instr::Ramp { src, .. }
-        | Instr::Curve { src, .. }
-        | Instr::Wide(Wide::Widen { src, .. }) => src == slot,
-        Instr::RotateVarying { degrees, .. } => degrees == slot,
-        Instr::Combine { x, y, z, .. } => [x, y, z].contains(&slot),
-        Instr::BinaryScalar { a, b, .. } => a == slot || b == slot,
-        Instr::TernaryScalar { a, b, c, .. } => [a, b, c].contains(&slot),
-        _ => false,
     }
 }
 

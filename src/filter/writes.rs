@@ -1,6 +1,6 @@
-//! Which slot an instruction writes, per slot file, and where a saved operand is read from:
-//! shared by the walks over the tape (`fusions.rs`, `chains.rs`) and the filtered evaluation
-//! (`tape.rs`).
+//! Which slot an instruction writes, per slot file, which scalar slots it reads, and where a
+//! saved operand is read from: shared by the walks over the tape (`integers.rs`, `chains.rs`,
+//! `fusions.rs`) and the filtered evaluation (`tape.rs`).
 
 use crate::tape::{Instr, Slot, Wide};
 
@@ -71,5 +71,22 @@ pub(super) fn vec3_dst(instr: &Instr) -> Option<Slot> {
         | Instr::Wide(Wide::NoiseGradient { dst, .. })
         | Instr::Wide(Wide::FractalGradient { dst, .. }) => Some(dst),
         _ => None,
+    }
+}
+
+/// Whether an instruction reads scalar slot `slot`.
+pub(super) fn reads_scalar(instr: &Instr, slot: Slot) -> bool {
+    match *instr {
+        Instr::Splat { src, .. }
+        | Instr::UnaryScalar { src, .. }
+        | Instr::Hermite { src, .. }
+        | Instr::Ramp { src, .. }
+        | Instr::Curve { src, .. }
+        | Instr::Wide(Wide::Widen { src, .. }) => src == slot,
+        Instr::RotateVarying { degrees, .. } => degrees == slot,
+        Instr::Combine { x, y, z, .. } => [x, y, z].contains(&slot),
+        Instr::BinaryScalar { a, b, .. } => a == slot || b == slot,
+        Instr::TernaryScalar { a, b, c, .. } => [a, b, c].contains(&slot),
+        _ => false,
     }
 }
