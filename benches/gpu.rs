@@ -1,5 +1,6 @@
 //! GPU benchmarks (issue 19): `gpu/marble_512` (the seed 003 marble with 8 octaves over a 512³
-//! grid, results kept on the GPU, and again read back) and `gpu/bake_1024` (the command-line
+//! grid, results kept on the GPU, and again read back), `gpu/marble_filtered_256` (its filtered
+//! form, issue 33, over a 256³ grid) and `gpu/bake_1024` (the command-line
 //! bake of a 1024³ raw file, end to end). Without an adapter they print why and measure
 //! nothing. `TEXGRAPH_GPU_BENCH_SIZE=N` shrinks both grids to N³ (for a software adapter such
 //! as lavapipe, where 512³ takes minutes per sample); the benchmark names keep the full sizes
@@ -52,6 +53,15 @@ fn bench_gpu(c: &mut Criterion) {
     });
     group.bench_function(format!("marble_{n}/read_back"), |b| {
         b.iter(|| gpu.eval_grid(&grid, false).expect("evaluates"))
+    });
+    // The filtered form (`--filter box`): each voxel the estimate of its cell's mean, on a
+    // 256³ grid (the rules run in f64), results kept on the GPU.
+    let filtered =
+        texgraph::gpu::filtered_evaluator_for(&tape).expect("the marble's filtered form compiles");
+    let n = size(256);
+    let small = Grid::cube(n);
+    group.bench_function(format!("marble_filtered_{n}/kernel"), |b| {
+        b.iter(|| filtered.eval_grid(&small, true).expect("evaluates"))
     });
     // A 1024³ bake takes seconds: flat sampling runs each of the 10 samples once instead of
     // criterion's linear 1 + 2 + … + 10 iterations.

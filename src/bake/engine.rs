@@ -474,10 +474,20 @@ fn bake_with<S: Real>(
                 "the GPU evaluates the f32 path; an f64 bake (--double) runs on the CPU".into(),
             ))
         }
+        // The filtered form on the GPU (`gpu/filtered.rs`): refused, with the instruction it
+        // cannot run yet, for a graph it does not cover.
         crate::gpu::Device::Gpu if options.filter == crate::filter::Filter::Box => {
-            return Err(BakeError::Refused(
-                "--filter box runs on the CPU (the GPU's filtered form is not written yet)".into(),
-            ))
+            Some(crate::gpu::filtered_evaluator_for(tape).map_err(|e| {
+                BakeError::Refused(format!(
+                    "--device gpu --filter box: {e} (--device cpu runs it)"
+                ))
+            })?)
+        }
+        // `auto`: the GPU where its filtered form covers the graph, else the CPU.
+        crate::gpu::Device::Auto
+            if options.filter == crate::filter::Filter::Box && S::NAME == "f32" =>
+        {
+            crate::gpu::filtered_evaluator_for(tape).ok()
         }
         crate::gpu::Device::Gpu => {
             Some(crate::gpu::evaluator_for(tape).map_err(|e| BakeError::Refused(e.to_string()))?)

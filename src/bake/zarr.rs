@@ -1246,7 +1246,16 @@ fn eval_shard<S: Real>(
     }
     // --device gpu: each slice's rows in one GPU batch (the tape's cached evaluator); where the
     // GPU fails, the slice is evaluated on the CPU (said on stderr).
+    // `--filter box`: each voxel the filtered estimate of its cell's mean (the bake engine's
+    // footprint), on the GPU's filtered form where asked and covered.
+    let boxed = options.bake.filter == crate::filter::Filter::Box;
+    let footprint = crate::filter::Footprint::from_sides(grid.spacing().map(f64::abs))
+        .unwrap_or(crate::filter::Footprint::POINT);
+    let filtered = boxed.then(|| crate::filter::Filtered::new(tape));
     let gpu = match options.bake.device {
+        crate::gpu::Device::Gpu | crate::gpu::Device::Auto if S::NAME == "f32" && boxed => {
+            crate::gpu::filtered_evaluator_for(tape).ok()
+        }
         crate::gpu::Device::Gpu if S::NAME == "f32" => crate::gpu::evaluator_for(tape).ok(),
         _ => None,
     };
@@ -1260,7 +1269,12 @@ fn eval_shard<S: Real>(
             .collect();
         let pz = vec![grid.centre(2, kz); n];
         let mut out = vec![0f32; channels * n];
-        match gpu.eval_batch(&px, &py, &pz, &mut out) {
+        let done = if boxed {
+            gpu.eval_batch_filtered([&px, &py, &pz], std::slice::from_ref(&footprint), &mut out)
+        } else {
+            gpu.eval_batch(&px, &py, &pz, &mut out)
+        };
+        match done {
             Ok(()) => Some(out),
             Err(e) => {
                 eprintln!("texgraph: {e}; slice {kz} evaluated on the CPU");
@@ -1300,7 +1314,14 @@ fn eval_shard<S: Real>(
                                     }
                                 }
                             }
-                            None => tape.eval_batch(workspace, &xs, ys, zs, out),
+                            None => match &filtered {
+                                Some(f) => f.eval_batch(
+                                    [&xs, ys, zs],
+                                    std::slice::from_ref(&footprint),
+                                    out,
+                                ),
+                                None => tape.eval_batch(workspace, &xs, ys, zs, out),
+                            },
                         }
                         for (a, view) in arrays.iter().zip(views.iter_mut()) {
                             let c = a.ty.channels();

@@ -103,8 +103,9 @@ pub struct BakeArgs {
     #[arg(long)]
     mips: bool,
     /// What each voxel stores: point (the graph at its centre) or box (the estimate of the
-    /// graph's mean over its cell, docs/filtering.md; CPU only) [default: point; box with
-    /// --mips, every level the mean over its own voxels, unless --device gpu].
+    /// graph's mean over its cell, docs/filtering.md; on the GPU for the graphs its filtered
+    /// form covers, docs/gpu.md) [default: point; box with --mips, every level the mean over
+    /// its own voxels, unless --device gpu].
     #[arg(long, value_enum, value_name = "point|box")]
     filter: Option<FilterArg>,
     /// No progress bar.
@@ -133,7 +134,8 @@ pub enum FilterArg {
 impl BakeArgs {
     /// The filter this bake uses: `--filter`, else point (docs/baking.md says why).
     /// Box when asked for, and by default with `--mips` (every level its voxels' means)
-    /// unless the GPU is asked for (the filtered form runs on the CPU); else point.
+    /// unless the GPU is asked for (its filtered form does not cover every graph yet: an
+    /// explicit `--filter box` asks for it); else point.
     fn filter(&self) -> crate::filter::Filter {
         match self.filter {
             Some(FilterArg::Box) => crate::filter::Filter::Box,
@@ -319,17 +321,17 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
         (args.files.clone(), part)
     };
     let threads = threads_or_warn(args.threads);
-    // The filtered form runs on the CPU only (docs/filtering.md, "Not yet").
+    // Box filtering on the GPU runs the GPU's filtered form (docs/gpu.md), which covers most
+    // graphs: `--device gpu` refuses one it does not cover, `auto` bakes that one on the CPU.
     let device = match (args.filter(), args.device) {
-        (crate::filter::Filter::Box, crate::gpu::Device::Gpu) => {
-            eprintln!("error: --filter box runs on the CPU (the GPU's filtered form is not written yet): use --device cpu");
-            return Err(Failure::Usage);
-        }
         (crate::filter::Filter::Box, crate::gpu::Device::Auto) => {
-            eprintln!(
-                "texgraph: --device auto: evaluating on the CPU (box filtering runs on the CPU)"
-            );
-            crate::gpu::Device::Cpu
+            match super::resolve_device(args.device, args.double)? {
+                crate::gpu::Device::Gpu => {
+                    eprintln!("texgraph: --filter box: graphs the GPU's filtered form does not cover are baked on the CPU");
+                    crate::gpu::Device::Auto
+                }
+                other => other,
+            }
         }
         _ => super::resolve_device(args.device, args.double)?,
     };

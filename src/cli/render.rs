@@ -82,25 +82,21 @@ pub enum FilterArg {
     Box,
 }
 
-/// The render filter the flags ask for: box unless point is named, implied by `--no-lod`, or
-/// the GPU is asked for (the filtered form runs on the CPU). A usage error where they disagree.
+/// The render filter the flags ask for: box unless point is named or implied by `--no-lod`
+/// (on the CPU or the GPU: each texture the GPU's filtered form does not cover is filtered on
+/// the CPU). A usage error where they disagree.
 pub fn render_filter(
     filter: Option<FilterArg>,
     no_lod: bool,
-    device: crate::gpu::Device,
 ) -> Result<crate::render::RenderFilter, String> {
-    use crate::gpu::Device;
     use crate::render::RenderFilter;
     match filter {
         Some(FilterArg::Box) if no_lod => Err(
             "--no-lod turns off point sampling's level of detail; with --filter box the footprint is the filter (give --filter point, or leave out --no-lod)".into(),
         ),
-        Some(FilterArg::Box) if device == Device::Gpu => Err(
-            "--filter box runs on the CPU (the GPU path has no filtered form yet): use --device cpu, or --filter point on the GPU".into(),
-        ),
         Some(FilterArg::Box) => Ok(RenderFilter::Box),
         Some(FilterArg::Point) => Ok(RenderFilter::Point),
-        None if no_lod || device == Device::Gpu => Ok(RenderFilter::Point),
+        None if no_lod => Ok(RenderFilter::Point),
         None => Ok(RenderFilter::Box),
     }
 }
@@ -200,19 +196,11 @@ pub fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
         eprintln!("error: give a graph or scene file");
         return Err(Failure::Usage);
     };
-    let filter = render_filter(args.filter, args.no_lod, args.device).map_err(|e| {
+    let filter = render_filter(args.filter, args.no_lod).map_err(|e| {
         eprintln!("error: {e}");
         Failure::Usage
     })?;
-    // `auto` never picks the GPU for a box-filtered render (the filtered form runs on the
-    // CPU): said on stderr, as for `bake --filter box`.
-    let device = match (args.device, filter) {
-        (crate::gpu::Device::Auto, crate::render::RenderFilter::Box) => {
-            eprintln!("texgraph: --device auto: evaluating on the CPU (box filtering runs on the CPU; --filter point to use a GPU)");
-            crate::gpu::Device::Cpu
-        }
-        (device, _) => super::resolve_device(device, false)?,
-    };
+    let device = super::resolve_device(args.device, false)?;
     let options = RenderOptions {
         filter,
         device,

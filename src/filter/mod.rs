@@ -19,7 +19,7 @@ pub mod noise;
 pub mod periodic;
 pub mod rules;
 pub mod tape;
-mod writes;
+pub mod writes;
 
 pub use rules::{Dist, Footprint, FootprintError};
 pub use tape::Filtered;

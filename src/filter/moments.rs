@@ -736,6 +736,11 @@ impl Piecewise {
         &self.knots
     }
 
+    /// The pieces' coefficients (see [`Piecewise::new`]).
+    pub fn polys(&self) -> &[[f64; 4]] {
+        &self.polys
+    }
+
     /// `f` at a point (the point evaluation, used when the spread is a point). NaN gives NaN.
     pub fn eval(&self, x: f64) -> f64 {
         if x.is_nan() {

@@ -14,7 +14,7 @@ pub enum Source {
 }
 
 /// The scalar slot an instruction writes, if it writes one.
-pub(super) fn scalar_dst(instr: &Instr) -> Option<Slot> {
+pub fn scalar_dst(instr: &Instr) -> Option<Slot> {
     match *instr {
         Instr::Component { dst, .. }
         | Instr::UnaryScalar { dst, .. }
@@ -32,7 +32,7 @@ pub(super) fn scalar_dst(instr: &Instr) -> Option<Slot> {
 }
 
 /// The wide (promoted f64) scalar slot an instruction writes, if it writes one.
-pub(super) fn wide_dst(instr: &Instr) -> Option<Slot> {
+pub fn wide_dst(instr: &Instr) -> Option<Slot> {
     match *instr {
         Instr::Wide(
             Wide::Component { dst, .. }
@@ -50,7 +50,7 @@ pub(super) fn wide_dst(instr: &Instr) -> Option<Slot> {
 }
 
 /// The vec3 slot an instruction writes, if it writes one.
-pub(super) fn vec3_dst(instr: &Instr) -> Option<Slot> {
+pub fn vec3_dst(instr: &Instr) -> Option<Slot> {
     match *instr {
         Instr::Position { dst }
         | Instr::Splat { dst, .. }

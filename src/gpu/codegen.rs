@@ -29,8 +29,11 @@ pub const LIBRARY: [(&str, &str); 7] = [
     ("cellular.wgsl", include_str!("wgsl/cellular.wgsl")),
 ];
 
-/// The entry points and bindings every generated shader ends with (`wgsl/entry.wgsl`).
-pub(crate) const ENTRY: &str = include_str!("wgsl/entry.wgsl");
+/// The bindings every generated shader's entry points share (`wgsl/bindings.wgsl`).
+pub(crate) const BINDINGS: &str = include_str!("wgsl/bindings.wgsl");
+
+/// The entry points every generated point shader ends with (`wgsl/entry.wgsl`).
+pub(crate) const ENTRY_POINTS: &str = include_str!("wgsl/entry.wgsl");
 
 /// Words of one noise table in the tables buffer (`T_WORDS` in common.wgsl).
 pub const TABLE_WORDS: usize = 1544;
@@ -81,7 +84,8 @@ pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
         channels.max(1)
     );
     source.push_str(&tape_function(tape));
-    source.push_str(ENTRY);
+    source.push_str(BINDINGS);
+    source.push_str(ENTRY_POINTS);
     Ok(Shader { source, channels })
 }
 
@@ -550,7 +554,7 @@ fn octave_point(schedule: &Octaves, k: usize, src: u32) -> (String, Option<[u64;
 
 /// The call of a basis' sample (`*_sample`) or gradient (`*_grad`, a vec4: gradient, value),
 /// tiled when there is a period.
-fn sample_call(
+pub(super) fn sample_call(
     table: u32,
     key: &TableKey,
     period: Option<[u64; 3]>,
@@ -609,7 +613,7 @@ fn sample_call(
 
 /// Which form of a basis a call uses.
 #[derive(Clone, Copy, PartialEq, Eq)]
-enum Kernel {
+pub(super) enum Kernel {
     /// The value in f32.
     Value,
     /// The value in f64 (`widen.rs`), for promoted noise.
@@ -819,7 +823,8 @@ mod tests {
              fn tape(p: vec3<f64>, h: f64) -> Channels {\n    var r: Channels;\n    \
              r.c[0] = f32(p.x + h);\n    return r;\n}\n",
         );
-        source.push_str(ENTRY);
+        source.push_str(BINDINGS);
+        source.push_str(ENTRY_POINTS);
         validate(&source).unwrap_or_else(|e| panic!("{e}"));
 
         let text = r#"Graph(nodes: {

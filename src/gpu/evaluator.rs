@@ -130,8 +130,13 @@ impl Dispatch {
 pub struct GpuEvaluator {
     context: Arc<Context>,
     layout: wgpu::BindGroupLayout,
-    bake: wgpu::ComputePipeline,
-    points: wgpu::ComputePipeline,
+    module: wgpu::ShaderModule,
+    pipeline_layout: wgpu::PipelineLayout,
+    /// The `bake` and `points` pipelines, each made on its first use: a driver compiles each
+    /// entry point with the whole tape inlined (lavapipe takes seconds for a large filtered
+    /// tape), and most evaluators use one of the two.
+    bake: OnceLock<wgpu::ComputePipeline>,
+    points: OnceLock<wgpu::ComputePipeline>,
     tables: wgpu::Buffer,
     channels: usize,
     /// One evaluation at a time per evaluator, holding the results and read-back buffers of
@@ -188,6 +193,13 @@ impl GpuEvaluator {
         GpuEvaluator::build(tape, codegen::generate(tape)?)
     }
 
+    /// The filtered form's evaluator (`filtered.rs`): `bake_window` gives each voxel the
+    /// estimate of its cell's mean, [`GpuEvaluator::eval_batch_filtered`] each point its
+    /// footprint's. Refused for a tape the filtered form does not cover.
+    pub fn new_filtered(tape: &Tape) -> Result<GpuEvaluator, GpuError> {
+        GpuEvaluator::build(tape, super::filtered::generate(tape)?)
+    }
+
     fn build(tape: &Tape, shader: codegen::Shader) -> Result<GpuEvaluator, GpuError> {
         let context = context()?;
         codegen::validate(&shader.source).map_err(GpuError::Shader)?;
@@ -223,17 +235,6 @@ impl GpuEvaluator {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let pipeline = |entry_point: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry_point),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some(entry_point),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
-        let (bake, points) = (pipeline("bake"), pipeline("points"));
         let mut words: Vec<u32> = Vec::with_capacity(tape.tables.len().max(1) * TABLE_WORDS);
         for (_, table) in &tape.tables {
             words.extend(table.gpu_words());
@@ -253,12 +254,41 @@ impl GpuEvaluator {
         Ok(GpuEvaluator {
             context,
             layout,
-            bake,
-            points,
+            module,
+            pipeline_layout,
+            bake: OnceLock::new(),
+            points: OnceLock::new(),
             tables,
             channels: shader.channels,
             buffers: Mutex::new(Buffers::default()),
         })
+    }
+
+    /// The pipeline of entry point `bake` or `points`, made on its first use (a validation
+    /// error is returned, not left to wgpu's uncaptured-error handler).
+    fn pipeline(&self, bake: bool) -> Result<&wgpu::ComputePipeline, GpuError> {
+        let (cell, name) = if bake {
+            (&self.bake, "bake")
+        } else {
+            (&self.points, "points")
+        };
+        if let Some(made) = cell.get() {
+            return Ok(made);
+        }
+        let device = &self.context.device;
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let made = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(name),
+            layout: Some(&self.pipeline_layout),
+            module: &self.module,
+            entry_point: Some(name),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        if let Some(error) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Shader(error.to_string()));
+        }
+        Ok(cell.get_or_init(|| made))
     }
 
     /// The adapter it runs on (`NVIDIA H100 80GB HBM3`, `llvmpipe (LLVM 15.0.7, 256 bits)`).
@@ -293,38 +323,80 @@ impl GpuEvaluator {
         spacing: &[f64],
         out: &mut [f32],
     ) -> Result<(), GpuError> {
-        self.eval_points(points, Some(spacing), out)
+        assert_eq!(spacing.len(), points[0].len());
+        self.eval_points(points, Some(Extra::Spacing(spacing)), out)
+    }
+
+    /// A filtered evaluator's ([`GpuEvaluator::new_filtered`]) estimates at the points, each
+    /// over its footprint (`footprints` as long as the points, or one for all), laid out as
+    /// [`GpuEvaluator::eval_batch`]. Panics if the slices' lengths disagree (a caller bug).
+    pub fn eval_batch_filtered(
+        &self,
+        points: [&[f64]; 3],
+        footprints: &[crate::filter::Footprint],
+        out: &mut [f32],
+    ) -> Result<(), GpuError> {
+        let n = points[0].len();
+        assert!(footprints.len() == n || footprints.len() == 1);
+        let edges: Vec<f64> = footprints
+            .iter()
+            .flat_map(|f| f.edges().into_iter().flatten())
+            .collect();
+        self.eval_points(points, Some(Extra::Footprints(&edges)), out)
     }
 
     fn eval_points(
         &self,
         [x, y, z]: [&[f64]; 3],
-        spacing: Option<&[f64]>,
+        extra: Option<Extra>,
         out: &mut [f32],
     ) -> Result<(), GpuError> {
         let n = x.len();
         assert!(y.len() == n && z.len() == n && out.len() == n * self.channels);
-        assert!(spacing.is_none_or(|h| h.len() == n));
         if n == 0 || self.channels == 0 {
             return Ok(());
         }
-        // Points per dispatch: the inputs (32 bytes each) and results fit one binding each.
-        let per = (self.context.max_binding / (32 + 4 * self.channels as u64)).clamp(1, 1 << 22);
+        // Points per dispatch: the inputs (96 bytes each at most) and results fit one binding
+        // each.
+        let per = (self.context.max_binding / (96 + 4 * self.channels as u64)).clamp(1, 1 << 22);
         let mut part = vec![0f32; (per as usize).min(n) * self.channels];
         let mut start = 0;
         while start < n {
             let m = (n - start).min(per as usize);
-            let mut inputs = Vec::with_capacity(4 * m);
-            for plane in [Some(x), Some(y), Some(z), spacing].into_iter().flatten() {
+            let mut inputs = Vec::with_capacity(12 * m);
+            for plane in [x, y, z] {
                 inputs.extend_from_slice(&plane[start..start + m]);
             }
+            // `spacing`: 1 where the fourth plane (or the per-point footprints) follow.
+            let spacing = match extra {
+                None => 0,
+                Some(Extra::Spacing(h)) => {
+                    inputs.extend_from_slice(&h[start..start + m]);
+                    1
+                }
+                Some(Extra::Footprints(e)) if e.len() == 9 => {
+                    inputs.extend_from_slice(e);
+                    0
+                }
+                Some(Extra::Footprints(e)) => {
+                    inputs.extend_from_slice(&e[9 * start..9 * (start + m)]);
+                    1
+                }
+            };
             let dispatch = Dispatch {
                 count: m as u32,
-                spacing: u32::from(spacing.is_some()),
+                spacing,
                 ..Dispatch::default()
             };
             let part = &mut part[..m * self.channels];
-            self.run(&self.points, &inputs, dispatch, m as u64, part, true)?;
+            self.run(
+                self.pipeline(false)?,
+                &inputs,
+                dispatch,
+                m as u64,
+                part,
+                true,
+            )?;
             for c in 0..self.channels {
                 out[c * n + start..c * n + start + m].copy_from_slice(&part[c * m..(c + 1) * m]);
             }
@@ -382,7 +454,14 @@ impl GpuEvaluator {
                 spacing: 0,
             };
             let threads = (count * layout.segment_len) as u64;
-            self.run(&self.bake, &inputs, dispatch, threads, chunk, read_back)?;
+            self.run(
+                self.pipeline(true)?,
+                &inputs,
+                dispatch,
+                threads,
+                chunk,
+                read_back,
+            )?;
         }
         Ok(())
     }
@@ -494,6 +573,15 @@ impl GpuEvaluator {
         };
         copy_back(device, readback, size, out)
     }
+}
+
+/// What follows a points dispatch's x, y and z planes.
+#[derive(Clone, Copy)]
+enum Extra<'a> {
+    /// Each point's sample spacing (level of detail).
+    Spacing(&'a [f64]),
+    /// The footprints' edges, nine values each: one footprint, or one per point.
+    Footprints(&'a [f64]),
 }
 
 fn binding(index: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {

@@ -11,6 +11,7 @@ pub mod codegen;
 mod error;
 #[cfg(feature = "gpu")]
 mod evaluator;
+pub mod filtered;
 #[cfg(feature = "gpu")]
 pub use evaluator::GpuEvaluator;
 #[cfg(not(feature = "gpu"))]
@@ -45,6 +46,29 @@ pub fn evaluator_for(tape: &crate::tape::Tape) -> Result<std::sync::Arc<GpuEvalu
     Ok(made)
 }
 
+/// The filtered form's GPU evaluator of `tape` (`filtered.rs`; each voxel or point the
+/// estimate of its footprint's mean), compiled once per tape fingerprint in this process.
+/// Refused, with the instruction it cannot run, for a tape the filtered form does not cover.
+pub fn filtered_evaluator_for(
+    tape: &crate::tape::Tape,
+) -> Result<std::sync::Arc<GpuEvaluator>, GpuError> {
+    use std::collections::HashMap;
+    use std::sync::{Arc, Mutex, OnceLock};
+    static CACHE: OnceLock<Mutex<HashMap<u64, Arc<GpuEvaluator>>>> = OnceLock::new();
+    let cache = CACHE.get_or_init(Default::default);
+    let key = tape.fingerprint();
+    if let Some(found) = cache.lock().unwrap_or_else(|e| e.into_inner()).get(&key) {
+        return Ok(found.clone());
+    }
+    let made = Arc::new(GpuEvaluator::new_filtered(tape)?);
+    let mut cache = cache.lock().unwrap_or_else(|e| e.into_inner());
+    if cache.len() >= 32 {
+        cache.clear();
+    }
+    cache.insert(key, made.clone());
+    Ok(made)
+}
+
 /// The adapter the GPU path runs on (its name), or why there is none usable.
 pub fn usable() -> Result<String, GpuError> {
     #[cfg(feature = "gpu")]
@@ -65,7 +89,10 @@ pub enum Device {
     Cpu,
     /// The GPU; an error when none is usable.
     Gpu,
-    /// The GPU when one is usable, else the CPU (which one is said on stderr).
+    /// The GPU when one is usable, else the CPU (which one is said on stderr). The commands
+    /// resolve it to `Cpu` or `Gpu` before evaluating, but for box-filtered bakes, where it
+    /// reaches the bake engine as `Auto`: each graph on the GPU's filtered form where that
+    /// covers it (`filtered::unsupported`), else on the CPU.
     Auto,
 }
 

@@ -17,6 +17,19 @@ impl GpuEvaluator {
         ))
     }
 
+    pub fn new_filtered(_tape: &Tape) -> Result<GpuEvaluator, GpuError> {
+        GpuEvaluator::new(_tape)
+    }
+
+    pub fn eval_batch_filtered(
+        &self,
+        _points: [&[f64]; 3],
+        _footprints: &[crate::filter::Footprint],
+        _out: &mut [f32],
+    ) -> Result<(), GpuError> {
+        match self.never {}
+    }
+
     pub(super) fn new_unavailable() -> Result<String, GpuError> {
         Err(GpuError::NoAdapter(
             "this texgraph was built without the `gpu` cargo feature".into(),

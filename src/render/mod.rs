@@ -357,9 +357,6 @@ pub fn render(
         filter: factor.filter(|_| boxed),
     };
     let filtered: Vec<crate::filter::Filtered> = if boxed {
-        if options.device == crate::gpu::Device::Gpu {
-            eprintln!("warning: the filtered form runs on the CPU: textures are evaluated there (--filter point to evaluate them on the GPU)");
-        }
         scene
             .textures()
             .iter()
@@ -368,12 +365,7 @@ pub fn render(
     } else {
         Vec::new()
     };
-    let device = if boxed {
-        crate::gpu::Device::Cpu
-    } else {
-        options.device
-    };
-    let gpus = gpu_textures(scene, device);
+    let gpus = gpu_textures(scene, options.device, boxed);
     let run = || {
         render_in_pool(scene, frame, options.progress, cancel, &gpus, &filtered)
             .ok_or(RenderError::Cancelled)
@@ -415,10 +407,12 @@ fn texture_shortfalls(scene: &Scene) -> Vec<String> {
 }
 
 /// Per texture, its GPU evaluator with `Device::Gpu` (the start-up check: a texture whose tape
-/// the GPU cannot run is evaluated on the CPU, with the reason on stderr).
+/// the GPU cannot run is evaluated on the CPU, with the reason on stderr); with `boxed`, the
+/// filtered form's (a texture it does not cover is filtered on the CPU).
 fn gpu_textures(
     scene: &Scene,
     device: crate::gpu::Device,
+    boxed: bool,
 ) -> Vec<Option<std::sync::Arc<crate::gpu::GpuEvaluator>>> {
     scene
         .textures()
@@ -427,14 +421,18 @@ fn gpu_textures(
             if device != crate::gpu::Device::Gpu {
                 return None;
             }
-            crate::gpu::evaluator_for(&texture.tape)
-                .map_err(|e| {
-                    eprintln!(
-                        "warning: {}: {e}; this texture is evaluated on the CPU",
-                        texture.graph.display()
-                    )
-                })
-                .ok()
+            let made = if boxed {
+                crate::gpu::filtered_evaluator_for(&texture.tape)
+            } else {
+                crate::gpu::evaluator_for(&texture.tape)
+            };
+            made.map_err(|e| {
+                eprintln!(
+                    "warning: {}: {e}; this texture is evaluated on the CPU",
+                    texture.graph.display()
+                )
+            })
+            .ok()
         })
         .collect()
 }

@@ -477,23 +477,23 @@ fn evaluate_textures(
         let texture = &scene.textures()[group.texture];
         let mut out = vec![0.0f32; texture.tape.channels() * n];
         let points = [&xs[g][..], &ys[g], &zs[g]];
-        if let (Some(filtered), true) = (scratch.filtered.get(group.texture), n > 0) {
-            filtered.eval_batch(points, &footprints[g], &mut out);
-            counters.texture_points += n as u64;
-            values.push(out);
-            continue;
-        }
+        // The GPU first (its filtered form with a footprint per pixel when box-filtered); the
+        // CPU where there is none for this texture or it fails.
         let on_gpu = match &scratch.gpus[group.texture] {
             Some(gpu) if n > 0 => {
-                let result = match lod {
-                    Some(_) => gpu.eval_batch_lod(points, &spacings[g], &mut out),
-                    None => gpu.eval_batch(points[0], points[1], points[2], &mut out),
+                let result = match (filter, lod) {
+                    (Some(_), _) => gpu.eval_batch_filtered(points, &footprints[g], &mut out),
+                    (None, Some(_)) => gpu.eval_batch_lod(points, &spacings[g], &mut out),
+                    (None, None) => gpu.eval_batch(points[0], points[1], points[2], &mut out),
                 };
                 result.map_err(gpu_failed).is_ok()
             }
             _ => false,
         };
         if n > 0 && on_gpu {
+            counters.texture_points += n as u64;
+        } else if let (Some(filtered), true) = (scratch.filtered.get(group.texture), n > 0) {
+            filtered.eval_batch(points, &footprints[g], &mut out);
             counters.texture_points += n as u64;
         } else if n > 0 {
             let workspace = &mut scratch.workspaces[group.texture];

@@ -6,7 +6,7 @@ use crate::common::graph_files;
 use texgraph::filter::{Filtered, Footprint};
 use texgraph::{check, compile, CheckOptions, CompileOptions, SourceFile, Tape, Workspace};
 
-fn tape(source: &str) -> Tape {
+pub fn tape(source: &str) -> Tape {
     let graph = check(
         SourceFile::new("filter.ron", source),
         &CheckOptions::default(),

@@ -26,6 +26,8 @@ mod fuzz_corpus;
 mod golden;
 #[cfg(feature = "gpu")]
 mod gpu;
+#[cfg(feature = "gpu")]
+mod gpu_filtered;
 mod gradient;
 mod imports;
 mod lod_lanes;

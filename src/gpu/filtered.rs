@@ -1,0 +1,608 @@
+//! The filtered form of a tape in WGSL (issue 33): `fn ftape(p) -> Channels`, every output's
+//! estimated mean over the invocation's footprint, the rules of `filter/` run on the GPU in f64
+//! (`wgsl/filter.wgsl`). Each instruction becomes the call of its rule, as `filter::Filtered`
+//! runs it per lane; the noise samplers, per-table statistics (`filter::noise::cached_stats`,
+//! measured on the CPU and written in as literals) and piecewise shapes (`rules::spline_shape`,
+//! `rules::hermite_shape`) are the CPU's, so both sides run the same model.
+//!
+//! Covered: every instruction kind but the ones [`unsupported`] names — the periodic chains and
+//! fused pairs (`filter/chains.rs`, `filter/fusions.rs`), `Fract`/`Floor`/`Round`/`Trunc`/`Mod`
+//! outside them, white and cellular noise (their per-lane rules) and noise gradients. A tape
+//! with one of those is refused with its name (`--device auto` then filters on the CPU).
+
+use super::codegen::{self, f64_literal, Kernel, Shader};
+use super::error::GpuError;
+use crate::filter::fusions::{Fusion, Fusions};
+use crate::filter::moments::Piecewise;
+use crate::filter::noise::Stats;
+use crate::filter::writes::{scalar_dst, wide_dst, Source};
+use crate::noise::{Basis, Style};
+use crate::ops::{BinaryOp, TernaryOp, UnaryOp};
+use crate::tape::{Instr, Tape, Wide};
+use std::fmt::Write;
+
+const FILTER: &str = include_str!("wgsl/filter.wgsl");
+const OCTAVE: &str = include_str!("wgsl/filter_octave.wgsl");
+const ENTRY: &str = include_str!("wgsl/entry_filtered.wgsl");
+
+/// The most knots a piecewise shape may have on the GPU (its arrays are private memory).
+const MAX_KNOTS: usize = 24;
+
+/// Why the GPU's filtered form does not cover `tape` (the first instruction it cannot run),
+/// or `None` where it does.
+pub fn unsupported(tape: &Tape) -> Option<String> {
+    let fusions = fusions_of(tape);
+    let periodic = |f: &Option<Fusion>| matches!(f, Some(Fusion::Periodic { .. }));
+    if let Some(k) = fusions.fused.iter().position(periodic) {
+        return Some(format!(
+            "instruction {k} in its filtered form (a periodic chain: `fract` or `mod` through \
+             shapes, computed exactly on the CPU; not on the GPU yet)"
+        ));
+    }
+    for (k, instr) in tape.instrs.iter().enumerate() {
+        if let Some(why) = instruction_gap(tape, instr) {
+            return Some(format!("instruction {k}, {why}"));
+        }
+    }
+    let too_long = |f: &Piecewise| f.knots().len() > MAX_KNOTS;
+    for ramp in &tape.ramps {
+        if (0..3).any(|c| too_long(&crate::filter::rules::spline_shape(ramp.as_ref(), c))) {
+            return Some(format!(
+                "a colour ramp with more than {MAX_KNOTS} stops (the GPU's filtered form)"
+            ));
+        }
+    }
+    for curve in &tape.curves {
+        if too_long(&crate::filter::rules::spline_shape(curve.as_ref(), 0)) {
+            return Some(format!(
+                "a curve with more than {MAX_KNOTS} points (the GPU's filtered form)"
+            ));
+        }
+    }
+    None
+}
+
+fn fusions_of(tape: &Tape) -> Fusions {
+    let integer = crate::filter::integers::integer_operands(tape);
+    crate::filter::fusions::fusions(tape, &integer)
+}
+
+fn instruction_gap(tape: &Tape, instr: &Instr) -> Option<String> {
+    let unary = |op: UnaryOp| {
+        matches!(
+            op,
+            UnaryOp::Fract | UnaryOp::Floor | UnaryOp::Round | UnaryOp::Trunc
+        )
+        .then(|| {
+            format!(
+                "`{}` in its filtered form (outside a periodic chain)",
+                op.name()
+            )
+        })
+    };
+    let binary = |op: BinaryOp| {
+        (op == BinaryOp::Mod)
+            .then(|| "`mod` in its filtered form (outside a periodic chain)".into())
+    };
+    let table = |t: u32| match tape.tables[t as usize].1.basis() {
+        Basis::White => Some("white noise in its filtered form (a mixture of cells)".to_string()),
+        Basis::Cellular(_) => Some("cellular noise in its filtered form (sub-footprints)".into()),
+        _ => None,
+    };
+    match *instr {
+        Instr::UnaryScalar { op, .. } | Instr::UnaryVec3 { op, .. } => unary(op),
+        Instr::Wide(Wide::Unary { op, .. }) => unary(op),
+        Instr::BinaryScalar { op, .. } | Instr::BinaryVec3 { op, .. } => binary(op),
+        Instr::Wide(Wide::Binary { op, .. }) => binary(op),
+        Instr::Noise { table: t, .. }
+        | Instr::Fractal { table: t, .. }
+        | Instr::Wide(Wide::Noise { table: t, .. })
+        | Instr::Wide(Wide::Fractal { table: t, .. }) => table(t),
+        Instr::NoiseGradient { .. }
+        | Instr::FractalGradient { .. }
+        | Instr::Wide(Wide::NoiseGradient { .. })
+        | Instr::Wide(Wide::FractalGradient { .. }) => {
+            Some("a noise gradient in its filtered form".into())
+        }
+        _ => None,
+    }
+}
+
+/// The filtered WGSL of `tape`: the point library (the tape's point function too, for the
+/// channels whose filtered mean is not finite, as `Filtered::point_fallback`), the bases' f64
+/// forms, the rules, one octave function per sampler, `fn ftape` and the filtered entry points.
+pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
+    if let Some(why) = unsupported(tape) {
+        return Err(GpuError::Unsupported(why));
+    }
+    let point = codegen::generate(tape)?;
+    // The point shader without its entry points (the filtered ones replace them; its
+    // bindings stay).
+    let Some(library) = point.source.strip_suffix(codegen::ENTRY_POINTS) else {
+        return Err(GpuError::Shader(
+            "internal: the point shader's entry points".into(),
+        ));
+    };
+    let mut source = String::from(library);
+    if !source.contains(super::widen::library()) {
+        source.push_str(super::widen::library());
+        source.push('\n');
+    }
+    let mut g = Gen {
+        tape,
+        samplers: Vec::new(),
+        shapes: String::new(),
+        fusions: fusions_of(tape),
+        knots: 2,
+    };
+    let body = g.function();
+    source.push_str(
+        &FILTER
+            .replace("PW_KNOTS", &g.knots.to_string())
+            .replace("PW_PIECES", &(g.knots + 1).to_string())
+            .replace("PW_BREAKS", &(g.knots + 8).to_string()),
+    );
+    for (k, &(table, period)) in g.samplers.iter().enumerate() {
+        let key = &tape.tables[table as usize].0;
+        let call = codegen::sample_call(table, key, period, "x", Kernel::WideGradient);
+        let _ = writeln!(
+            source,
+            "fn smp{k}(x: vec3<f64>) -> vec4<f64> {{\n    return {call};\n}}"
+        );
+        source.push_str(&OCTAVE.replace("SAMPLE", &format!("smp{k}")));
+        source.push('\n');
+    }
+    source.push_str(&g.shapes);
+    source.push_str(&body);
+    source.push_str(ENTRY);
+    Ok(Shader {
+        source,
+        channels: point.channels,
+    })
+}
+
+struct Gen<'t> {
+    tape: &'t Tape,
+    /// (table, period) per sampler function `smp{k}`.
+    samplers: Vec<(u32, Option<[u64; 3]>)>,
+    /// The piecewise shapes' functions (`pwh`, `pwr`, `pwc`, `pwf`).
+    shapes: String,
+    /// The pairs computed together (`filter/fusions.rs`): their side slots `f{k}`.
+    fusions: Fusions,
+    /// The most knots of a shape written so far (the built-in shapes have 2).
+    knots: usize,
+}
+
+impl Gen<'_> {
+    fn function(&mut self) -> String {
+        let t = self.tape;
+        let mut w = String::new();
+        for (k, h) in t.hermites.iter().enumerate() {
+            let f = crate::filter::rules::hermite_shape(h);
+            self.shape(&format!("pwh{k}"), &f);
+        }
+        for (k, ramp) in t.ramps.iter().enumerate() {
+            for c in 0..3 {
+                let f = crate::filter::rules::spline_shape(ramp.as_ref(), c);
+                self.shape(&format!("pwr{k}_{c}"), &f);
+            }
+        }
+        for (k, curve) in t.curves.iter().enumerate() {
+            let f = crate::filter::rules::spline_shape(curve.as_ref(), 0);
+            self.shape(&format!("pwc{k}"), &f);
+        }
+        let _ = writeln!(w, "fn ftape(p: vec3<f64>) -> Channels {{");
+        for k in 0..t.scalar_slots {
+            let _ = writeln!(w, "    var s{k}: D = dc(0.0lf);");
+        }
+        for k in 0..t.vec3_slots {
+            let _ = writeln!(w, "    var v{k}: array<D, 3>;");
+        }
+        for k in 0..t.wide_slots {
+            let _ = writeln!(w, "    var d{k}: D = dc(0.0lf);");
+        }
+        for &(slot, v) in &t.scalar_constants {
+            let _ = writeln!(w, "    s{slot} = dc({});", f64_literal(v));
+        }
+        for &(slot, v) in &t.wide_constants {
+            let _ = writeln!(w, "    d{slot} = dc({});", f64_literal(v));
+        }
+        for &(slot, v) in &t.vec3_constants {
+            let [x, y, z] = v.map(f64_literal);
+            let _ = writeln!(w, "    v{slot} = array<D, 3>(dc({x}), dc({y}), dc({z}));");
+        }
+        for k in 0..self.fusions.saved {
+            let _ = writeln!(w, "    var f{k}: D = dc(0.0lf);");
+        }
+        for (index, instr) in t.instrs.iter().enumerate() {
+            let line = self.fused(index, instr);
+            let _ = writeln!(w, "    {line}");
+        }
+        // Each output's means; a channel whose mean is not finite takes the point value where
+        // that is finite (`Filtered::point_fallback`).
+        let _ = writeln!(w, "    var r: Channels;\n    var m: f64;");
+        let _ = writeln!(w, "    var pt: Channels;\n    var have = false;");
+        for o in &t.outputs {
+            for c in 0..o.ty.channels() {
+                let mean = if o.ty.channels() == 1 {
+                    format!("s{}.m", o.slot)
+                } else {
+                    format!("v{}[{c}].m", o.slot)
+                };
+                let ch = o.first_channel + c;
+                let _ = writeln!(
+                    w,
+                    "    m = {mean};\n    r.c[{ch}] = f32(m);\n    if (!is_finite_d(m)) {{\n        \
+                     if (!have) {{ pt = tape(p, 0.0lf); have = true; }}\n        \
+                     if (!is_nan(pt.c[{ch}]) && !is_inf(pt.c[{ch}])) {{ r.c[{ch}] = pt.c[{ch}]; }}\n    }}"
+                );
+            }
+        }
+        let _ = writeln!(w, "    return r;\n}}\n");
+        w
+    }
+
+    /// Instruction `index` as `Filtered::run` takes it: its operands saved for a later fused
+    /// instruction first; nothing where it is skipped (its only reader computes from its
+    /// argument); a fused instruction's rule on its saved argument; else its own rule.
+    fn fused(&mut self, index: usize, instr: &Instr) -> String {
+        let mut w = String::new();
+        for &(source, k) in &self.fusions.save[index] {
+            let from = match source {
+                Source::Scalar(s) => format!("s{s}"),
+                Source::Vec3(s, c) => format!("v{s}[{c}]"),
+                Source::Wide(s) => format!("d{s}"),
+            };
+            let _ = write!(w, "f{k} = {from}; ");
+        }
+        if self.fusions.skip[index] {
+            return w;
+        }
+        let dst = scalar_dst(instr)
+            .map(|d| format!("s{d}"))
+            .or_else(|| wide_dst(instr).map(|d| format!("d{d}")));
+        let line = match (self.fusions.fused[index].clone(), dst) {
+            (Some(Fusion::AbsSin { saved, cos }), Some(dst)) => {
+                format!("{dst} = r_abs_sin(f{saved}, {cos});")
+            }
+            (Some(Fusion::Folded { saved, shape }), Some(dst)) => {
+                self.shape(&format!("pwf{index}"), &shape);
+                format!("{dst} = r_piecewise(pwf{index}(), f{saved});")
+            }
+            _ => self.instruction(instr),
+        };
+        w + &line
+    }
+
+    fn shape(&mut self, name: &str, f: &Piecewise) {
+        let knots = shape_function(&mut self.shapes, name, f);
+        self.knots = self.knots.max(knots);
+    }
+
+    fn sampler(&mut self, table: u32, period: Option<[u64; 3]>) -> usize {
+        if let Some(k) = self.samplers.iter().position(|s| *s == (table, period)) {
+            return k;
+        }
+        self.samplers.push((table, period));
+        self.samplers.len() - 1
+    }
+
+    fn stats(&self, table: u32) -> String {
+        let (key, t) = &self.tape.tables[table as usize];
+        let Stats {
+            mean,
+            var,
+            kappa2,
+            grad_sq,
+        } = crate::filter::noise::cached_stats(*key, t);
+        format!(
+            "St({}, {}, {}, {})",
+            f64_literal(mean),
+            f64_literal(var),
+            f64_literal(kappa2),
+            f64_literal(grad_sq)
+        )
+    }
+
+    fn instruction(&mut self, instr: &Instr) -> String {
+        match *instr {
+            Instr::Position { dst } => format!(
+                "v{dst} = array<D, 3>(d_position(p, 0u), d_position(p, 1u), d_position(p, 2u));"
+            ),
+            Instr::Splat { dst, src } => format!("v{dst} = array<D, 3>(s{src}, s{src}, s{src});"),
+            Instr::Combine { dst, x, y, z } => format!("v{dst} = array<D, 3>(s{x}, s{y}, s{z});"),
+            Instr::Component { dst, src, axis } => format!("s{dst} = v{src}[{}];", axis % 3),
+            Instr::UnaryScalar { op, dst, src } => {
+                unary(op, &format!("s{dst}"), &format!("s{src}"))
+            }
+            Instr::UnaryVec3 { op, dst, src } => (0..3)
+                .map(|i| unary(op, &format!("v{dst}[{i}]"), &format!("v{src}[{i}]")))
+                .collect::<Vec<_>>()
+                .join("\n    "),
+            Instr::BinaryScalar { op, dst, a, b } => {
+                binary(op, &format!("s{dst}"), &format!("s{a}"), &format!("s{b}"))
+            }
+            Instr::BinaryVec3 { op, dst, a, b } => (0..3)
+                .map(|i| {
+                    binary(
+                        op,
+                        &format!("v{dst}[{i}]"),
+                        &format!("v{a}[{i}]"),
+                        &format!("v{b}[{i}]"),
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join("\n    "),
+            Instr::TernaryScalar { op, dst, a, b, c } => {
+                ternary(op, &format!("s{dst}"), [a, b, c].map(|x| format!("s{x}")))
+            }
+            Instr::TernaryVec3 { op, dst, a, b, c } => (0..3)
+                .map(|i| {
+                    ternary(
+                        op,
+                        &format!("v{dst}[{i}]"),
+                        [a, b, c].map(|x| format!("v{x}[{i}]")),
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join("\n    "),
+            Instr::Dot { dst, a, b } => format!("s{dst} = r_dot(v{a}, v{b});"),
+            Instr::Length { dst, src } => format!("s{dst} = r_length(v{src});"),
+            Instr::Cross { dst, a, b } => format!("v{dst} = r_cross(v{a}, v{b});"),
+            Instr::Normalize { dst, src } => format!("v{dst} = r_normalize(v{src});"),
+            Instr::RotateConst { dst, src, matrix } => {
+                let m = self.tape.matrices[matrix as usize];
+                let [r0, r1, r2] = m.map(vec3_literal);
+                format!("v{dst} = r_rotate({r0}, {r1}, {r2}, v{src});")
+            }
+            Instr::RotateVarying {
+                dst,
+                src,
+                degrees,
+                axis,
+            } => format!(
+                "v{dst} = r_rotate_varying({}, v{src}, s{degrees});",
+                vec3_literal(self.tape.axes[axis as usize])
+            ),
+            Instr::Noise { dst, src, table } => self.noise(&format!("s{dst}"), src, table),
+            Instr::Fractal {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+                bias,
+            } => self.fractal(&format!("s{dst}"), src, table, octaves, style, bias),
+            Instr::Hermite { dst, src, spline } => {
+                format!("s{dst} = r_piecewise(pwh{spline}(), s{src});")
+            }
+            Instr::Ramp { dst, src, ramp } => format!(
+                "v{dst} = array<D, 3>(r_piecewise(pwr{ramp}_0(), s{src}), \
+                 r_piecewise(pwr{ramp}_1(), s{src}), r_piecewise(pwr{ramp}_2(), s{src}));"
+            ),
+            Instr::Curve { dst, src, curve } => {
+                format!("s{dst} = r_piecewise(pwc{curve}(), s{src});")
+            }
+            Instr::Wide(w) => self.wide(w),
+            // Refused by `unsupported` before generation.
+            Instr::NoiseGradient { .. } | Instr::FractalGradient { .. } => String::new(),
+        }
+    }
+
+    fn wide(&mut self, w: Wide) -> String {
+        match w {
+            Wide::Component { dst, src, axis } => format!("d{dst} = v{src}[{}];", axis % 3),
+            Wide::Unary { op, dst, src } => unary(op, &format!("d{dst}"), &format!("d{src}")),
+            Wide::Binary { op, dst, a, b } => {
+                binary(op, &format!("d{dst}"), &format!("d{a}"), &format!("d{b}"))
+            }
+            Wide::Ternary { op, dst, a, b, c } => {
+                ternary(op, &format!("d{dst}"), [a, b, c].map(|x| format!("d{x}")))
+            }
+            Wide::Dot { dst, a, b } => format!("d{dst} = r_dot(v{a}, v{b});"),
+            Wide::Length { dst, src } => format!("d{dst} = r_length(v{src});"),
+            Wide::Splat { dst, src } => format!("v{dst} = array<D, 3>(d{src}, d{src}, d{src});"),
+            Wide::Combine { dst, x, y, z } => format!("v{dst} = array<D, 3>(d{x}, d{y}, d{z});"),
+            Wide::Rotate {
+                dst,
+                src,
+                degrees,
+                axis,
+            } => format!(
+                "v{dst} = r_rotate_varying({}, v{src}, d{degrees});",
+                vec3_literal(self.tape.axes[axis as usize])
+            ),
+            Wide::Noise { dst, src, table } => self.noise(&format!("d{dst}"), src, table),
+            Wide::Fractal {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+                bias,
+            } => self.fractal(&format!("d{dst}"), src, table, octaves, style, bias),
+            Wide::Widen { dst, src } => format!("d{dst} = s{src};"),
+            Wide::Narrow { dst, src } => format!("s{dst} = d{src};"),
+            Wide::NoiseGradient { .. } | Wide::FractalGradient { .. } => String::new(),
+        }
+    }
+
+    fn noise(&mut self, dst: &str, src: u32, table: u32) -> String {
+        let period = self.tape.tables[table as usize].0.period;
+        let k = self.sampler(table, period);
+        format!("{dst} = n_octave_smp{k}({}, v{src});", self.stats(table))
+    }
+
+    /// noise.rs `fractal_lanes` and `shape` for one lane: every octave on the scaled input,
+    /// shaped by the style's rules, summed; then the bias.
+    fn fractal(
+        &mut self,
+        dst: &str,
+        src: u32,
+        table: u32,
+        octaves: u32,
+        style: Style,
+        bias: f64,
+    ) -> String {
+        let schedule = &self.tape.octaves[octaves as usize];
+        let base = self.tape.tables[table as usize].0.period;
+        let st = self.stats(table);
+        let samplers: Vec<usize> = (0..schedule.frequencies.len())
+            .map(|k| {
+                let period = schedule.periods.as_ref().map(|p| p[k]).or(base);
+                self.sampler(table, period)
+            })
+            .collect();
+        let mut w =
+            String::from("{\n        var sum = dc(0.0lf);\n        var weight = dc(1.0lf);\n");
+        {
+            // Unrolled: lavapipe compiles a loop over the octaves' rules several times slower.
+            for (k, smp) in samplers.iter().enumerate() {
+                let _ = writeln!(
+                    w,
+                    "        {{\n        let n = n_octave_smp{smp}({st}, d3_scale(v{src}, {}));",
+                    f64_literal(schedule.frequencies[k])
+                );
+                let shaped = shaped(&mut w, style);
+                let _ = writeln!(
+                    w,
+                    "        sum = r_add(sum, d_scale({shaped}, {}));\n        }}",
+                    f64_literal(schedule.amplitudes[k])
+                );
+            }
+        }
+        if bias != 0.0 {
+            let _ = writeln!(w, "        sum = r_add(sum, dc({}));", f64_literal(bias));
+        }
+        let _ = write!(w, "        {dst} = sum;\n        _ = weight;\n    }}");
+        w
+    }
+}
+
+/// An octave `n` shaped by the fractal's style (noise.rs `shape`; ridged updates `weight`):
+/// the statements before, and the shaped value's expression.
+fn shaped(w: &mut String, style: Style) -> String {
+    match style {
+        Style::Fbm => "n".to_string(),
+        Style::Turbulence => "ru_abs(n)".to_string(),
+        Style::Billow => "r_sub(d_scale(ru_abs(n), 2.0lf), dc(1.0lf))".to_string(),
+        Style::Ridged { offset, sharpness } => {
+            let _ = writeln!(
+                w,
+                "        var ridge = r_sub(dc({}), ru_abs(n));\n        \
+                 ridge = rb_pow(rb_max(ridge, dc(0.0lf)), dc({}));\n        \
+                 let signal = r_mul(ridge, weight);\n        \
+                 weight = rb_min(rb_max(d_scale(signal, 2.0lf), dc(0.0lf)), dc(1.0lf));",
+                f64_literal(offset),
+                f64_literal(sharpness)
+            );
+            "signal".to_string()
+        }
+    }
+}
+
+fn vec3_literal(v: [f64; 3]) -> String {
+    let [x, y, z] = v.map(f64_literal);
+    format!("vec3<f64>({x}, {y}, {z})")
+}
+
+/// `fn NAME() -> Pw`: a piecewise cubic's knots and pieces.
+fn shape_function(w: &mut String, name: &str, f: &Piecewise) -> usize {
+    let _ = writeln!(w, "fn {name}() -> Pw {{\n    var f: Pw;");
+    let _ = writeln!(w, "    f.n = {}u;", f.knots().len());
+    for (i, k) in f.knots().iter().enumerate() {
+        let _ = writeln!(w, "    f.k[{i}] = {};", f64_literal(*k));
+    }
+    for (i, p) in f.polys().iter().enumerate() {
+        let [a, b, c, d] = p.map(f64_literal);
+        let _ = writeln!(w, "    f.p[{i}] = vec4<f64>({a}, {b}, {c}, {d});");
+    }
+    let _ = writeln!(w, "    return f;\n}}");
+    f.knots().len()
+}
+
+/// A unary rule (rules.rs `unary`): a constant or NaN operand takes the point operation.
+fn unary(op: UnaryOp, dst: &str, src: &str) -> String {
+    let rule = match op {
+        UnaryOp::Neg => "d_scale(a, -1.0lf)".to_string(),
+        UnaryOp::Abs => "r_piecewise(shape_abs(), a)".into(),
+        UnaryOp::Sign => "r_piecewise(shape_sign(), a)".into(),
+        UnaryOp::Sin => "r_sin_cos(a, false)".into(),
+        UnaryOp::Cos => "r_sin_cos(a, true)".into(),
+        UnaryOp::Exp => "r_exp(a)".into(),
+        UnaryOp::Sqrt => "r_sqrt(a)".into(),
+        UnaryOp::Log => "r_smooth(a, d_log(a.m), 1.0lf / a.m, -1.0lf / (a.m * a.m), true)".into(),
+        UnaryOp::Log2 => {
+            "r_smooth(a, d_log2(a.m), 1.0lf / (a.m * LN2), -1.0lf / (a.m * a.m * LN2), true)"
+                .replace("LN2", &f64_literal(std::f64::consts::LN_2))
+        }
+        UnaryOp::Tan => "r_smooth(a, d_tan(a.m), 1.0lf + d_tan(a.m) * d_tan(a.m), \
+             2.0lf * d_tan(a.m) * (1.0lf + d_tan(a.m) * d_tan(a.m)), false)"
+            .into(),
+        UnaryOp::Asin | UnaryOp::Acos => {
+            let sign = if op == UnaryOp::Acos { "-" } else { "" };
+            let name = op.name();
+            format!(
+                "r_smooth(a, d_{name}(a.m), {sign}(1.0lf / d_sqrt(1.0lf - a.m * a.m)), \
+                 {sign}(a.m / ((1.0lf - a.m * a.m) * d_sqrt(1.0lf - a.m * a.m))), false)"
+            )
+        }
+        // Refused by `unsupported`.
+        UnaryOp::Fract | UnaryOp::Floor | UnaryOp::Round | UnaryOp::Trunc => "a".into(),
+    };
+    let point = point_unary(op, "a.m");
+    format!(
+        "{{ let a = {src}; if (d_is_const(a) || is_nan_d(a.m)) {{ {dst} = dc({point}); }} else {{ {dst} = {rule}; }} }}"
+    )
+}
+
+fn point_unary(op: UnaryOp, x: &str) -> String {
+    match op {
+        UnaryOp::Abs => format!("abs({x})"),
+        UnaryOp::Neg => format!("-({x})"),
+        UnaryOp::Floor => format!("floor({x})"),
+        _ => format!("d_{}({x})", op.name()),
+    }
+}
+
+/// A binary rule (rules.rs `binary`).
+fn binary(op: BinaryOp, dst: &str, a: &str, b: &str) -> String {
+    let rule = match op {
+        BinaryOp::Add => "r_add(a, b)",
+        BinaryOp::Sub => "r_sub(a, b)",
+        BinaryOp::Mul => "r_mul(a, b)",
+        BinaryOp::Div => "r_div(a, b)",
+        BinaryOp::Min => "r_min_max(a, b, false)",
+        BinaryOp::Max => "r_min_max(a, b, true)",
+        BinaryOp::Step => "r_piecewise(shape_step(), r_sub(b, a))",
+        BinaryOp::Pow => "r_pow(a, b)",
+        BinaryOp::Atan2 => "r_atan2(a, b)",
+        // Refused by `unsupported`.
+        BinaryOp::Mod => "a",
+    };
+    let point = match op {
+        BinaryOp::Add => "(a.m + b.m)".to_string(),
+        BinaryOp::Sub => "(a.m - b.m)".to_string(),
+        BinaryOp::Mul => "(a.m * b.m)".to_string(),
+        _ => format!("d_{}(a.m, b.m)", op.name()),
+    };
+    format!(
+        "{{ let a = {a}; let b = {b}; if ((d_is_const(a) && d_is_const(b)) || is_nan_d(a.m) || is_nan_d(b.m)) {{ {dst} = dc({point}); }} else {{ {dst} = {rule}; }} }}"
+    )
+}
+
+/// A ternary rule (rules.rs `ternary`).
+fn ternary(op: TernaryOp, dst: &str, [a, b, c]: [String; 3]) -> String {
+    let rule = match op {
+        TernaryOp::Clamp => "r_clamp(a, b, c)",
+        TernaryOp::Mix => "r_mix(a, b, c)",
+        TernaryOp::Smoothstep => "r_smoothstep(a, b, c)",
+        TernaryOp::Select => "r_select(a, b, c)",
+    };
+    let name = op.name();
+    format!(
+        "{{ let a = {a}; let b = {b}; let c = {c}; \
+         if ((d_is_const(a) && d_is_const(b) && d_is_const(c)) || is_nan_d(a.m) || is_nan_d(b.m) || is_nan_d(c.m)) \
+         {{ {dst} = dc(d_{name}(a.m, b.m, c.m)); }} else {{ {dst} = {rule}; }} }}"
+    )
+}
