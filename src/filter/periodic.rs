@@ -214,6 +214,16 @@ impl Periodic {
         Periodic::checked(starts, pieces)
     }
 
+    /// The pieces' starts in `[0, 1)`, increasing, the first 0.
+    pub fn starts(&self) -> &[f64] {
+        &self.starts
+    }
+
+    /// Per piece, its coefficients `Σ c_i u^i` in the period's own `u`.
+    pub fn pieces(&self) -> &[[f64; 4]] {
+        &self.pieces
+    }
+
     /// The value and slope at `x` (a point spread).
     pub fn eval(&self, x: f64) -> (f64, f64) {
         let u = x - x.floor();

@@ -5,17 +5,19 @@
 //! measured on the CPU and written in as literals) and piecewise shapes (`rules::spline_shape`,
 //! `rules::hermite_shape`) are the CPU's, so both sides run the same model.
 //!
-//! Covered: every instruction kind but the ones [`unsupported`] names — the periodic chains and
-//! fused pairs (`filter/chains.rs`, `filter/fusions.rs`), `Fract`/`Floor`/`Round`/`Trunc`/`Mod`
-//! outside them, white and cellular noise (their per-lane rules) and noise gradients. A tape
-//! with one of those is refused with its name (`--device auto` then filters on the CPU).
+//! Covered: every instruction kind, the fused pairs and the periodic chains (`filter/fusions.rs`,
+//! `filter/chains.rs`; `filtered_periodic.rs`), white noise's mixture of cells and cellular
+//! noise's sub-footprints, but the noise gradients, which [`unsupported`] names (and ramps or
+//! curves of more than 24 knots). A tape with one of those is refused with its name
+//! (`--device auto` then filters on the CPU).
 
 use super::codegen::{self, f64_literal, Kernel, Shader};
 use super::error::GpuError;
 use crate::filter::fusions::{Fusion, Fusions};
 use crate::filter::moments::Piecewise;
 use crate::filter::noise::Stats;
-use crate::filter::writes::{scalar_dst, wide_dst, Source};
+use crate::filter::periodic::Periodic;
+use crate::filter::writes::{scalar_dst, vec3_dst, wide_dst, Source};
 use crate::noise::{Basis, Style};
 use crate::ops::{BinaryOp, TernaryOp, UnaryOp};
 use crate::tape::{Instr, Tape, Wide};
@@ -23,6 +25,7 @@ use std::fmt::Write;
 
 const FILTER: &str = include_str!("wgsl/filter.wgsl");
 const OCTAVE: &str = include_str!("wgsl/filter_octave.wgsl");
+const PERIODIC: &str = include_str!("wgsl/filter_periodic.wgsl");
 const ENTRY: &str = include_str!("wgsl/entry_filtered.wgsl");
 
 /// The most knots a piecewise shape may have on the GPU (its arrays are private memory).
@@ -31,16 +34,8 @@ const MAX_KNOTS: usize = 24;
 /// Why the GPU's filtered form does not cover `tape` (the first instruction it cannot run),
 /// or `None` where it does.
 pub fn unsupported(tape: &Tape) -> Option<String> {
-    let fusions = fusions_of(tape);
-    let periodic = |f: &Option<Fusion>| matches!(f, Some(Fusion::Periodic { .. }));
-    if let Some(k) = fusions.fused.iter().position(periodic) {
-        return Some(format!(
-            "instruction {k} in its filtered form (a periodic chain: `fract` or `mod` through \
-             shapes, computed exactly on the CPU; not on the GPU yet)"
-        ));
-    }
     for (k, instr) in tape.instrs.iter().enumerate() {
-        if let Some(why) = instruction_gap(tape, instr) {
+        if let Some(why) = instruction_gap(instr) {
             return Some(format!("instruction {k}, {why}"));
         }
     }
@@ -67,37 +62,8 @@ fn fusions_of(tape: &Tape) -> Fusions {
     crate::filter::fusions::fusions(tape, &integer)
 }
 
-fn instruction_gap(tape: &Tape, instr: &Instr) -> Option<String> {
-    let unary = |op: UnaryOp| {
-        matches!(
-            op,
-            UnaryOp::Fract | UnaryOp::Floor | UnaryOp::Round | UnaryOp::Trunc
-        )
-        .then(|| {
-            format!(
-                "`{}` in its filtered form (outside a periodic chain)",
-                op.name()
-            )
-        })
-    };
-    let binary = |op: BinaryOp| {
-        (op == BinaryOp::Mod)
-            .then(|| "`mod` in its filtered form (outside a periodic chain)".into())
-    };
-    let table = |t: u32| match tape.tables[t as usize].1.basis() {
-        Basis::White => Some("white noise in its filtered form (a mixture of cells)".to_string()),
-        Basis::Cellular(_) => Some("cellular noise in its filtered form (sub-footprints)".into()),
-        _ => None,
-    };
+fn instruction_gap(instr: &Instr) -> Option<String> {
     match *instr {
-        Instr::UnaryScalar { op, .. } | Instr::UnaryVec3 { op, .. } => unary(op),
-        Instr::Wide(Wide::Unary { op, .. }) => unary(op),
-        Instr::BinaryScalar { op, .. } | Instr::BinaryVec3 { op, .. } => binary(op),
-        Instr::Wide(Wide::Binary { op, .. }) => binary(op),
-        Instr::Noise { table: t, .. }
-        | Instr::Fractal { table: t, .. }
-        | Instr::Wide(Wide::Noise { table: t, .. })
-        | Instr::Wide(Wide::Fractal { table: t, .. }) => table(t),
         Instr::NoiseGradient { .. }
         | Instr::FractalGradient { .. }
         | Instr::Wide(Wide::NoiseGradient { .. })
@@ -134,6 +100,8 @@ pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
         shapes: String::new(),
         fusions: fusions_of(tape),
         knots: 2,
+        integer: crate::filter::integers::integer_operands(tape),
+        periodic: Vec::new(),
     };
     let body = g.function();
     source.push_str(
@@ -153,6 +121,15 @@ pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
         source.push('\n');
     }
     source.push_str(&g.shapes);
+    super::filtered_periodic::shape_functions(
+        &mut source,
+        "pcsaw",
+        &Periodic::sawtooth(),
+        PERIODIC,
+    );
+    for (k, shape) in g.periodic.iter().enumerate() {
+        super::filtered_periodic::shape_functions(&mut source, &format!("pc{k}"), shape, PERIODIC);
+    }
     source.push_str(&body);
     source.push_str(ENTRY);
     Ok(Shader {
@@ -171,6 +148,10 @@ struct Gen<'t> {
     fusions: Fusions,
     /// The most knots of a shape written so far (the built-in shapes have 2).
     knots: usize,
+    /// Per instruction: whether its operand `a` is integer-valued (`filter/integers.rs`).
+    integer: Vec<[bool; 3]>,
+    /// The periodic chains' shapes, `pc{k}` (`filtered_periodic.rs`).
+    periodic: Vec<Periodic>,
 }
 
 impl Gen<'_> {
@@ -269,9 +250,33 @@ impl Gen<'_> {
                 self.shape(&format!("pwf{index}"), &shape);
                 format!("{dst} = r_piecewise(pwf{index}(), f{saved});")
             }
-            _ => self.instruction(instr),
+            (Some(Fusion::Periodic { parts }), dst) => {
+                let calls: Vec<String> = parts
+                    .iter()
+                    .map(|p| {
+                        let k = self.periodic_shape(&p.shape);
+                        let scale = f64_literal(p.scale);
+                        format!("r_periodic_pc{k}(d_scale(f{}, {scale}))", p.saved)
+                    })
+                    .collect();
+                match (calls.as_slice(), dst, vec3_dst(instr)) {
+                    ([one], Some(dst), _) => format!("{dst} = {one};"),
+                    ([x, y, z], _, Some(v)) => format!("v{v} = array<D, 3>({x}, {y}, {z});"),
+                    _ => self.instruction(index, instr),
+                }
+            }
+            _ => self.instruction(index, instr),
         };
         w + &line
+    }
+
+    /// The index `k` of a periodic chain's shape `pc{k}` (one per distinct shape).
+    fn periodic_shape(&mut self, g: &Periodic) -> usize {
+        if let Some(k) = self.periodic.iter().position(|p| p == g) {
+            return k;
+        }
+        self.periodic.push(g.clone());
+        self.periodic.len() - 1
     }
 
     fn shape(&mut self, name: &str, f: &Piecewise) {
@@ -304,7 +309,8 @@ impl Gen<'_> {
         )
     }
 
-    fn instruction(&mut self, instr: &Instr) -> String {
+    fn instruction(&mut self, index: usize, instr: &Instr) -> String {
+        let integer = self.integer[index];
         match *instr {
             Instr::Position { dst } => format!(
                 "v{dst} = array<D, 3>(d_position(p, 0u), d_position(p, 1u), d_position(p, 2u));"
@@ -319,9 +325,13 @@ impl Gen<'_> {
                 .map(|i| unary(op, &format!("v{dst}[{i}]"), &format!("v{src}[{i}]")))
                 .collect::<Vec<_>>()
                 .join("\n    "),
-            Instr::BinaryScalar { op, dst, a, b } => {
-                binary(op, &format!("s{dst}"), &format!("s{a}"), &format!("s{b}"))
-            }
+            Instr::BinaryScalar { op, dst, a, b } => binary(
+                op,
+                &format!("s{dst}"),
+                &format!("s{a}"),
+                &format!("s{b}"),
+                integer[0],
+            ),
             Instr::BinaryVec3 { op, dst, a, b } => (0..3)
                 .map(|i| {
                     binary(
@@ -329,6 +339,7 @@ impl Gen<'_> {
                         &format!("v{dst}[{i}]"),
                         &format!("v{a}[{i}]"),
                         &format!("v{b}[{i}]"),
+                        integer[i],
                     )
                 })
                 .collect::<Vec<_>>()
@@ -364,7 +375,7 @@ impl Gen<'_> {
                 "v{dst} = r_rotate_varying({}, v{src}, s{degrees});",
                 vec3_literal(self.tape.axes[axis as usize])
             ),
-            Instr::Noise { dst, src, table } => self.noise(&format!("s{dst}"), src, table),
+            Instr::Noise { dst, src, table } => self.noise(&format!("s{dst}"), src, table, integer),
             Instr::Fractal {
                 dst,
                 src,
@@ -383,19 +394,24 @@ impl Gen<'_> {
             Instr::Curve { dst, src, curve } => {
                 format!("s{dst} = r_piecewise(pwc{curve}(), s{src});")
             }
-            Instr::Wide(w) => self.wide(w),
+            Instr::Wide(w) => self.wide(w, integer),
             // Refused by `unsupported` before generation.
             Instr::NoiseGradient { .. } | Instr::FractalGradient { .. } => String::new(),
         }
     }
 
-    fn wide(&mut self, w: Wide) -> String {
+    fn wide(&mut self, w: Wide, integers: [bool; 3]) -> String {
+        let integer = integers[0];
         match w {
             Wide::Component { dst, src, axis } => format!("d{dst} = v{src}[{}];", axis % 3),
             Wide::Unary { op, dst, src } => unary(op, &format!("d{dst}"), &format!("d{src}")),
-            Wide::Binary { op, dst, a, b } => {
-                binary(op, &format!("d{dst}"), &format!("d{a}"), &format!("d{b}"))
-            }
+            Wide::Binary { op, dst, a, b } => binary(
+                op,
+                &format!("d{dst}"),
+                &format!("d{a}"),
+                &format!("d{b}"),
+                integer,
+            ),
             Wide::Ternary { op, dst, a, b, c } => {
                 ternary(op, &format!("d{dst}"), [a, b, c].map(|x| format!("d{x}")))
             }
@@ -412,7 +428,7 @@ impl Gen<'_> {
                 "v{dst} = r_rotate_varying({}, v{src}, d{degrees});",
                 vec3_literal(self.tape.axes[axis as usize])
             ),
-            Wide::Noise { dst, src, table } => self.noise(&format!("d{dst}"), src, table),
+            Wide::Noise { dst, src, table } => self.noise(&format!("d{dst}"), src, table, integers),
             Wide::Fractal {
                 dst,
                 src,
@@ -427,10 +443,21 @@ impl Gen<'_> {
         }
     }
 
-    fn noise(&mut self, dst: &str, src: u32, table: u32) -> String {
+    /// A noise sample (tape.rs `noise_chunk`): white and cellular noise by their own rules
+    /// (`integer`: which input components are integer-valued, for white noise's lattice),
+    /// every other basis by the fade.
+    fn noise(&mut self, dst: &str, src: u32, table: u32, integer: [bool; 3]) -> String {
         let period = self.tape.tables[table as usize].0.period;
         let k = self.sampler(table, period);
-        format!("{dst} = n_octave_smp{k}({}, v{src});", self.stats(table))
+        let st = self.stats(table);
+        match self.tape.tables[table as usize].1.basis() {
+            Basis::White => {
+                let [x, y, z] = integer;
+                format!("{dst} = n_white_smp{k}({st}, v{src}, vec3<bool>({x}, {y}, {z}));")
+            }
+            Basis::Cellular(_) => format!("{dst} = n_cellular_smp{k}({st}, v{src});"),
+            _ => format!("{dst} = n_octave_smp{k}({st}, v{src});"),
+        }
     }
 
     /// noise.rs `fractal_lanes` and `shape` for one lane: every octave on the scaled input,
@@ -455,8 +482,28 @@ impl Gen<'_> {
             .collect();
         let mut w =
             String::from("{\n        var sum = dc(0.0lf);\n        var weight = dc(1.0lf);\n");
-        {
-            // Unrolled: lavapipe compiles a loop over the octaves' rules several times slower.
+        let shared = samplers.windows(2).all(|w| w[0] == w[1]);
+        if let (true, Some(&smp)) = (shared, samplers.first()) {
+            // One sampler: a loop over the octaves the driver cannot unroll (`dispatch.one`),
+            // so the octave's rules and noise kernel are compiled once, not once per octave.
+            let list = |v: &[f64]| v.iter().map(|&x| f64_literal(x)).collect::<Vec<_>>();
+            let n = samplers.len();
+            let _ = writeln!(
+                w,
+                "        var freqs = array<f64, {n}>({});\n        \
+                 var amps = array<f64, {n}>({});\n        \
+                 for (var k = 0u; k < {n}u * u32(dispatch.one); k += 1u) {{\n        \
+                 let n = n_octave_smp{smp}({st}, d3_scale(v{src}, freqs[k]));",
+                list(&schedule.frequencies).join(", "),
+                list(&schedule.amplitudes).join(", ")
+            );
+            let shaped = shaped(&mut w, style);
+            let _ = writeln!(
+                w,
+                "        sum = r_add(sum, d_scale({shaped}, amps[k]));\n        }}"
+            );
+        } else {
+            // A tiled sum's octaves each have their own sampler (period).
             for (k, smp) in samplers.iter().enumerate() {
                 let _ = writeln!(
                     w,
@@ -547,8 +594,10 @@ fn unary(op: UnaryOp, dst: &str, src: &str) -> String {
                  {sign}(a.m / ((1.0lf - a.m * a.m) * d_sqrt(1.0lf - a.m * a.m))), false)"
             )
         }
-        // Refused by `unsupported`.
-        UnaryOp::Fract | UnaryOp::Floor | UnaryOp::Round | UnaryOp::Trunc => "a".into(),
+        UnaryOp::Fract => "r_fract(a)".into(),
+        UnaryOp::Floor => "r_floor(a)".into(),
+        UnaryOp::Round => "r_round(a)".into(),
+        UnaryOp::Trunc => "r_trunc(a)".into(),
     };
     let point = point_unary(op, "a.m");
     format!(
@@ -565,8 +614,12 @@ fn point_unary(op: UnaryOp, x: &str) -> String {
     }
 }
 
-/// A binary rule (rules.rs `binary`).
-fn binary(op: BinaryOp, dst: &str, a: &str, b: &str) -> String {
+/// A binary rule (rules.rs `binary`; `Mod` by tape.rs's `binary`, with `integer` whether `a`
+/// is integer-valued).
+fn binary(op: BinaryOp, dst: &str, a: &str, b: &str, integer: bool) -> String {
+    if op == BinaryOp::Mod {
+        return format!("{dst} = r_mod({a}, {b}, {integer});");
+    }
     let rule = match op {
         BinaryOp::Add => "r_add(a, b)",
         BinaryOp::Sub => "r_sub(a, b)",
@@ -577,7 +630,7 @@ fn binary(op: BinaryOp, dst: &str, a: &str, b: &str) -> String {
         BinaryOp::Step => "r_piecewise(shape_step(), r_sub(b, a))",
         BinaryOp::Pow => "r_pow(a, b)",
         BinaryOp::Atan2 => "r_atan2(a, b)",
-        // Refused by `unsupported`.
+        // `r_mod` above.
         BinaryOp::Mod => "a",
     };
     let point = match op {

@@ -12,6 +12,7 @@ mod error;
 #[cfg(feature = "gpu")]
 mod evaluator;
 pub mod filtered;
+mod filtered_periodic;
 #[cfg(feature = "gpu")]
 pub use evaluator::GpuEvaluator;
 #[cfg(not(feature = "gpu"))]

@@ -318,6 +318,13 @@ fn pw_eval(f: Pw, x: f64) -> f64 {
     return horner4(f.p[j], x - pw_anchor(f, j));
 }
 
+// The Gauss-Legendre node count, 5, as a value the driver cannot know (`dispatch.one` is 1.0 at
+// run time, bindings.wgsl): a loop it cannot unroll, so each rule's integrand is compiled once,
+// not once per node (lavapipe took minutes and gigabytes on the unrolled periodic chains).
+fn gl_nodes() -> u32 {
+    return 5u * u32(dispatch.one);
+}
+
 const GL_X: array<f64, 5> = array<f64, 5>(-0.906179845938664lf, -0.5384693101056831lf, 0.0lf, 0.5384693101056831lf, 0.906179845938664lf);
 const GL_W: array<f64, 5> = array<f64, 5>(0.23692688505618908lf, 0.47862867049936647lf, 0.5688888888888889lf, 0.47862867049936647lf, 0.23692688505618908lf);
 
@@ -411,7 +418,7 @@ fn pw_moments(f: Pw, t: f64, sp: Sp) -> Mo {
         }
         let c = f.p[j];
         let ta = t - pw_anchor(f, j);
-        for (var g = 0u; g < 5u; g += 1u) {
+        for (var g = 0u; g < gl_nodes(); g += 1u) {
             let s = mid + half * GL_X[g];
             let weight = GL_W[g] * half * sp_density(s, sp);
             let u = ta + s;
@@ -441,7 +448,7 @@ fn pw_moments(f: Pw, t: f64, sp: Sp) -> Mo {
         }
         let c = f.p[j];
         let ta = t - pw_anchor(f, j);
-        for (var g = 0u; g < 5u; g += 1u) {
+        for (var g = 0u; g < gl_nodes(); g += 1u) {
             let s = mid + half * GL_X[g];
             let e = horner4(c, ta + s) - mean;
             variance = variance + GL_W[g] * half * sp_density(s, sp) * e * e;
@@ -1168,4 +1175,157 @@ fn r_abs_sin(x: D, cos: bool) -> D {
         s = r_sin_cos(x, cos);
     }
     return ru_abs(s);
+}
+
+// --- fract and its family (rules.rs `fract_floor`, `lattice_mod`): `fract` is the periodic
+// rule of the sawtooth `g(u) = u` (`pcsaw`, always generated). ---
+
+fn r_fract(d: D) -> D {
+    if (d_is_const(d)) {
+        return dc(d_fract(d.m));
+    }
+    return f_out(d, per_moments_pcsaw(d.m, f_spread(d)));
+}
+
+// floor d = d - fract d, its variance by Cov(d, fract d) ≈ slope · Var d.
+fn r_floor(d: D) -> D {
+    if (d_is_const(d)) {
+        return dc(floor(d.m));
+    }
+    let m = per_moments_pcsaw(d.m, f_spread(d));
+    let t = f_total(d);
+    return f_out(d, Mo(d.m - m.mean, max(t + m.variance - 2.0lf * m.slope * t, 0.0lf), 1.0lf - m.slope));
+}
+
+fn r_round(d: D) -> D {
+    return r_floor(r_add(d, dc(0.5lf)));
+}
+
+// trunc x = floor x + [x < 0] (almost everywhere).
+fn r_trunc(d: D) -> D {
+    return r_add(r_floor(d), r_piecewise(shape_step(), d_scale(d, -1.0lf)));
+}
+
+// rules.rs `lattice_mod`: mod(K, P) of an integer-valued K by a whole P >= 1.
+fn r_lattice_mod(k: D, p: f64) -> D {
+    let mu = k.m;
+    let t = f_total(k);
+    let n = floor(mu);
+    let q = mu - n;
+    if (!is_finite_d(mu)) {
+        return dc(nan_d());
+    }
+    var mean: f64;
+    var variance: f64;
+    var slope: f64;
+    if (t <= q * (1.0lf - q) + 1e-12lf) {
+        let g0 = n - p * floor(n / p);
+        let g1 = (n + 1.0lf) - p * floor((n + 1.0lf) / p);
+        mean = (1.0lf - q) * g0 + q * g1;
+        let square = (1.0lf - q) * g0 * g0 + q * g1 * g1;
+        variance = max(square - mean * mean, 0.0lf);
+        slope = g1 - g0;
+    } else {
+        let widths = f_widths(k.g);
+        let r = max(k.v - 1.0lf / 12.0lf, 0.0lf);
+        let u = sp_new(widths, r);
+        let scaled = sp_new(widths / p, r / (p * p));
+        let whole = per_moments_pcsaw((mu + 0.5lf) / p, scaled);
+        let unit = per_moments_pcsaw(mu + 0.5lf, u);
+        mean = p * whole.mean - unit.mean;
+        let square = (p - 1.0lf) * (2.0lf * p - 1.0lf) / 6.0lf;
+        variance = max(square - mean * mean, 0.0lf);
+        slope = whole.slope - unit.slope;
+    }
+    let g = slope * k.g;
+    return D(mean, g, f_residual(variance, f_linvar(g)));
+}
+
+// tape.rs `binary` and rules.rs `Mod`: the lattice rule for an integer-valued `a` and a whole
+// constant `b`, else b · fract(a / b) with b at its mean.
+fn r_mod(a: D, b: D, integer: bool) -> D {
+    let whole = d_is_const(b) && d_fract(b.m) == 0.0lf && b.m >= 1.0lf;
+    if (integer && whole && b.m <= 1e6lf) {
+        return r_lattice_mod(a, b.m);
+    }
+    if ((d_is_const(a) && d_is_const(b)) || is_nan_d(a.m) || is_nan_d(b.m)) {
+        return dc(d_mod(a.m, b.m));
+    }
+    let c = b.m;
+    if (c == 0.0lf || !is_finite_d(c)) {
+        return dc(d_mod(a.m, c));
+    }
+    return d_scale(r_fract(d_scale(a, 1.0lf / c)), c);
+}
+
+// --- White noise's cells per axis (noise.rs `cells`). ---
+
+struct Axis {
+    first: f64,
+    count: u32,
+    // 0: one cell (a constant); 1: the lattice's two-point law (probabilities 1 - q, q);
+    // 2: the spread's exact step means.
+    kind: u32,
+    q: f64,
+    mu: f64,
+    shift: f64,
+    sp: Sp,
+    ok: bool,
+}
+
+fn w_axis(d: D, integer: bool) -> Axis {
+    let mu = d.m;
+    var a = Axis(floor(mu), 1u, 0u, 0.0lf, mu, 0.0lf, Sp(vec3<f64>(0.0lf), false), true);
+    if (!is_finite_d(mu)) {
+        a.ok = false;
+        return a;
+    }
+    if (d_is_const(d)) {
+        return a;
+    }
+    let widths = f_widths(d.g);
+    var residual = d.v;
+    if (integer) {
+        let t = f_total(d);
+        let q = mu - a.first;
+        if (t <= q * (1.0lf - q) + 1e-12lf) {
+            a.count = 2u;
+            a.kind = 1u;
+            a.q = q;
+            return a;
+        }
+        residual = max(d.v - 1.0lf / 12.0lf, 0.0lf);
+        a.shift = 0.5lf;
+    }
+    a.sp = sp_new(widths, residual);
+    let half = (widths.x + widths.y + widths.z) / 2.0lf + sqrt(6.0lf * residual);
+    let first = floor(mu + a.shift - half);
+    let last = floor(mu + a.shift + half);
+    if (!(last - first < 64.0lf)) {
+        a.ok = false;
+        return a;
+    }
+    a.first = first;
+    a.count = u32(last - first) + 1u;
+    a.kind = 2u;
+    return a;
+}
+
+// Cell n's probability and its derivative along the axis' mean.
+fn w_prob(a: Axis, n: u32) -> vec2<f64> {
+    if (a.kind == 0u) {
+        return vec2<f64>(1.0lf, 0.0lf);
+    }
+    if (a.kind == 1u) {
+        if (n == 0u) {
+            return vec2<f64>(1.0lf - a.q, -1.0lf);
+        }
+        return vec2<f64>(a.q, 1.0lf);
+    }
+    let below = a.mu - (a.first + f64(n) - a.shift);
+    let above = a.mu - (a.first + f64(n) + 1.0lf - a.shift);
+    let step = shape_step();
+    let pb = pw_moments(step, below, a.sp).mean;
+    let pa = pw_moments(step, above, a.sp).mean;
+    return vec2<f64>(pb - pa, sp_density(below, a.sp) - sp_density(above, a.sp));
 }

@@ -10,22 +10,105 @@ fn n_octave_SAMPLE(st: St, p: array<D, 3>) -> D {
     if (alpha < 1e-6lf) {
         return D(st.mean, vec3<f64>(0.0lf), st.var_);
     }
-    let centre = vec3<f64>(p[0].m, p[1].m, p[2].m);
-    if (alpha == 1.0lf && d_is_const(p[0]) && d_is_const(p[1]) && d_is_const(p[2])) {
-        return dc(SAMPLE(centre).w);
+    // The points to sample: the centre, or in the band the eight sub-box centres. One call
+    // site of the sampler in a loop the driver cannot unroll (`dispatch.one`): each call site
+    // inlines the whole f64 noise kernel.
+    let band = alpha >= 0.01lf && alpha <= 0.99lf;
+    var e: array<vec3<f64>, 3>;
+    var count = 1u;
+    if (band) {
+        e = n_edges(p);
+        count = 8u;
     }
-    if (alpha >= 0.01lf && alpha <= 0.99lf) {
-        let e = n_edges(p);
-        var s: array<vec4<f64>, 8>;
-        for (var j = 0u; j < 8u; j += 1u) {
-            s[j] = SAMPLE(n_sub_centre(p, e, j));
+    var s: array<vec4<f64>, 8>;
+    for (var j = 0u; j < count * u32(dispatch.one); j += 1u) {
+        var x = vec3<f64>(p[0].m, p[1].m, p[2].m);
+        if (band) {
+            x = n_sub_centre(p, e, j);
         }
+        s[j] = SAMPLE(x);
+    }
+    if (alpha == 1.0lf && d_is_const(p[0]) && d_is_const(p[1]) && d_is_const(p[2])) {
+        return dc(s[0].w);
+    }
+    if (band) {
         let sub = n_subsampled(st, p, e, s);
         if (sub.ok) {
             return sub.d;
         }
-        return n_sampled(st, p, fade, s[0].w, s[0].xyz);
     }
-    let c = SAMPLE(centre);
-    return n_sampled(st, p, fade, c.w, c.xyz);
+    return n_sampled(st, p, fade, s[0].w, s[0].xyz);
+}
+
+// noise.rs `cellular`: cellular noise over a footprint within a cell in noise space, from its
+// eight sub-boxes; the fade (`n_octave_SAMPLE`) for a larger one or a non-finite centre.
+fn n_cellular_SAMPLE(st: St, p: array<D, 3>) -> D {
+    let e = n_edges(p);
+    let longest = max(fdot(e[0], e[0]), max(fdot(e[1], e[1]), fdot(e[2], e[2])));
+    let small = longest <= 1.0lf;
+    let centre = vec3<f64>(p[0].m, p[1].m, p[2].m);
+    if (!small || !is_finite_d(centre.x) || !is_finite_d(centre.y) || !is_finite_d(centre.z)) {
+        return n_octave_SAMPLE(st, p);
+    }
+    var s: array<vec4<f64>, 8>;
+    var mean = 0.0lf;
+    for (var j = 0u; j < 8u; j += 1u) {
+        s[j] = SAMPLE(n_sub_centre(p, e, j));
+        mean = mean + s[j].w;
+    }
+    mean = mean / 8.0lf;
+    var g_mean = vec3<f64>(0.0lf);
+    var within = 0.0lf;
+    var carried = 0.0lf;
+    var between = 0.0lf;
+    for (var j = 0u; j < 8u; j += 1u) {
+        let g = vec3<f64>(finite_or_zero(s[j].x), finite_or_zero(s[j].y), finite_or_zero(s[j].z));
+        g_mean = g_mean + g / 8.0lf;
+        let slope = g.x * p[0].g + g.y * p[1].g + g.z * p[2].g;
+        within = within + f_linvar(slope) / 4.0lf / 8.0lf;
+        carried = carried + (g.x * g.x * p[0].v + g.y * g.y * p[1].v + g.z * g.z * p[2].v) / 8.0lf;
+    }
+    for (var j = 0u; j < 8u; j += 1u) {
+        between = between + (s[j].w - mean) * (s[j].w - mean);
+    }
+    between = between / 8.0lf;
+    let slope = g_mean.x * p[0].g + g_mean.y * p[1].g + g_mean.z * p[2].g;
+    let v = f_residual(between + within, f_linvar(slope)) + carried;
+    if (!is_finite_d(mean)) {
+        return n_octave_SAMPLE(st, p);
+    }
+    return D(mean, slope, select(0.0lf, v, is_finite_d(v)));
+}
+
+// noise.rs `white`: white noise over the footprint as the exact mixture of the cells the input
+// reaches (at most 64), the axes independent; the fade for a wider box or a non-finite input.
+fn n_white_SAMPLE(st: St, p: array<D, 3>, integer: vec3<bool>) -> D {
+    let ax = w_axis(p[0], integer.x);
+    let ay = w_axis(p[1], integer.y);
+    let az = w_axis(p[2], integer.z);
+    if (!ax.ok || !ay.ok || !az.ok || ax.count * ay.count * az.count > 64u) {
+        return n_octave_SAMPLE(st, p);
+    }
+    var mean = 0.0lf;
+    var square = 0.0lf;
+    var slope = vec3<f64>(0.0lf);
+    for (var i = 0u; i < ax.count; i += 1u) {
+        let x = w_prob(ax, i);
+        for (var j = 0u; j < ay.count; j += 1u) {
+            let y = w_prob(ay, j);
+            for (var k = 0u; k < az.count; k += 1u) {
+                let z = w_prob(az, k);
+                let centre = vec3<f64>(ax.first + f64(i), ay.first + f64(j), az.first + f64(k));
+                let w = SAMPLE(centre + vec3<f64>(0.5lf)).w;
+                mean = mean + x.x * y.x * z.x * w;
+                square = square + x.x * y.x * z.x * w * w;
+                slope = slope + vec3<f64>(x.y * y.x * z.x, x.x * y.y * z.x, x.x * y.x * z.y) * w;
+            }
+        }
+    }
+    let grad = slope.x * p[0].g + slope.y * p[1].g + slope.z * p[2].g;
+    if (!is_finite_d(mean)) {
+        return n_octave_SAMPLE(st, p);
+    }
+    return D(mean, grad, f_residual(square - mean * mean, f_linvar(grad)));
 }
