@@ -41,3 +41,29 @@ fn centre(axis: u32, index: u32) -> f64 {
     return inputs[axis] + (f64(index) + 0.5lf) * inputs[3u + axis] / inputs[6u + axis];
 }
 
+// The voxel a `bake` thread evaluates: its segment in the window `s`, its index in the segment
+// `i` and its centre; `ok` false for a thread past the window's segments or the row's end.
+struct Voxel {
+    s: u32,
+    i: u32,
+    p: vec3<f64>,
+    ok: bool,
+}
+
+fn bake_voxel(g: u32) -> Voxel {
+    let s = g / dispatch.segment_len;
+    let i = g % dispatch.segment_len;
+    var v = Voxel(s, i, vec3<f64>(0.0lf), false);
+    if (s >= dispatch.segments) {
+        return v;
+    }
+    let segment = dispatch.first_segment + s;
+    let row = segment / dispatch.per_row;
+    let x = (segment % dispatch.per_row) * dispatch.segment_len + i;
+    if (x >= dispatch.nx) {
+        return v;
+    }
+    v.p = vec3<f64>(centre(0u, x), centre(1u, row % dispatch.ny), centre(2u, row / dispatch.ny));
+    v.ok = true;
+    return v;
+}

@@ -7,19 +7,13 @@
 @compute @workgroup_size(64)
 fn bake(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
         @builtin(local_invocation_index) local: u32) {
-    let g = thread_index(wg, groups, local);
-    let s = g / dispatch.segment_len;
-    let i = g % dispatch.segment_len;
-    if (s >= dispatch.segments) {
+    let v = bake_voxel(thread_index(wg, groups, local));
+    if (!v.ok) {
         return;
     }
-    let segment = dispatch.first_segment + s;
-    let row = segment / dispatch.per_row;
-    let x = (segment % dispatch.per_row) * dispatch.segment_len + i;
-    if (x >= dispatch.nx) {
-        return;
-    }
-    let p = vec3<f64>(centre(0u, x), centre(1u, row % dispatch.ny), centre(2u, row / dispatch.ny));
+    let p = v.p;
+    let s = v.s;
+    let i = v.i;
     fp_set(vec3<f64>(abs(inputs[3u] / inputs[6u]), 0.0lf, 0.0lf),
            vec3<f64>(0.0lf, abs(inputs[4u] / inputs[7u]), 0.0lf),
            vec3<f64>(0.0lf, 0.0lf, abs(inputs[5u] / inputs[8u])));
