@@ -57,11 +57,6 @@ pub fn unsupported(tape: &Tape) -> Option<String> {
     None
 }
 
-fn fusions_of(tape: &Tape) -> Fusions {
-    let integer = crate::filter::integers::integer_operands(tape);
-    crate::filter::fusions::fusions(tape, &integer)
-}
-
 fn instruction_gap(instr: &Instr) -> Option<String> {
     match *instr {
         Instr::NoiseGradient { .. }
@@ -94,13 +89,14 @@ pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
         source.push_str(super::widen::library());
         source.push('\n');
     }
+    let integer = crate::filter::integers::integer_operands(tape);
     let mut g = Gen {
         tape,
         samplers: Vec::new(),
         shapes: String::new(),
-        fusions: fusions_of(tape),
+        fusions: crate::filter::fusions::fusions(tape, &integer),
         knots: 2,
-        integer: crate::filter::integers::integer_operands(tape),
+        integer,
         periodic: Vec::new(),
     };
     let body = g.function();

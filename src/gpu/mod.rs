@@ -28,23 +28,7 @@ pub use error::GpuError;
 /// The GPU evaluator of `tape`, compiled once per tape fingerprint in this process (a bake of
 /// many windows, mip levels and repeated bakes of one graph share it).
 pub fn evaluator_for(tape: &crate::tape::Tape) -> Result<std::sync::Arc<GpuEvaluator>, GpuError> {
-    use std::collections::HashMap;
-    use std::sync::{Arc, Mutex, OnceLock};
-    static CACHE: OnceLock<Mutex<HashMap<u64, Arc<GpuEvaluator>>>> = OnceLock::new();
-    let cache = CACHE.get_or_init(Default::default);
-    let key = tape.fingerprint();
-    if let Some(found) = cache.lock().unwrap_or_else(|e| e.into_inner()).get(&key) {
-        return Ok(found.clone());
-    }
-    let made = Arc::new(GpuEvaluator::new(tape)?);
-    let mut cache = cache.lock().unwrap_or_else(|e| e.into_inner());
-    // A few tapes at most live in one process; keep the cache from growing without bound
-    // (`serve` recompiles on every edit).
-    if cache.len() >= 32 {
-        cache.clear();
-    }
-    cache.insert(key, made.clone());
-    Ok(made)
+    cached(tape, false)
 }
 
 /// The filtered form's GPU evaluator of `tape` (`filtered.rs`; each voxel or point the
@@ -53,16 +37,31 @@ pub fn evaluator_for(tape: &crate::tape::Tape) -> Result<std::sync::Arc<GpuEvalu
 pub fn filtered_evaluator_for(
     tape: &crate::tape::Tape,
 ) -> Result<std::sync::Arc<GpuEvaluator>, GpuError> {
+    cached(tape, true)
+}
+
+/// One cache for both forms, keyed by the tape's fingerprint and the form.
+fn cached(
+    tape: &crate::tape::Tape,
+    filtered: bool,
+) -> Result<std::sync::Arc<GpuEvaluator>, GpuError> {
     use std::collections::HashMap;
     use std::sync::{Arc, Mutex, OnceLock};
-    static CACHE: OnceLock<Mutex<HashMap<u64, Arc<GpuEvaluator>>>> = OnceLock::new();
+    type Cache = Mutex<HashMap<(u64, bool), Arc<GpuEvaluator>>>;
+    static CACHE: OnceLock<Cache> = OnceLock::new();
     let cache = CACHE.get_or_init(Default::default);
-    let key = tape.fingerprint();
+    let key = (tape.fingerprint(), filtered);
     if let Some(found) = cache.lock().unwrap_or_else(|e| e.into_inner()).get(&key) {
         return Ok(found.clone());
     }
-    let made = Arc::new(GpuEvaluator::new_filtered(tape)?);
+    let made = Arc::new(if filtered {
+        GpuEvaluator::new_filtered(tape)?
+    } else {
+        GpuEvaluator::new(tape)?
+    });
     let mut cache = cache.lock().unwrap_or_else(|e| e.into_inner());
+    // A few tapes at most live in one process; keep the cache from growing without bound
+    // (`serve` recompiles on every edit).
     if cache.len() >= 32 {
         cache.clear();
     }

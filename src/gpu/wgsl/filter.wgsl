@@ -13,6 +13,12 @@ struct D {
     v: f64,
 }
 
+// A rule's result where it may decline (`ok` false: the caller's fallback).
+struct Opt {
+    d: D,
+    ok: bool,
+}
+
 struct Mo {
     mean: f64,
     variance: f64,
@@ -52,10 +58,6 @@ var<private> fp_n: u32;
 var<private> fp_inv: array<vec3<f64>, 3>;
 var<private> fp_inv_ok: bool;
 
-fn fdot(a: vec3<f64>, b: vec3<f64>) -> f64 {
-    return a.x * b.x + a.y * b.y + a.z * b.z;
-}
-
 fn fp_set(e0: vec3<f64>, e1: vec3<f64>, e2: vec3<f64>) {
     fp_e = array<vec3<f64>, 3>(e0, e1, e2);
     for (var i = 0u; i < 3u; i += 1u) {
@@ -67,7 +69,7 @@ fn fp_set(e0: vec3<f64>, e1: vec3<f64>, e2: vec3<f64>) {
     }
     fp_n = 0u;
     for (var k = 0u; k < 3u; k += 1u) {
-        if (fdot(fp_e[k], fp_e[k]) > 0.0lf) {
+        if (v_dot(fp_e[k], fp_e[k]) > 0.0lf) {
             fp_live[fp_n] = k;
             fp_n += 1u;
         }
@@ -76,7 +78,7 @@ fn fp_set(e0: vec3<f64>, e1: vec3<f64>, e2: vec3<f64>) {
     for (var i = 0u; i < 3u; i += 1u) {
         for (var j = 0u; j < 3u; j += 1u) {
             if (i < fp_n && j < fp_n) {
-                m[i][j] = fdot(fp_e[fp_live[i]], fp_e[fp_live[j]]);
+                m[i][j] = v_dot(fp_e[fp_live[i]], fp_e[fp_live[j]]);
             } else {
                 m[i][j] = 0.0lf;
             }
@@ -157,7 +159,7 @@ fn d_scale(d: D, c: f64) -> D {
 
 // `|g · e_k|` per edge.
 fn f_widths(g: vec3<f64>) -> vec3<f64> {
-    return vec3<f64>(abs(fdot(g, fp_e[0])), abs(fdot(g, fp_e[1])), abs(fdot(g, fp_e[2])));
+    return vec3<f64>(abs(v_dot(g, fp_e[0])), abs(v_dot(g, fp_e[1])), abs(v_dot(g, fp_e[2])));
 }
 
 fn f_cov(a: vec3<f64>, b: vec3<f64>) -> f64 {
@@ -803,7 +805,7 @@ fn n_fade_of(st: St, l2: vec3<f64>, v: f64) -> vec4<f64> {
 fn n_edges(p: array<D, 3>) -> array<vec3<f64>, 3> {
     var e: array<vec3<f64>, 3>;
     for (var k = 0u; k < 3u; k += 1u) {
-        e[k] = vec3<f64>(fdot(p[0].g, fp_e[k]), fdot(p[1].g, fp_e[k]), fdot(p[2].g, fp_e[k]));
+        e[k] = vec3<f64>(v_dot(p[0].g, fp_e[k]), v_dot(p[1].g, fp_e[k]), v_dot(p[2].g, fp_e[k]));
     }
     return e;
 }
@@ -856,7 +858,7 @@ fn n_damp(beta: vec3<f64>, g: vec3<f64>) -> vec3<f64> {
             return g;
         }
     }
-    let out = vec3<f64>(fdot(d[0], g), fdot(d[1], g), fdot(d[2], g));
+    let out = vec3<f64>(v_dot(d[0], g), v_dot(d[1], g), v_dot(d[2], g));
     if (!is_finite_d(out.x) || !is_finite_d(out.y) || !is_finite_d(out.z)) {
         return g;
     }
@@ -913,14 +915,9 @@ fn n_sub_centre(p: array<D, 3>, e: array<vec3<f64>, 3>, j: u32) -> vec3<f64> {
 }
 
 // noise.rs `subsampled`: one octave from its eight sub-boxes' values and gradients (xyz the
-// gradient, w the value); the flag in `ok` false where the edges are degenerate.
-struct Sub {
-    d: D,
-    ok: bool,
-}
-
-fn n_subsampled(st: St, p: array<D, 3>, e: array<vec3<f64>, 3>, s: array<vec4<f64>, 8>) -> Sub {
-    let l2 = vec3<f64>(fdot(e[0], e[0]) / 4.0lf, fdot(e[1], e[1]) / 4.0lf, fdot(e[2], e[2]) / 4.0lf);
+// gradient, w the value); `ok` false where the edges are degenerate.
+fn n_subsampled(st: St, p: array<D, 3>, e: array<vec3<f64>, 3>, s: array<vec4<f64>, 8>) -> Opt {
+    let l2 = vec3<f64>(v_dot(e[0], e[0]) / 4.0lf, v_dot(e[1], e[1]) / 4.0lf, v_dot(e[2], e[2]) / 4.0lf);
     let fade = n_fade_of(st, l2, p[0].v + p[1].v + p[2].v);
     let alpha = fade.x;
     var means: array<f64, 8>;
@@ -945,7 +942,7 @@ fn n_subsampled(st: St, p: array<D, 3>, e: array<vec3<f64>, 3>, s: array<vec4<f6
     }
     let slope = n_slope_with(du);
     if (slope.w == 0.0lf) {
-        return Sub(dc(0.0lf), false);
+        return Opt(dc(0.0lf), false);
     }
     let grad = slope.xyz;
     var between = 0.0lf;
@@ -960,9 +957,9 @@ fn n_subsampled(st: St, p: array<D, 3>, e: array<vec3<f64>, 3>, s: array<vec4<f6
     let within = (1.0lf - alpha * alpha) * st.var_ + alpha * alpha * carried;
     let v = f_residual(between + within, f_linvar(grad));
     if (!is_finite_d(mean)) {
-        return Sub(dc(0.0lf), false);
+        return Opt(dc(0.0lf), false);
     }
-    return Sub(D(mean, grad, select(0.0lf, v, is_finite_d(v))), true);
+    return Opt(D(mean, grad, select(0.0lf, v, is_finite_d(v))), true);
 }
 
 // Guarded forms (rules.rs `unary`, `binary`): a constant or NaN operand takes the point
@@ -1041,11 +1038,6 @@ fn r_rotate_varying(axis: vec3<f64>, v: array<D, 3>, degrees: D) -> array<D, 3> 
 }
 
 // --- Fused pairs (fusions.rs): `|sin x|` from the sine's argument. ---
-
-struct Opt {
-    d: D,
-    ok: bool,
-}
 
 // rules.rs `abs_sin_out`: |sin X|'s (|cos X|'s) distribution from its mean, slope and
 // Re φ(2) = E[cos 2X].

@@ -44,7 +44,7 @@ fn n_octave_SAMPLE(st: St, p: array<D, 3>) -> D {
 // eight sub-boxes; the fade (`n_octave_SAMPLE`) for a larger one or a non-finite centre.
 fn n_cellular_SAMPLE(st: St, p: array<D, 3>) -> D {
     let e = n_edges(p);
-    let longest = max(fdot(e[0], e[0]), max(fdot(e[1], e[1]), fdot(e[2], e[2])));
+    let longest = max(v_dot(e[0], e[0]), max(v_dot(e[1], e[1]), v_dot(e[2], e[2])));
     let small = longest <= 1.0lf;
     let centre = vec3<f64>(p[0].m, p[1].m, p[2].m);
     if (!small || !is_finite_d(centre.x) || !is_finite_d(centre.y) || !is_finite_d(centre.z)) {
