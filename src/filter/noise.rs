@@ -165,8 +165,8 @@ fn sub_centres(p: &[Dist; 3], e: &[[f64; 3]; 3]) -> [[f64; 3]; 8] {
     })
 }
 
-/// One octave over the footprint from its eight sub-boxes (the value and gradient at each
-/// centre): each sub-box faded by its own (half-size) fade; the mean of the eight; the linear
+/// One octave over the footprint from its eight sub-boxes (the value at each centre, and the
+/// gradient where the input carries residual variance: `None` where it carries none): each sub-box faded by its own (half-size) fade; the mean of the eight; the linear
 /// part the least-squares slope of the eight along each edge (`grad · e_k = 2 (mean of the
 /// s_k = +1 half − mean of the other)`, the smallest such `grad`); the variance the eight's
 /// spread plus what each sub-box's fade takes, less the linear part's. `None` where the edges
@@ -175,13 +175,11 @@ fn subsampled(
     rules: &Rules,
     stats: &Stats,
     p: &[Dist; 3],
-    e: &[[f64; 3]; 3],
+    sub: &Sub,
     values: &[f64],
-    grads: [&[f64]; 3],
+    grads: Option<[&[f64]; 3]>,
 ) -> Option<Dist> {
-    let l2 = e.map(|ek| dot(&ek, &ek) / 4.0);
-    let v: f64 = p.iter().map(|c| c.var).sum();
-    let (alpha, _) = fade_of(stats, l2, v);
+    let alpha = sub.alpha;
     let finite = |c: f64| if c.is_finite() { c } else { 0.0 };
     let means: [f64; 8] =
         std::array::from_fn(|j| alpha * finite(values[j]) + (1.0 - alpha) * stats.mean);
@@ -199,14 +197,16 @@ fn subsampled(
     });
     let grad = rules.footprint.slope_with(du)?;
     let between = means.iter().map(|m| (m - mean) * (m - mean)).sum::<f64>() / 8.0;
-    let carried = (0..8)
-        .map(|j| {
-            (0..3)
-                .map(|i| finite(grads[i][j]).powi(2) * p[i].var)
-                .sum::<f64>()
-        })
-        .sum::<f64>()
-        / 8.0;
+    let carried = grads.map_or(0.0, |grads| {
+        (0..8)
+            .map(|j| {
+                (0..3)
+                    .map(|i| finite(grads[i][j]).powi(2) * p[i].var)
+                    .sum::<f64>()
+            })
+            .sum::<f64>()
+            / 8.0
+    });
     let within = (1.0 - alpha * alpha) * stats.var + alpha * alpha * carried;
     let var = super::rules::residual(between + within, rules.footprint.linear_var(grad));
     mean.is_finite().then_some(Dist {
@@ -216,11 +216,13 @@ fn subsampled(
     })
 }
 
-/// A fade below which an octave is not sampled: its value would move the mean by less than
-/// `FADED` times the noise's range, far under the rule's own error, and the octave counts as
-/// fully faded (the global mean and variance). This is what level of detail's octave drop
-/// becomes here.
-const FADED: f64 = 1e-6;
+/// A fade below which an octave is not sampled and counts as fully faded (the global mean and
+/// variance): what level of detail's octave drop becomes here. The centre value's correlation
+/// with the mean of a box that many cells wide is about `√α` (the box mean's variance is about
+/// `α σ²`, its covariance with the centre `α σ²`), so sampling it would lower the octave's RMS
+/// error by a factor of about `1 − α/2`: nothing worth a sample (docs/filtering.md's table moves
+/// in no fourth digit between 10⁻⁶ and this). The GPU's `filter_octave.wgsl` uses the same.
+const FADED: f64 = 1e-3;
 
 /// A noise sample of `p` over the footprint (one lane of [`noise_lanes`]).
 pub fn noise(rules: &Rules, s: &Sampler, p: &[Dist; 3], scratch: &mut LaneScratch) -> Dist {
@@ -317,15 +319,38 @@ pub struct LaneScratch {
     weight: Vec<Dist>,
     octave: Vec<Dist>,
     same: Vec<bool>,
-    /// Per sub-sampled lane, the footprint's edges in noise space.
-    edges: Vec<[[f64; 3]; 3]>,
+    /// The sub-box centres sampled for their value alone.
+    value_coords: [Vec<f64>; 3],
+    values: Vec<f64>,
 }
 
-/// A lane's fade: `α`, and the damping of its slope (`Footprint::damp_matrix` of the `β`s).
+/// A lane's fade: `α`, the damping of its slope (`Footprint::damp_matrix` of the `β`s), and
+/// in the sub-sampled band what [`subsampled`] needs.
 #[derive(Clone, Copy)]
 struct Fade {
     alpha: f64,
     damp: Option<[[f64; 3]; 3]>,
+    sub: Option<Sub>,
+}
+
+/// A sub-sampled lane's footprint edges in noise space and the fade of a half-size sub-box
+/// (functions of the footprint and the input's spread, so shared like the fade).
+#[derive(Clone, Copy)]
+struct Sub {
+    edges: [[f64; 3]; 3],
+    alpha: f64,
+}
+
+impl Sub {
+    fn new(rules: &Rules, stats: &Stats, p: &[Dist; 3]) -> Sub {
+        let edges = noise_edges(rules, p);
+        let l2 = edges.map(|e| dot(&e, &e) / 4.0);
+        let v: f64 = p.iter().map(|c| c.var).sum();
+        Sub {
+            edges,
+            alpha: fade_of(stats, l2, v).0,
+        }
+    }
 }
 
 /// Per lane, whether its footprint and input spread (linear part, residual) equal the previous
@@ -350,9 +375,11 @@ fn lane_fades(lanes: Lanes, stats: &Stats, p: &[[Dist; 3]], same: &[bool], fades
             _ => {
                 let rules = lanes.rules(lane);
                 let (alpha, beta) = fade(&rules, stats, q);
+                let band = (SUB_BAND.0..=SUB_BAND.1).contains(&alpha);
                 Fade {
                     alpha,
                     damp: rules.footprint.damp_matrix(beta),
+                    sub: band.then(|| Sub::new(&rules, stats, q)),
                 }
             }
         };
@@ -376,6 +403,10 @@ pub fn noise_lanes(
 }
 
 /// [`noise_lanes`] with each lane's [`same_spread`] given.
+///
+/// Two batches: the noise's value and gradient at the centres (the slope needs the gradient)
+/// and at the sub-box centres of lanes whose input carries residual variance (it goes through
+/// the gradient), the value alone at the sub-box centres of the others (about half the cost).
 fn octave_lanes(
     lanes: Lanes,
     s: &Sampler,
@@ -390,7 +421,8 @@ fn octave_lanes(
         coords,
         value,
         grad,
-        edges,
+        value_coords,
+        values,
         ..
     } = scratch;
     lane_fades(lanes, &s.stats, p, same, fades);
@@ -404,19 +436,23 @@ fn octave_lanes(
     if todo.is_empty() {
         return;
     }
-    // Each lane's points: its centre, or its eight sub-box centres in the band.
-    let mid = |lane: usize| (SUB_BAND.0..=SUB_BAND.1).contains(&fades[lane].alpha);
+    let value_only = |q: &[Dist; 3]| q.iter().all(|c| c.var == 0.0);
     coords.iter_mut().for_each(Vec::clear);
-    edges.clear();
+    value_coords.iter_mut().for_each(Vec::clear);
     for &lane in todo.iter() {
-        if mid(lane) {
-            let e = noise_edges(&lanes.rules(lane), &p[lane]);
-            edges.push(e);
-            for c in sub_centres(&p[lane], &e) {
-                (0..3).for_each(|i| coords[i].push(c[i]));
+        let q = &p[lane];
+        match &fades[lane].sub {
+            Some(sub) => {
+                let to = if value_only(q) {
+                    &mut *value_coords
+                } else {
+                    &mut *coords
+                };
+                for c in sub_centres(q, &sub.edges) {
+                    (0..3).for_each(|i| to[i].push(c[i]));
+                }
             }
-        } else {
-            (0..3).for_each(|i| coords[i].push(p[lane][i].mean));
+            None => (0..3).for_each(|i| coords[i].push(q[i].mean)),
         }
     }
     let n = coords[0].len();
@@ -428,27 +464,36 @@ fn octave_lanes(
         value,
         [gx.as_mut_slice(), gy.as_mut_slice(), gz.as_mut_slice()],
     );
-    let (mut k, mut m) = (0, 0);
+    let [vx, vy, vz] = &*value_coords;
+    values.resize(vx.len(), 0.0);
+    s.table.sample_batch(vx, vy, vz, values);
+    let (mut k, mut v) = (0, 0);
     for &lane in todo.iter() {
-        let rules = lanes.rules(lane);
-        let centre = |k: usize| {
+        let (rules, q, fade) = (lanes.rules(lane), &p[lane], &fades[lane]);
+        let Some(sub) = &fade.sub else {
             let g = [gx[k], gy[k], gz[k]];
-            sampled(&rules, &s.stats, &p[lane], &fades[lane], value[k], g)
-        };
-        if mid(lane) {
-            let e = edges[m];
-            m += 1;
-            let r = k..k + 8;
-            let grads = [&gx[r.clone()], &gy[r.clone()], &gz[r.clone()]];
-            let sub = subsampled(&rules, &s.stats, &p[lane], &e, &value[r.clone()], grads);
-            // Degenerate edges: the first sub-box centre stands for the centre (they agree
-            // along any zero edge; a degenerate box has no volume to split).
-            out[lane] = sub.unwrap_or_else(|| centre(k));
-            k += 8;
-        } else {
-            out[lane] = centre(k);
+            out[lane] = sampled(&rules, &s.stats, q, fade, value[k], g);
             k += 1;
-        }
+            continue;
+        };
+        let estimate = if value_only(q) {
+            let r = v..v + 8;
+            v += 8;
+            let first = [vx[r.start], vy[r.start], vz[r.start]];
+            subsampled(&rules, &s.stats, q, sub, &values[r], None).ok_or(first)
+        } else {
+            let r = k..k + 8;
+            k += 8;
+            let first = [coords[0][r.start], coords[1][r.start], coords[2][r.start]];
+            let grads = [&gx[r.clone()], &gy[r.clone()], &gz[r.clone()]];
+            subsampled(&rules, &s.stats, q, sub, &value[r], Some(grads)).ok_or(first)
+        };
+        // Degenerate edges: the first sub-box centre stands for the centre (they agree along
+        // any zero edge; a degenerate box has no volume to split).
+        out[lane] = estimate.unwrap_or_else(|first| {
+            let (value, g) = s.table.sample_value_grad::<f64>(first);
+            sampled(&rules, &s.stats, q, fade, value, g)
+        });
     }
 }
 

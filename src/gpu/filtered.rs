@@ -34,11 +34,6 @@ const MAX_KNOTS: usize = 24;
 /// Why the GPU's filtered form does not cover `tape` (the first instruction it cannot run),
 /// or `None` where it does.
 pub fn unsupported(tape: &Tape) -> Option<String> {
-    for (k, instr) in tape.instrs.iter().enumerate() {
-        if let Some(why) = instruction_gap(instr) {
-            return Some(format!("instruction {k}, {why}"));
-        }
-    }
     let too_long = |f: &Piecewise| f.knots().len() > MAX_KNOTS;
     for ramp in &tape.ramps {
         if (0..3).any(|c| too_long(&crate::filter::rules::spline_shape(ramp.as_ref(), c))) {
@@ -55,18 +50,6 @@ pub fn unsupported(tape: &Tape) -> Option<String> {
         }
     }
     None
-}
-
-fn instruction_gap(instr: &Instr) -> Option<String> {
-    match *instr {
-        Instr::NoiseGradient { .. }
-        | Instr::FractalGradient { .. }
-        | Instr::Wide(Wide::NoiseGradient { .. })
-        | Instr::Wide(Wide::FractalGradient { .. }) => {
-            Some("a noise gradient in its filtered form".into())
-        }
-        _ => None,
-    }
 }
 
 /// The filtered WGSL of `tape`: the point library (the tape's point function too, for the
@@ -391,8 +374,14 @@ impl Gen<'_> {
                 format!("s{dst} = r_piecewise(pwc{curve}(), s{src});")
             }
             Instr::Wide(w) => self.wide(w, integer),
-            // Refused by `unsupported` before generation.
-            Instr::NoiseGradient { .. } | Instr::FractalGradient { .. } => String::new(),
+            Instr::NoiseGradient { dst, src, table } => self.noise_gradient(dst, src, table),
+            Instr::FractalGradient {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+            } => self.fractal_gradient(dst, src, table, octaves, style),
         }
     }
 
@@ -435,7 +424,14 @@ impl Gen<'_> {
             } => self.fractal(&format!("d{dst}"), src, table, octaves, style, bias),
             Wide::Widen { dst, src } => format!("d{dst} = s{src};"),
             Wide::Narrow { dst, src } => format!("s{dst} = d{src};"),
-            Wide::NoiseGradient { .. } | Wide::FractalGradient { .. } => String::new(),
+            Wide::NoiseGradient { dst, src, table } => self.noise_gradient(dst, src, table),
+            Wide::FractalGradient {
+                dst,
+                src,
+                table,
+                octaves,
+                style,
+            } => self.fractal_gradient(dst, src, table, octaves, style),
         }
     }
 
@@ -456,6 +452,93 @@ impl Gen<'_> {
         }
     }
 
+    /// noise.rs `noise_gradient`: the gradient at the centre faded like the value.
+    fn noise_gradient(&mut self, dst: u32, src: u32, table: u32) -> String {
+        let period = self.tape.tables[table as usize].0.period;
+        let k = self.sampler(table, period);
+        let st = self.stats(table);
+        format!("v{dst} = n_gradient_smp{k}({st}, v{src}, 1.0lf);")
+    }
+
+    /// Each octave's sampler of a fractal sum over `table` (its own period when tiled).
+    fn octave_samplers(&mut self, table: u32, octaves: u32) -> Vec<usize> {
+        let schedule = &self.tape.octaves[octaves as usize];
+        let base = self.tape.tables[table as usize].0.period;
+        let periods: Vec<Option<[u64; 3]>> = (0..schedule.frequencies.len())
+            .map(|k| schedule.periods.as_ref().map(|p| p[k]).or(base))
+            .collect();
+        periods
+            .into_iter()
+            .map(|p| self.sampler(table, p))
+            .collect()
+    }
+
+    /// tape.rs `fractal_gradient` and noise.rs `fractal_gradient`: an Fbm's octaves' faded
+    /// gradients summed; a shaped style's point gradient (`gshaper_*_d`, the point form's
+    /// shaper in f64) faded by its coarsest octave's fade.
+    fn fractal_gradient(
+        &mut self,
+        dst: u32,
+        src: u32,
+        table: u32,
+        octaves: u32,
+        style: Style,
+    ) -> String {
+        let samplers = self.octave_samplers(table, octaves);
+        let schedule = &self.tape.octaves[octaves as usize];
+        let st = self.stats(table);
+        let mut w = String::from("{\n");
+        if style == Style::Fbm {
+            w.push_str("        var sum = array<D, 3>(dc(0.0lf), dc(0.0lf), dc(0.0lf));\n");
+            for (k, smp) in samplers.iter().enumerate() {
+                let (f, a) = (schedule.frequencies[k], schedule.amplitudes[k]);
+                let _ = writeln!(
+                    w,
+                    "        {{\n        \
+                     let g = n_gradient_smp{smp}({st}, d3_scale(v{src}, {}), {});\n        \
+                     for (var i = 0u; i < 3u; i += 1u) {{ sum[i] = r_add(sum[i], g[i]); }}\n        \
+                     }}",
+                    f64_literal(f),
+                    f64_literal(a * f)
+                );
+            }
+            let _ = write!(w, "        v{dst} = sum;\n    }}");
+            return w;
+        }
+        let (code, offset, sharpness) = codegen::style_code(style);
+        let _ = writeln!(
+            w,
+            "        var g = gshaper_start_d();\n        \
+             let c = vec3<f64>(v{src}[0].m, v{src}[1].m, v{src}[2].m);"
+        );
+        for (k, smp) in samplers.iter().enumerate() {
+            let (f, a) = (schedule.frequencies[k], schedule.amplitudes[k]);
+            let _ = writeln!(
+                w,
+                "        {{\n        \
+                 let n = smp{smp}(c * {f});\n        \
+                 g = gshaper_add_f64_d(g, {code}u, n.w, n.xyz, {a}, {f}, {}, {});\n        \
+                 }}",
+                f64_literal(offset),
+                f64_literal(sharpness),
+                f = f64_literal(f),
+                a = f64_literal(a),
+            );
+        }
+        let alpha = match schedule.frequencies.first() {
+            Some(&f) => format!("n_fade({st}, d3_scale(v{src}, {})).x", f64_literal(f)),
+            None => "1.0lf".to_string(),
+        };
+        let _ = write!(
+            w,
+            "        let point = gshaper_gradient_d(g);\n        \
+             let alpha = {alpha};\n        \
+             v{dst} = array<D, 3>(dc(alpha * point.x), dc(alpha * point.y), dc(alpha * point.z));\n    \
+             }}"
+        );
+        w
+    }
+
     /// noise.rs `fractal_lanes` and `shape` for one lane: every octave on the scaled input,
     /// shaped by the style's rules, summed; then the bias.
     fn fractal(
@@ -467,15 +550,9 @@ impl Gen<'_> {
         style: Style,
         bias: f64,
     ) -> String {
+        let samplers = self.octave_samplers(table, octaves);
         let schedule = &self.tape.octaves[octaves as usize];
-        let base = self.tape.tables[table as usize].0.period;
         let st = self.stats(table);
-        let samplers: Vec<usize> = (0..schedule.frequencies.len())
-            .map(|k| {
-                let period = schedule.periods.as_ref().map(|p| p[k]).or(base);
-                self.sampler(table, period)
-            })
-            .collect();
         let mut w =
             String::from("{\n        var sum = dc(0.0lf);\n        var weight = dc(1.0lf);\n");
         let shared = samplers.windows(2).all(|w| w[0] == w[1]);

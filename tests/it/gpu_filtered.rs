@@ -53,8 +53,9 @@ fn every_filtered_shader_validates_or_is_refused_by_name() {
             }
         }
     }
-    eprintln!("{count} graphs covered by the GPU's filtered form");
-    assert!(count >= 10, "only {count} graphs covered");
+    let all = common::graph_files().len();
+    eprintln!("{count} of {all} graphs covered by the GPU's filtered form");
+    assert_eq!(count, all, "every graph of graphs/ is covered");
 }
 
 /// Points in [-4, 4]³ (a fixed LCG), each with a footprint of its own: cubes of sides 1/2,
@@ -219,6 +220,50 @@ fn every_rule_matches_the_cpu() {
     );
 }
 
+/// Noise gradients (`Gradient` of a noise and of each fractal style: the gradient at the centre
+/// faded like the value; a shaped style's point gradient faded by its coarsest octave) match
+/// the CPU's.
+#[test]
+fn noise_gradients_match_the_cpu() {
+    if !common::gpu_available("noise_gradients_match_the_cpu") {
+        return;
+    }
+    let tape = crate::filter::tape(GRADIENTS);
+    use texgraph::tape::{Instr, Wide};
+    let gradients = tape
+        .instructions()
+        .iter()
+        .filter(|i| {
+            matches!(
+                i,
+                Instr::NoiseGradient { .. }
+                    | Instr::FractalGradient { .. }
+                    | Instr::Wide(Wide::NoiseGradient { .. } | Wide::FractalGradient { .. })
+            )
+        })
+        .count();
+    assert!(gradients >= 4, "{tape}");
+    assert!(texgraph::gpu::filtered::unsupported(&tape).is_none());
+    let (points, footprints) = points_and_footprints(240);
+    eprintln!(
+        "{}",
+        compare("gradients", &tape, &points, &footprints).unwrap()
+    );
+}
+
+const GRADIENTS: &str = r#"Graph(
+    nodes: {
+        "p": Scale(input: Position, by: 1.5),
+        "f": Fbm(input: "p", basis: Perlin, seed: 1, octaves: 4.0),
+        "t": Turbulence(input: "p", basis: Simplex, seed: 2, octaves: 3.0),
+        "r": Ridged(input: "p", basis: Gradient, seed: 3, octaves: 3.0),
+        "n": Noise(input: "p", basis: Value, seed: 4, interpolation: Smooth),
+        "g": Add(Add(Gradient(of: "f"), Gradient(of: "t")), Add(Gradient(of: "r"), Gradient(of: "n"))),
+        "len": Length("g"),
+    },
+    outputs: { "g": "g", "len": "len" },
+)"#;
+
 const RULES: &str = r#"Graph(
     nodes: {
         "p": Rotate(input: Position, axis: (0.3, 1.0, 0.2), degrees: Mul(Noise(input: Position, basis: Perlin), 40.0)),
@@ -318,13 +363,28 @@ fn the_command_line_filters_on_the_gpu() {
         files += 1;
     }
     assert!(files > 0);
-    let (refused, _) = bake("graphs/library/clouds.ron", "gpu", "r");
+    // A ramp of 30 stops: more knots than the GPU's filtered shapes hold.
+    let stops: Vec<String> = (0..30)
+        .map(|i| format!("({}, ({}, 0.5, 0.0))", f64::from(i) / 29.0, (i % 2) as f64))
+        .collect();
+    let long = dir.path().join("long_ramp.ron");
+    std::fs::write(
+        &long,
+        format!(
+            "Graph(nodes: {{ \"c\": ColorRamp(input: Noise(input: Position, basis: Perlin), \
+             stops: [{}], interpolation: Linear) }}, outputs: {{ \"c\": \"c\" }})",
+            stops.join(", ")
+        ),
+    )
+    .unwrap();
+    let long = long.to_str().unwrap();
+    let (refused, _) = bake(long, "gpu", "r");
     let said = String::from_utf8_lossy(&refused.stderr);
     assert!(
-        !refused.status.success() && said.contains("a noise gradient in its filtered form"),
+        !refused.status.success() && said.contains("more than 24 stops"),
         "{said}"
     );
-    let (auto, _) = bake("graphs/library/clouds.ron", "auto", "a");
+    let (auto, _) = bake(long, "auto", "a");
     assert!(
         auto.status.success(),
         "{}",

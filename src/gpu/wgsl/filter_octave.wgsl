@@ -7,7 +7,7 @@
 fn n_octave_SAMPLE(st: St, p: array<D, 3>) -> D {
     let fade = n_fade(st, p);
     let alpha = fade.x;
-    if (alpha < 1e-6lf) {
+    if (alpha < 1e-3lf) { // noise.rs FADED
         return D(st.mean, vec3<f64>(0.0lf), st.var_);
     }
     // The points to sample: the centre, or in the band the eight sub-box centres. One call
@@ -38,6 +38,21 @@ fn n_octave_SAMPLE(st: St, p: array<D, 3>) -> D {
         }
     }
     return n_sampled(st, p, fade, s[0].w, s[0].xyz);
+}
+
+// noise.rs `noise_gradient`: the gradient of the noise at the centre, times `scale`, faded like
+// the value; what the fade takes (`(1 − α²)` of a component's mean square) as residual variance.
+fn n_gradient_SAMPLE(st: St, p: array<D, 3>, scale: f64) -> array<D, 3> {
+    let s = SAMPLE(vec3<f64>(p[0].m, p[1].m, p[2].m));
+    let alpha = n_fade(st, p).x;
+    let v = (1.0lf - alpha * alpha) * st.grad_sq * scale * scale;
+    let var_ = select(0.0lf, v, is_finite_d(v));
+    let z = vec3<f64>(0.0lf);
+    return array<D, 3>(
+        D(alpha * s.x * scale, z, var_),
+        D(alpha * s.y * scale, z, var_),
+        D(alpha * s.z * scale, z, var_),
+    );
 }
 
 // noise.rs `cellular`: cellular noise over a footprint within a cell in noise space, from its
