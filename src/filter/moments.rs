@@ -319,6 +319,20 @@ pub struct Spread {
     unbounded: bool,
 }
 
+/// The width of two uniforms' sum by variance, `sqrt(a² + b²)`: the plain formula where the
+/// squares can neither overflow nor underflow (libm's `hypot`, several times slower and once
+/// a twentieth of the filtered batch's time, elsewhere); the larger where the other is 0.
+fn merged(a: f64, b: f64) -> f64 {
+    let (hi, lo) = (a.max(b), a.min(b));
+    if lo == 0.0 {
+        hi
+    } else if hi < 1e150 && lo > 1e-150 {
+        (a * a + b * b).sqrt()
+    } else {
+        a.hypot(b)
+    }
+}
+
 impl Spread {
     /// From the box widths (any order, each >= 0; negative taken as abs) and a residual variance
     /// `residual` >= 0 (a part of the value not linear in position, modelled as two more
@@ -350,7 +364,7 @@ impl Spread {
         // The two smallest merged by variance until three are left.
         five.sort_by(|a, b| b.total_cmp(a));
         for n in [5, 4] {
-            five[n - 2] = five[n - 2].hypot(five[n - 1]);
+            five[n - 2] = merged(five[n - 2], five[n - 1]);
             five[..n - 1].sort_by(|a, b| b.total_cmp(a));
         }
         let mut three = [five[0], five[1], five[2]];
@@ -362,7 +376,7 @@ impl Spread {
                 break; // 0 or subnormal, and so are the rest
             }
             if k > 0 && x < RATIO * w[k - 1] {
-                w[k - 1] = w[k - 1].hypot(x);
+                w[k - 1] = merged(w[k - 1], x);
             } else {
                 w[k] = x;
                 k += 1;
@@ -2006,17 +2020,29 @@ mod tests {
         let s = Spread::new([0.0; 3], r).widths();
         assert_eq!(s, [c, c, 0.0]);
         // Five widths: the two smallest merged by variance, twice.
+        // (`sqrt(a² + b²)` to rounding: within a few ulps of libm's hypot.)
+        let close = |a: [f64; 3], b: [f64; 3]| {
+            let near = a.iter().zip(&b).all(|(x, y)| (x - y).abs() <= 1e-15 * y.abs());
+            assert!(near, "{a:?} vs {b:?}");
+        };
         let s = Spread::new([3.0, 2.0, 1.0], 2.0 / 12.0);
-        assert_eq!(s.widths(), [3.0, 2.0, 1f64.hypot(1.0).hypot(1.0)]);
+        close(s.widths(), [3.0, 2.0, 1f64.hypot(1.0).hypot(1.0)]);
         let s = Spread::new([1.5, 2.0, 0.5], 2.0 / 12.0);
-        assert_eq!(s.widths(), [2.0, 1.5, 1f64.hypot(1.0).hypot(0.5)]);
+        close(s.widths(), [2.0, 1.5, 1f64.hypot(1.0).hypot(0.5)]);
         // Widths below 1e-4 of the previous merged into it, and the rest shifted.
         let s = Spread::new([1.0, 5e-5, 0.0], 0.0);
-        assert_eq!(s.widths(), [1f64.hypot(5e-5), 0.0, 0.0]);
+        close(s.widths(), [1f64.hypot(5e-5), 0.0, 0.0]);
         let s = Spread::new([1.0, 2e-4, 1e-8], 0.0);
-        assert_eq!(s.widths(), [1.0, 2e-4f64.hypot(1e-8), 0.0]);
+        close(s.widths(), [1.0, 2e-4f64.hypot(1e-8), 0.0]);
         let s = Spread::new([1.0, 5e-5, 4e-5], 0.0);
-        assert_eq!(s.widths(), [1f64.hypot(5e-5).hypot(4e-5), 0.0, 0.0]);
+        close(s.widths(), [1f64.hypot(5e-5).hypot(4e-5), 0.0, 0.0]);
+        // Far from 1 (the squares would overflow or underflow): still the merged width.
+        let s = Spread::new([3e200, 4e200, 0.0], 0.0);
+        close(s.widths(), [4e200, 3e200, 0.0]);
+        let s = Spread::new([1.0, 1e-200, 0.0], 0.0);
+        close(s.widths(), [1.0, 0.0, 0.0]);
+        let s = Spread::new([3e-200, 4e-200, 1e-210], 0.0);
+        close(s.widths(), [4e-200, 3e-200, 0.0]);
         // Unbounded.
         for s in [
             Spread::new([f64::INFINITY, 1.0, 0.0], 0.0),

@@ -157,10 +157,16 @@ fn noise_edges(rules: &Rules, p: &[Dist; 3]) -> [[f64; 3]; 3] {
 /// The eight sub-box centres in noise space: `m + Σ_k s_k E_k / 4`, `s ∈ {±1}³`, sub-box `j`
 /// with `s_k = +1` where bit `k` of `j` is set.
 fn sub_centres(p: &[Dist; 3], e: &[[f64; 3]; 3]) -> [[f64; 3]; 8] {
+    let offsets = sub_offsets(e);
+    std::array::from_fn(|j| std::array::from_fn(|i| p[i].mean + offsets[j][i]))
+}
+
+/// [`sub_centres`]' offsets from the centre, `Σ_k s_k E_k / 4`.
+fn sub_offsets(e: &[[f64; 3]; 3]) -> [[f64; 3]; 8] {
     std::array::from_fn(|j| {
         std::array::from_fn(|i| {
             let s = |k: usize| if j >> k & 1 == 1 { 0.25 } else { -0.25 };
-            p[i].mean + (0..3).map(|k| s(k) * e[k][i]).sum::<f64>()
+            (0..3).map(|k| s(k) * e[k][i]).sum::<f64>()
         })
     })
 }
@@ -312,6 +318,7 @@ impl<'a> Lanes<'a> {
 pub struct LaneScratch {
     q: Vec<[Dist; 3]>,
     fades: Vec<Fade>,
+    which: Vec<u32>,
     sampled: Vec<usize>,
     coords: [Vec<f64>; 3],
     value: Vec<f64>,
@@ -333,11 +340,12 @@ struct Fade {
     sub: Option<Sub>,
 }
 
-/// A sub-sampled lane's footprint edges in noise space and the fade of a half-size sub-box
-/// (functions of the footprint and the input's spread, so shared like the fade).
+/// A sub-sampled lane's sub-box centres' offsets (from the footprint's edges in noise space)
+/// and the fade of a half-size sub-box (functions of the footprint and the input's spread, so
+/// shared like the fade).
 #[derive(Clone, Copy)]
 struct Sub {
-    edges: [[f64; 3]; 3],
+    offsets: [[f64; 3]; 8],
     alpha: f64,
 }
 
@@ -347,7 +355,7 @@ impl Sub {
         let l2 = edges.map(|e| dot(&e, &e) / 4.0);
         let v: f64 = p.iter().map(|c| c.var).sum();
         Sub {
-            edges,
+            offsets: sub_offsets(&edges),
             alpha: fade_of(stats, l2, v).0,
         }
     }
@@ -367,23 +375,30 @@ fn same_spread(lanes: Lanes, p: &[[Dist; 3]], same: &mut Vec<bool>) {
 }
 
 /// Each lane's fade of `p` (computed again only where `same` says the spread changed).
-fn lane_fades(lanes: Lanes, stats: &Stats, p: &[[Dist; 3]], same: &[bool], fades: &mut Vec<Fade>) {
+/// `fades` holds the distinct fades, `which[lane]` the index of the lane's (a fade is about
+/// 20 numbers: along an affine chain one is made per chunk, not copied per lane).
+fn lane_fades(
+    lanes: Lanes,
+    stats: &Stats,
+    p: &[[Dist; 3]],
+    same: &[bool],
+    fades: &mut Vec<Fade>,
+    which: &mut Vec<u32>,
+) {
     fades.clear();
+    which.clear();
     for (lane, q) in p.iter().enumerate() {
-        let fade = match fades.last() {
-            Some(&f) if same[lane] => f,
-            _ => {
-                let rules = lanes.rules(lane);
-                let (alpha, beta) = fade(&rules, stats, q);
-                let band = (SUB_BAND.0..=SUB_BAND.1).contains(&alpha);
-                Fade {
-                    alpha,
-                    damp: rules.footprint.damp_matrix(beta),
-                    sub: band.then(|| Sub::new(&rules, stats, q)),
-                }
-            }
-        };
-        fades.push(fade);
+        if fades.is_empty() || !same[lane] {
+            let rules = lanes.rules(lane);
+            let (alpha, beta) = fade(&rules, stats, q);
+            let band = (SUB_BAND.0..=SUB_BAND.1).contains(&alpha);
+            fades.push(Fade {
+                alpha,
+                damp: rules.footprint.damp_matrix(beta),
+                sub: band.then(|| Sub::new(&rules, stats, q)),
+            });
+        }
+        which.push(fades.len() as u32 - 1);
     }
 }
 
@@ -417,6 +432,7 @@ fn octave_lanes(
 ) {
     let LaneScratch {
         fades,
+        which,
         sampled: todo,
         coords,
         value,
@@ -425,10 +441,11 @@ fn octave_lanes(
         values,
         ..
     } = scratch;
-    lane_fades(lanes, &s.stats, p, same, fades);
+    lane_fades(lanes, &s.stats, p, same, fades, which);
+    let fade_of_lane = |lane: usize| &fades[which[lane] as usize];
     todo.clear();
     for (lane, (o, q)) in out.iter_mut().zip(p).enumerate() {
-        match unsampled(s, q, fades[lane].alpha) {
+        match unsampled(s, q, fade_of_lane(lane).alpha) {
             Some(d) => *o = d,
             None => todo.push(lane),
         }
@@ -441,15 +458,15 @@ fn octave_lanes(
     value_coords.iter_mut().for_each(Vec::clear);
     for &lane in todo.iter() {
         let q = &p[lane];
-        match &fades[lane].sub {
+        match &fade_of_lane(lane).sub {
             Some(sub) => {
                 let to = if value_only(q) {
                     &mut *value_coords
                 } else {
                     &mut *coords
                 };
-                for c in sub_centres(q, &sub.edges) {
-                    (0..3).for_each(|i| to[i].push(c[i]));
+                for (i, to) in to.iter_mut().enumerate() {
+                    to.extend(sub.offsets.iter().map(|o| q[i].mean + o[i]));
                 }
             }
             None => (0..3).for_each(|i| coords[i].push(q[i].mean)),
@@ -469,7 +486,7 @@ fn octave_lanes(
     s.table.sample_batch(vx, vy, vz, values);
     let (mut k, mut v) = (0, 0);
     for &lane in todo.iter() {
-        let (rules, q, fade) = (lanes.rules(lane), &p[lane], &fades[lane]);
+        let (rules, q, fade) = (lanes.rules(lane), &p[lane], fade_of_lane(lane));
         let Some(sub) = &fade.sub else {
             let g = [gx[k], gy[k], gz[k]];
             out[lane] = sampled(&rules, &s.stats, q, fade, value[k], g);

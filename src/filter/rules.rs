@@ -82,6 +82,9 @@ pub struct Footprint {
     /// The non-zero edges and the inverse of their Gram matrix, once per footprint (the slope
     /// damping and the slope fit solve with it per octave).
     gram: Gram,
+    /// [`Footprint::slope_with`] as a matrix, `E M⁻¹` over the non-zero edges (`None`:
+    /// nearly parallel edges).
+    fit: Option<[[f64; 3]; 3]>,
 }
 
 /// The non-zero edges `live[..n]` of a footprint and the inverse of their Gram matrix
@@ -143,6 +146,7 @@ impl Footprint {
             n: 0,
             inverse: Some([[0.0; 3]; 3]),
         },
+        fit: Some([[0.0; 3]; 3]),
     };
 
     fn new(edges: [[f64; 3]; 3]) -> Footprint {
@@ -150,7 +154,24 @@ impl Footprint {
             std::array::from_fn(|j| edges.iter().map(|e| e[i] * e[j]).sum::<f64>() / 12.0)
         });
         let gram = Gram::new(&edges);
-        Footprint { edges, quad, gram }
+        let fit = gram.inverse.map(|inverse| {
+            // g = Σ_a y_a e_live[a], y = M⁻¹ du over the live edges: g_i = Σ_k F[i][k] du[k].
+            let mut f = [[0.0; 3]; 3];
+            for a in 0..gram.n {
+                for b in 0..gram.n {
+                    for (i, row) in f.iter_mut().enumerate() {
+                        row[gram.live[b]] += edges[gram.live[a]][i] * inverse[a][b];
+                    }
+                }
+            }
+            f
+        });
+        Footprint {
+            edges,
+            quad,
+            gram,
+            fit,
+        }
     }
 
     /// An axis-aligned box of sides `(wx, wy, wz)` (a voxel). Each side must be finite and
@@ -224,15 +245,8 @@ impl Footprint {
     /// `y = M⁻¹ du` with the Gram matrix `M` inverted once per footprint); `None` where the
     /// edges are (nearly) parallel.
     pub(super) fn slope_with(&self, du: [f64; 3]) -> Option<[f64; 3]> {
-        let Gram { live, n, inverse } = self.gram;
-        let inverse = inverse?;
-        let mut g = [0.0; 3];
-        for a in 0..n {
-            let y: f64 = (0..n).map(|b| inverse[a][b] * du[live[b]]).sum();
-            for (gi, ei) in g.iter_mut().zip(&self.edges[live[a]]) {
-                *gi += y * ei;
-            }
-        }
+        let f = self.fit.as_ref()?;
+        let g: [f64; 3] = std::array::from_fn(|i| dot(&f[i], &du));
         g.iter().all(|c| c.is_finite()).then_some(g)
     }
 
