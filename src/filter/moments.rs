@@ -2022,7 +2022,10 @@ mod tests {
         // Five widths: the two smallest merged by variance, twice.
         // (`sqrt(a² + b²)` to rounding: within a few ulps of libm's hypot.)
         let close = |a: [f64; 3], b: [f64; 3]| {
-            let near = a.iter().zip(&b).all(|(x, y)| (x - y).abs() <= 1e-15 * y.abs());
+            let near = a
+                .iter()
+                .zip(&b)
+                .all(|(x, y)| (x - y).abs() <= 1e-15 * y.abs());
             assert!(near, "{a:?} vs {b:?}");
         };
         let s = Spread::new([3.0, 2.0, 1.0], 2.0 / 12.0);

@@ -130,14 +130,15 @@ fn fade_of(stats: &Stats, l2: [f64; 3], v: f64) -> (f64, [f64; 3]) {
     if stats.kappa2 == 0.0 {
         return (1.0, [1.0; 3]);
     }
-    let mut alpha = 1.0;
-    let mut beta = [1.0; 3];
-    for (b, l2) in beta.iter_mut().zip(l2) {
-        let t = 1.0 + stats.kappa2 * l2 / 12.0;
-        alpha /= t.sqrt();
-        *b = if t.is_finite() { 1.0 / t } else { 0.0 };
-    }
-    let alpha = alpha * (-stats.kappa2 * v / 2.0).exp();
+    let t = l2.map(|l2| 1.0 + stats.kappa2 * l2 / 12.0);
+    let beta = t.map(|t| if t.is_finite() { 1.0 / t } else { 0.0 });
+    // One square root of the product (an overflow to ∞ is a fade of 0, as it should be).
+    let alpha = 1.0 / (t[0] * t[1] * t[2]).sqrt();
+    let alpha = if v == 0.0 {
+        alpha
+    } else {
+        alpha * (-stats.kappa2 * v / 2.0).exp()
+    };
     (if alpha.is_nan() { 0.0 } else { alpha }, beta)
 }
 

@@ -267,29 +267,29 @@ impl Footprint {
         if beta.iter().all(|&b| (1.0 - b).abs() < 1e-9) {
             return None;
         }
-        let Gram { live, n, inverse } = self.gram;
-        if n == 0 {
+        if self.gram.n == 0 {
             return None;
         }
-        let Some(inverse) = inverse else {
+        let Some(fit) = &self.fit else {
             let least = beta.iter().copied().fold(1.0, f64::min);
             return Some(std::array::from_fn(|i| {
                 std::array::from_fn(|j| if i == j { least } else { 0.0 })
             }));
         };
-        let mut d: [[f64; 3]; 3] =
-            std::array::from_fn(|i| std::array::from_fn(|j| if i == j { 1.0 } else { 0.0 }));
-        for a in 0..n {
-            for b in 0..n {
-                let c = inverse[a][b] * (beta[live[b]] - 1.0);
-                let (ea, eb) = (&self.edges[live[a]], &self.edges[live[b]]);
-                for (i, row) in d.iter_mut().enumerate() {
-                    for (j, x) in row.iter_mut().enumerate() {
-                        *x += ea[i] * c * eb[j];
-                    }
+        // D = I + F diag(β − 1) Eᵀ with F = E M⁻¹ (the slope fit's matrix; its columns of
+        // zero edges are zero).
+        let d: [[f64; 3]; 3] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| {
+                let change: f64 = (0..3)
+                    .map(|k| fit[i][k] * (beta[k] - 1.0) * self.edges[k][j])
+                    .sum();
+                if i == j {
+                    1.0 + change
+                } else {
+                    change
                 }
-            }
-        }
+            })
+        });
         d.iter().flatten().all(|c| c.is_finite()).then_some(d)
     }
 }

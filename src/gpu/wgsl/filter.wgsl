@@ -787,14 +787,16 @@ fn n_fade_of(st: St, l2: vec3<f64>, v: f64) -> vec4<f64> {
     if (st.kappa2 == 0.0lf) {
         return vec4<f64>(1.0lf);
     }
-    var alpha = 1.0lf;
     var beta = vec3<f64>(1.0lf);
+    let t = vec3<f64>(1.0lf) + st.kappa2 * l2 / 12.0lf;
     for (var k = 0u; k < 3u; k += 1u) {
-        let t = 1.0lf + st.kappa2 * l2[k] / 12.0lf;
-        alpha = alpha / sqrt(t);
-        beta[k] = select(0.0lf, 1.0lf / t, is_finite_d(t));
+        beta[k] = select(0.0lf, 1.0lf / t[k], is_finite_d(t[k]));
     }
-    alpha = alpha * d_exp(-st.kappa2 * v / 2.0lf);
+    // One square root of the product (noise.rs `fade_of`).
+    var alpha = 1.0lf / sqrt(t.x * t.y * t.z);
+    if (v != 0.0lf) {
+        alpha = alpha * d_exp(-st.kappa2 * v / 2.0lf);
+    }
     if (is_nan_d(alpha)) {
         alpha = 0.0lf;
     }
