@@ -32,7 +32,7 @@ enum Command {
     ///
     /// Prints one line per output: `NAME v` for scalars, `NAME r g b` for vec3, each number
     /// printed so that it round-trips. With --points, the lines of each point follow in order.
-    Eval(EvalArgs),
+    Eval(Box<EvalArgs>),
     /// List every node kind: its arguments with types and defaults, its output, its meaning.
     Nodes(NodesArgs),
     /// Bake graphs to voxel volumes: EXR files, PNG slices (or an atlas), raw volumes.
@@ -139,7 +139,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse_from(protect_negative_numbers(std::env::args_os()));
     let result = match cli.command {
         Command::Check(args) => cli::check::check(args),
-        Command::Eval(args) => cli::eval::eval(args),
+        Command::Eval(args) => cli::eval::eval(*args),
         Command::Bake(args) => cli::bake::bake(args),
         Command::Verify(args) => cli::verify::verify(args),
         Command::Report(args) => cli::report::report_command(args),
