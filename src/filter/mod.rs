@@ -6,7 +6,7 @@
 //! footprint) → `periodic` (`g(fract x)` for a piecewise-cubic `g`, exactly), `rules` (a value's
 //! distribution, [`Dist`], through each operation; the [`Footprint`]), `writes` (which slot an
 //! instruction writes) → `noise` (noise and fractal sums over a footprint, white and cellular
-//! noise), `integers` (which values are integer-valued), `chains` (periodic chains) → `fusions`
+//! noise), `integers` (which values are integer-valued), `ranges` (the interval a value cannot leave), `chains` (periodic chains) → `fusions`
 //! (which instructions are computed from an earlier argument) → `tape` ([`Filtered`]: a compiled
 //! tape run on distributions, chunk by chunk of lanes). docs/filtering.md has every rule's
 //! derivation.
@@ -17,6 +17,7 @@ pub mod integers;
 pub mod moments;
 pub mod noise;
 pub mod periodic;
+pub mod ranges;
 pub mod rules;
 pub mod tape;
 pub mod writes;

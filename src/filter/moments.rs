@@ -739,6 +739,47 @@ impl Piecewise {
         Piecewise { knots, polys }
     }
 
+    /// The line this function is over `[lo, hi]` (finite), where it is one to within
+    /// `1e-7` of its largest value there (no jump, every piece there of degree <= 1 and on the
+    /// chord between the ends: a ramp whose stops were written to 8 digits, seed 003's steps of
+    /// 1/7, is a line to 4e-9), continued past the interval's ends (`filter/ranges.rs`: for a
+    /// value that cannot leave the interval, `f(X)` is then that line of `X`, its mean the line
+    /// at `E X` and its variance the slope squared times `Var X`, where the rules' spread, which
+    /// leaks past the interval, saw the clamped ends). `None` where it is not a line there, it
+    /// has no knot to leave out, or the interval is a point, unbounded or not an interval. A
+    /// function of several lines over the interval is left as it is: a clamped input holds a
+    /// point mass at an end, which the clamped ends price right and a continued piece would not.
+    pub fn restricted(&self, lo: f64, hi: f64) -> Option<Piecewise> {
+        const TOL: f64 = 1e-7;
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) || self.knots.is_empty() {
+            return None;
+        }
+        // Pieces `a..=b` meet (lo, hi): knots[a - 1] <= lo < knots[a], knots[b - 1] < hi.
+        let a = self.knots.partition_point(|&c| c <= lo);
+        let b = self.knots.partition_point(|&c| c < hi);
+        let value = |i: usize, x: f64| horner(&self.polys[i], x - anchor(&self.knots, i));
+        let (ya, yb) = (value(a, lo), value(b, hi));
+        let slope = (yb - ya) / (hi - lo);
+        let chord = |x: f64| ya + slope * (x - lo);
+        let mut ends = Vec::with_capacity(2 * (b - a + 1));
+        for i in a..=b {
+            if self.polys[i][2] != 0.0 || self.polys[i][3] != 0.0 {
+                return None;
+            }
+            let x0 = if i == a { lo } else { self.knots[i - 1] };
+            let x1 = if i == b { hi } else { self.knots[i] };
+            ends.extend([(x0, value(i, x0)), (x1, value(i, x1))]);
+        }
+        let scale = ends.iter().fold(0.0f64, |m, &(_, y)| m.max(y.abs()));
+        let on_chord = ends
+            .iter()
+            .all(|&(x, y)| (y - chord(x)).abs() <= TOL * scale);
+        (on_chord && slope.is_finite()).then(|| Piecewise {
+            knots: Vec::new(),
+            polys: vec![[ya - slope * lo, slope, 0.0, 0.0]],
+        })
+    }
+
     /// The piece at `x`: its anchor and local coefficients (`f(x) = Σ a_i (x − anchor)^i`).
     pub fn piece(&self, x: f64) -> (f64, [f64; 4]) {
         let j = self.knots.partition_point(|&c| c <= x);
@@ -2001,6 +2042,72 @@ mod tests {
             let s1 = Spread::new([0.5, 0.50001e-4, 0.50002e-8], 0.0);
             check("fract", fract_moments(t, &s1), fract_target(), t, &s1);
         }
+    }
+
+    /// `restricted` gives the line a function is over an interval without a knot inside, and
+    /// nothing where there is a knot inside, a cubic piece, or nothing to leave out.
+    #[test]
+    fn restricted_is_the_line_over_the_interval() {
+        // A clamped ramp 0 -> 0.875 on [0, 1] with a cubic bump on [0.5, 0.7].
+        let f = Piecewise::new(
+            vec![0.0, 0.5, 0.7, 1.0],
+            vec![
+                [0.0; 4],
+                [0.0, 0.875, 0.0, 0.0],
+                [0.4375, 0.875, 1.0, -2.0],
+                [0.6365, 0.875, 0.0, 0.0],
+                [0.875, 0.0, 0.0, 0.0],
+            ],
+        );
+        for (lo, hi) in [
+            (0.0, 0.5),
+            (0.1, 0.3),
+            (0.7, 0.95),
+            (-3.0, -1.0),
+            (1.0, 4.0),
+        ] {
+            let r = f.restricted(lo, hi).expect("a line over the interval");
+            assert!(r.knots().is_empty(), "[{lo}, {hi}]");
+            for k in 0..=40 {
+                let x = lo + (hi - lo) * f64::from(k) / 40.0;
+                if x == hi {
+                    continue; // the right-continuous value of a jump at the end
+                }
+                let (a, b) = (r.eval(x), f.eval(x));
+                assert!((a - b).abs() < 1e-12, "[{lo}, {hi}] at {x}: {a} vs {b}");
+            }
+        }
+        // Past the ends the line continues: [0, 0.5]'s line at -0.2.
+        let r = f.restricted(0.0, 0.5).unwrap();
+        assert!((r.eval(-0.2) + 0.175).abs() < 1e-12);
+        // Stops within 1e-8 of one line are that line; 1e-5 off is not.
+        for (off, line) in [(1e-8, true), (1e-5, false)] {
+            let g = Piecewise::new(
+                vec![0.0, 0.4, 1.0],
+                vec![
+                    [0.0; 4],
+                    [0.0, 1.0, 0.0, 0.0],
+                    [0.4 + off, 1.0, 0.0, 0.0],
+                    [1.0, 0.0, 0.0, 0.0],
+                ],
+            );
+            assert_eq!(g.restricted(0.0, 1.0).is_some(), line, "{off}");
+        }
+        // A knot inside, the cubic piece, a point, a reversed or NaN interval.
+        for (lo, hi) in [
+            (0.0, 1.0),
+            (-1.0, 0.5),
+            (0.55, 0.65),
+            (0.3, 0.3),
+            (0.6, 0.3),
+            (0.0, f64::INFINITY),
+        ] {
+            assert!(f.restricted(lo, hi).is_none(), "[{lo}, {hi}]");
+        }
+        assert!(f.restricted(f64::NAN, 1.0).is_none());
+        assert!(Piecewise::new(vec![], vec![[1.0, 2.0, 0.0, 0.0]])
+            .restricted(0.0, 1.0)
+            .is_none());
     }
 
     #[test]

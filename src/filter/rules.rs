@@ -212,6 +212,11 @@ impl Footprint {
         self.edges
     }
 
+    /// Whether every edge is zero: filtered evaluation is then point evaluation.
+    pub fn is_point(&self) -> bool {
+        self.gram.n == 0
+    }
+
     /// The widths of a linear part over the footprint: `|grad · e_k|`. An infinite side with a
     /// zero slope along it is no width (0 · ∞ taken as 0).
     pub(crate) fn widths(&self, grad: [f64; 3]) -> [f64; 3] {

@@ -9,6 +9,7 @@
 
 use super::fusions::{Fusion, Fusions, Part};
 use super::noise::{self as fnoise, FractalSamplers, LaneScratch, Lanes, Sampler, Stats};
+use super::ranges::Restricted;
 use super::rules::{hermite_shape, spline_shape, Dist, Footprint, Rules, Shapes};
 use super::writes::{scalar_dst, vec3_dst, wide_dst, Source};
 use crate::graph::Type;
@@ -31,6 +32,9 @@ pub struct Filtered<'t> {
     hermites: Vec<Piecewise>,
     ramps: Vec<[Piecewise; 3]>,
     curves: Vec<Piecewise>,
+    /// Per instruction, a piecewise instruction's shapes over its input's interval
+    /// (`ranges.rs`), where that leaves a knot out.
+    in_range: Vec<Option<Restricted>>,
     shapes: Shapes,
     /// Per instruction: whether its operand `a` is integer-valued (`integers.rs`).
     integer: Vec<[bool; 3]>,
@@ -98,6 +102,7 @@ impl<'t> Filtered<'t> {
                 .iter()
                 .map(|c| spline_shape(c.as_ref(), 0))
                 .collect(),
+            in_range: super::ranges::restricted_shapes(tape),
             shapes: Shapes::new(),
             fusions: super::fusions::fusions(tape, &integer),
             integer,
@@ -309,10 +314,17 @@ impl<'t> Filtered<'t> {
                         s.wides[dst as usize * w + lane] = v
                     }
                     (Some(Fused::Vec3(v)), _, Some(dst)) => s.vec3s[dst as usize * w + lane] = v,
-                    _ => {
-                        let point = points.map(|c| c[lane]);
-                        self.step(&rules, instr, *integer, point, s, lane)
-                    }
+                    // A point (no spread: a zero footprint, a constant) takes the function
+                    // itself: the restricted line is the function only to within 1e-7.
+                    _ => match &self.in_range[index] {
+                        Some(shapes) if spread(&rules, instr, s, lane) => {
+                            in_range(&rules, instr, shapes, s, lane)
+                        }
+                        _ => {
+                            let point = points.map(|c| c[lane]);
+                            self.step(&rules, instr, *integer, point, s, lane)
+                        }
+                    },
                 }
             }
         }
@@ -633,6 +645,33 @@ impl<'t> Filtered<'t> {
             crate::noise::fractal_styled_grad::<f64>(base, f.octaves, style, p.map(|c| c.mean))
         };
         fnoise::fractal_gradient(rules, &f, style, p, point)
+    }
+}
+
+/// Whether a piecewise instruction's input is spread at a lane (not a point footprint, a
+/// positive variance).
+fn spread(rules: &Rules, instr: &Instr, s: &Slots, lane: usize) -> bool {
+    let input = match *instr {
+        Instr::Ramp { src, .. } | Instr::Hermite { src, .. } | Instr::Curve { src, .. } => {
+            s.scalars[src as usize * s.width + lane]
+        }
+        _ => return false,
+    };
+    !rules.footprint.is_point() && rules.total_var(&input) > 0.0
+}
+
+/// A piecewise instruction by its shapes over its input's interval (`ranges.rs`).
+fn in_range(rules: &Rules, instr: &Instr, shapes: &Restricted, s: &mut Slots, lane: usize) {
+    let at = |x: &u32| *x as usize * s.width + lane;
+    match (instr, shapes) {
+        (Instr::Ramp { dst, src, .. }, Restricted::Three(fs)) => {
+            s.vec3s[at(dst)] = rules.piecewise3(fs, &s.scalars[at(src)]);
+        }
+        (Instr::Hermite { dst, src, .. } | Instr::Curve { dst, src, .. }, Restricted::One(f)) => {
+            s.scalars[at(dst)] = rules.piecewise(f, &s.scalars[at(src)]);
+        }
+        // `ranges.rs` makes these for the three piecewise instructions only.
+        _ => debug_assert!(false, "restricted shapes for {instr:?}"),
     }
 }
 

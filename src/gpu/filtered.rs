@@ -17,6 +17,7 @@ use crate::filter::fusions::{Fusion, Fusions};
 use crate::filter::moments::Piecewise;
 use crate::filter::noise::Stats;
 use crate::filter::periodic::Periodic;
+use crate::filter::ranges::Restricted;
 use crate::filter::writes::{scalar_dst, vec3_dst, wide_dst, Source};
 use crate::noise::{Basis, Style};
 use crate::ops::{BinaryOp, TernaryOp, UnaryOp};
@@ -81,6 +82,7 @@ pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
         knots: 2,
         integer,
         periodic: Vec::new(),
+        in_range: crate::filter::ranges::restricted_shapes(tape),
     };
     let body = g.function();
     source.push_str(
@@ -131,6 +133,9 @@ struct Gen<'t> {
     integer: Vec<[bool; 3]>,
     /// The periodic chains' shapes, `pc{k}` (`filtered_periodic.rs`).
     periodic: Vec<Periodic>,
+    /// Per instruction, a piecewise instruction's shapes over its input's interval
+    /// (`filter/ranges.rs`), as the CPU's filtered form takes them.
+    in_range: Vec<Option<Restricted>>,
 }
 
 impl Gen<'_> {
@@ -263,6 +268,22 @@ impl Gen<'_> {
         self.knots = self.knots.max(knots);
     }
 
+    /// The shape functions `pwq{index}_{c}` of instruction `index`'s shapes over its input's
+    /// interval (`filter/ranges.rs`); their common prefix.
+    fn in_range_shapes(&mut self, index: usize) -> String {
+        let name = format!("pwq{index}_");
+        match self.in_range[index].clone() {
+            Some(Restricted::One(f)) => self.shape(&format!("{name}0"), &f),
+            Some(Restricted::Three(fs)) => {
+                for (c, f) in fs.iter().enumerate() {
+                    self.shape(&format!("{name}{c}"), f);
+                }
+            }
+            None => {}
+        }
+        name
+    }
+
     fn sampler(&mut self, table: u32, period: Option<[u64; 3]>) -> usize {
         if let Some(k) = self.samplers.iter().position(|s| *s == (table, period)) {
             return k;
@@ -363,6 +384,38 @@ impl Gen<'_> {
                 style,
                 bias,
             } => self.fractal(&format!("s{dst}"), src, table, octaves, style, bias),
+            // A point (no spread) takes the function itself, as on the CPU.
+            Instr::Hermite { dst, src, spline } if self.in_range[index].is_some() => {
+                let name = self.in_range_shapes(index);
+                format!(
+                    "if (fp_n == 0u || !(f_total(s{src}) > 0.0lf)) {{ s{dst} = r_piecewise(pwh{spline}(), s{src}); }} \
+                     else {{ s{dst} = r_piecewise({name}0(), s{src}); }}"
+                )
+            }
+            Instr::Curve { dst, src, curve } if self.in_range[index].is_some() => {
+                let name = self.in_range_shapes(index);
+                format!(
+                    "if (fp_n == 0u || !(f_total(s{src}) > 0.0lf)) {{ s{dst} = r_piecewise(pwc{curve}(), s{src}); }} \
+                     else {{ s{dst} = r_piecewise({name}0(), s{src}); }}"
+                )
+            }
+            Instr::Ramp { dst, src, ramp } if self.in_range[index].is_some() => {
+                let name = self.in_range_shapes(index);
+                let channels = |f: &dyn Fn(usize) -> String| {
+                    format!(
+                        "array<D, 3>(r_piecewise({}(), s{src}), r_piecewise({}(), s{src}), \
+                         r_piecewise({}(), s{src}))",
+                        f(0),
+                        f(1),
+                        f(2)
+                    )
+                };
+                format!(
+                    "if (fp_n == 0u || !(f_total(s{src}) > 0.0lf)) {{ v{dst} = {}; }} else {{ v{dst} = {}; }}",
+                    channels(&|c| format!("pwr{ramp}_{c}")),
+                    channels(&|c| format!("{name}{c}"))
+                )
+            }
             Instr::Hermite { dst, src, spline } => {
                 format!("s{dst} = r_piecewise(pwh{spline}(), s{src});")
             }
@@ -490,41 +543,28 @@ impl Gen<'_> {
         let mut w = String::from("{\n");
         if style == Style::Fbm {
             w.push_str("        var sum = array<D, 3>(dc(0.0lf), dc(0.0lf), dc(0.0lf));\n");
-            for (k, smp) in samplers.iter().enumerate() {
-                let (f, a) = (schedule.frequencies[k], schedule.amplitudes[k]);
-                let _ = writeln!(
-                    w,
-                    "        {{\n        \
-                     let g = n_gradient_smp{smp}({st}, d3_scale(v{src}, {}), {});\n        \
-                     for (var i = 0u; i < 3u; i += 1u) {{ sum[i] = r_add(sum[i], g[i]); }}\n        \
-                     }}",
-                    f64_literal(f),
-                    f64_literal(a * f)
-                );
-            }
+            octave_loop(&mut w, &samplers, schedule, |smp, f, a| {
+                format!(
+                    "        let g = n_gradient_{smp}({st}, d3_scale(v{src}, {f}), {a} * {f});\n        \
+                     for (var i = 0u; i < 3u; i += 1u) {{ sum[i] = r_add(sum[i], g[i]); }}\n"
+                )
+            });
             let _ = write!(w, "        v{dst} = sum;\n    }}");
             return w;
         }
         let (code, offset, sharpness) = codegen::style_code(style);
+        let (offset, sharpness) = (f64_literal(offset), f64_literal(sharpness));
         let _ = writeln!(
             w,
             "        var g = gshaper_start_d();\n        \
              let c = vec3<f64>(v{src}[0].m, v{src}[1].m, v{src}[2].m);"
         );
-        for (k, smp) in samplers.iter().enumerate() {
-            let (f, a) = (schedule.frequencies[k], schedule.amplitudes[k]);
-            let _ = writeln!(
-                w,
-                "        {{\n        \
-                 let n = smp{smp}(c * {f});\n        \
-                 g = gshaper_add_f64_d(g, {code}u, n.w, n.xyz, {a}, {f}, {}, {});\n        \
-                 }}",
-                f64_literal(offset),
-                f64_literal(sharpness),
-                f = f64_literal(f),
-                a = f64_literal(a),
-            );
-        }
+        octave_loop(&mut w, &samplers, schedule, |smp, f, a| {
+            format!(
+                "        let n = {smp}(c * {f});\n        \
+                 g = gshaper_add_f64_d(g, {code}u, n.w, n.xyz, {a}, {f}, {offset}, {sharpness});\n"
+            )
+        });
         let alpha = match schedule.frequencies.first() {
             Some(&f) => format!("n_fade({st}, d3_scale(v{src}, {})).x", f64_literal(f)),
             None => "1.0lf".to_string(),
@@ -555,47 +595,57 @@ impl Gen<'_> {
         let st = self.stats(table);
         let mut w =
             String::from("{\n        var sum = dc(0.0lf);\n        var weight = dc(1.0lf);\n");
-        let shared = samplers.windows(2).all(|w| w[0] == w[1]);
-        if let (true, Some(&smp)) = (shared, samplers.first()) {
-            // One sampler: a loop over the octaves the driver cannot unroll (`dispatch.one`),
-            // so the octave's rules and noise kernel are compiled once, not once per octave.
-            let list = |v: &[f64]| v.iter().map(|&x| f64_literal(x)).collect::<Vec<_>>();
-            let n = samplers.len();
-            let _ = writeln!(
-                w,
-                "        var freqs = array<f64, {n}>({});\n        \
-                 var amps = array<f64, {n}>({});\n        \
-                 for (var k = 0u; k < {n}u * u32(dispatch.one); k += 1u) {{\n        \
-                 let n = n_octave_smp{smp}({st}, d3_scale(v{src}, freqs[k]));",
-                list(&schedule.frequencies).join(", "),
-                list(&schedule.amplitudes).join(", ")
-            );
-            let shaped = shaped(&mut w, style);
-            let _ = writeln!(
-                w,
-                "        sum = r_add(sum, d_scale({shaped}, amps[k]));\n        }}"
-            );
-        } else {
-            // A tiled sum's octaves each have their own sampler (period).
-            for (k, smp) in samplers.iter().enumerate() {
-                let _ = writeln!(
-                    w,
-                    "        {{\n        let n = n_octave_smp{smp}({st}, d3_scale(v{src}, {}));",
-                    f64_literal(schedule.frequencies[k])
-                );
-                let shaped = shaped(&mut w, style);
-                let _ = writeln!(
-                    w,
-                    "        sum = r_add(sum, d_scale({shaped}, {}));\n        }}",
-                    f64_literal(schedule.amplitudes[k])
-                );
-            }
-        }
+        octave_loop(&mut w, &samplers, schedule, |smp, f, a| {
+            let mut body =
+                format!("        let n = n_octave_{smp}({st}, d3_scale(v{src}, {f}));\n");
+            let shaped = shaped(&mut body, style);
+            let _ = writeln!(body, "        sum = r_add(sum, d_scale({shaped}, {a}));");
+            body
+        });
         if bias != 0.0 {
             let _ = writeln!(w, "        sum = r_add(sum, dc({}));", f64_literal(bias));
         }
         let _ = write!(w, "        {dst} = sum;\n        _ = weight;\n    }}");
         w
+    }
+}
+
+/// The octaves of a fractal sum, each the statements `body(sampler, frequency, amplitude)`
+/// makes from the names of its sampler function (`smp{k}`) and its frequency and amplitude
+/// expressions. With one sampler, a loop over arrays the driver cannot unroll
+/// (`dispatch.one`), so the octave's rules and noise kernel are compiled once, not once per
+/// octave; a tiled sum's octaves (a sampler per period) one block each.
+fn octave_loop(
+    w: &mut String,
+    samplers: &[usize],
+    schedule: &crate::noise::Octaves,
+    body: impl Fn(&str, &str, &str) -> String,
+) {
+    let shared = samplers.windows(2).all(|p| p[0] == p[1]);
+    if let (true, Some(&smp)) = (shared, samplers.first()) {
+        let list = |v: &[f64]| v.iter().map(|&x| f64_literal(x)).collect::<Vec<_>>();
+        let n = samplers.len();
+        let _ = writeln!(
+            w,
+            "        var freqs = array<f64, {n}>({});\n        \
+             var amps = array<f64, {n}>({});\n        \
+             for (var k = 0u; k < {n}u * u32(dispatch.one); k += 1u) {{",
+            list(&schedule.frequencies).join(", "),
+            list(&schedule.amplitudes).join(", ")
+        );
+        w.push_str(&body(&format!("smp{smp}"), "freqs[k]", "amps[k]"));
+        w.push_str("        }\n");
+        return;
+    }
+    for (k, smp) in samplers.iter().enumerate() {
+        let (f, a) = (schedule.frequencies[k], schedule.amplitudes[k]);
+        w.push_str("        {\n");
+        w.push_str(&body(
+            &format!("smp{smp}"),
+            &f64_literal(f),
+            &f64_literal(a),
+        ));
+        w.push_str("        }\n");
     }
 }
 
