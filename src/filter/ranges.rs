@@ -358,20 +358,4 @@ mod tests {
             }
         }
     }
-
-    /// seed 003 marble: the ramp's input is `|sin|`, in [0, 1].
-    #[test]
-    fn the_marble_ramp_reads_a_unit_value() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/graphs/seed003_marble.ron");
-        let options = (Default::default(), Default::default());
-        let (_, tape) = crate::load_tape(std::path::Path::new(path), &options.0, &options.1)
-            .expect("the marble loads");
-        let inputs = piecewise_inputs(&tape);
-        let ramp = tape
-            .instrs
-            .iter()
-            .position(|i| matches!(i, Instr::Ramp { .. }))
-            .expect("a ramp");
-        assert_eq!(inputs[ramp], Some(Interval::new(0.0, 1.0)));
-    }
 }

@@ -138,7 +138,8 @@ pub enum RenderFilter {
     Point,
     /// The estimate of the texture's mean over the sample's footprint (its pixel's share,
     /// carried into texture space by the ray differentials as an anisotropic parallelogram):
-    /// the filtered form of each tape (`crate::filter`), on the CPU.
+    /// the filtered form of each tape (`crate::filter`), on the CPU, or on the GPU's filtered
+    /// form with `--device gpu` (or `auto` finding one) where that covers the tape.
     #[default]
     Box,
 }

@@ -523,3 +523,29 @@ fn promoted_instructions_filter_like_plain_ones() {
         assert!((a - b).abs() < 1e-9, "promoted {a}, plain {b}");
     }
 }
+
+/// A ramp that is one line over its input's interval is that line (`filter/ranges.rs`): seed
+/// 003 marble's green is 0.875 × `vein` (`|sin|`, in [0, 1]) over the vein's range, so its
+/// filtered mean is 0.875 × the vein's filtered mean (within the stops' 8 digits), where the
+/// ramp's clamped ends at 0 and 1 priced the spread's leak past them.
+#[test]
+fn a_ramp_that_is_a_line_over_its_input_is_that_line() {
+    use texgraph::filter::ranges::{piecewise_inputs, Interval};
+    let path = crate::common::crate_root().join("graphs/seed003_marble.ron");
+    let (_, t) =
+        texgraph::load_tape(&path, &CheckOptions::default(), &CompileOptions::default()).unwrap();
+    let inputs: Vec<Interval> = piecewise_inputs(&t).into_iter().flatten().collect();
+    assert_eq!(inputs, [Interval { lo: 0.0, hi: 1.0 }]);
+    let mut rng = Rng(11);
+    for side in [1.0 / 32.0, 0.125, 0.5, 3.0] {
+        for _ in 0..20 {
+            let p = [0; 3].map(|_| rng.range(-3.0, 3.0));
+            let got = filtered(&t, p, &Footprint::cube(side).unwrap());
+            let (green, vein) = (got[1], got[3]);
+            assert!(
+                (green - 0.875 * vein).abs() < 1e-7,
+                "side {side} at {p:?}: green {green}, vein {vein}"
+            );
+        }
+    }
+}
