@@ -510,8 +510,16 @@ async fn tabs_share_one_state_and_a_vanished_tab_harms_nobody() {
     })
     .await;
     drop(gone);
+    // The stuck tab reads until its request is taken, then never again (were it stuck from
+    // the start, the server could drop it for its unread queue before reading its request: a
+    // race that failed once under CI's load).
     let mut stuck = Tab::open(&server).await;
     stuck.send(json!({"type": "view", "object": "cube"})).await;
+    stuck
+        .until("its request taken", |t| {
+            t.get("settings")["object"] == "cube"
+        })
+        .await;
     a.send(json!({"type": "view", "output": "vein", "slice": {"axis": "xz", "depth": 0.25}}))
         .await;
     for tab in [&mut a, &mut b] {
