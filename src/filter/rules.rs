@@ -79,49 +79,51 @@ pub struct Footprint {
     /// `Σ_k e_k e_kᵀ / 12`: the covariance of linear parts over the footprint as one quadratic
     /// form (made once per footprint; `covariance` runs per rule and per noise octave).
     quad: [[f64; 3]; 3],
-    /// The non-zero edges and the inverse of their Gram matrix, once per footprint (the slope
-    /// damping and the slope fit solve with it per octave).
-    gram: Gram,
-    /// [`Footprint::slope_with`] as a matrix, `E M⁻¹` over the non-zero edges (`None`:
-    /// nearly parallel edges).
+    /// How many edges are non-zero (0: a point).
+    live: usize,
+    /// [`Footprint::slope_with`] as a matrix, `E M⁻¹` over the non-zero edges `E` with Gram
+    /// matrix `M`, made once per footprint (the slope fit and the slope damping apply it per
+    /// octave); `None`: nearly parallel edges.
     fit: Option<[[f64; 3]; 3]>,
 }
 
-/// The non-zero edges `live[..n]` of a footprint and the inverse of their Gram matrix
-/// (`None`: nearly parallel edges).
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Gram {
-    live: [usize; 3],
-    n: usize,
-    inverse: Option<[[f64; 3]; 3]>,
-}
-
-impl Gram {
-    fn new(edges: &[[f64; 3]; 3]) -> Gram {
-        let mut live = [0usize; 3];
-        let mut n = 0;
-        for (k, e) in edges.iter().enumerate() {
-            if dot(e, e) > 0.0 {
-                live[n] = k;
-                n += 1;
+/// The number of non-zero edges and [`Footprint`]'s `fit` matrix.
+fn slope_fit(edges: &[[f64; 3]; 3]) -> (usize, Option<[[f64; 3]; 3]>) {
+    let mut live = [0usize; 3];
+    let mut n = 0;
+    for (k, e) in edges.iter().enumerate() {
+        if dot(e, e) > 0.0 {
+            live[n] = k;
+            n += 1;
+        }
+    }
+    let gram: [[f64; 3]; 3] = std::array::from_fn(|i| {
+        std::array::from_fn(|j| {
+            if i < n && j < n {
+                dot(&edges[live[i]], &edges[live[j]])
+            } else {
+                0.0
+            }
+        })
+    });
+    let inverse = if n == 0 {
+        Some([[0.0; 3]; 3])
+    } else {
+        invert(&gram, n)
+    };
+    // g = Σ_a y_a e_live[a], y = M⁻¹ du over the live edges: g_i = Σ_k F[i][k] du[k].
+    let fit = inverse.map(|inverse| {
+        let mut f = [[0.0; 3]; 3];
+        for a in 0..n {
+            for b in 0..n {
+                for (i, row) in f.iter_mut().enumerate() {
+                    row[live[b]] += edges[live[a]][i] * inverse[a][b];
+                }
             }
         }
-        let gram: [[f64; 3]; 3] = std::array::from_fn(|i| {
-            std::array::from_fn(|j| {
-                if i < n && j < n {
-                    dot(&edges[live[i]], &edges[live[j]])
-                } else {
-                    0.0
-                }
-            })
-        });
-        let inverse = if n == 0 {
-            Some([[0.0; 3]; 3])
-        } else {
-            invert(&gram, n)
-        };
-        Gram { live, n, inverse }
-    }
+        f
+    });
+    (n, fit)
 }
 
 /// Why a footprint was refused.
@@ -141,11 +143,7 @@ impl Footprint {
     pub const POINT: Footprint = Footprint {
         edges: [[0.0; 3]; 3],
         quad: [[0.0; 3]; 3],
-        gram: Gram {
-            live: [0; 3],
-            n: 0,
-            inverse: Some([[0.0; 3]; 3]),
-        },
+        live: 0,
         fit: Some([[0.0; 3]; 3]),
     };
 
@@ -153,23 +151,11 @@ impl Footprint {
         let quad = std::array::from_fn(|i| {
             std::array::from_fn(|j| edges.iter().map(|e| e[i] * e[j]).sum::<f64>() / 12.0)
         });
-        let gram = Gram::new(&edges);
-        let fit = gram.inverse.map(|inverse| {
-            // g = Σ_a y_a e_live[a], y = M⁻¹ du over the live edges: g_i = Σ_k F[i][k] du[k].
-            let mut f = [[0.0; 3]; 3];
-            for a in 0..gram.n {
-                for b in 0..gram.n {
-                    for (i, row) in f.iter_mut().enumerate() {
-                        row[gram.live[b]] += edges[gram.live[a]][i] * inverse[a][b];
-                    }
-                }
-            }
-            f
-        });
+        let (live, fit) = slope_fit(&edges);
         Footprint {
             edges,
             quad,
-            gram,
+            live,
             fit,
         }
     }
@@ -214,7 +200,7 @@ impl Footprint {
 
     /// Whether every edge is zero: filtered evaluation is then point evaluation.
     pub fn is_point(&self) -> bool {
-        self.gram.n == 0
+        self.live == 0
     }
 
     /// The widths of a linear part over the footprint: `|grad · e_k|`. An infinite side with a
@@ -272,7 +258,7 @@ impl Footprint {
         if beta.iter().all(|&b| (1.0 - b).abs() < 1e-9) {
             return None;
         }
-        if self.gram.n == 0 {
+        if self.live == 0 {
             return None;
         }
         let Some(fit) = &self.fit else {

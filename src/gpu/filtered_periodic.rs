@@ -59,43 +59,35 @@ impl Pieces {
         }
     }
 
-    fn squared(&self) -> Pieces {
-        let polys = self
-            .polys
-            .iter()
-            .map(|p| {
-                let mut out = vec![0.0; 2 * p.len() - 1];
-                for (i, a) in p.iter().enumerate() {
-                    for (j, b) in p.iter().enumerate() {
-                        out[i + j] += a * b;
-                    }
-                }
-                out
-            })
-            .collect();
+    /// The same starts, each piece's polynomial mapped by `f`.
+    fn map(&self, f: impl Fn(&[f64]) -> Vec<f64>) -> Pieces {
         Pieces {
             starts: self.starts.clone(),
-            polys,
+            polys: self.polys.iter().map(|p| f(p)).collect(),
         }
     }
 
-    fn derivative(&self) -> Pieces {
-        let polys = self
-            .polys
-            .iter()
-            .map(|p| {
-                let d: Vec<f64> = (1..p.len()).map(|i| i as f64 * p[i]).collect();
-                if d.is_empty() {
-                    vec![0.0]
-                } else {
-                    d
+    fn squared(&self) -> Pieces {
+        self.map(|p| {
+            let mut out = vec![0.0; 2 * p.len() - 1];
+            for (i, a) in p.iter().enumerate() {
+                for (j, b) in p.iter().enumerate() {
+                    out[i + j] += a * b;
                 }
-            })
-            .collect();
-        Pieces {
-            starts: self.starts.clone(),
-            polys,
-        }
+            }
+            out
+        })
+    }
+
+    fn derivative(&self) -> Pieces {
+        self.map(|p| {
+            let d: Vec<f64> = (1..p.len()).map(|i| i as f64 * p[i]).collect();
+            if d.is_empty() {
+                vec![0.0]
+            } else {
+                d
+            }
+        })
     }
 }
 
