@@ -80,11 +80,12 @@ fn box_filtered(filtered: &crate::filter::Filtered, grid: &Grid) -> Vec<f64> {
     let xs: Vec<f64> = (0..nx).map(|i| grid.centre(0, i)).collect();
     let mut out = vec![0f32; channels * nx];
     let mut values = Vec::with_capacity(nx * ny * nz * channels);
+    let mut ws = crate::filter::FilterWorkspace::default();
     for k in 0..nz {
         for j in 0..ny {
             let ys = vec![grid.centre(1, j); nx];
             let zs = vec![grid.centre(2, k); nx];
-            filtered.eval_batch([&xs, &ys, &zs], &[footprint], &mut out);
+            filtered.eval_batch_with(&mut ws, [&xs, &ys, &zs], &[footprint], &mut out);
             for i in 0..nx {
                 values.extend((0..channels).map(|c| f64::from(out[c * nx + i])));
             }

@@ -626,7 +626,10 @@ fn evaluate_window<S: Real>(
             .map_init(
                 || {
                     (
-                        Workspace::<S>::new(),
+                        (
+                            Workspace::<S>::new(),
+                            crate::filter::FilterWorkspace::<S>::default(),
+                        ),
                         // The x coordinates of the last segment, and where it started: rows
                         // that fit in one segment reuse them for every row.
                         (Vec::with_capacity(seg_len), usize::MAX),
@@ -635,7 +638,7 @@ fn evaluate_window<S: Real>(
                         vec![S::ZERO; block],
                     )
                 },
-                |(workspace, (xs, xs_start), ys, zs, out), (s, target)| {
+                |((workspace, filter_ws), (xs, xs_start), ys, zs, out), (s, target)| {
                     let segment = layout.segment(grid, first + s as u64);
                     let n = segment.len;
                     if *xs_start != segment.i0 || xs.len() != n {
@@ -649,9 +652,12 @@ fn evaluate_window<S: Real>(
                     zs.resize(n, grid.centre(2, segment.k));
                     let out = &mut out[..channels * n];
                     match filtered {
-                        Some(f) => {
-                            f.eval_batch([xs, ys, zs], std::slice::from_ref(&footprint), out)
-                        }
+                        Some(f) => f.eval_batch_with(
+                            filter_ws,
+                            [xs, ys, zs],
+                            std::slice::from_ref(&footprint),
+                            out,
+                        ),
                         None => tape.eval_batch(workspace, xs, ys, zs, out),
                     }
                     let mut seg_stats = vec![ChannelStats::default(); channels];

@@ -23,7 +23,7 @@ pub mod tape;
 pub mod writes;
 
 pub use rules::{Dist, Footprint, FootprintError};
-pub use tape::Filtered;
+pub use tape::{FilterWorkspace, Filtered};
 
 /// What a bake's or render's sample stands for.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

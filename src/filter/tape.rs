@@ -57,6 +57,26 @@ struct Slots {
 /// each noise instruction samples them in one SIMD batch.
 const WIDTH: usize = 64;
 
+/// What [`Filtered::eval_batch_with`] keeps between calls on one thread: the slots of a full
+/// chunk and of the last short one, and the chunk's outputs before they are spread into the
+/// planar result. Not tied to one [`Filtered`]: the slots are resized and their constants
+/// written again at each call (every other slot is written before it is read).
+pub struct FilterWorkspace<S> {
+    full: Option<Slots>,
+    short: Option<Slots>,
+    staging: Vec<S>,
+}
+
+impl<S> Default for FilterWorkspace<S> {
+    fn default() -> Self {
+        FilterWorkspace {
+            full: None,
+            short: None,
+            staging: Vec::new(),
+        }
+    }
+}
+
 impl<'t> Filtered<'t> {
     pub fn new(tape: &'t Tape) -> Filtered<'t> {
         let stats = tape
@@ -135,6 +155,66 @@ impl<'t> Filtered<'t> {
         );
     }
 
+    /// [`Filtered::eval_batch`] on the calling thread, its slots kept in `ws` between calls
+    /// (a bake's or render's worker calls this once per row of voxels or pixels: no allocation
+    /// after the first call, and no nested parallel split of a short row). The same values,
+    /// bit for bit.
+    ///
+    /// # Panics
+    /// If the slices' lengths disagree.
+    pub fn eval_batch_with<S: Real>(
+        &self,
+        ws: &mut FilterWorkspace<S>,
+        points: [&[f64]; 3],
+        footprints: &[Footprint],
+        out: &mut [S],
+    ) {
+        let n = self.check_batch(points, footprints, out.len());
+        let channels = self.tape.channels();
+        for start in (0..n).step_by(WIDTH) {
+            let r = start..(start + WIDTH).min(n);
+            let fp = if footprints.len() == 1 {
+                footprints
+            } else {
+                &footprints[r.clone()]
+            };
+            let cached = if r.len() == WIDTH {
+                &mut ws.full
+            } else {
+                &mut ws.short
+            };
+            let slots = cached.get_or_insert_with(|| self.slots(r.len()));
+            self.prepare(slots, r.len());
+            ws.staging.clear();
+            ws.staging.resize(channels * r.len(), S::ZERO);
+            self.eval_chunk(slots, points.map(|c| &c[r.clone()]), fp, &mut ws.staging);
+            for (i, lane) in ws.staging.chunks_exact(channels).enumerate() {
+                for (c, v) in lane.iter().enumerate() {
+                    out[c * n + start + i] = *v;
+                }
+            }
+        }
+    }
+
+    /// The number of points of a batch, after checking the lengths agree.
+    fn check_batch(&self, [x, y, z]: [&[f64]; 3], footprints: &[Footprint], out: usize) -> usize {
+        let n = x.len();
+        assert!(
+            y.len() == n && z.len() == n,
+            "eval_batch: coordinate lengths differ"
+        );
+        assert!(
+            footprints.len() == n || footprints.len() == 1,
+            "eval_batch: one footprint per point, or one for all"
+        );
+        assert_eq!(
+            out,
+            self.tape.channels() * n,
+            "eval_batch: output buffer has the wrong length"
+        );
+        n
+    }
+
     /// One chunk of lanes (as many as `slots.width`): lane `i`'s channels at
     /// `out[i * channels..]`.
     fn eval_chunk<S: Real>(
@@ -196,21 +276,8 @@ impl<'t> Filtered<'t> {
         out: &mut [S],
     ) {
         use rayon::prelude::*;
-        let n = x.len();
+        let n = self.check_batch([x, y, z], footprints, out.len());
         let channels = self.tape.channels();
-        assert!(
-            y.len() == n && z.len() == n,
-            "eval_batch: coordinate lengths differ"
-        );
-        assert!(
-            footprints.len() == n || footprints.len() == 1,
-            "eval_batch: one footprint per point, or one for all"
-        );
-        assert_eq!(
-            out.len(),
-            channels * n,
-            "eval_batch: output buffer has the wrong length"
-        );
         let mut lanes = vec![S::ZERO; channels * n];
         lanes
             .par_chunks_mut(channels * WIDTH)
@@ -241,16 +308,28 @@ impl<'t> Filtered<'t> {
     /// Slots for this tape with its constants written (no instruction writes a constant's slot,
     /// as in the interpreter's `Workspace::bind`), reused from point to point.
     fn slots(&self, width: usize) -> Slots {
-        let t = self.tape;
-        let file = |n: usize| vec![Dist::constant(0.0); n * width];
         let mut slots = Slots {
             width,
-            scalars: file(t.scalar_slots),
-            wides: file(t.wide_slots),
-            vec3s: vec![[Dist::constant(0.0); 3]; t.vec3_slots * width],
-            saved: file(self.fusions.saved),
+            scalars: Vec::new(),
+            wides: Vec::new(),
+            vec3s: Vec::new(),
+            saved: Vec::new(),
             scratch: LaneScratch::default(),
         };
+        self.prepare(&mut slots, width);
+        slots
+    }
+
+    /// Sizes `slots` for this tape's chunks of `width` lanes (keeping their allocations) and
+    /// writes its constants.
+    fn prepare(&self, slots: &mut Slots, width: usize) {
+        let t = self.tape;
+        let zero = Dist::constant(0.0);
+        slots.width = width;
+        slots.scalars.resize(t.scalar_slots * width, zero);
+        slots.wides.resize(t.wide_slots * width, zero);
+        slots.vec3s.resize(t.vec3_slots * width, [zero; 3]);
+        slots.saved.resize(self.fusions.saved * width, zero);
         let lanes = |slot: u32| slot as usize * width..(slot as usize + 1) * width;
         for &(slot, v) in &t.scalar_constants {
             slots.scalars[lanes(slot)].fill(Dist::constant(v));
@@ -261,7 +340,6 @@ impl<'t> Filtered<'t> {
         for &(slot, v) in &t.vec3_constants {
             slots.vec3s[lanes(slot)].fill(v.map(Dist::constant));
         }
-        slots
     }
 
     /// The tape over a chunk: instruction by instruction, each over every lane (a noise

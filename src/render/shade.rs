@@ -82,6 +82,8 @@ pub(crate) struct Scratch<'a> {
     gpus: Vec<Option<std::sync::Arc<crate::gpu::GpuEvaluator>>>,
     /// Per texture, its filtered form when the render filters (`Frame::filter`), else empty.
     filtered: &'a [Filtered<'a>],
+    /// The filtered form's slots, kept between groups (any texture's).
+    filter_ws: crate::filter::FilterWorkspace<f32>,
 }
 
 impl<'a> Scratch<'a> {
@@ -94,6 +96,7 @@ impl<'a> Scratch<'a> {
             workspaces: scene.textures().iter().map(|_| Workspace::new()).collect(),
             gpus: gpus.to_vec(),
             filtered,
+            filter_ws: Default::default(),
         }
     }
 }
@@ -493,7 +496,7 @@ fn evaluate_textures(
         if n > 0 && on_gpu {
             counters.texture_points += n as u64;
         } else if let (Some(filtered), true) = (scratch.filtered.get(group.texture), n > 0) {
-            filtered.eval_batch(points, &footprints[g], &mut out);
+            filtered.eval_batch_with(&mut scratch.filter_ws, points, &footprints[g], &mut out);
             counters.texture_points += n as u64;
         } else if n > 0 {
             let workspace = &mut scratch.workspaces[group.texture];

@@ -324,7 +324,8 @@ fn huge_footprints_give_the_global_mean() {
     );
 }
 
-/// Point and batch forms agree bit for bit; f32 is the f64 result rounded.
+/// Point and batch forms agree bit for bit (the parallel batch, the tape's method and a worker's
+/// kept workspace); f32 is the f64 result rounded.
 #[test]
 fn batch_equals_point_and_f32_rounds_f64() {
     let (t, _) = crate::common::load_graph_file("graphs/seed003_marble.ron", &[]);
@@ -357,6 +358,20 @@ fn batch_equals_point_and_f32_rounds_f64() {
         .iter()
         .zip(&batch)
         .all(|(a, b)| a.to_bits() == b.to_bits()));
+    // A worker's kept workspace: used first on another tape (other slots, other constants),
+    // then on this one, twice: the same bits as the parallel batch.
+    let mut ws = texgraph::filter::FilterWorkspace::<f64>::default();
+    let (other, _) = crate::common::load_graph_file("graphs/seed000_wood_rings.ron", &[]);
+    let mut scrap = vec![0.0f64; other.channels() * n];
+    Filtered::new(&other).eval_batch_with(&mut ws, [&x, &y, &z], &footprints, &mut scrap);
+    for _ in 0..2 {
+        let mut kept = vec![f64::NAN; c * n];
+        f.eval_batch_with(&mut ws, [&x, &y, &z], &footprints, &mut kept);
+        assert!(kept
+            .iter()
+            .zip(&batch)
+            .all(|(a, b)| a.to_bits() == b.to_bits()));
+    }
     let mut one_via_tape = vec![0.0f32; c];
     t.eval_point_filtered(pts[0], &footprints[0], &mut one_via_tape);
     assert_eq!(
