@@ -922,7 +922,8 @@ fn edit_distance(a: &str, b: &str) -> usize {
     previous[b.len()]
 }
 
-fn describe_arg(arg: &ArgDef) -> String {
+/// An argument's type as `texgraph nodes` prints it (`scalar`, `constant, 1 to 16`, …).
+pub fn describe_arg(arg: &ArgDef) -> String {
     match arg.kind {
         ArgKind::Input(InputType::Scalar) => "scalar".into(),
         ArgKind::Input(InputType::Vec3) => "vec3".into(),
@@ -940,7 +941,8 @@ fn describe_arg(arg: &ArgDef) -> String {
     }
 }
 
-fn describe_default(default: Option<DefaultValue>) -> String {
+/// An argument's default as `texgraph nodes` prints it (`required`, `default 0.5`, …).
+pub fn describe_default(default: Option<DefaultValue>) -> String {
     match default {
         None => "required".into(),
         Some(DefaultValue::Number(v)) => format!("default {v}"),
@@ -953,7 +955,8 @@ fn describe_default(default: Option<DefaultValue>) -> String {
     }
 }
 
-fn describe_output(output: OutputType) -> &'static str {
+/// A kind's output type as `texgraph nodes` prints it.
+pub fn describe_output(output: OutputType) -> &'static str {
     match output {
         OutputType::Scalar => "scalar",
         OutputType::Vec3 => "vec3",

@@ -774,7 +774,9 @@ fn commit(staged: Vec<(Staged, PathBuf)>, out_dir: &Path) -> Result<(), BakeErro
     Ok(())
 }
 
-pub(super) fn validate_grid(grid: &Grid) -> Result<(), BakeError> {
+/// The checks every bake makes of its grid first: no zero dimension, each region axis a finite
+/// interval.
+pub fn validate_grid(grid: &Grid) -> Result<(), BakeError> {
     if grid.size.contains(&0) {
         return Err(BakeError::Refused(format!(
             "the grid size {:?} has a zero dimension",

@@ -46,7 +46,7 @@ pub use engine::{
     ChannelStats, OutputStats, Precision, Sink, Volume, VolumeOutput, Window, WindowOutput,
     MAX_THREADS_PER_CORE,
 };
-pub use files::{bake_files, bake_mipmapped, planned_outputs};
+pub use files::{bake_files, bake_mipmapped, planned_outputs, validate_grid};
 pub use settings::{
     human_bytes, mip_grid, mip_level_count, mip_spacing, mips_note, BakeFileOptions, BakeReport,
     BakedFile, ExrCompression, Format, Ktx2SampleType, RawSampleType, Transfer,

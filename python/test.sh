@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# The Python package's tests (issue 34): a fresh virtual environment in target/pyvenv, the
+# package built into it by `pip install ./python` (maturin), then pytest against the command
+# line of the same checkout. `.ci/run` runs this after `cargo test`.
+#
+# The package is built with cargo's dev profile (MATURIN_PEP517_ARGS, default "--profile dev")
+# so it reuses what `cargo test` compiled; `pip install ./python` without it builds the
+# optimised release a user gets.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+venv=target/pyvenv
+rm -rf "$venv"
+python3 -m venv "$venv"
+"$venv/bin/python" -m pip install --quiet --upgrade pip
+"$venv/bin/python" -m pip install --quiet numpy pytest
+cargo build --locked --bin texgraph
+MATURIN_PEP517_ARGS="${MATURIN_PEP517_ARGS:---profile dev}" "$venv/bin/python" -m pip install --quiet ./python
+# pytest from the repository root, so `import texgraph` finds the installed package and not
+# the source folder python/texgraph.
+TEXGRAPH_CLI="${TEXGRAPH_CLI:-$PWD/target/debug/texgraph}" "$venv/bin/python" -m pytest -q -p no:cacheprovider python/tests "$@"
