@@ -9,12 +9,18 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 venv=target/pyvenv
-rm -rf "$venv"
-python3 -m venv "$venv"
-"$venv/bin/python" -m pip install --quiet --upgrade pip
-"$venv/bin/python" -m pip install --quiet numpy pytest
+# TEXGRAPH_PYVENV_READY=1: the environment was made by this run already (.ci/run makes it, with
+# NumPy, pytest and maturin, while cargo builds); it is used if it is complete.
+if [ "${TEXGRAPH_PYVENV_READY:-}" != 1 ] || [ ! -f "$venv/.ready" ]; then
+    rm -rf "$venv"
+    python3 -m venv "$venv"
+    "$venv/bin/python" -m pip install --quiet --upgrade pip
+    "$venv/bin/python" -m pip install --quiet numpy pytest "maturin>=1.7,<2"
+fi
 cargo build --locked --bin texgraph
-MATURIN_PEP517_ARGS="${MATURIN_PEP517_ARGS:---profile dev}" "$venv/bin/python" -m pip install --quiet ./python
+# maturin is in the environment: no isolated build environment to make (and download) again.
+PATH="$PWD/$venv/bin:$PATH" MATURIN_PEP517_ARGS="${MATURIN_PEP517_ARGS:---profile dev}" \
+    "$venv/bin/python" -m pip install --quiet --no-build-isolation ./python
 # pytest from the repository root, so `import texgraph` finds the installed package and not
 # the source folder python/texgraph.
 TEXGRAPH_CLI="${TEXGRAPH_CLI:-$PWD/target/debug/texgraph}" "$venv/bin/python" -m pytest -q -p no:cacheprovider python/tests "$@"

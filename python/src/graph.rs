@@ -8,7 +8,6 @@ use pyo3::exceptions::{PyKeyError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::collections::HashMap;
-use std::path::Path;
 use std::sync::{Arc, Mutex};
 use texgraph::bake::{BakeError, BakeOptions, Grid, Precision, Region};
 use texgraph::filter::Filter;
@@ -31,12 +30,7 @@ pub struct Graph {
 
 impl Graph {
     /// Checks `file` with `sets` as `--set` overrides.
-    pub(crate) fn check(
-        py: Python<'_>,
-        file: Source,
-        sets: Vec<(String, f64)>,
-        _path: Option<&Path>,
-    ) -> PyResult<Graph> {
+    pub(crate) fn check(py: Python<'_>, file: Source, sets: Vec<(String, f64)>) -> PyResult<Graph> {
         let options = CheckOptions {
             overrides: sets.clone(),
         };

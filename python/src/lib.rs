@@ -7,7 +7,6 @@
 use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use std::path::Path;
 use std::sync::Arc;
 use texgraph::diagnostic::{Diagnostics, SourceFile};
 use texgraph::LoadError;
@@ -129,7 +128,7 @@ fn load(
 ) -> PyResult<Graph> {
     let sets = parse_sets(set)?;
     let file = texgraph::read_source(&path).map_err(|e| load_error(py, e))?;
-    Graph::check(py, file, sets, Some(path.as_path()))
+    Graph::check(py, file, sets)
 }
 
 /// Checks a graph given as RON text; `name` is the file name its diagnostics give. Imports are
@@ -143,7 +142,7 @@ fn loads(
     set: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<Graph> {
     let sets = parse_sets(set)?;
-    Graph::check(py, SourceFile::new(name, text), sets, None::<&Path>)
+    Graph::check(py, SourceFile::new(name, text), sets)
 }
 
 /// The node catalogue, from the table `texgraph nodes` prints: per kind a dict with `kind`,
