@@ -25,6 +25,8 @@ type TapeKey = (Option<String>, Option<[u64; 6]>);
 #[pyclass(frozen, module = "texgraph")]
 pub struct Graph {
     graph: CheckedGraph,
+    /// The `set=` overrides it was checked with (for pickling).
+    sets: Vec<(String, f64)>,
     tapes: Mutex<HashMap<TapeKey, Arc<Tape>>>,
 }
 
@@ -34,14 +36,16 @@ impl Graph {
         let options = CheckOptions {
             overrides: sets.clone(),
         };
+        let source = file.clone();
         let graph = py
-            .detach(|| texgraph::check(file.clone(), &options))
+            .detach(|| texgraph::check(source, &options))
             .map_err(|d| match unknown_params(&d, &sets) {
                 Some(unknown) => known_params_error(py, file, unknown),
                 None => load_error(py, LoadError::Invalid(d)),
             })?;
         Ok(Graph {
             graph,
+            sets,
             tapes: Mutex::new(HashMap::new()),
         })
     }
@@ -274,6 +278,21 @@ impl Graph {
             d.set_item(&o.name, array)?;
         }
         Ok(d.into_any())
+    }
+
+    /// Pickling (`multiprocessing`, `concurrent.futures`): the graph's text, file name and
+    /// `set=` values, checked again on loading (imports resolve from the same file name).
+    #[allow(clippy::type_complexity)]
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, (String, String, Vec<(String, f64)>))> {
+        let restore = py.import("texgraph")?.getattr("_restore")?;
+        let file = self.graph.file();
+        Ok((
+            restore,
+            (file.text.clone(), file.name.clone(), self.sets.clone()),
+        ))
     }
 
     fn __repr__(&self) -> String {

@@ -172,12 +172,24 @@ fn nodes(py: Python<'_>) -> PyResult<Bound<'_, PyList>> {
     Ok(list)
 }
 
+/// A pickled `Graph` loaded again: its text checked under its file name with its `set=` values.
+#[pyfunction]
+fn _restore(
+    py: Python<'_>,
+    text: String,
+    name: String,
+    sets: Vec<(String, f64)>,
+) -> PyResult<Graph> {
+    Graph::check(py, SourceFile::new(name, text), sets)
+}
+
 /// The extension module; `texgraph/__init__.py` re-exports it.
 #[pymodule]
 fn _texgraph(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load, m)?)?;
     m.add_function(wrap_pyfunction!(loads, m)?)?;
     m.add_function(wrap_pyfunction!(nodes, m)?)?;
+    m.add_function(wrap_pyfunction!(_restore, m)?)?;
     m.add_class::<Graph>()?;
     m.add_class::<Diagnostic>()?;
     m.add("GraphError", m.py().get_type::<GraphError>())?;

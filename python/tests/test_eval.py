@@ -110,3 +110,26 @@ def test_empty_points():
     g = texgraph.load(GRAPHS[0].parent / "seed003_marble.ron")
     got = g.eval(np.zeros((0, 3)))
     assert got["colour"].shape == (0, 3) and got["vein"].shape == (0,)
+
+
+def test_graphs_pickle_and_go_to_worker_processes():
+    import concurrent.futures
+    import multiprocessing
+    import pickle
+
+    path = GRAPHS[0].parent / "library" / "marble_tiles.ron"   # imports another graph file
+    g = texgraph.load(path, set={"tile": 0.25})
+    back = pickle.loads(pickle.dumps(g))
+    assert (back.name, back.outputs, back.params) == (g.name, g.outputs, g.params)
+    pts = points(200)
+    for name, values in g.eval(pts).items():
+        assert same_bits(back.eval(pts)[name], values)
+    context = multiprocessing.get_context("spawn")
+    with concurrent.futures.ProcessPoolExecutor(max_workers=1, mp_context=context) as pool:
+        remote = pool.submit(_eval_in_worker, g, pts).result(timeout=120)
+    for name, values in g.eval(pts).items():
+        assert same_bits(remote[name], values)
+
+
+def _eval_in_worker(graph, pts):
+    return graph.eval(pts)

@@ -14,11 +14,13 @@
 - ``Graph.eval(points, ...)`` evaluates at an (N, 3) array of points, ``Graph.bake(size, ...)``
   over a grid of voxel centres; both release the GIL and run on the library's thread pool.
 - ``nodes()`` lists the node catalogue.
+- A ``Graph`` pickles (its text, file name and ``set`` values), so it can go to
+  ``multiprocessing`` or ``concurrent.futures`` workers.
 
 Values are those of the ``texgraph`` command line bit for bit (``eval --points``, ``bake
 --format raw --raw-type f32``). Documentation: docs/python.md in the texgraph repository.
 """
 
-from ._texgraph import Diagnostic, Graph, GraphError, __version__, load, loads, nodes
+from ._texgraph import Diagnostic, Graph, GraphError, __version__, _restore, load, loads, nodes
 
 __all__ = ["Diagnostic", "Graph", "GraphError", "load", "loads", "nodes", "__version__"]
