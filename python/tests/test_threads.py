@@ -53,11 +53,12 @@ def test_keyboard_interrupt_stops_a_long_bake():
     timer.start()
     try:
         with pytest.raises(KeyboardInterrupt):
-            g.bake(1000, output="vein", allow_large=True)
+            g.bake(400, output="vein")
     finally:
         timer.cancel()
     elapsed = time.perf_counter() - started
-    # 10⁹ voxels would take minutes; it stops within a window of voxels after the signal.
+    # 6.4·10⁷ voxels (256 MB) take seconds even in release on many cores, tens of seconds in
+    # the dev build CI tests; it stops within a window of voxels after the signal.
     assert elapsed < 20, f"took {elapsed:.1f} s to stop"
     # The graph is still usable afterwards.
     assert g.bake(2, output="vein").shape == (2, 2, 2)
