@@ -227,6 +227,16 @@ impl Diagnostics {
         self.render(false)
     }
 
+    /// Where `diagnostic` (one of this list) is: the file it is in (an imported graph's own
+    /// file, else the reported one) and its 1-based line and column, when it has a span.
+    pub fn location<'a>(
+        &'a self,
+        diagnostic: &'a Diagnostic,
+    ) -> (&'a SourceFile, Option<(usize, usize)>) {
+        let file = diagnostic.file.as_deref().unwrap_or(&self.file);
+        (file, diagnostic.span.map(|span| file.line_col(span.start)))
+    }
+
     /// Renders with colour when `colour` is set (for terminals).
     pub fn render(&self, colour: bool) -> String {
         use miette::{GraphicalReportHandler, GraphicalTheme};
@@ -240,12 +250,9 @@ impl Diagnostics {
             .with_links(false);
         let mut out = String::new();
         for diagnostic in &self.list {
-            let file = diagnostic.file.as_deref().unwrap_or(&self.file);
-            let location = match diagnostic.span {
-                Some(span) => {
-                    let (line, column) = file.line_col(span.start);
-                    format!("{}:{line}:{column}", file.name)
-                }
+            let (file, at) = self.location(diagnostic);
+            let location = match at {
+                Some((line, column)) => format!("{}:{line}:{column}", file.name),
                 None => file.name.clone(),
             };
             out.push_str(&format!(

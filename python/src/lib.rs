@@ -73,18 +73,11 @@ fn graph_error(py: Python<'_>, diagnostics: &Diagnostics) -> PyErr {
     let err = GraphError::new_err(diagnostics.render_plain());
     let list = PyList::empty(py);
     for d in &diagnostics.list {
-        let file = d.file.as_deref().unwrap_or(&diagnostics.file);
-        let (line, column) = match d.span {
-            Some(span) => {
-                let (l, c) = file.line_col(span.start);
-                (Some(l), Some(c))
-            }
-            None => (None, None),
-        };
+        let (file, at) = diagnostics.location(d);
         let item = Diagnostic {
             file: file.name.clone(),
-            line,
-            column,
+            line: at.map(|(l, _)| l),
+            column: at.map(|(_, c)| c),
             node: d.node.clone(),
             cls: d.class.code().to_string(),
             message: d.message.clone(),

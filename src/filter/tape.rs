@@ -57,21 +57,19 @@ struct Slots {
 /// each noise instruction samples them in one SIMD batch.
 const WIDTH: usize = 64;
 
-/// What [`Filtered::eval_batch_with`] keeps between calls on one thread: the slots of a full
-/// chunk and of the last short one, and the chunk's outputs before they are spread into the
-/// planar result. Not tied to one [`Filtered`]: the slots are resized and their constants
-/// written again at each call (every other slot is written before it is read).
+/// What [`Filtered::eval_batch_with`] keeps between calls on one thread: the slots of a chunk
+/// and the chunk's outputs before they are spread into the planar result. Not tied to one
+/// [`Filtered`] or chunk width: the slots are resized in place and their constants written
+/// again for each chunk (every other slot is written before it is read).
 pub struct FilterWorkspace<S> {
-    full: Option<Slots>,
-    short: Option<Slots>,
+    slots: Option<Slots>,
     staging: Vec<S>,
 }
 
 impl<S> Default for FilterWorkspace<S> {
     fn default() -> Self {
         FilterWorkspace {
-            full: None,
-            short: None,
+            slots: None,
             staging: Vec::new(),
         }
     }
@@ -178,12 +176,7 @@ impl<'t> Filtered<'t> {
             } else {
                 &footprints[r.clone()]
             };
-            let cached = if r.len() == WIDTH {
-                &mut ws.full
-            } else {
-                &mut ws.short
-            };
-            let slots = cached.get_or_insert_with(|| self.slots(r.len()));
+            let slots = ws.slots.get_or_insert_with(|| self.slots(r.len()));
             self.prepare(slots, r.len());
             ws.staging.clear();
             ws.staging.resize(channels * r.len(), S::ZERO);
@@ -292,7 +285,7 @@ impl<'t> Filtered<'t> {
                         &footprints[r.clone()]
                     };
                     if slots.width != r.len() {
-                        *slots = self.slots(r.len());
+                        self.prepare(slots, r.len());
                     }
                     let points = [&x[r.clone()], &y[r.clone()], &z[r.clone()]];
                     self.eval_chunk(slots, points, fp, out);
