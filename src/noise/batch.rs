@@ -1238,8 +1238,11 @@ impl SimplexLanes {
                 !first[2] & ((first[0] & !vw) | (first[1] & !uw)),
             ];
             for a in 0..3 {
-                // A NaN sum (non-finite input) gives carry 0, as `locate_parts`.
-                self.carry[a][i] = u8::from(carry[a] >= 1.0);
+                // A NaN sum (non-finite input) gives carry 0, as `locate_parts`. A fraction
+                // is 1.0 where a tiny negative coordinate's `x - floor(x)` rounds up, so a
+                // sum of two reaches 2.0: carry 2 (a carry of 1 there, found by the random-graph
+                // test in CI, put the lane in the wrong tetrahedron).
+                self.carry[a][i] = u8::from(carry[a] >= 1.0) + u8::from(carry[a] >= 2.0);
                 self.first[a][i] = u8::from(first[a]);
                 self.second[a][i] = u8::from(second[a]);
             }
@@ -1247,7 +1250,7 @@ impl SimplexLanes {
     }
 
     /// Tiled: each lane's point reduced into the period (`period::reduce3`'s numbers) into
-    /// `reduced`, and on each tiled axis its whole cell, below the period. Per axis over the
+    /// `reduced`, and on each tiled axis its whole cell (at most the period). Per axis over the
     /// lanes, branch-free (`reduce_fast`) where every coordinate is below 2^51.
     #[inline(always)]
     fn reduce(&mut self, reduced: &mut [[f64; CHUNK]; 3], p: [&[f64]; 3], period: Period) {
@@ -1263,16 +1266,18 @@ impl SimplexLanes {
                 const MAGIC: f64 = 6_755_399_441_055_744.0; // 1.5 · 2^52: m's bits, as `locate`
                 let (pf, inverse) = (pa as f64, 1.0 / pa as f64);
                 for ((&x, q), w) in src.iter().zip(dst.iter_mut()).zip(whole.iter_mut()) {
-                    let (r, m) = period::reduce_fast(x, pf, inverse);
-                    // m is an integer in [0, 2^20): its low bits after adding 1.5 · 2^52 (no
-                    // saturating conversion).
-                    (*q, *w) = (r, (m + MAGIC).to_bits() as i32);
+                    let (r, _) = period::reduce_fast(x, pf, inverse);
+                    // The reduced point's whole cell, `floor(r)` as the point function takes
+                    // it: m, or m + 1 = P where a fraction rounded to 1.0 (see `locate`). An
+                    // integer in [0, 2^20]: its low bits after adding 1.5 · 2^52 (no saturating
+                    // conversion).
+                    (*q, *w) = (r, (r.floor() + MAGIC).to_bits() as i32);
                 }
             } else {
                 for ((&x, q), w) in src.iter().zip(dst.iter_mut()).zip(whole.iter_mut()) {
                     // A non-finite x keeps its value (the lane is NaN); its cell is unused.
-                    let (r, m) = period::reduce(x, pa);
-                    (*q, *w) = (r, m as i32);
+                    let (r, _) = period::reduce(x, pa);
+                    (*q, *w) = (r, r.floor() as i32);
                 }
             }
         }
@@ -1355,7 +1360,7 @@ impl SimplexLanes {
 
     /// Tiled: vertex `K`'s hash index bytes from its doubled coordinates, each tiled axis' taken
     /// mod twice the period (`simplex::reach_periodic`: `2 cell + half` lies in
-    /// [-2, 2P + 2], so one addition and two subtractions of 2P reduce it, branch-free), an
+    /// [-3, 2P + 6], reduced by a fixed count of conditional steps, branch-free), an
     /// untiled axis' from its cell byte, mod 512 the same way (the same bytes: the hash reads
     /// the sums mod 512); then the skewed coordinates mod 256 as `simplex::vertex_hash` forms
     /// them.
@@ -1367,10 +1372,17 @@ impl SimplexLanes {
             let s: [i32; 3] = std::array::from_fn(|a| i32::from(self.skewed::<K>(a, i)));
             let half = [-s[0] + s[1] + s[2], s[0] - s[1] + s[2], s[0] + s[1] - s[2]];
             let twice: [i32; 3] = std::array::from_fn(|a| {
+                // In [-3, 2P + 6] (a whole cell in [0, P], carries up to 2, so half in
+                // [-3, 6]), P >= 1: two additions and four subtractions of 2P at most,
+                // branch-free.
                 let mut t = 2 * self.whole[a][i] + half[a];
-                t += if t < 0 { tp[a] } else { 0 };
-                t -= if t >= tp[a] { tp[a] } else { 0 };
-                t - if t >= tp[a] { tp[a] } else { 0 }
+                for _ in 0..2 {
+                    t += if t < 0 { tp[a] } else { 0 };
+                }
+                for _ in 0..4 {
+                    t -= if t >= tp[a] { tp[a] } else { 0 };
+                }
+                t
             });
             self.vertex[0][i] = (((twice[1] + twice[2]) & 511) >> 1) as u8;
             self.vertex[1][i] = (((twice[0] + twice[2]) & 511) >> 1) as u8;

@@ -954,7 +954,15 @@ pub(super) fn batch_pool(seed: u64, n: usize, kinds: u64) -> Vec<[f64; 3]> {
             2 => 1e6 * r,
             3 => 2f64.powi(40) * r,
             4 => k,
-            5 => k + pick(rng, &[1e-9, -1e-9, 0.5, f64::EPSILON, -f64::EPSILON]),
+            // -1e-17 and the least subnormal below a whole k: its fraction rounds to 1.0 (a
+            // point at the next cell's corner in all but name).
+            5 => {
+                k + pick(
+                    rng,
+                    &[1e-9, -1e-9, 0.5, f64::EPSILON, -f64::EPSILON, -1e-17],
+                )
+            }
+            6 if k == 0.0 => pick(rng, &[-1e-17, -5e-324, -1e-300]),
             6 => 256.0 * k + pick(rng, &[0.0, 1e-7, -1e-7]),
             7 => pick(rng, &[0.0, -0.0, 1.0, -1.0, 255.0, -256.0]),
             8 => 2f64.powi(50) * r,
@@ -2101,6 +2109,58 @@ fn simplex_batch_equals_point_for_every_length() {
             assert_simplex_table_reads_are_point::<f64>(&t, pts);
         }
     }
+}
+
+/// Coordinates just below a whole number whose fraction `x - floor(x)` rounds to 1.0 (so the
+/// point sits on the next cell's corner): on two or three axes at once a skewed fraction sum
+/// reaches 2.0 and simplex carries 2. Every basis' batch kernel, untiled and tiled (the lane
+/// kernels run for 64 lanes; the chunk mixes these points with ordinary ones), equals its
+/// point function. The random-graph test found simplex carrying 1 there (a wrong tetrahedron,
+/// 0 for a value of 4.75e-9).
+#[test]
+fn fractions_that_round_to_one_batch_as_the_point() {
+    let tiny = [-1e-17, -5e-324, -1e-300, -2f64.powi(-54)];
+    let mut rng = SplitMix64::new(91);
+    let pts: Vec<[f64; 3]> = (0..64)
+        .map(|i| {
+            let mut p = [0.0; 3];
+            for (a, c) in p.iter_mut().enumerate() {
+                let whole = (rng.next_u64() % 7) as f64 - 3.0;
+                // Axes picked by the lane number: every pair and the triple.
+                *c = if (i >> a) & 1 == 1 || i % 8 == 7 {
+                    whole + tiny[(rng.next_u64() % 4) as usize]
+                } else {
+                    whole + rng.next_signed().abs()
+                };
+            }
+            p
+        })
+        .collect();
+    let mut bases = continuous_bases();
+    bases.push(Basis::White);
+    for basis in bases {
+        let t = NoiseTable::new(basis, 5);
+        assert_sample_batch_is_point::<f32>(&t, &pts, &format!("{basis:?}"));
+        assert_sample_batch_is_point::<f64>(&t, &pts, &format!("{basis:?}"));
+        for period in [[4, 4, 4], [3, 0, 5]] {
+            let [x, y, z] = planes(&pts);
+            let mut out = vec![0f64; pts.len()];
+            t.sample_batch_at_period(period, &x, &y, &z, &mut out);
+            let want: Vec<f64> = pts.iter().map(|&p| t.sample_at_period(p, period)).collect();
+            for i in 0..pts.len() {
+                assert_eq!(
+                    out[i].to_bits(),
+                    want[i].to_bits(),
+                    "{basis:?} tiled {period:?} at {:?}: {} against {}",
+                    pts[i],
+                    out[i],
+                    want[i]
+                );
+            }
+        }
+    }
+    let t = NoiseTable::new(Basis::Simplex, 5);
+    assert_simplex_table_reads_are_point::<f32>(&t, &pts);
 }
 
 /// The simplex lane kernel with its table-read gradients (the form CPUs without AVX-512 VBMI

@@ -107,8 +107,10 @@ fn simplex_reach(t: u32, q: vec3<f64>, period: vec3<f64>) -> SimplexReach {
     let sums = vec3<f64>(f.y + f.z, f.x + f.z, f.x + f.y);
     let carry_f = floor(sums);
     let skewed = sums - carry_f;
-    let carry = vec3<i32>(select(0, 1, carry_f.x >= 1.0lf), select(0, 1, carry_f.y >= 1.0lf),
-                          select(0, 1, carry_f.z >= 1.0lf));
+    // 0, 1 or 2 (a fraction is 1.0 where a tiny negative coordinate's p - floor(p) rounds
+    // up); 0 for NaN, as Rust's `locate_parts`.
+    let carry = select(vec3<i32>(0), vec3<i32>(1), carry_f >= vec3<f64>(1.0lf))
+        + select(vec3<i32>(0), vec3<i32>(1), carry_f >= vec3<f64>(2.0lf));
     let order = simplex_order(skewed);
     let base = floor(q);
     var re: SimplexReach;
