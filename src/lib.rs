@@ -58,6 +58,7 @@ pub mod precision;
 pub mod real;
 pub mod report;
 pub mod serve;
+pub mod shader;
 pub mod source;
 pub mod stability;
 pub(crate) mod summary;

@@ -81,6 +81,12 @@ enum Command {
     /// A software Vulkan driver (Mesa's lavapipe) is listed as a CPU adapter. Exit code 0, also
     /// when none is found (the line then says why).
     Devices(cli::devices::DevicesArgs),
+    /// Export a graph as shader source: a function per output that an engine's own shader
+    /// calls (WGSL, GLSL, GLSL ES, HLSL or MSL), with its level-of-detail form.
+    ///
+    /// `texgraph_NAME(p)` and `texgraph_NAME_lod(p, spacing)` per output, f32 throughout;
+    /// documented in docs/shaders.md.
+    Shader(cli::shader::ShaderArgs),
 }
 
 #[derive(Args)]
@@ -147,6 +153,7 @@ fn main() -> ExitCode {
         Command::Watch(args) => cli::render::render_command(args, true),
         Command::Serve(args) => cli::serve::serve(args),
         Command::Devices(args) => cli::devices::devices(args),
+        Command::Shader(args) => cli::shader::shader(args),
         Command::Nodes(args) => {
             let text = if args.markdown {
                 texgraph::nodes::catalogue_markdown()

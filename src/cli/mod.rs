@@ -9,6 +9,7 @@ pub mod eval;
 pub mod render;
 pub mod report;
 pub mod serve;
+pub mod shader;
 pub mod verify;
 
 use crate::check::CheckOptions;

@@ -68,14 +68,27 @@ pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
         source.push_str(super::widen::library());
         source.push('\n');
     }
-    let mut splines = String::new();
+    source.push_str(&tape_part(tape, &ConstantExprs::default()));
+    source.push_str(BINDINGS);
+    source.push_str(ENTRY_POINTS);
+    Ok(Shader {
+        source,
+        channels: tape.channels(),
+    })
+}
+
+/// The tape's own part of its shader, without the library, bindings or entry points: its
+/// spline functions, `CHANNELS`, `struct Channels` and `fn tape(p, h)`, reading the noise
+/// tables through `tables` and its constants times `dispatch.one`. The shader export
+/// (`shader/`) builds its f32 source on this.
+pub(crate) fn tape_part(tape: &Tape, constants: &ConstantExprs) -> String {
+    let mut source = String::new();
     for (k, ramp) in tape.ramps.iter().enumerate() {
-        spline_function(&mut splines, &format!("ramp{k}"), ramp);
+        spline_function(&mut source, &format!("ramp{k}"), ramp);
     }
     for (k, curve) in tape.curves.iter().enumerate() {
-        spline_function(&mut splines, &format!("curve{k}"), curve);
+        spline_function(&mut source, &format!("curve{k}"), curve);
     }
-    source.push_str(&splines);
     let channels = tape.channels();
     let _ = writeln!(source, "const CHANNELS: u32 = {}u;", channels.max(1));
     let _ = writeln!(
@@ -83,14 +96,21 @@ pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
         "struct Channels {{\n    c: array<f32, {}>,\n}}\n",
         channels.max(1)
     );
-    source.push_str(&tape_function(tape));
-    source.push_str(BINDINGS);
-    source.push_str(ENTRY_POINTS);
-    Ok(Shader { source, channels })
+    source.push_str(&tape_function(tape, constants));
+    source
+}
+
+/// Expressions that replace constant slots' literals in `fn tape` (the shader export's
+/// uniforms: a param's slot reads its uniform field); an f32 expression per scalar slot, per
+/// vec3 slot one per component (`None`: the constant's own literal).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct ConstantExprs {
+    pub scalar: std::collections::HashMap<u32, String>,
+    pub vec3: std::collections::HashMap<u32, [Option<String>; 3]>,
 }
 
 /// `fn tape(p: vec3<f64>) -> Channels`: the instructions in order over local slot variables.
-fn tape_function(tape: &Tape) -> String {
+fn tape_function(tape: &Tape, constants: &ConstantExprs) -> String {
     let mut body = String::new();
     let w = &mut body;
     let _ = writeln!(w, "fn tape(p: vec3<f64>, h: f64) -> Channels {{");
@@ -108,10 +128,24 @@ fn tape_function(tape: &Tape) -> String {
     let _ = writeln!(w, "    let one = dispatch.one;");
     let _ = writeln!(w, "    let one_d = f64(one);");
     for &(slot, value) in &tape.scalar_constants {
-        let _ = writeln!(w, "    s{slot} = {} * one;", f32_literal(value as f32));
+        match constants.scalar.get(&slot) {
+            Some(expr) => writeln!(w, "    s{slot} = {expr};"),
+            None => writeln!(w, "    s{slot} = {} * one;", f32_literal(value as f32)),
+        }
+        .ok();
     }
     for &(slot, value) in &tape.vec3_constants {
-        let _ = writeln!(w, "    v{slot} = {} * one_d;", vec3_literal(value));
+        match constants.vec3.get(&slot) {
+            Some(exprs) => {
+                let c: [String; 3] = std::array::from_fn(|a| match &exprs[a] {
+                    Some(expr) => format!("f64({expr})"),
+                    None => format!("{} * one_d", f64_literal(value[a])),
+                });
+                writeln!(w, "    v{slot} = vec3<f64>({}, {}, {});", c[0], c[1], c[2])
+            }
+            None => writeln!(w, "    v{slot} = {} * one_d;", vec3_literal(value)),
+        }
+        .ok();
     }
     for &(slot, value) in &tape.wide_constants {
         let _ = writeln!(w, "    d{slot} = {} * one_d;", f64_literal(value));

@@ -1455,3 +1455,77 @@ fn report_filtering_table_json_and_plot() {
         expect_code(&[&base[..], &other[..]].concat(), 2);
     }
 }
+
+/// `texgraph shader` (issue 35): stdout by default, `-o` writes the same text to a file (no
+/// temporary left beside it), `--output` keeps one output's functions, `--uniforms` says which
+/// params stay constants, GLSL gets `#version` only when asked, and the usage errors exit 2.
+#[cfg(feature = "shader")]
+#[test]
+fn shader_writes_the_functions_and_refuses_bad_flags() {
+    let out = run(&["shader", MARBLE]);
+    assert_eq!(code(&out), 0, "{}", String::from_utf8_lossy(&out.stderr));
+    let wgsl = String::from_utf8(out.stdout).unwrap();
+    for f in [
+        "fn texgraph_colour(p: vec3<f32>) -> vec3<f32>",
+        "fn texgraph_vein_lod(p: vec3<f32>, spacing: f32) -> f32",
+    ] {
+        assert!(wgsl.contains(f), "no `{f}`");
+    }
+    assert!(
+        !wgsl.contains("@fragment") && !wgsl.contains("@compute"),
+        "an entry point is left"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("vein.glsl");
+    let out = run(&[
+        "shader",
+        MARBLE,
+        "--lang",
+        "glsl",
+        "--output",
+        "vein",
+        "-o",
+        path.to_str().unwrap(),
+    ]);
+    assert_eq!(code(&out), 0, "{}", String::from_utf8_lossy(&out.stderr));
+    let glsl = std::fs::read_to_string(&path).unwrap();
+    assert!(glsl.contains("float texgraph_vein(vec3 p)") && !glsl.contains("texgraph_colour"));
+    assert!(!glsl.contains("#version"));
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        1,
+        "a temporary file is left"
+    );
+    let out = run(&["shader", MARBLE, "--lang", "glsl-es", "--version", "310"]);
+    assert!(String::from_utf8_lossy(&out.stdout).starts_with("#version 310 es"));
+    let out = run(&["shader", MARBLE, "--uniforms", "--lang", "hlsl"]);
+    assert_eq!(code(&out), 0);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("param `octaves` stays the constant 12"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("param `period`"), "{stderr}");
+    assert!(String::from_utf8_lossy(&out.stdout).contains("cbuffer texgraph_params : register(b0)"));
+    for (args, says) in [
+        (
+            &["shader", MARBLE, "--lang", "glsl", "--version", "100"][..],
+            "--version 100",
+        ),
+        (
+            &["shader", MARBLE, "--lang", "hlsl", "--version", "450"][..],
+            "glsl and glsl-es only",
+        ),
+        (&["shader", MARBLE, "--lang", "cobol"][..], "cobol"),
+    ] {
+        let out = run(args);
+        assert_eq!(code(&out), 2, "{args:?}");
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains(says),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let out = run(&["shader", "graphs/no_such_file.ron"]);
+    assert_eq!(code(&out), 2);
+}

@@ -38,3 +38,7 @@ mod render;
 mod safety;
 mod serve;
 mod serve_browser;
+#[cfg(all(feature = "gpu", feature = "shader"))]
+mod shader;
+#[cfg(all(feature = "gpu", feature = "shader"))]
+mod shader_run;

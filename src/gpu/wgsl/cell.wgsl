@@ -66,5 +66,7 @@ fn lattice3(p: vec3<f64>) -> Split3 {
 
 // The upper corner's index per axis: index + 1 (mod 256), or 0 where the axis wraps.
 fn upper_index(s: Split3, wrap: vec3<bool>) -> vec3<u32> {
-    return select((s.index + vec3<u32>(1u)) & vec3<u32>(255u), vec3<u32>(0u), wrap);
+    // A product with the mask, not `select` (GLSL ES 3.00 has no integer `mix`, which naga
+    // writes `select` of vectors as in the exported shaders).
+    return ((s.index + vec3<u32>(1u)) & vec3<u32>(255u)) * vec3<u32>(!wrap);
 }

@@ -109,8 +109,8 @@ fn simplex_reach(t: u32, q: vec3<f64>, period: vec3<f64>) -> SimplexReach {
     let skewed = sums - carry_f;
     // 0, 1 or 2 (a fraction is 1.0 where a tiny negative coordinate's p - floor(p) rounds
     // up); 0 for NaN, as Rust's `locate_parts`.
-    let carry = select(vec3<i32>(0), vec3<i32>(1), carry_f >= vec3<f64>(1.0lf))
-        + select(vec3<i32>(0), vec3<i32>(1), carry_f >= vec3<f64>(2.0lf));
+    // (Booleans converted, not `select`: GLSL ES 3.00 has no integer `mix`.)
+    let carry = vec3<i32>(carry_f >= vec3<f64>(1.0lf)) + vec3<i32>(carry_f >= vec3<f64>(2.0lf));
     let order = simplex_order(skewed);
     let base = floor(q);
     var re: SimplexReach;

@@ -1,0 +1,444 @@
+//! Shader export (issue 35, docs/shaders.md): a tape as one self-contained shader source that
+//! an engine's own shader calls: per output `texgraph_NAME(p)` and `texgraph_NAME_lod(p,
+//! spacing)` (the octave fade of level of detail per point, as `eval --spacing`), in WGSL,
+//! GLSL 4.50 (or `--version`), GLSL ES 3.00, HLSL (shader model 5.1) or MSL (2.1).
+//!
+//! How: the GPU path's WGSL for the tape (`gpu::codegen`: the library in `gpu/wgsl/` and the
+//! tape's straight-line function) made all-f32 (`narrow.rs`; naga's MSL and GLSL ES have no
+//! f64), the noise tables a module-scope constant array instead of a storage buffer, every name
+//! of the library prefixed `tg_`, the exported functions appended, and one stub entry point
+//! that calls them all. naga parses and validates that (without the f64 capability: the proof
+//! that nothing of f64 is left), compacts it (only what the entry point reaches stays: the
+//! library functions the requested outputs use), and writes the language; the stub entry point
+//! is removed from the module (WGSL, HLSL, MSL) or cut from the text (GLSL, whose writer needs
+//! one).
+
+mod narrow;
+mod options;
+pub mod uniforms;
+
+use options::KEEP;
+pub use options::{function_name, Exported, ExportedFunction, Lang, ShaderError, ShaderOptions};
+
+use crate::tape::Tape;
+use std::fmt::Write;
+pub use uniforms::UniformPlan;
+
+/// The exported functions of `tape`'s outputs, in the tape's output order.
+pub fn functions(tape: &Tape) -> Result<Vec<ExportedFunction>, ShaderError> {
+    let mut seen = std::collections::HashSet::new();
+    let mut all = Vec::new();
+    for o in &tape.outputs {
+        let name = function_name(&o.name);
+        if !seen.insert(name.clone()) {
+            return Err(ShaderError::SameName(name));
+        }
+        all.push(ExportedFunction {
+            output: o.name.to_string(),
+            lod: format!("{name}_lod"),
+            name,
+            channels: o.ty.channels(),
+        });
+    }
+    Ok(all)
+}
+
+/// The all-f32 WGSL module of `tape` before naga: library, tables, the tape's function, the
+/// exported functions and the stub entry point (see the module comment).
+pub fn f32_wgsl(
+    tape: &Tape,
+    uniforms: Option<&UniformPlan>,
+    lang: Lang,
+) -> Result<String, ShaderError> {
+    let functions = functions(tape)?;
+    let mut source = String::new();
+    for (file, text) in crate::gpu::codegen::LIBRARY {
+        if file == "common.wgsl" {
+            let binding = "@group(0) @binding(0) var<storage, read> tables: array<u32>;";
+            debug_assert!(text.contains(binding));
+            source.push_str(&text.replace(binding, ""));
+        } else {
+            source.push_str(text);
+        }
+        source.push('\n');
+    }
+    for reader in ["perm_at", "grad_at", "value_at", "hash_key"] {
+        let range = narrow::function_range(&source, reader)
+            .ok_or_else(|| ShaderError::Internal(format!("the library has no `{reader}`")))?;
+        source.replace_range(range, "");
+    }
+    source.push_str(&table_arrays(tape, lang));
+    let exprs = uniforms.map(|u| u.exprs.clone()).unwrap_or_default();
+    let part = crate::gpu::codegen::tape_part(tape, &exprs);
+    source.push_str(&part.replace("dispatch.one", "1.0"));
+    let narrowed = narrow::narrow(&source);
+    let names = narrow::module_names(&narrowed);
+    let mut out = narrow::prefix(&narrowed, &names);
+    if let Some(plan) = uniforms {
+        // Every param a field, in the graph's order (those that stay constants too, so the
+        // layout follows from the graph file alone): std140-compatible, field i at byte 4 i.
+        let _ = writeln!(out, "struct TexgraphParams {{");
+        for p in &plan.params {
+            let _ = writeln!(out, "    {}: f32,", p.field);
+        }
+        if plan.params.is_empty() {
+            let _ = writeln!(out, "    unused: f32,");
+        }
+        let _ = writeln!(
+            out,
+            "}}\n@group(0) @binding(0) var<uniform> {}: TexgraphParams;\n",
+            uniforms::INSTANCE
+        );
+    }
+    let p = narrow::PREFIX;
+    for (f, o) in functions.iter().zip(&tape.outputs) {
+        let c = o.first_channel;
+        let (ty, value) = if f.channels == 1 {
+            ("f32".to_string(), format!("r.c[{c}]"))
+        } else {
+            (
+                "vec3<f32>".to_string(),
+                format!("vec3<f32>(r.c[{c}], r.c[{}], r.c[{}])", c + 1, c + 2),
+            )
+        };
+        let _ = writeln!(
+            out,
+            "fn {}(p: vec3<f32>) -> {ty} {{\n    let r = {p}tape(p, 0.0);\n    return {value};\n}}\n",
+            f.name
+        );
+        let _ = writeln!(
+            out,
+            "fn {}(p: vec3<f32>, spacing: f32) -> {ty} {{\n    let r = {p}tape(p, spacing);\n    return {value};\n}}\n",
+            f.lod
+        );
+    }
+    let _ = writeln!(
+        out,
+        "@fragment\nfn {KEEP}(@builtin(position) at: vec4<f32>) -> @location(0) vec4<f32> {{\n    var a = 0.0;"
+    );
+    for f in &functions {
+        let pick = if f.channels == 1 { "" } else { ".x" };
+        let _ = writeln!(
+            out,
+            "    a = a + {}(at.xyz){pick} + {}(at.xyz, at.w){pick};",
+            f.name, f.lod
+        );
+    }
+    let _ = writeln!(out, "    return vec4<f32>(a);\n}}");
+    Ok(out)
+}
+
+/// The noise tables as constant arrays, one per section, holding only what each table's basis
+/// reads (the GPU path's buffer gives every table all 1544 words): the permutations packed four
+/// bytes to a word (64 words a table; the library's perm is doubled, `perm[i & 511] =
+/// perm[i & 255]`), the Gradient basis' vectors and the Value basis' values as f32 bits, the
+/// cell hash keys; and `tables_base`, per table its offsets into them. The library's four
+/// accessors (`perm_at`, `grad_at`, `value_at`, `hash_key`, whose `t` is the table's index
+/// times `T_WORDS`) are replaced by readers of these.
+fn table_arrays(tape: &Tape, lang: Lang) -> String {
+    use crate::noise::Basis;
+    let (mut perm, mut grads, mut values, mut keys) = (vec![], vec![], vec![], vec![]);
+    let mut bases = Vec::new();
+    for (key, table) in &tape.tables {
+        let words = table.gpu_words();
+        bases.push([perm.len(), grads.len(), values.len(), keys.len()]);
+        let lattice = !matches!(key.basis, Basis::White | Basis::Cellular(_));
+        if lattice {
+            perm.extend(
+                words[..256]
+                    .chunks(4)
+                    .map(|b| b[0] | b[1] << 8 | b[2] << 16 | b[3] << 24),
+            );
+        }
+        if matches!(key.basis, Basis::Gradient) {
+            grads.extend_from_slice(&words[512..1280]);
+        }
+        if matches!(key.basis, Basis::Value(_)) {
+            values.extend_from_slice(&words[1280..1536]);
+        }
+        if !lattice {
+            keys.extend_from_slice(&words[1536..1538]);
+        }
+    }
+    // A `const` array indexed at run time is copied into a local at every read by naga's
+    // SPIR-V writer (wgpu, Bevy), which LLVM-based drivers then inline by the hundred (lavapipe
+    // ran out of 24 GB); a private variable that nothing writes is read in place. HLSL gets
+    // `const` back after naga (`constant_tables`); MSL keeps `const` (its private globals
+    // would become every function's parameters).
+    let decl = if lang == Lang::Msl {
+        "const"
+    } else {
+        "var<private>"
+    };
+    let mut s = String::new();
+    for (name, words) in [
+        ("perm", &perm),
+        ("grads", &grads),
+        ("values", &values),
+        ("keys", &keys),
+    ] {
+        let _ = write!(
+            s,
+            "{decl} tables_{name}: array<u32, {n}> = array<u32, {n}>(",
+            n = words.len().max(1)
+        );
+        for (i, w) in words.iter().enumerate() {
+            if i % 12 == 0 {
+                s.push_str("\n    ");
+            }
+            let _ = write!(s, "{w}u,");
+        }
+        if words.is_empty() {
+            s.push_str("0u");
+        }
+        s.push_str("\n);\n");
+    }
+    let _ = write!(
+        s,
+        "{decl} tables_base: array<vec4<u32>, {n}> = array<vec4<u32>, {n}>(",
+        n = bases.len().max(1)
+    );
+    for b in &bases {
+        let _ = write!(
+            s,
+            "\n    vec4<u32>({}u, {}u, {}u, {}u),",
+            b[0], b[1], b[2], b[3]
+        );
+    }
+    if bases.is_empty() {
+        s.push_str("vec4<u32>(0u)");
+    }
+    s.push_str("\n);\n");
+    s.push_str(TABLE_READERS);
+    s
+}
+
+/// The accessors over [`table_arrays`]' constants (`t / T_WORDS`: the table's index).
+const TABLE_READERS: &str = "fn perm_at(t: u32, i: u32) -> u32 {
+    let k = tables_base[t / T_WORDS].x * 4u + (i & 255u);
+    return (tables_perm[k >> 2u] >> (8u * (k & 3u))) & 255u;
+}
+fn grad_at(t: u32, h: u32) -> vec3<f32> {
+    let b = tables_base[t / T_WORDS].y + 3u * (h & 255u);
+    return vec3<f32>(bitcast<f32>(tables_grads[b]), bitcast<f32>(tables_grads[b + 1u]), bitcast<f32>(tables_grads[b + 2u]));
+}
+fn value_at(t: u32, h: u32) -> f32 {
+    return bitcast<f32>(tables_values[tables_base[t / T_WORDS].z + (h & 255u)]);
+}
+fn hash_key(t: u32) -> vec2<u32> {
+    let b = tables_base[t / T_WORDS].w;
+    return vec2<u32>(tables_keys[b], tables_keys[b + 1u]);
+}
+";
+
+/// `tape` as a shader in `options.lang` (see the module comment).
+pub fn export(
+    tape: &Tape,
+    options: &ShaderOptions,
+    uniforms: Option<&UniformPlan>,
+) -> Result<Exported, ShaderError> {
+    check_version(options)?;
+    let functions = functions(tape)?;
+    let wgsl = f32_wgsl(tape, uniforms, options.lang)?;
+    let mut source = tidy(&translate(&wgsl, options)?, options.lang, &functions);
+    source = plain_parameters(&source, &functions);
+    source = constant_tables(&source, options.lang);
+    if options.lang == Lang::Hlsl {
+        source = hlsl_table_initializer(&source);
+    }
+    Ok(Exported { source, functions })
+}
+
+/// The names naga chose, made the contract's: an exported name ending in a digit got a `_`
+/// from naga's namer (taken off); GLSL's uniform block and instance (`TexgraphParamsBlock`,
+/// `texgraph_params`); MSL's array wrapper types (`type_N`) prefixed like the library.
+fn tidy(text: &str, lang: Lang, functions: &[ExportedFunction]) -> String {
+    let exported: std::collections::HashMap<String, String> = functions
+        .iter()
+        .flat_map(|f| [&f.name, &f.lod])
+        .filter(|n| n.ends_with(|c: char| c.is_ascii_digit()))
+        .map(|n| (format!("{n}_"), n.clone()))
+        .collect();
+    narrow::rename_words(text, |word| {
+        if let Some(name) = exported.get(word) {
+            return Some(name.clone());
+        }
+        match lang {
+            Lang::Glsl | Lang::GlslEs if word == "TexgraphParams_block_0Fragment" => {
+                Some("TexgraphParamsBlock".into())
+            }
+            Lang::Glsl | Lang::GlslEs if word == "_group_0_binding_0_fs" => {
+                Some(uniforms::INSTANCE.into())
+            }
+            Lang::Msl
+                if word
+                    .strip_prefix("type_")
+                    .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit())) =>
+            {
+                Some(format!("{}{word}", narrow::PREFIX))
+            }
+            _ => None,
+        }
+    })
+}
+
+fn check_version(options: &ShaderOptions) -> Result<(), ShaderError> {
+    let Some(version) = options.version else {
+        return Ok(());
+    };
+    let (ok, allowed) = match options.lang {
+        Lang::Glsl => (
+            matches!(version, 330 | 400 | 410 | 420 | 430 | 440 | 450 | 460),
+            "330, 400, 410, 420, 430, 440, 450, 460",
+        ),
+        Lang::GlslEs => (matches!(version, 300 | 310 | 320), "300, 310, 320"),
+        _ => return Err(ShaderError::VersionNotGlsl),
+    };
+    if ok {
+        Ok(())
+    } else {
+        Err(ShaderError::Version { version, allowed })
+    }
+}
+
+#[cfg(feature = "shader")]
+mod translate;
+#[cfg(feature = "shader")]
+use translate::translate;
+
+#[cfg(not(feature = "shader"))]
+fn translate(_: &str, _: &ShaderOptions) -> Result<String, ShaderError> {
+    Err(ShaderError::NotBuilt)
+}
+
+/// What `--extent` warns of: per output of `planned` (compiled with an extent) whose f32 bound
+/// misses the precision target, the bound and the nodes the plan would run in f64 (each with
+/// its reason). The CPU's f32 path keeps positions and vec3 values in f64; the shader cannot,
+/// so these bounds are the least it will be off by over the extent.
+pub fn precision_warnings(planned: &Tape) -> Vec<String> {
+    let Some(plan) = &planned.precision else {
+        return Vec::new();
+    };
+    // One line per node (a node can be several instructions), its first reason.
+    let mut seen = std::collections::HashSet::new();
+    let nodes: Vec<String> = planned
+        .reasons
+        .iter()
+        .filter(|(i, _)| seen.insert(planned.origins[*i].clone()))
+        .map(|(i, why)| format!("node `{}` ({why})", planned.origins[*i]))
+        .collect();
+    plan.outputs
+        .iter()
+        .filter(|o| o.plain_f32 > plan.max_error)
+        .map(|o| {
+            let mut line = format!(
+                "output `{}` needs f64 over the extent: in f32 it may be off by up to {:.2e} (target {:.0e})",
+                o.output, o.plain_f32, plan.max_error
+            );
+            if let Some(why) = &o.shortfall {
+                let _ = write!(line, "; {why}");
+            }
+            if !nodes.is_empty() {
+                let _ = write!(line, "; f64 where the CPU runs it: {}", nodes.join(", "));
+            }
+            line
+        })
+        .collect()
+}
+
+/// naga writes HLSL's constant arrays as calls of generated constructors with one parameter
+/// per element (`Constructarray64_uint_(uint arg0, …)`), which glslang's HLSL front end
+/// refuses ("recursion detected") and compilers parse slowly: each module-scope constant
+/// array becomes an initializer list, and a constructor nothing else calls goes.
+fn hlsl_table_initializer(text: &str) -> String {
+    let mut constructors = Vec::new();
+    let mut lines: Vec<String> = text
+        .lines()
+        .map(|line| {
+            let rewritten = line
+                .strip_prefix("static ")
+                .and_then(|_| line.split_once(" = Constructarray"))
+                .and_then(|(head, call)| {
+                    let (name, args) = call.split_once('(')?;
+                    let args = args.strip_suffix(");")?;
+                    constructors.push(format!("Constructarray{name}"));
+                    Some(format!("{head} = {{ {args} }};"))
+                });
+            rewritten.unwrap_or_else(|| line.to_string())
+        })
+        .collect();
+    for constructor in constructors {
+        let call = format!("{constructor}(");
+        let calls = lines.iter().filter(|l| l.contains(&call)).count();
+        // Only its definition's first line names it: drop the typedef and the definition.
+        if calls == 1 {
+            let typedef = format!("ret_{constructor}[");
+            lines.retain(|l| !(l.starts_with("typedef") && l.contains(&typedef)));
+            if let Some(start) = lines.iter().position(|l| l.contains(&call)) {
+                let end = (start..lines.len())
+                    .find(|&i| lines[i].starts_with('}'))
+                    .unwrap_or(start);
+                lines.drain(start..=end);
+            }
+        }
+    }
+    let mut out = lines.join("\n");
+    out.push('\n');
+    out
+}
+
+/// naga numbers every parameter apart (`p_3`, `spacing_1`); in the exported functions they are
+/// `p` and `spacing` again, as the contract writes them (their bodies name nothing else).
+fn plain_parameters(text: &str, functions: &[ExportedFunction]) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut inside = false;
+    let mut depth = 0usize;
+    for line in text.lines() {
+        if !inside && depth == 0 {
+            inside = functions.iter().any(|f| {
+                [&f.name, &f.lod]
+                    .iter()
+                    .any(|n| line.contains(&format!(" {n}(")) || line.starts_with(&format!("{n}(")))
+            });
+        }
+        depth += line.matches('{').count();
+        depth = depth.saturating_sub(line.matches('}').count());
+        if inside {
+            out.push_str(&narrow::rename_words(line, |w| {
+                let (base, n) = w.rsplit_once('_')?;
+                let numbered = !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit());
+                (numbered && (base == "p" || base == "spacing")).then(|| base.to_string())
+            }));
+            if depth == 0 && line.contains('}') {
+                inside = false;
+            }
+        } else {
+            out.push_str(line);
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// HLSL: the tables, private variables in the WGSL (see [`table_arrays`]), declared `static
+/// const` again: nothing writes them. GLSL keeps them as global variables with initializers
+/// (glslang, like naga, copies a `const` array into a local at every read at a run-time index:
+/// lavapipe took minutes over a graph of a few noise instructions).
+fn constant_tables(text: &str, lang: Lang) -> String {
+    if lang != Lang::Hlsl {
+        return text.to_string();
+    }
+    let tables = format!("{}tables_", narrow::PREFIX);
+    text.lines()
+        .map(|line| {
+            let declares = line
+                .split_whitespace()
+                .nth(2)
+                .is_some_and(|name| name.starts_with(&tables));
+            match line.strip_prefix("static ") {
+                Some(rest) if declares => format!("static const {rest}\n"),
+                _ => format!("{line}\n"),
+            }
+        })
+        .collect()
+}

@@ -1,0 +1,132 @@
+//! The all-f32 WGSL module through naga: parse, validate without f64, compact to what the
+//! exported functions reach, write the language, and take the stub entry point out.
+
+use super::options::{Lang, ShaderError, ShaderOptions, KEEP};
+use naga::valid::{Capabilities, ValidationFlags, Validator};
+
+/// `wgsl` (the module `f32_wgsl` builds) written in `options.lang`, without its stub entry point.
+pub(super) fn translate(wgsl: &str, options: &ShaderOptions) -> Result<String, ShaderError> {
+    let internal = |what: &str, e: String| ShaderError::Internal(format!("{what}: {e}"));
+    let mut module = naga::front::wgsl::parse_str(wgsl)
+        .map_err(|e| internal("parsing the f32 WGSL", e.emit_to_string(wgsl)))?;
+    validate(&module, wgsl)?;
+    naga::compact::compact(&mut module, naga::compact::KeepUnused::No);
+    if matches!(options.lang, Lang::Glsl | Lang::GlslEs) {
+        let info = validate(&module, wgsl)?;
+        return glsl(&module, &info, options);
+    }
+    // Without an entry point naga keeps every function (compaction is done) and the writers
+    // write no stage code.
+    module.entry_points.clear();
+    let info = validate(&module, wgsl)?;
+    let text = match options.lang {
+        Lang::Wgsl => {
+            naga::back::wgsl::write_string(&module, &info, naga::back::wgsl::WriterFlags::empty())
+                .map_err(|e| internal("writing WGSL", e.to_string()))?
+        }
+        Lang::Hlsl => {
+            let hlsl_options = naga::back::hlsl::Options {
+                shader_model: naga::back::hlsl::ShaderModel::V5_1,
+                ..Default::default()
+            };
+            let pipeline = naga::back::hlsl::PipelineOptions::default();
+            let mut out = String::new();
+            naga::back::hlsl::Writer::new(&mut out, &hlsl_options, &pipeline)
+                .write(&module, &info, None)
+                .map_err(|e| internal("writing HLSL", e.to_string()))?;
+            out
+        }
+        Lang::Msl => {
+            let msl_options = naga::back::msl::Options {
+                lang_version: (2, 1),
+                ..Default::default()
+            };
+            let pipeline = naga::back::msl::PipelineOptions::default();
+            naga::back::msl::write_string(&module, &info, &msl_options, &pipeline)
+                .map_err(|e| internal("writing MSL", e.to_string()))?
+                .0
+        }
+        Lang::Glsl | Lang::GlslEs => unreachable!("written above"),
+    };
+    Ok(text)
+}
+
+fn validate(module: &naga::Module, wgsl: &str) -> Result<naga::valid::ModuleInfo, ShaderError> {
+    // No FLOAT64 capability: a leftover f64 is an error here.
+    Validator::new(ValidationFlags::all(), Capabilities::empty())
+        .validate(module)
+        .map_err(|e| {
+            ShaderError::Internal(format!(
+                "the f32 WGSL does not validate: {}",
+                e.emit_to_string(wgsl)
+            ))
+        })
+}
+
+/// GLSL through naga's writer for the stub fragment entry point, then the text without the
+/// entry point's parts: the `#version` line (unless asked for), the fragment output and
+/// `void main()`.
+fn glsl(
+    module: &naga::Module,
+    info: &naga::valid::ModuleInfo,
+    options: &ShaderOptions,
+) -> Result<String, ShaderError> {
+    use naga::back::glsl;
+    let version = match (options.lang, options.version) {
+        (Lang::GlslEs, v) => glsl::Version::Embedded {
+            version: v.unwrap_or(300),
+            is_webgl: false,
+        },
+        (_, v) => glsl::Version::Desktop(v.unwrap_or(450)),
+    };
+    let glsl_options = glsl::Options {
+        version,
+        writer_flags: glsl::WriterFlags::empty(),
+        ..Default::default()
+    };
+    let pipeline = glsl::PipelineOptions {
+        shader_stage: naga::ShaderStage::Fragment,
+        entry_point: KEEP.to_string(),
+        multiview: None,
+    };
+    let mut text = String::new();
+    glsl::Writer::new(
+        &mut text,
+        module,
+        info,
+        &glsl_options,
+        &pipeline,
+        naga::proc::BoundsCheckPolicies::default(),
+    )
+    .and_then(|mut w| w.write())
+    .map_err(|e| ShaderError::Internal(format!("writing GLSL: {e}")))?;
+    Ok(strip_glsl_entry(&text, options.version.is_some()))
+}
+
+/// [`glsl`]'s text without the stub entry point: `void main()` to its closing brace, the
+/// fragment output and input declarations, and the `#version` line unless `keep_version`.
+fn strip_glsl_entry(text: &str, keep_version: bool) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut depth = 0usize;
+    let mut in_main = false;
+    for line in text.lines() {
+        let top = depth == 0;
+        if top && line.starts_with("void main(") {
+            in_main = true;
+        }
+        depth += line.matches('{').count();
+        depth = depth.saturating_sub(line.matches('}').count());
+        let skip = in_main
+            || (top && line.starts_with("#version") && !keep_version)
+            || (top && (line.contains("_fs2p_") || line.starts_with("layout(location")))
+            || (top && line.contains("gl_FragCoord") && line.contains("="));
+        if in_main && depth == 0 && line.contains('}') {
+            in_main = false;
+        }
+        if !skip {
+            out.push_str(line);
+            out.push('\n');
+        }
+    }
+    out
+}
