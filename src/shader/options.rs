@@ -87,10 +87,14 @@ impl ShaderError {
     }
 }
 
-/// `texgraph_` + `output` with every character outside `[A-Za-z0-9_]` made `_`.
+/// `texgraph_` + `output` made an identifier (see [`identifier`]).
 pub fn function_name(output: &str) -> String {
-    let clean: String = output
-        .chars()
+    format!("texgraph_{}", identifier(output))
+}
+
+/// `name` with every character outside `[A-Za-z0-9_]` made `_`.
+pub fn identifier(name: &str) -> String {
+    name.chars()
         .map(|c| {
             if c.is_ascii_alphanumeric() || c == '_' {
                 c
@@ -98,8 +102,7 @@ pub fn function_name(output: &str) -> String {
                 '_'
             }
         })
-        .collect();
-    format!("texgraph_{clean}")
+        .collect()
 }
 
 /// The name of the stub entry point that keeps the exported functions through compaction.

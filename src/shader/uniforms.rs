@@ -45,16 +45,7 @@ pub struct UniformPlan {
 /// A param's field name: characters outside `[A-Za-z0-9_]` become `_`, and a name that starts
 /// with a digit gets a leading `p_`.
 pub fn field_name(param: &str) -> String {
-    let clean: String = param
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
+    let clean = super::options::identifier(param);
     if clean.starts_with(|c: char| c.is_ascii_digit()) || clean.is_empty() {
         format!("p_{clean}")
     } else {

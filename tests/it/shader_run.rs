@@ -52,27 +52,7 @@ pub enum Source {
 /// The WGSL compute entry point `main` over exported functions: input `p` (x, y, z, spacing
 /// per point) at binding 1, output at binding 2, channel-planar; `lod`: the `_lod` forms.
 pub fn wgsl_entry(functions: &[ExportedFunction], n: usize, lod: bool) -> String {
-    let mut body = String::new();
-    let mut c = 0;
-    for f in functions {
-        let call = if lod {
-            format!("{}(p, h)", f.lod)
-        } else {
-            format!("{}(p)", f.name)
-        };
-        if f.channels == 1 {
-            body.push_str(&format!("    tg_test_out[{c}u * N + i] = {call};\n"));
-        } else {
-            body.push_str(&format!("    let v{c} = {call};\n"));
-            for (k, axis) in ["x", "y", "z"].iter().enumerate() {
-                body.push_str(&format!(
-                    "    tg_test_out[{}u * N + i] = v{c}.{axis};\n",
-                    c + k
-                ));
-            }
-        }
-        c += f.channels;
-    }
+    let body = stores(functions, lod, "let", "u");
     format!(
         "\n@group(0) @binding(1) var<storage, read> tg_test_in: array<f32>;\n\
          @group(0) @binding(2) var<storage, read_write> tg_test_out: array<f32>;\n\
@@ -87,27 +67,7 @@ pub fn wgsl_entry(functions: &[ExportedFunction], n: usize, lod: bool) -> String
 
 /// The GLSL 4.50 compute shader around exported GLSL (the same bindings as [`wgsl_entry`]).
 pub fn glsl_entry(exported: &str, functions: &[ExportedFunction], n: usize, lod: bool) -> String {
-    let mut body = String::new();
-    let mut c = 0;
-    for f in functions {
-        let call = if lod {
-            format!("{}(p, h)", f.lod)
-        } else {
-            format!("{}(p)", f.name)
-        };
-        if f.channels == 1 {
-            body.push_str(&format!("    tg_test_out[{c} * N + i] = {call};\n"));
-        } else {
-            body.push_str(&format!("    vec3 v{c} = {call};\n"));
-            for (k, axis) in ["x", "y", "z"].iter().enumerate() {
-                body.push_str(&format!(
-                    "    tg_test_out[{} * N + i] = v{c}.{axis};\n",
-                    c + k
-                ));
-            }
-        }
-        c += f.channels;
-    }
+    let body = stores(functions, lod, "vec3", "");
     format!(
         "#version 450\n{exported}\n\
          layout(local_size_x = 64) in;\n\
@@ -118,6 +78,36 @@ pub fn glsl_entry(exported: &str, functions: &[ExportedFunction], n: usize, lod:
          \x20   vec3 p = vec3(tg_test_in[4u * i], tg_test_in[4u * i + 1u], tg_test_in[4u * i + 2u]);\n\
          \x20   float h = tg_test_in[4u * i + 3u];\n{body}}}\n"
     )
+}
+
+/// The entry points' statements: each function called at `p` (or its `_lod` form at `p, h`),
+/// its channels stored channel-planar; `vec3` declares a vector local (`let` in WGSL, `vec3`
+/// in GLSL), `unsigned` is the unsigned literal suffix (`u` in WGSL).
+fn stores(functions: &[ExportedFunction], lod: bool, vec3: &str, unsigned: &str) -> String {
+    let mut body = String::new();
+    let mut c = 0;
+    for f in functions {
+        let call = if lod {
+            format!("{}(p, h)", f.lod)
+        } else {
+            format!("{}(p)", f.name)
+        };
+        if f.channels == 1 {
+            body.push_str(&format!(
+                "    tg_test_out[{c}{unsigned} * N + i] = {call};\n"
+            ));
+        } else {
+            body.push_str(&format!("    {vec3} v{c} = {call};\n"));
+            for (k, axis) in ["x", "y", "z"].iter().enumerate() {
+                body.push_str(&format!(
+                    "    tg_test_out[{}{unsigned} * N + i] = v{c}.{axis};\n",
+                    c + k
+                ));
+            }
+        }
+        c += f.channels;
+    }
+    body
 }
 
 impl Runner {
