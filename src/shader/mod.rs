@@ -18,7 +18,9 @@ mod options;
 pub mod uniforms;
 
 use options::KEEP;
-pub use options::{function_name, Exported, ExportedFunction, Lang, ShaderError, ShaderOptions};
+pub use options::{
+    function_name, identifier, Exported, ExportedFunction, Lang, ShaderError, ShaderOptions,
+};
 
 use crate::tape::Tape;
 use std::fmt::Write;
