@@ -46,13 +46,13 @@ pub fn functions(tape: &Tape) -> Result<Vec<ExportedFunction>, ShaderError> {
 }
 
 /// The all-f32 WGSL module of `tape` before naga: library, tables, the tape's function, the
-/// exported functions and the stub entry point (see the module comment).
+/// exported `functions` ([`functions`]) and the stub entry point (see the module comment).
 pub fn f32_wgsl(
     tape: &Tape,
+    functions: &[ExportedFunction],
     uniforms: Option<&UniformPlan>,
     lang: Lang,
-) -> Result<String, ShaderError> {
-    let functions = functions(tape)?;
+) -> String {
     let mut source = String::new();
     for (file, text) in crate::gpu::codegen::LIBRARY {
         if file == "common.wgsl" {
@@ -64,11 +64,8 @@ pub fn f32_wgsl(
         }
         source.push('\n');
     }
-    for reader in ["perm_at", "grad_at", "value_at", "hash_key"] {
-        let range = narrow::function_range(&source, reader)
-            .ok_or_else(|| ShaderError::Internal(format!("the library has no `{reader}`")))?;
-        source.replace_range(range, "");
-    }
+    let missing = narrow::replace_functions(&mut source, TABLE_READERS);
+    debug_assert!(missing.is_empty(), "the library has no {missing:?}");
     source.push_str(&table_arrays(tape, lang));
     let exprs = uniforms.map(|u| u.exprs.clone()).unwrap_or_default();
     let part = crate::gpu::codegen::tape_part(tape, &exprs);
@@ -118,7 +115,7 @@ pub fn f32_wgsl(
         out,
         "@fragment\nfn {KEEP}(@builtin(position) at: vec4<f32>) -> @location(0) vec4<f32> {{\n    var a = 0.0;"
     );
-    for f in &functions {
+    for f in functions {
         let pick = if f.channels == 1 { "" } else { ".x" };
         let _ = writeln!(
             out,
@@ -127,7 +124,7 @@ pub fn f32_wgsl(
         );
     }
     let _ = writeln!(out, "    return vec4<f32>(a);\n}}");
-    Ok(out)
+    out
 }
 
 /// The noise tables as constant arrays, one per section, holding only what each table's basis
@@ -136,7 +133,7 @@ pub fn f32_wgsl(
 /// perm[i & 255]`), the Gradient basis' vectors and the Value basis' values as f32 bits, the
 /// cell hash keys; and `tables_base`, per table its offsets into them. The library's four
 /// accessors (`perm_at`, `grad_at`, `value_at`, `hash_key`, whose `t` is the table's index
-/// times `T_WORDS`) are replaced by readers of these.
+/// times `T_WORDS`) are replaced by readers of these ([`TABLE_READERS`]).
 fn table_arrays(tape: &Tape, lang: Lang) -> String {
     use crate::noise::Basis;
     let (mut perm, mut grads, mut values, mut keys) = (vec![], vec![], vec![], vec![]);
@@ -165,7 +162,7 @@ fn table_arrays(tape: &Tape, lang: Lang) -> String {
     // A `const` array indexed at run time is copied into a local at every read by naga's
     // SPIR-V writer (wgpu, Bevy), which LLVM-based drivers then inline by the hundred (lavapipe
     // ran out of 24 GB); a private variable that nothing writes is read in place. HLSL gets
-    // `const` back after naga (`constant_tables`); MSL keeps `const` (its private globals
+    // `const` back after naga (`hlsl_table_initializer`); MSL keeps `const` (its private globals
     // would become every function's parameters).
     let decl = if lang == Lang::Msl {
         "const"
@@ -211,27 +208,44 @@ fn table_arrays(tape: &Tape, lang: Lang) -> String {
         s.push_str("vec4<u32>(0u)");
     }
     s.push_str("\n);\n");
-    s.push_str(TABLE_READERS);
     s
 }
 
-/// The accessors over [`table_arrays`]' constants (`t / T_WORDS`: the table's index).
-const TABLE_READERS: &str = "fn perm_at(t: u32, i: u32) -> u32 {
+/// The library's table accessors, in place, over [`table_arrays`]' arrays (`t / T_WORDS`: the
+/// table's index).
+const TABLE_READERS: &[(&str, &str)] = &[
+    (
+        "perm_at",
+        "fn perm_at(t: u32, i: u32) -> u32 {
     let k = tables_base[t / T_WORDS].x * 4u + (i & 255u);
     return (tables_perm[k >> 2u] >> (8u * (k & 3u))) & 255u;
 }
-fn grad_at(t: u32, h: u32) -> vec3<f32> {
+",
+    ),
+    (
+        "grad_at",
+        "fn grad_at(t: u32, h: u32) -> vec3<f32> {
     let b = tables_base[t / T_WORDS].y + 3u * (h & 255u);
     return vec3<f32>(bitcast<f32>(tables_grads[b]), bitcast<f32>(tables_grads[b + 1u]), bitcast<f32>(tables_grads[b + 2u]));
 }
-fn value_at(t: u32, h: u32) -> f32 {
+",
+    ),
+    (
+        "value_at",
+        "fn value_at(t: u32, h: u32) -> f32 {
     return bitcast<f32>(tables_values[tables_base[t / T_WORDS].z + (h & 255u)]);
 }
-fn hash_key(t: u32) -> vec2<u32> {
+",
+    ),
+    (
+        "hash_key",
+        "fn hash_key(t: u32) -> vec2<u32> {
     let b = tables_base[t / T_WORDS].w;
     return vec2<u32>(tables_keys[b], tables_keys[b + 1u]);
 }
-";
+",
+    ),
+];
 
 /// `tape` as a shader in `options.lang` (see the module comment).
 pub fn export(
@@ -241,10 +255,9 @@ pub fn export(
 ) -> Result<Exported, ShaderError> {
     check_version(options)?;
     let functions = functions(tape)?;
-    let wgsl = f32_wgsl(tape, uniforms, options.lang)?;
+    let wgsl = f32_wgsl(tape, &functions, uniforms, options.lang);
     let mut source = tidy(&translate(&wgsl, options)?, options.lang, &functions);
     source = plain_parameters(&source, &functions);
-    source = constant_tables(&source, options.lang);
     if options.lang == Lang::Hlsl {
         source = hlsl_table_initializer(&source);
     }
@@ -350,8 +363,9 @@ pub fn precision_warnings(planned: &Tape) -> Vec<String> {
 
 /// naga writes HLSL's constant arrays as calls of generated constructors with one parameter
 /// per element (`Constructarray64_uint_(uint arg0, …)`), which glslang's HLSL front end
-/// refuses ("recursion detected") and compilers parse slowly: each module-scope constant
-/// array becomes an initializer list, and a constructor nothing else calls goes.
+/// refuses ("recursion detected") and compilers parse slowly: each module-scope array (the
+/// tables) becomes a `static const` initializer list, and a constructor nothing else calls
+/// goes.
 fn hlsl_table_initializer(text: &str) -> String {
     let mut constructors = Vec::new();
     let mut lines: Vec<String> = text
@@ -364,7 +378,12 @@ fn hlsl_table_initializer(text: &str) -> String {
                     let (name, args) = call.split_once('(')?;
                     let args = args.strip_suffix(");")?;
                     constructors.push(format!("Constructarray{name}"));
-                    Some(format!("{head} = {{ {args} }};"))
+                    // Only the tables are module-scope arrays: private variables in the WGSL
+                    // (see `table_arrays`) that nothing writes, `static const` again here.
+                    let head = head
+                        .strip_prefix("static const ")
+                        .unwrap_or(&head["static ".len()..]);
+                    Some(format!("static const {head} = {{ {args} }};"))
                 });
             rewritten.unwrap_or_else(|| line.to_string())
         })
@@ -420,27 +439,4 @@ fn plain_parameters(text: &str, functions: &[ExportedFunction]) -> String {
         out.push('\n');
     }
     out
-}
-
-/// HLSL: the tables, private variables in the WGSL (see [`table_arrays`]), declared `static
-/// const` again: nothing writes them. GLSL keeps them as global variables with initializers
-/// (glslang, like naga, copies a `const` array into a local at every read at a run-time index:
-/// lavapipe took minutes over a graph of a few noise instructions).
-fn constant_tables(text: &str, lang: Lang) -> String {
-    if lang != Lang::Hlsl {
-        return text.to_string();
-    }
-    let tables = format!("{}tables_", narrow::PREFIX);
-    text.lines()
-        .map(|line| {
-            let declares = line
-                .split_whitespace()
-                .nth(2)
-                .is_some_and(|name| name.starts_with(&tables));
-            match line.strip_prefix("static ") {
-                Some(rest) if declares => format!("static const {rest}\n"),
-                _ => format!("{line}\n"),
-            }
-        })
-        .collect()
 }

@@ -143,11 +143,8 @@ pub fn narrow(source: &str) -> String {
             }
         }),
     });
-    for (name, body) in OVERRIDES {
-        if let Some(range) = function_range(&out, name) {
-            out.replace_range(range, body);
-        }
-    }
+    // A library without one of them (a basis' module left out) has nothing to replace.
+    replace_functions(&mut out, OVERRIDES);
     out.push_str(LDEXP);
     out
 }
@@ -223,10 +220,15 @@ pub fn rename_words(text: &str, rename: impl Fn(&str) -> Option<String>) -> Stri
 /// The byte range of the module-scope function `name` in `source` (from its `fn` to its closing
 /// brace and the line end), if it has one.
 pub fn function_range(source: &str, name: &str) -> Option<std::ops::Range<usize>> {
-    let header = format!("fn {name}(");
+    block_range(source, &format!("fn {name}("))
+}
+
+/// The byte range of the first block whose line starts with `header` (a function, in any of
+/// the languages naga writes), from that line to the closing brace and the line end.
+pub fn block_range(source: &str, header: &str) -> Option<std::ops::Range<usize>> {
     let mut at = 0;
     let start = loop {
-        let found = at + source[at..].find(&header)?;
+        let found = at + source[at..].find(header)?;
         if found == 0 || source.as_bytes()[found - 1] == b'\n' {
             break found;
         }
@@ -250,6 +252,22 @@ pub fn function_range(source: &str, name: &str) -> Option<std::ops::Range<usize>
         }
     }
     None
+}
+
+/// Replaces each module-scope function `(name, text)` names in `source` by `text`; the names it
+/// does not find.
+pub fn replace_functions<'a>(
+    source: &mut String,
+    replacements: &[(&'a str, &str)],
+) -> Vec<&'a str> {
+    let mut missing = Vec::new();
+    for &(name, text) in replacements {
+        match function_range(source, name) {
+            Some(range) => source.replace_range(range, text),
+            None => missing.push(name),
+        }
+    }
+    missing
 }
 
 /// A token the passes look at; everything else (punctuation, space, comments) is copied.

@@ -103,30 +103,17 @@ fn glsl(
     Ok(strip_glsl_entry(&text, options.version.is_some()))
 }
 
-/// [`glsl`]'s text without the stub entry point: `void main()` to its closing brace, the
-/// fragment output and input declarations, and the `#version` line unless `keep_version`.
+/// [`glsl`]'s text without the stub entry point: `void main()` (always last), the fragment
+/// output's declaration, and the `#version` line unless `keep_version`.
 fn strip_glsl_entry(text: &str, keep_version: bool) -> String {
-    let mut out = String::with_capacity(text.len());
-    let mut depth = 0usize;
-    let mut in_main = false;
-    for line in text.lines() {
-        let top = depth == 0;
-        if top && line.starts_with("void main(") {
-            in_main = true;
-        }
-        depth += line.matches('{').count();
-        depth = depth.saturating_sub(line.matches('}').count());
-        let skip = in_main
-            || (top && line.starts_with("#version") && !keep_version)
-            || (top && (line.contains("_fs2p_") || line.starts_with("layout(location")))
-            || (top && line.contains("gl_FragCoord") && line.contains("="));
-        if in_main && depth == 0 && line.contains('}') {
-            in_main = false;
-        }
-        if !skip {
-            out.push_str(line);
-            out.push('\n');
-        }
+    let mut text = text.to_string();
+    if let Some(main) = super::narrow::block_range(&text, "void main(") {
+        text.replace_range(main, "");
     }
-    out
+    text.lines()
+        .filter(|line| {
+            !(line.contains("_fs2p_") || (line.starts_with("#version") && !keep_version))
+        })
+        .flat_map(|line| [line, "\n"])
+        .collect()
 }

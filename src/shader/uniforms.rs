@@ -110,16 +110,13 @@ pub fn plan(
             .find(|&&k| probes(params[k].1) == [x, y])
             .map(|&k| format!("{INSTANCE}.{}", plan.params[k].field))
     };
-    for ((slot, x), (_, y)) in a.scalar_constants.iter().zip(&c.scalar_constants) {
-        if let Some(expr) = owner(*x, *y) {
-            plan.exprs.scalar.insert(*slot, expr);
-        }
-    }
-    for ((slot, x), (_, y)) in a.vec3_constants.iter().zip(&c.vec3_constants) {
-        for axis in 0..3 {
-            if let Some(expr) = owner(x[axis], y[axis]) {
-                plan.exprs.vec3.entry(*slot).or_default()[axis] = Some(expr);
+    for (slot, x, y) in constant_pairs(&a, &c) {
+        let Some(expr) = owner(x, y) else { continue };
+        match slot {
+            Slot::Scalar(s) => {
+                plan.exprs.scalar.insert(s, expr);
             }
+            Slot::Vec3(s, axis) => plan.exprs.vec3.entry(s).or_default()[axis] = Some(expr),
         }
     }
     Ok((plan, Some(a)))
@@ -185,13 +182,8 @@ fn probe_pair(
             Err("the compiler folds it with other constants into one".to_string())
         }
     };
-    for ((_, x), (_, y)) in ta.scalar_constants.iter().zip(&tc.scalar_constants) {
-        classify(*x, *y)?;
-    }
-    for ((_, x), (_, y)) in ta.vec3_constants.iter().zip(&tc.vec3_constants) {
-        for axis in 0..3 {
-            classify(x[axis], y[axis])?;
-        }
+    for (_, x, y) in constant_pairs(&ta, &tc) {
+        classify(x, y)?;
     }
     if ta
         .wide_constants
@@ -202,6 +194,27 @@ fn probe_pair(
         return Err("it reaches an instruction promoted to f64".to_string());
     }
     Ok(slots)
+}
+
+/// A constant slot: a scalar, or one component of a vec3.
+enum Slot {
+    Scalar(u32),
+    Vec3(u32, usize),
+}
+
+/// Every constant of two tapes of one shape, slot by slot: (slot, value in `a`, value in `c`).
+fn constant_pairs<'t>(a: &'t Tape, c: &'t Tape) -> impl Iterator<Item = (Slot, f64, f64)> + 't {
+    let scalars = a
+        .scalar_constants
+        .iter()
+        .zip(&c.scalar_constants)
+        .map(|(&(slot, x), &(_, y))| (Slot::Scalar(slot), x, y));
+    let vec3s = a
+        .vec3_constants
+        .iter()
+        .zip(&c.vec3_constants)
+        .flat_map(|(&(slot, x), &(_, y))| (0..3).map(move |k| (Slot::Vec3(slot, k), x[k], y[k])));
+    scalars.chain(vec3s)
 }
 
 /// The tape's disassembly without its constants' values: equal for two compiles exactly when
