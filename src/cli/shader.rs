@@ -24,6 +24,10 @@ pub struct ShaderArgs {
     /// stderr.
     #[arg(long)]
     uniforms: bool,
+    /// Leave out the `texgraph_NAME_filtered(p, footprint)` functions (the filtered form's
+    /// rules are about two thirds of the source).
+    #[arg(long)]
+    no_filtered: bool,
     /// Warn where f32 is not enough over this region (`X0,Y0,Z0:X1,Y1,Z1`): the node and the
     /// error bound its precision plan gives f32.
     #[arg(long, value_name = "X0,Y0,Z0:X1,Y1,Z1", value_parser = parse_extent, allow_hyphen_values = true)]
@@ -94,8 +98,17 @@ pub fn shader(args: ShaderArgs) -> Result<(), Failure> {
     let options = ShaderOptions {
         lang: args.lang.into(),
         version: args.version,
+        filtered: !args.no_filtered,
     };
     let exported = crate::shader::export(&tape, &options, plan.as_ref()).map_err(fail)?;
+    if options.filtered && exported.functions.iter().any(|f| f.filtered.is_none()) {
+        let why = match crate::gpu::filtered::unsupported(&tape) {
+            Some(why) => format!("the filtered form does not cover {why}"),
+            None => "its rules are built for the params' values, and --uniforms lets them change"
+                .to_string(),
+        };
+        eprintln!("texgraph: no `_filtered` functions: {why}");
+    }
     match &args.out {
         Some(path) => {
             crate::output::write_atomic(path, |w| w.write_all(exported.source.as_bytes())).map_err(

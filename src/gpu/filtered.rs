@@ -55,7 +55,7 @@ pub fn unsupported(tape: &Tape) -> Option<String> {
 
 /// The filtered WGSL of `tape`: the point library (the tape's point function too, for the
 /// channels whose filtered mean is not finite, as `Filtered::point_fallback`), the bases' f64
-/// forms, the rules, one octave function per sampler, `fn ftape` and the filtered entry points.
+/// forms, `filtered_part` and the filtered entry points.
 pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
     if let Some(why) = unsupported(tape) {
         return Err(GpuError::Unsupported(why));
@@ -73,6 +73,22 @@ pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
         source.push_str(super::widen::library());
         source.push('\n');
     }
+    source.push_str(&filtered_part(tape)?);
+    source.push_str(ENTRY);
+    Ok(Shader {
+        source,
+        channels: point.channels,
+    })
+}
+
+/// What the filtered form adds to the point library, the bases' f64 forms and the tape's point
+/// function: the rules, one octave function per sampler, the shapes and `fn ftape(p) ->
+/// Channels` (reading the footprint `fp_set` stored), without bindings or entry points. The
+/// shader export (`shader/`) builds its `_filtered` functions on this.
+pub(crate) fn filtered_part(tape: &Tape) -> Result<String, GpuError> {
+    if let Some(why) = unsupported(tape) {
+        return Err(GpuError::Unsupported(why));
+    }
     let integer = crate::filter::integers::integer_operands(tape);
     let mut g = Gen {
         tape,
@@ -85,12 +101,10 @@ pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
         in_range: crate::filter::ranges::restricted_shapes(tape),
     };
     let body = g.function();
-    source.push_str(
-        &FILTER
-            .replace("PW_KNOTS", &g.knots.to_string())
-            .replace("PW_PIECES", &(g.knots + 1).to_string())
-            .replace("PW_BREAKS", &(g.knots + 8).to_string()),
-    );
+    let mut source = FILTER
+        .replace("PW_KNOTS", &g.knots.to_string())
+        .replace("PW_PIECES", &(g.knots + 1).to_string())
+        .replace("PW_BREAKS", &(g.knots + 8).to_string());
     for (k, &(table, period)) in g.samplers.iter().enumerate() {
         let key = &tape.tables[table as usize].0;
         let call = codegen::sample_call(table, key, period, "x", Kernel::WideGradient);
@@ -112,11 +126,7 @@ pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
         super::filtered_periodic::shape_functions(&mut source, &format!("pc{k}"), shape, PERIODIC);
     }
     source.push_str(&body);
-    source.push_str(ENTRY);
-    Ok(Shader {
-        source,
-        channels: point.channels,
-    })
+    Ok(source)
 }
 
 struct Gen<'t> {

@@ -17,7 +17,7 @@ mod filtered_periodic;
 pub use evaluator::GpuEvaluator;
 #[cfg(not(feature = "gpu"))]
 mod stub;
-mod widen;
+pub(crate) mod widen;
 #[cfg(not(feature = "gpu"))]
 pub use stub::GpuEvaluator;
 

@@ -31,7 +31,7 @@ const EXTERNAL: [(&str, &str); 3] = [
 ];
 
 /// The f64 forms: wide.wgsl, then the derived twins in source order.
-pub(super) fn library() -> &'static str {
+pub(crate) fn library() -> &'static str {
     static LIBRARY: std::sync::OnceLock<String> = std::sync::OnceLock::new();
     LIBRARY.get_or_init(|| {
         let overridden: HashSet<&str> = items(OVERRIDES).iter().map(|i| i.name).collect();

@@ -1,10 +1,12 @@
 //! Shader export (issue 35, docs/shaders.md): a tape as one self-contained shader source that
-//! an engine's own shader calls: per output `texgraph_NAME(p)` and `texgraph_NAME_lod(p,
-//! spacing)` (the octave fade of level of detail per point, as `eval --spacing`), in WGSL,
-//! GLSL 4.50 (or `--version`), GLSL ES 3.00, HLSL (shader model 5.1) or MSL (2.1).
+//! an engine's own shader calls: per output `texgraph_NAME(p)`, `texgraph_NAME_lod(p,
+//! spacing)` (the octave fade of level of detail per point, as `eval --spacing`) and
+//! `texgraph_NAME_filtered(p, footprint)` (the mean over a footprint, as `eval --footprint`),
+//! in WGSL, GLSL 4.50 (or `--version`), GLSL ES 3.00, HLSL (shader model 5.1) or MSL (2.1).
 //!
 //! How: the GPU path's WGSL for the tape (`gpu::codegen`: the library in `gpu/wgsl/` and the
-//! tape's straight-line function) made all-f32 (`narrow.rs`; naga's MSL and GLSL ES have no
+//! tape's straight-line function; `gpu::filtered`: the filtered form's rules and `ftape`) made
+//! all-f32 (`narrow.rs`; naga's MSL and GLSL ES have no
 //! f64), the noise tables a module-scope constant array instead of a storage buffer, every name
 //! of the library prefixed `tg_`, the exported functions appended, and one stub entry point
 //! that calls them all. naga parses and validates that (without the f64 capability: the proof
@@ -26,8 +28,10 @@ use crate::tape::Tape;
 use std::fmt::Write;
 pub use uniforms::UniformPlan;
 
-/// The exported functions of `tape`'s outputs, in the tape's output order.
-pub fn functions(tape: &Tape) -> Result<Vec<ExportedFunction>, ShaderError> {
+/// The exported functions of `tape`'s outputs, in the tape's output order; with `_filtered`
+/// forms when `filtered` and the filtered form covers the tape (`gpu::filtered::unsupported`).
+pub fn functions(tape: &Tape, filtered: bool) -> Result<Vec<ExportedFunction>, ShaderError> {
+    let filtered = filtered && crate::gpu::filtered::unsupported(tape).is_none();
     let mut seen = std::collections::HashSet::new();
     let mut all = Vec::new();
     for o in &tape.outputs {
@@ -38,6 +42,7 @@ pub fn functions(tape: &Tape) -> Result<Vec<ExportedFunction>, ShaderError> {
         all.push(ExportedFunction {
             output: o.name.to_string(),
             lod: format!("{name}_lod"),
+            filtered: filtered.then(|| format!("{name}_filtered")),
             name,
             channels: o.ty.channels(),
         });
@@ -68,8 +73,17 @@ pub fn f32_wgsl(
     debug_assert!(missing.is_empty(), "the library has no {missing:?}");
     source.push_str(&table_arrays(tape, lang));
     let exprs = uniforms.map(|u| u.exprs.clone()).unwrap_or_default();
-    let part = crate::gpu::codegen::tape_part(tape, &exprs);
-    source.push_str(&part.replace("dispatch.one", "1.0"));
+    // The GPU path's constants are multiplied by `dispatch.one`, a 1.0 the driver cannot fold
+    // into them; the point forms take the literal.
+    source.push_str(&crate::gpu::codegen::tape_part(tape, &exprs).replace("dispatch.one", "1.0"));
+    if functions.iter().any(|f| f.filtered.is_some()) {
+        source.push_str(crate::gpu::widen::library());
+        match crate::gpu::filtered::filtered_part(tape) {
+            Ok(part) => source.push_str(&part.replace("dispatch.one", FILTER_ONE)),
+            Err(e) => debug_assert!(false, "functions() checked the tape: {e}"),
+        }
+        let _ = writeln!(source, "var<private> {FILTER_ONE}: f32 = 1.0;");
+    }
     let narrowed = narrow::narrow(&source);
     let names = narrow::module_names(&narrowed);
     let mut out = narrow::prefix(&narrowed, &names);
@@ -110,6 +124,15 @@ pub fn f32_wgsl(
             "fn {}(p: vec3<f32>, spacing: f32) -> {ty} {{\n    let r = {p}tape(p, spacing);\n    return {value};\n}}\n",
             f.lod
         );
+        if let Some(filtered) = &f.filtered {
+            let _ = writeln!(
+                out,
+                "fn {filtered}(p: vec3<f32>, footprint: mat3x3<f32>) -> {ty} {{\n    \
+                 {p}{FILTER_ONE} = select(1.0, f32(bitcast<u32>(p.y) & 255u), bitcast<u32>(p.x) == 0x7fc0bad1u);\n    \
+                 {p}fp_set(footprint[0], footprint[1], footprint[2]);\n    \
+                 let r = {p}ftape(p);\n    return {value};\n}}\n"
+            );
+        }
     }
     let _ = writeln!(
         out,
@@ -122,10 +145,25 @@ pub fn f32_wgsl(
             "    a = a + {}(at.xyz){pick} + {}(at.xyz, at.w){pick};",
             f.name, f.lod
         );
+        if let Some(filtered) = &f.filtered {
+            let _ = writeln!(
+                out,
+                "    a = a + {filtered}(at.xyz, mat3x3<f32>(at.www, at.xyz, at.zyx)){pick};"
+            );
+        }
     }
     let _ = writeln!(out, "    return vec4<f32>(a);\n}}");
     out
 }
+
+/// The filtered form's loops (a noise octave's samples, the Gauss–Legendre nodes, a periodic
+/// chain's three levels) run `n · one` times, where the GPU path's `one` is a uniform that is
+/// 1.0 at run time: a bound the driver cannot know, so it keeps one copy of each loop's body
+/// (the inlined noise kernel) instead of unrolling it (lavapipe unrolled the literal 1.0 and
+/// ran out of 24 GB on the first graph). An exported shader has no binding of its own, so each
+/// `_filtered` function sets this private variable from its point: 1.0, unless `p.x` is one
+/// particular NaN (then up to 255: wasted work on a NaN result). No compiler can fold that.
+const FILTER_ONE: &str = "filter_one";
 
 /// The noise tables as constant arrays, one per section, holding only what each table's basis
 /// reads (the GPU path's buffer gives every table all 1544 words): the permutations packed four
@@ -254,14 +292,25 @@ pub fn export(
     uniforms: Option<&UniformPlan>,
 ) -> Result<Exported, ShaderError> {
     check_version(options)?;
-    let functions = functions(tape)?;
+    let functions = functions(tape, options.filtered && !filtered_ignores(uniforms))?;
     let wgsl = f32_wgsl(tape, &functions, uniforms, options.lang);
     let mut source = tidy(&translate(&wgsl, options)?, options.lang, &functions);
     source = plain_parameters(&source, &functions);
     if options.lang == Lang::Hlsl {
         source = hlsl_table_initializer(&source);
     }
+    if options.lang == Lang::Msl {
+        source = msl_private_locals(&source, &functions);
+    }
     Ok(Exported { source, functions })
+}
+
+/// Whether `uniforms` has a param read from the uniform block: the filtered form's rules are
+/// built for the params' values (a ramp's shapes over its input's range, the periodic chains'
+/// shapes, which operands are integers), so with such a param its `_filtered` functions are
+/// left out rather than filter for values the block no longer holds.
+pub fn filtered_ignores(uniforms: Option<&UniformPlan>) -> bool {
+    uniforms.is_some_and(|u| u.params.iter().any(|p| p.constant.is_none()))
 }
 
 /// The names naga chose, made the contract's: an exported name ending in a digit got a `_`
@@ -270,7 +319,8 @@ pub fn export(
 fn tidy(text: &str, lang: Lang, functions: &[ExportedFunction]) -> String {
     let exported: std::collections::HashMap<String, String> = functions
         .iter()
-        .flat_map(|f| [&f.name, &f.lod])
+        .flat_map(|f| [Some(&f.name), Some(&f.lod), f.filtered.as_ref()])
+        .flatten()
         .filter(|n| n.ends_with(|c: char| c.is_ascii_digit()))
         .map(|n| (format!("{n}_"), n.clone()))
         .collect();
@@ -365,7 +415,7 @@ pub fn precision_warnings(planned: &Tape) -> Vec<String> {
 /// per element (`Constructarray64_uint_(uint arg0, …)`), which glslang's HLSL front end
 /// refuses ("recursion detected") and compilers parse slowly: each module-scope array (the
 /// tables) becomes a `static const` initializer list, and a constructor nothing else calls
-/// goes.
+/// goes. Zero arrays become lists ([`hlsl_zero_array`]).
 fn hlsl_table_initializer(text: &str) -> String {
     let mut constructors = Vec::new();
     let mut lines: Vec<String> = text
@@ -385,7 +435,9 @@ fn hlsl_table_initializer(text: &str) -> String {
                         .unwrap_or(&head["static ".len()..]);
                     Some(format!("static const {head} = {{ {args} }};"))
                 });
-            rewritten.unwrap_or_else(|| line.to_string())
+            rewritten
+                .or_else(|| hlsl_zero_array(line))
+                .unwrap_or_else(|| line.to_string())
         })
         .collect();
     for constructor in constructors {
@@ -408,8 +460,67 @@ fn hlsl_table_initializer(text: &str) -> String {
     out
 }
 
+/// MSL has no module-scope private variables: naga passes each (the filtered form's footprint
+/// state, `fp_*`, and `filter_one`) down as a `thread T&` parameter of every function that
+/// uses one, the exported `_filtered` functions included. There they become locals
+/// (zero-initialized; the function sets them before any read), so each keeps the contract's
+/// signature `(p, footprint)`.
+fn msl_private_locals(text: &str, functions: &[ExportedFunction]) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut lines = text.lines();
+    while let Some(line) = lines.next() {
+        out.push_str(line);
+        out.push('\n');
+        let exported = functions
+            .iter()
+            .filter_map(|f| f.filtered.as_ref())
+            .any(|n| line.ends_with(&format!(" {n}(")));
+        if !exported {
+            continue;
+        }
+        let (mut params, mut locals) = (Vec::new(), Vec::new());
+        for line in lines.by_ref() {
+            if line.starts_with(')') {
+                let kept = params.len();
+                for (k, p) in params.into_iter().enumerate() {
+                    let p: &str = p;
+                    let p = if k + 1 == kept {
+                        p.trim_end_matches(',')
+                    } else {
+                        p
+                    };
+                    out.push_str(p);
+                    out.push('\n');
+                }
+                out.push_str(line);
+                out.push('\n');
+                for local in &locals {
+                    let _ = writeln!(out, "    {local} = {{}};");
+                }
+                break;
+            }
+            match line.trim().strip_prefix("thread ") {
+                Some(param) => locals.push(param.trim_end_matches(',').replacen('&', "", 1)),
+                None => params.push(line),
+            }
+        }
+    }
+    out
+}
+
+/// An array's zero value as naga writes it, `float3 e[3] = (float3[3])0;`, which glslang's
+/// HLSL front end refuses, as an initializer list of zeros: `{ (float3)0, (float3)0, … }`.
+fn hlsl_zero_array(line: &str) -> Option<String> {
+    let (head, cast) = line.split_once(" = (")?;
+    let (ty, n) = cast.strip_suffix("])0;")?.split_once('[')?;
+    let n: usize = n.parse().ok()?;
+    let zeros = vec![format!("({ty})0"); n].join(", ");
+    Some(format!("{head} = {{ {zeros} }};"))
+}
+
 /// naga numbers every parameter apart (`p_3`, `spacing_1`); in the exported functions they are
-/// `p` and `spacing` again, as the contract writes them (their bodies name nothing else).
+/// `p`, `spacing` and `footprint` again, as the contract writes them (their bodies name nothing
+/// else).
 fn plain_parameters(text: &str, functions: &[ExportedFunction]) -> String {
     let mut out = String::with_capacity(text.len());
     let mut inside = false;
@@ -417,8 +528,9 @@ fn plain_parameters(text: &str, functions: &[ExportedFunction]) -> String {
     for line in text.lines() {
         if !inside && depth == 0 {
             inside = functions.iter().any(|f| {
-                [&f.name, &f.lod]
-                    .iter()
+                [Some(&f.name), Some(&f.lod), f.filtered.as_ref()]
+                    .into_iter()
+                    .flatten()
                     .any(|n| line.contains(&format!(" {n}(")) || line.starts_with(&format!("{n}(")))
             });
         }
@@ -428,7 +540,8 @@ fn plain_parameters(text: &str, functions: &[ExportedFunction]) -> String {
             out.push_str(&narrow::rename_words(line, |w| {
                 let (base, n) = w.rsplit_once('_')?;
                 let numbered = !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit());
-                (numbered && (base == "p" || base == "spacing")).then(|| base.to_string())
+                let ours = matches!(base, "p" | "spacing" | "footprint");
+                (numbered && ours).then(|| base.to_string())
             }));
             if depth == 0 && line.contains('}') {
                 inside = false;

@@ -51,6 +51,27 @@ const OVERRIDES: &[(&str, &str)] = &[
         "d_div",
         "fn d_div(a: f32, b: f32) -> f32 { return s_div(a, b); }\n",
     ),
+    // The driver's own sin and cos may be as coarse as 2^-11 (the precision Vulkan and WebGL
+    // allow; SwiftShader's, under Chromium's WebGL, are off by 1e-4): [`SIN_COS`] instead.
+    (
+        "s_sin",
+        "fn s_sin(x: f32) -> f32 {\n    \
+         if (is_inf(x)) { return nan_f32(); }\n    \
+         return sin_cos_f32(x).x;\n}\n",
+    ),
+    (
+        "s_cos",
+        "fn s_cos(x: f32) -> f32 {\n    \
+         if (is_inf(x)) { return nan_f32(); }\n    \
+         return sin_cos_f32(x).y;\n}\n",
+    ),
+    (
+        "s_tan",
+        "fn s_tan(x: f32) -> f32 {\n    \
+         if (is_inf(x)) { return nan_f32(); }\n    \
+         let r = sin_cos_f32(x);\n    \
+         return r.x / r.y;\n}\n",
+    ),
     ("d_sin", "fn d_sin(x: f32) -> f32 { return s_sin(x); }\n"),
     ("d_cos", "fn d_cos(x: f32) -> f32 { return s_cos(x); }\n"),
     ("d_tan", "fn d_tan(x: f32) -> f32 { return s_tan(x); }\n"),
@@ -114,6 +135,29 @@ const LDEXP: &str = "fn ldexp_f32(x: f32, e: i32) -> f32 {
 }
 ";
 
+/// sin and cos of an f32, (sin x, cos x), written out so that every driver gives the same
+/// numbers: x reduced by π/2 in three f32 parts (Cody–Waite; each `k · part` exact while
+/// |k| < 2^15), then Cephes' f32 minimax polynomials on [−π/4, π/4] (about 1 ulp) and the
+/// quadrant's signs. Beyond |x| = 5e4, where one f32 ulp of x is already 0.004 rad, the
+/// reduction by a 2π rounded to f32 and the driver's own functions.
+const SIN_COS: &str = "fn sin_cos_f32(x: f32) -> vec2<f32> {
+    if (!(abs(x) < 51000.0)) {
+        let w = x - floor(x / 6.2831855 + 0.5) * 6.2831855;
+        return vec2<f32>(sin(w), cos(w));
+    }
+    let k = round(x * 0.63661975);
+    let r = ((x - k * 1.5703125) - k * 4.837512969970703e-4) - k * 7.549789954891882e-8;
+    let z = r * r;
+    let s = r + r * z * (-0.16666654611 + z * (0.0083321608736 + z * -0.00019515295891));
+    let c = 1.0 - 0.5 * z + z * z * (0.04166664568298827 + z * (-0.001388731625493765 + z * 0.00002443315711809948));
+    let q = i32(k) & 3;
+    if (q == 0) { return vec2<f32>(s, c); }
+    if (q == 1) { return vec2<f32>(c, -s); }
+    if (q == 2) { return vec2<f32>(-s, -c); }
+    return vec2<f32>(-c, s);
+}
+";
+
 /// f64 constants with no f32 use once [`OVERRIDES`] are in: their definitions are dropped
 /// (their values are beyond f32's range).
 const DROPPED: &[&str] = &["SIMPLEX_MAX_F64"];
@@ -146,6 +190,7 @@ pub fn narrow(source: &str) -> String {
     // A library without one of them (a basis' module left out) has nothing to replace.
     replace_functions(&mut out, OVERRIDES);
     out.push_str(LDEXP);
+    out.push_str(SIN_COS);
     out
 }
 

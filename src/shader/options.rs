@@ -35,6 +35,10 @@ pub struct ShaderOptions {
     /// at the top; `None`: no `#version` line (the calling shader has one), the source written
     /// for GLSL 4.50 or GLSL ES 3.00.
     pub version: Option<u16>,
+    /// Also `texgraph_NAME_filtered(p, footprint)`: each output's mean over a footprint
+    /// (`eval --footprint`'s filtered form, in f32); `--no-filtered` leaves it out (a source
+    /// about a third the size).
+    pub filtered: bool,
 }
 
 /// One exported source and its functions.
@@ -53,6 +57,10 @@ pub struct ExportedFunction {
     pub name: String,
     /// `name` + `_lod`: the level-of-detail form, `(p, spacing)`.
     pub lod: String,
+    /// `name` + `_filtered`: the filtered form, `(p, footprint)` (a 3×3 matrix whose columns
+    /// are the footprint's edges); `None` where it is not exported (`--no-filtered`, or a tape
+    /// the filtered form does not cover).
+    pub filtered: Option<String>,
     /// 1 (a scalar, `f32`/`float`) or 3 (`vec3<f32>`/`vec3`/`float3`).
     pub channels: usize,
 }

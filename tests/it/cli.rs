@@ -1468,9 +1468,15 @@ fn shader_writes_the_functions_and_refuses_bad_flags() {
     for f in [
         "fn texgraph_colour(p: vec3<f32>) -> vec3<f32>",
         "fn texgraph_vein_lod(p: vec3<f32>, spacing: f32) -> f32",
+        "fn texgraph_vein_filtered(p: vec3<f32>, footprint: mat3x3<f32>) -> f32",
     ] {
         assert!(wgsl.contains(f), "no `{f}`");
     }
+    // `--no-filtered`: the same point and `_lod` functions, no filtered form and its rules.
+    let out = run(&["shader", MARBLE, "--no-filtered"]);
+    let plain = String::from_utf8(out.stdout).unwrap();
+    assert!(plain.contains("fn texgraph_vein_lod(") && !plain.contains("_filtered"));
+    assert!(plain.len() * 2 < wgsl.len(), "{} of {}", plain.len(), wgsl.len());
     assert!(
         !wgsl.contains("@fragment") && !wgsl.contains("@compute"),
         "an entry point is left"
@@ -1506,6 +1512,9 @@ fn shader_writes_the_functions_and_refuses_bad_flags() {
         "{stderr}"
     );
     assert!(!stderr.contains("param `period`"), "{stderr}");
+    // The filtered rules are built for the params' values: left out, and said.
+    assert!(stderr.contains("no `_filtered` functions"), "{stderr}");
+    assert!(!String::from_utf8_lossy(&out.stdout).contains("_filtered"));
     assert!(String::from_utf8_lossy(&out.stdout).contains("cbuffer texgraph_params : register(b0)"));
     for (args, says) in [
         (

@@ -42,3 +42,5 @@ mod serve_browser;
 mod shader;
 #[cfg(all(feature = "gpu", feature = "shader"))]
 mod shader_run;
+#[cfg(all(feature = "gpu", feature = "shader"))]
+mod shader_webgl;

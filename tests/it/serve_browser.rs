@@ -36,7 +36,7 @@ const THUMB: u64 = common::SMALL_IMAGES.thumb as u64;
 
 /// Whether the browser is installed; if not, says SKIPPED (or fails under
 /// `TEXGRAPH_REQUIRE_BROWSER=1`).
-fn browser_installed(test: &str) -> bool {
+pub(crate) fn browser_installed(test: &str) -> bool {
     let missing: Vec<&str> = [CHROMIUM, CHROMEDRIVER]
         .into_iter()
         .filter(|p| !Path::new(p).exists())
@@ -211,8 +211,8 @@ impl SharedBrowser {
     }
 }
 
-/// One test's turn with the shared browser, on its server's page.
-struct Browser {
+/// One test's turn with the shared browser, on its server's page (or a blank one).
+pub(crate) struct Browser {
     client: Client,
     _turn: tokio::sync::MutexGuard<'static, ()>,
 }
@@ -284,13 +284,34 @@ impl Browser {
         }
     }
 
+    /// Waits for the shared browser's turn on a blank page (no server), where a script may run
+    /// for up to `script_timeout` (the WebGL 2 test of `shader_webgl` compiles large shaders).
+    pub(crate) async fn blank(script_timeout: Duration) -> Browser {
+        let turn = TURN.lock().await;
+        let client = SharedBrowser::get().client.clone();
+        client.goto("about:blank").await.expect("about:blank");
+        client
+            .update_timeouts(fantoccini::wd::TimeoutConfiguration::new(
+                Some(script_timeout),
+                None,
+                None,
+            ))
+            .await
+            .expect("the script timeout");
+        Browser {
+            client,
+            _turn: turn,
+        }
+    }
+
     /// Ends this test's turn: the page is left for `about:blank`, so it stops talking to a
     /// server about to stop.
-    async fn close(self) {
+    pub(crate) async fn close(self) {
         let _ = self.client.goto("about:blank").await;
     }
 
-    async fn run(&self, script: &str, args: Vec<Value>) -> Value {
+    /// Runs `script` (a function body: `arguments` are `args`) and returns what it returns.
+    pub(crate) async fn run(&self, script: &str, args: Vec<Value>) -> Value {
         self.client
             .execute(script, args)
             .await

@@ -3,9 +3,10 @@
 //! the exported functions compute the CPU's numbers on a Vulkan adapter (lavapipe in CI).
 
 use crate::common;
-use crate::shader_run::{self, Source};
+use crate::shader_run::{self, Call, Source};
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use texgraph::filter::{Filtered, Footprint};
 use texgraph::shader::{export, ExportedFunction, Lang, ShaderOptions};
 use texgraph::{CheckOptions, CompileOptions, Tape, Workspace};
 
@@ -40,7 +41,7 @@ fn runner(test: &str) -> Option<&'static shader_run::Runner> {
     }
 }
 
-fn tape_of(path: &Path, sets: &[(String, f64)]) -> Tape {
+pub(crate) fn tape_of(path: &Path, sets: &[(String, f64)]) -> Tape {
     let check = CheckOptions {
         overrides: sets.to_vec(),
     };
@@ -49,12 +50,13 @@ fn tape_of(path: &Path, sets: &[(String, f64)]) -> Tape {
         .1
 }
 
-fn exported(tape: &Tape, lang: Lang) -> texgraph::shader::Exported {
+pub(crate) fn exported(tape: &Tape, lang: Lang) -> texgraph::shader::Exported {
     export(
         tape,
         &ShaderOptions {
             lang,
             version: None,
+            filtered: true,
         },
         None,
     )
@@ -68,6 +70,13 @@ fn stub(lang: Lang, source: &str, functions: &[ExportedFunction]) -> String {
     for f in functions {
         let pick = if f.channels == 1 { "" } else { ".x" };
         sum.push(format!("{}(p){pick} + {}(p, 0.01){pick}", f.name, f.lod));
+        if let Some(filtered) = &f.filtered {
+            let footprint = match lang {
+                Lang::Hlsl => "float3x3(p, p.yzx, float3(0.0, 0.0, 0.0))",
+                _ => "mat3(p, p.yzx, vec3(0.0))",
+            };
+            sum.push(format!("{filtered}(p, {footprint}){pick}"));
+        }
     }
     let sum = if sum.is_empty() {
         "0.0".to_string()
@@ -137,6 +146,29 @@ fn signature(lang: Lang, f: &ExportedFunction) -> String {
     }
 }
 
+/// The signature each language gives an exported `_filtered` function, in full.
+fn filtered_signature(lang: Lang, f: &ExportedFunction, filtered: &str) -> String {
+    let scalar = f.channels == 1;
+    match lang {
+        Lang::Wgsl => format!(
+            "fn {filtered}(p: vec3<f32>, footprint: mat3x3<f32>) -> {}",
+            if scalar { "f32" } else { "vec3<f32>" }
+        ),
+        Lang::Glsl | Lang::GlslEs => format!(
+            "{} {filtered}(vec3 p, mat3x3 footprint)",
+            if scalar { "float" } else { "vec3" }
+        ),
+        Lang::Hlsl => format!(
+            "{} {filtered}(float3 p, float3x3 footprint)",
+            if scalar { "float" } else { "float3" }
+        ),
+        Lang::Msl => format!(
+            "{} {filtered}(\n    metal::float3 p,\n    metal::float3x3 footprint\n)",
+            if scalar { "float" } else { "metal::float3" }
+        ),
+    }
+}
+
 /// Every graph of `graphs/` and `graphs/library/` in every language, with and without
 /// `--uniforms`: WGSL validates with naga (no f64 capability), GLSL 4.50 and GLSL ES 3.00
 /// compile with glslang inside a fragment shader calling every function, HLSL with glslang's
@@ -153,12 +185,13 @@ fn every_graph_compiles_in_every_language() {
         for (l, lang) in Lang::ALL.into_iter().enumerate() {
             let e = exported(&tape, lang);
             for f in &e.functions {
-                if !e.source.contains(&signature(lang, f)) {
-                    failures.push(format!(
-                        "{stem} {}: no `{}`",
-                        lang.name(),
-                        signature(lang, f)
-                    ));
+                let mut expected = vec![signature(lang, f)];
+                match &f.filtered {
+                    Some(filtered) => expected.push(filtered_signature(lang, f, filtered)),
+                    None => failures.push(format!("{stem} {}: no _filtered form", lang.name())),
+                }
+                for text in expected.iter().filter(|t| !e.source.contains(t.as_str())) {
+                    failures.push(format!("{stem} {}: no `{text}`", lang.name()));
                 }
             }
             let result = match lang {
@@ -202,7 +235,7 @@ fn validate_wgsl(source: &str) -> Result<(), String> {
 /// `n` points in the unit cube (the default bake region), f32-exact, and spacings for the
 /// level-of-detail forms: 0 (no level of detail: the point form's value) at every other point,
 /// else between 1e-4 and 1e-1.
-fn unit_points(n: usize, seed: u64) -> Vec<[f32; 4]> {
+pub(crate) fn unit_points(n: usize, seed: u64) -> Vec<[f32; 4]> {
     let mut state = seed;
     let mut next = move || {
         state = state
@@ -232,7 +265,7 @@ fn unit_points(n: usize, seed: u64) -> Vec<[f32; 4]> {
 /// floor, a ramp's `Constant` stops, a cell edge) passes that close, f32 arithmetic may land on
 /// either side. Returns the largest error at the points that needed no neighbour and the
 /// largest ratio of an error to its bound, or what broke the contract.
-fn shader_contract(
+pub(crate) fn shader_contract(
     tape: &Tape,
     points: &[[f32; 4]],
     lod: bool,
@@ -333,6 +366,15 @@ fn shader_contract(
     Ok((worst, ratio))
 }
 
+/// Whether a run takes the graph `stem`: those of `set`, or every graph with
+/// `TEXGRAPH_SHADER_ALL=1`; of those, with `TEXGRAPH_SHADER_ONLY=a,b`, the ones whose name
+/// contains `a` or `b` (while debugging, or to time a few).
+pub(crate) fn selected(stem: &str, set: &[&str]) -> bool {
+    let all = std::env::var_os("TEXGRAPH_SHADER_ALL").is_some_and(|v| v == "1");
+    let only = std::env::var("TEXGRAPH_SHADER_ONLY").unwrap_or_default();
+    (all || set.contains(&stem)) && only.split(',').any(|o| stem.contains(o))
+}
+
 /// Runs every graph's exported functions in `lang` (WGSL, or GLSL 4.50 through glslang's
 /// SPIR-V) on the adapter at 4096 points of the unit cube against the CPU:
 /// [`shader_contract`].
@@ -346,12 +388,9 @@ fn every_graph_matches(test: &str, lang: Lang, subset: &[&str]) {
     let input: Vec<f32> = points.iter().flatten().copied().collect();
     let mut failures = Vec::new();
     let (mut worst, mut ratio, mut matched) = (0f64, 0f64, 0);
-    // `TEXGRAPH_SHADER_ONLY=name`: the graphs whose file name contains it (while debugging).
-    let only = std::env::var("TEXGRAPH_SHADER_ONLY").unwrap_or_default();
-    let all = std::env::var_os("TEXGRAPH_SHADER_ALL").is_some_and(|v| v == "1");
     for path in common::graph_files() {
         let stem = path.file_stem().unwrap().to_string_lossy().to_string();
-        if !stem.contains(&only) || !(all || subset.contains(&stem.as_str())) {
+        if !selected(&stem, subset) {
             continue;
         }
         let tape = tape_of(&path, &[]);
@@ -366,10 +405,11 @@ fn every_graph_matches(test: &str, lang: Lang, subset: &[&str]) {
                 Lang::Wgsl => Source::Wgsl(format!(
                     "{}{}",
                     e.source,
-                    shader_run::wgsl_entry(&e.functions, points.len(), lod)
+                    shader_run::wgsl_entry(&e.functions, points.len(), Call::Lod)
                 )),
                 _ => {
-                    let text = shader_run::glsl_entry(&e.source, &e.functions, points.len(), lod);
+                    let text =
+                        shader_run::glsl_entry(&e.source, &e.functions, points.len(), Call::Lod);
                     match spirv(dir.path(), &stem, &text) {
                         Ok(words) => Source::SpirV(words),
                         Err(why) => {
@@ -380,7 +420,7 @@ fn every_graph_matches(test: &str, lang: Lang, subset: &[&str]) {
                 }
             };
             let result = runner
-                .run(source, &input, tape.channels(), None)
+                .run(source, (&input, Call::Lod), tape.channels(), None)
                 .and_then(|out| shader_contract(&tape, &points, lod, &out));
             eprintln!("{stem}: {:.2} s", started.elapsed().as_secs_f64());
             match result {
@@ -522,6 +562,7 @@ fn a_uniform_changes_the_period_at_run_time() {
     let options = ShaderOptions {
         lang: Lang::Wgsl,
         version: None,
+        filtered: false,
     };
     let e = export(&tape, &options, Some(&plan)).unwrap();
     let points = unit_points(4096, 7);
@@ -532,10 +573,10 @@ fn a_uniform_changes_the_period_at_run_time() {
         let source = Source::Wgsl(format!(
             "{}{}",
             e.source,
-            shader_run::wgsl_entry(&e.functions, points.len(), false)
+            shader_run::wgsl_entry(&e.functions, points.len(), Call::Point)
         ));
         let out = runner
-            .run(source, &input, tape.channels(), Some(&block))
+            .run(source, (&input, Call::Point), tape.channels(), Some(&block))
             .unwrap();
         let cpu = tape_of(&path, &[("period".into(), period as f64)]);
         let (worst, ratio) = shader_contract(&cpu, &points, false, &out)
@@ -590,4 +631,125 @@ fn engine_templates_compile() {
     let dir = tempfile::tempdir().unwrap();
     glslang_compile(dir.path(), "page.frag", &fragment, false)
         .unwrap_or_else(|e| panic!("webgl2.html's fragment shader: {e}"));
+}
+
+/// Points of the unit cube (f32) each with a footprint (three edges, f32): cubes of sides 1/2,
+/// 1/8, 1/32 and 1/256, a voxel box, two anisotropic pixel parallelograms, a point.
+pub(crate) fn filtered_points(n: usize, seed: u64) -> Vec<([f32; 3], [[f32; 3]; 3])> {
+    let cube = |w: f32| [[w, 0.0, 0.0], [0.0, w, 0.0], [0.0, 0.0, w]];
+    unit_points(n, seed)
+        .into_iter()
+        .enumerate()
+        .map(|(i, q)| {
+            let edges = match i % 8 {
+                0 => cube(0.5),
+                1 => cube(0.125),
+                2 => cube(1.0 / 32.0),
+                3 => cube(1.0 / 256.0),
+                4 => [[0.3, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.07]],
+                5 => [[0.2, 0.05, 0.0], [0.0, 0.01, 0.003], [0.0; 3]],
+                6 => [[0.15, -0.07, 0.02], [0.001, 0.002, -0.003], [0.0; 3]],
+                _ => [[0.0; 3]; 3],
+            };
+            ([q[0], q[1], q[2]], edges)
+        })
+        .collect()
+}
+
+/// The filtered contract (docs/shaders.md, "Accuracy"): per channel, |shader − CPU filtered
+/// estimate (f64 rules)| ≤ [`FILTERED_TOLERANCE`] · max(1, |v|). Returns the largest such
+/// relative error and its ratio to the tolerance, or the first point that breaks it.
+pub(crate) fn filtered_contract(
+    tape: &Tape,
+    points: &[([f32; 3], [[f32; 3]; 3])],
+    on_gpu: &[f32],
+) -> Result<(f64, f64), String> {
+    let n = points.len();
+    let [x, y, z] = [0, 1, 2].map(|c| points.iter().map(|p| p.0[c] as f64).collect::<Vec<f64>>());
+    let footprints: Vec<Footprint> = points
+        .iter()
+        .map(|p| Footprint::from_edges(p.1.map(|e| e.map(f64::from))).expect("a footprint"))
+        .collect();
+    let mut cpu = vec![0f64; tape.channels() * n];
+    Filtered::new(tape).eval_batch([&x, &y, &z], &footprints, &mut cpu);
+    let mut worst = 0f64;
+    for (k, (&c, &g)) in cpu.iter().zip(on_gpu).enumerate() {
+        let g = f64::from(g);
+        let err = match (c.is_finite(), g.is_finite()) {
+            (true, true) => (c - g).abs() / c.abs().max(1.0),
+            (false, false) => 0.0,
+            _ => f64::INFINITY,
+        };
+        if err > FILTERED_TOLERANCE {
+            let (i, ch) = (k % n, k / n);
+            return Err(format!(
+                "channel {ch} at {:?} over {:?}: shader {g} against the CPU's {c} (relative error {err:.2e} > {FILTERED_TOLERANCE:.0e})",
+                points[i].0, points[i].1
+            ));
+        }
+        worst = worst.max(err);
+    }
+    Ok((worst, worst / FILTERED_TOLERANCE))
+}
+
+/// How far an exported `_filtered` function may be from the CPU's filtered estimate, relative
+/// to max(1, |v|): the same rules, in f32 instead of f64 (the largest seen over every graph is
+/// 1.4e-4), a tenth of what the estimates are off from the true means (docs/filtering.md).
+pub(crate) const FILTERED_TOLERANCE: f64 = 1e-3;
+
+/// What `cargo test` runs of the filtered forms on lavapipe (`TEXGRAPH_SHADER_ALL=1`: every
+/// graph): the marble's octaves, fused |sin| and ramp, the lattice `mod` of a checker, plain
+/// noise through a ramp. lavapipe inlines every call: a seed graph's filtered shader compiles
+/// in 2 to 40 s, `floor_tiles` took more than 13 minutes and 12 GB (docs/shaders.md).
+const FILTERED_SET: &[&str] = &["seed002_noise", "seed003_marble", "seed004_checker3d"];
+
+/// Every graph's exported WGSL `_filtered` functions on the adapter at 4096 points of the unit
+/// cube with footprints from a point to half the cube, against the CPU's filtered estimates.
+#[test]
+fn exported_filtered_matches_the_cpu() {
+    let test = "exported_filtered_matches_the_cpu";
+    let Some(runner) = runner(test) else { return };
+    let points = filtered_points(4096, 36);
+    let input: Vec<f32> = points
+        .iter()
+        .flat_map(|(p, e)| p.iter().chain(e.iter().flatten()).copied())
+        .collect();
+    let (mut failures, mut worst, mut matched) = (Vec::new(), 0f64, 0);
+    for path in common::graph_files() {
+        let stem = path.file_stem().unwrap().to_string_lossy().to_string();
+        if !selected(&stem, FILTERED_SET) {
+            continue;
+        }
+        let tape = tape_of(&path, &[]);
+        let e = exported(&tape, Lang::Wgsl);
+        if e.functions.iter().any(|f| f.filtered.is_none()) {
+            failures.push(format!("{stem}: no filtered form exported"));
+            continue;
+        }
+        let started = std::time::Instant::now();
+        let source = Source::Wgsl(format!(
+            "{}{}",
+            e.source,
+            shader_run::wgsl_entry(&e.functions, points.len(), Call::Filtered)
+        ));
+        let result = runner
+            .run(source, (&input, Call::Filtered), tape.channels(), None)
+            .and_then(|out| filtered_contract(&tape, &points, &out));
+        eprintln!(
+            "{stem}: {:.2} s {result:?}",
+            started.elapsed().as_secs_f64()
+        );
+        match result {
+            Ok((w, _)) => {
+                worst = worst.max(w);
+                matched += 1;
+            }
+            Err(why) => failures.push(format!("{stem}: {why}")),
+        }
+    }
+    eprintln!(
+        "{test} on {}: {matched} graphs matched, largest relative error {worst:.3e}",
+        runner.name
+    );
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

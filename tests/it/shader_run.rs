@@ -49,49 +49,90 @@ pub enum Source {
     SpirV(Vec<u32>),
 }
 
-/// The WGSL compute entry point `main` over exported functions: input `p` (x, y, z, spacing
-/// per point) at binding 1, output at binding 2, channel-planar; `lod`: the `_lod` forms.
-pub fn wgsl_entry(functions: &[ExportedFunction], n: usize, lod: bool) -> String {
-    let body = stores(functions, lod, "let", "u");
+/// Which form of the exported functions an entry point calls, and what each point's input is.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Call {
+    /// `texgraph_NAME(p)`: x, y, z and an unread fourth float per point.
+    Point,
+    /// `texgraph_NAME_lod(p, spacing)`: x, y, z, spacing per point.
+    Lod,
+    /// `texgraph_NAME_filtered(p, footprint)`: x, y, z, then the footprint's three edges
+    /// (nine floats) per point.
+    Filtered,
+}
+
+impl Call {
+    /// Floats per point in the input buffer.
+    pub fn stride(self) -> usize {
+        match self {
+            Call::Point | Call::Lod => 4,
+            Call::Filtered => 12,
+        }
+    }
+
+    /// The call of `f`'s form (`p`, `h` and `f` are the entry points' locals).
+    pub fn of(self, f: &ExportedFunction) -> String {
+        match self {
+            Call::Point => format!("{}(p)", f.name),
+            Call::Lod => format!("{}(p, h)", f.lod),
+            Call::Filtered => format!(
+                "{}(p, fp)",
+                f.filtered
+                    .as_ref()
+                    .expect("a function with a filtered form")
+            ),
+        }
+    }
+}
+
+/// The WGSL compute entry point `main` over exported functions: input per point at binding 1
+/// ([`Call::stride`] floats each), output at binding 2, channel-planar.
+pub fn wgsl_entry(functions: &[ExportedFunction], n: usize, call: Call) -> String {
+    let body = stores(functions, call, "let", "u");
+    let s = call.stride();
     format!(
         "\n@group(0) @binding(1) var<storage, read> tg_test_in: array<f32>;\n\
          @group(0) @binding(2) var<storage, read_write> tg_test_out: array<f32>;\n\
          const N: u32 = {n}u;\n\
+         fn tg_test_v(at: u32) -> vec3<f32> {{\n    \
+         return vec3<f32>(tg_test_in[at], tg_test_in[at + 1u], tg_test_in[at + 2u]);\n}}\n\
          @compute @workgroup_size(64)\n\
          fn main(@builtin(global_invocation_id) id: vec3<u32>) {{\n\
          \x20   let i = id.x;\n    if (i >= N) {{ return; }}\n\
-         \x20   let p = vec3<f32>(tg_test_in[4u * i], tg_test_in[4u * i + 1u], tg_test_in[4u * i + 2u]);\n\
-         \x20   let h = tg_test_in[4u * i + 3u];\n    _ = h;\n{body}}}\n"
+         \x20   let p = tg_test_v({s}u * i);\n\
+         \x20   let h = tg_test_in[{s}u * i + 3u];\n    _ = h;\n\
+         \x20   let fp = mat3x3<f32>(tg_test_v({s}u * i + 3u), tg_test_v({s}u * i + 6u), tg_test_v({s}u * i + 9u));\n    _ = fp;\n\
+         {body}}}\n"
     )
 }
 
 /// The GLSL 4.50 compute shader around exported GLSL (the same bindings as [`wgsl_entry`]).
-pub fn glsl_entry(exported: &str, functions: &[ExportedFunction], n: usize, lod: bool) -> String {
-    let body = stores(functions, lod, "vec3", "");
+pub fn glsl_entry(exported: &str, functions: &[ExportedFunction], n: usize, call: Call) -> String {
+    let body = stores(functions, call, "vec3", "");
+    let s = call.stride();
     format!(
         "#version 450\n{exported}\n\
          layout(local_size_x = 64) in;\n\
          layout(std430, set = 0, binding = 1) readonly buffer TgIn {{ float tg_test_in[]; }};\n\
          layout(std430, set = 0, binding = 2) buffer TgOut {{ float tg_test_out[]; }};\n\
          const uint N = {n}u;\n\
+         vec3 tg_test_v(uint at) {{ return vec3(tg_test_in[at], tg_test_in[at + 1u], tg_test_in[at + 2u]); }}\n\
          void main() {{\n    uint i = gl_GlobalInvocationID.x;\n    if (i >= N) {{ return; }}\n\
-         \x20   vec3 p = vec3(tg_test_in[4u * i], tg_test_in[4u * i + 1u], tg_test_in[4u * i + 2u]);\n\
-         \x20   float h = tg_test_in[4u * i + 3u];\n{body}}}\n"
+         \x20   vec3 p = tg_test_v({s}u * i);\n\
+         \x20   float h = tg_test_in[{s}u * i + 3u];\n\
+         \x20   mat3 fp = mat3(tg_test_v({s}u * i + 3u), tg_test_v({s}u * i + 6u), tg_test_v({s}u * i + 9u));\n\
+         {body}}}\n"
     )
 }
 
-/// The entry points' statements: each function called at `p` (or its `_lod` form at `p, h`),
-/// its channels stored channel-planar; `vec3` declares a vector local (`let` in WGSL, `vec3`
-/// in GLSL), `unsigned` is the unsigned literal suffix (`u` in WGSL).
-fn stores(functions: &[ExportedFunction], lod: bool, vec3: &str, unsigned: &str) -> String {
+/// The entry points' statements: each function's `call` form at the point, its channels
+/// stored channel-planar; `vec3` declares a vector local (`let` in WGSL, `vec3` in GLSL),
+/// `unsigned` is the unsigned literal suffix (`u` in WGSL).
+fn stores(functions: &[ExportedFunction], call: Call, vec3: &str, unsigned: &str) -> String {
     let mut body = String::new();
     let mut c = 0;
     for f in functions {
-        let call = if lod {
-            format!("{}(p, h)", f.lod)
-        } else {
-            format!("{}(p)", f.name)
-        };
+        let call = call.of(f);
         if f.channels == 1 {
             body.push_str(&format!(
                 "    tg_test_out[{c}{unsigned} * N + i] = {call};\n"
@@ -111,17 +152,17 @@ fn stores(functions: &[ExportedFunction], lod: bool, vec3: &str, unsigned: &str)
 }
 
 impl Runner {
-    /// Runs `source`'s `main` over `n` points (`input`: 4 floats each), `channels` outputs
-    /// each; `uniforms`: the `TexgraphParams` block at binding 0.
+    /// Runs `source`'s `main` over the points of `input` (`call.stride()` floats each),
+    /// `channels` outputs each; `uniforms`: the `TexgraphParams` block at binding 0.
     pub fn run(
         &self,
         source: Source,
-        input: &[f32],
+        (input, call): (&[f32], Call),
         channels: usize,
         uniforms: Option<&[f32]>,
     ) -> Result<Vec<f32>, String> {
         use wgpu::util::DeviceExt;
-        let n = input.len() / 4;
+        let n = input.len() / call.stride();
         let device = &self.device;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {

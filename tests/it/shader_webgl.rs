@@ -1,0 +1,306 @@
+//! Exported GLSL ES 3.00 run in WebGL 2 in headless Chromium (issue 35): the shared browser
+//! of `serve_browser` (ANGLE over SwiftShader without a GPU) renders 4096 points into float
+//! render targets, one texel a point, through a fragment shader that calls every exported
+//! `_lod` (or `_filtered`) function; the texels read back meet the shader contract against the
+//! CPU (`shader::shader_contract`, the same bound as the lavapipe runs; for the filtered forms
+//! `shader::filtered_contract`).
+
+use crate::common;
+use crate::serve_browser::{browser_installed, Browser};
+use crate::shader::{
+    exported, filtered_contract, filtered_points, selected, shader_contract, tape_of, unit_points,
+};
+use crate::shader_run::Call;
+use serde_json::{json, Value};
+use std::time::{Duration, Instant};
+use texgraph::shader::{ExportedFunction, Lang};
+
+/// The points' texture is `SIDE` × `SIDE` texels: 4096 points.
+const SIDE: usize = 64;
+
+/// What `cargo test` runs in the browser (`TEXGRAPH_SHADER_ALL=1`: every graph): cellular,
+/// simplex, Perlin, Value and white noise, a fractal with its octave fade, tiling, sines (the
+/// exported sin and cos are written out: SwiftShader's are off by 1e-4), a vec3 colour output
+/// and a graph of several outputs, chosen among the graphs SwiftShader compiles in a few
+/// seconds (every graph: 300 s).
+const WEBGL_SET: &[&str] = &[
+    "cells",
+    "tiling_marble",
+    "seed000_wood",
+    "seed002_noise",
+    "seed002_sine",
+    "seed002_smooth_noise",
+    "seed003_marble",
+    "seed004_checker3d",
+    "seed004_wood_grain",
+];
+
+/// The graphs whose `_filtered` forms `cargo test` runs in the browser (`TEXGRAPH_SHADER_ALL=1`:
+/// every graph): noise through a ramp, a periodic chain. SwiftShader inlines every call, so a
+/// filtered shader compiles slowly: 4 s for these, 33 s for `cells`, 554 s for the seed 003
+/// marble's (docs/shaders.md).
+const WEBGL_FILTERED_SET: &[&str] = &["seed002_noise", "seed004_stripes"];
+
+/// The page's script: compiles `fragment` with a full-screen triangle, uploads the points
+/// (`arguments[1]`: f32 bit patterns, 4 or 12 per point) as an RGBA32F texture of `side`
+/// columns and `side` rows per 4 floats (texel (x, y + k · side) holds floats 4k to 4k + 3 of
+/// point y · side + x),
+/// draws into `arguments[2]` RGBA32F colour attachments and returns each attachment's texels
+/// as f32 bit patterns (exact through JSON, NaN and infinities included), or the compiler's log.
+const RUN: &str = r#"
+const [fragment, bits, targets, side, blocks] = arguments;
+const canvas = document.createElement('canvas');
+canvas.width = side;
+canvas.height = side;
+const gl = canvas.getContext('webgl2', { antialias: false });
+if (!gl) return { error: 'no WebGL 2 context' };
+try {
+    if (!gl.getExtension('EXT_color_buffer_float')) return { error: 'no EXT_color_buffer_float' };
+    const info = gl.getExtension('WEBGL_debug_renderer_info');
+    const renderer = info ? gl.getParameter(info.UNMASKED_RENDERER_WEBGL) : gl.getParameter(gl.RENDERER);
+    const shader = (type, text) => {
+        const s = gl.createShader(type);
+        gl.shaderSource(s, text);
+        gl.compileShader(s);
+        if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error(gl.getShaderInfoLog(s));
+        return s;
+    };
+    const program = gl.createProgram();
+    gl.attachShader(program, shader(gl.VERTEX_SHADER, `#version 300 es
+void main() { gl_Position = vec4(float(gl_VertexID % 2) * 4.0 - 1.0, float(gl_VertexID / 2) * 4.0 - 1.0, 0.0, 1.0); }`));
+    gl.attachShader(program, shader(gl.FRAGMENT_SHADER, fragment));
+    gl.linkProgram(program);
+    if (!gl.getProgramParameter(program, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(program));
+    gl.useProgram(program);
+    const points = gl.createTexture();
+    gl.activeTexture(gl.TEXTURE0);
+    gl.bindTexture(gl.TEXTURE_2D, points);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+    // The points' floats regrouped: block k of each point in rows k · side to (k + 1) · side.
+    const floats = new Float32Array(new Uint32Array(bits).buffer);
+    const stride = 4 * blocks;
+    const texels = new Float32Array(side * side * stride);
+    for (let i = 0; i < side * side; i++) {
+        for (let k = 0; k < blocks; k++) {
+            texels.set(floats.subarray(i * stride + 4 * k, i * stride + 4 * k + 4),
+                       (k * side * side + i) * 4);
+        }
+    }
+    gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, side, side * blocks, 0, gl.RGBA, gl.FLOAT, texels);
+    gl.uniform1i(gl.getUniformLocation(program, 'tg_points'), 0);
+    const framebuffer = gl.createFramebuffer();
+    gl.bindFramebuffer(gl.FRAMEBUFFER, framebuffer);
+    const attachments = [];
+    for (let t = 0; t < targets; t++) {
+        const texture = gl.createTexture();
+        gl.bindTexture(gl.TEXTURE_2D, texture);
+        gl.texStorage2D(gl.TEXTURE_2D, 1, gl.RGBA32F, side, side);
+        gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0 + t, gl.TEXTURE_2D, texture, 0);
+        attachments.push(gl.COLOR_ATTACHMENT0 + t);
+    }
+    gl.drawBuffers(attachments);
+    if (gl.checkFramebufferStatus(gl.FRAMEBUFFER) !== gl.FRAMEBUFFER_COMPLETE) {
+        return { error: 'the float render targets are not complete' };
+    }
+    gl.bindTexture(gl.TEXTURE_2D, points);
+    gl.viewport(0, 0, side, side);
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+    const out = [];
+    for (let t = 0; t < targets; t++) {
+        const texels = new Float32Array(side * side * 4);
+        gl.readBuffer(gl.COLOR_ATTACHMENT0 + t);
+        gl.readPixels(0, 0, side, side, gl.RGBA, gl.FLOAT, texels);
+        out.push(Array.from(new Uint32Array(texels.buffer)));
+    }
+    const error = gl.getError();
+    if (error !== gl.NO_ERROR) return { error: 'WebGL error ' + error };
+    return { renderer, targets: out };
+} catch (e) {
+    return { error: String(e.message || e) };
+} finally {
+    const lose = gl.getExtension('WEBGL_lose_context');
+    if (lose) lose.loseContext();
+}
+"#;
+
+/// The fragment shader around exported GLSL ES: the point at this texel (texel (x, y) is point
+/// `y · SIDE + x`), every function's `call` form at it, channel `c` written to attachment
+/// `c / 4`, component `c % 4`.
+fn fragment(exported: &str, functions: &[ExportedFunction], call: Call) -> (String, usize) {
+    let channels: usize = functions.iter().map(|f| f.channels).sum();
+    let targets = channels.div_ceil(4).max(1);
+    let mut body = format!("    float v[{}];\n", targets * 4);
+    for k in 0..targets * 4 {
+        body.push_str(&format!("    v[{k}] = 0.0;\n"));
+    }
+    let mut c = 0;
+    for f in functions {
+        let value = call.of(f);
+        if f.channels == 1 {
+            body.push_str(&format!("    v[{c}] = {value};\n"));
+        } else {
+            body.push_str(&format!("    vec3 c{c} = {value};\n"));
+            for (k, axis) in ["x", "y", "z"].iter().enumerate() {
+                body.push_str(&format!("    v[{}] = c{c}.{axis};\n", c + k));
+            }
+        }
+        c += f.channels;
+    }
+    let mut outs = String::new();
+    for t in 0..targets {
+        outs.push_str(&format!(
+            "layout(location = {t}) out highp vec4 tg_out{t};\n"
+        ));
+        body.push_str(&format!(
+            "    tg_out{t} = vec4(v[{}], v[{}], v[{}], v[{}]);\n",
+            4 * t,
+            4 * t + 1,
+            4 * t + 2,
+            4 * t + 3
+        ));
+    }
+    // The point's three blocks of four floats (x, y, z, spacing or the footprint's edges).
+    let text = format!(
+        "#version 300 es\n{exported}\nuniform highp sampler2D tg_points;\n{outs}\
+         void main() {{\n    ivec2 at = ivec2(gl_FragCoord.xy);\n\
+         \x20   vec4 q = texelFetch(tg_points, at, 0);\n\
+         \x20   vec3 p = q.xyz;\n    float h = q.w;\n\
+         \x20   vec4 q1 = {q1};\n    vec4 q2 = {q2};\n\
+         \x20   mat3 fp = mat3(vec3(q.w, q1.xy), vec3(q1.zw, q2.x), q2.yzw);\n{body}}}\n",
+        q1 = fetch(call, 1),
+        q2 = fetch(call, 2),
+    );
+    (text, targets)
+}
+
+/// The fragment shader's read of block `k` of its point's floats (zeros for a 4-float input).
+fn fetch(call: Call, k: usize) -> String {
+    if call.stride() > 4 * k {
+        format!("texelFetch(tg_points, at + ivec2(0, {}), 0)", k * SIDE)
+    } else {
+        "vec4(0.0)".to_string()
+    }
+}
+
+/// Runs `call`'s form of each graph's exported GLSL ES (the graphs of `set`, or all with
+/// `TEXGRAPH_SHADER_ALL=1`) in the browser at `input`'s points; `check` holds the read-back
+/// values to the contract (the largest error and largest error / bound, or why not).
+async fn every_graph_in_webgl2(
+    test: &str,
+    set: &[&str],
+    (input, call): (&[f32], Call),
+    check: impl Fn(&texgraph::Tape, &[f32]) -> Result<(f64, f64), String>,
+) {
+    if !browser_installed(test) {
+        return;
+    }
+    let bits: Vec<u32> = input.iter().map(|v| v.to_bits()).collect();
+    let browser = Browser::blank(Duration::from_secs(600)).await;
+    let (mut failures, mut renderer) = (Vec::new(), String::new());
+    let (mut worst, mut ratio, mut matched) = (0f64, 0f64, 0);
+    for path in common::graph_files() {
+        let stem = path.file_stem().unwrap().to_string_lossy().to_string();
+        if !selected(&stem, set) {
+            continue;
+        }
+        let tape = tape_of(&path, &[]);
+        let e = exported(&tape, Lang::GlslEs);
+        let (text, targets) = fragment(&e.source, &e.functions, call);
+        let started = Instant::now();
+        let blocks = call.stride() / 4;
+        let answer = browser
+            .run(
+                RUN,
+                vec![
+                    json!(text),
+                    json!(bits),
+                    json!(targets),
+                    json!(SIDE),
+                    json!(blocks),
+                ],
+            )
+            .await;
+        eprintln!("{stem}: {:.2} s", started.elapsed().as_secs_f64());
+        let result = read_back(&answer, tape.channels()).and_then(|(name, out)| {
+            renderer = name;
+            check(&tape, &out)
+        });
+        match result {
+            Ok((w, r)) => {
+                worst = worst.max(w);
+                ratio = ratio.max(r);
+                matched += 1;
+            }
+            Err(why) => failures.push(format!("{stem}: {why}")),
+        }
+    }
+    browser.close().await;
+    eprintln!(
+        "{test} on {renderer}: {matched} graphs matched, largest error {worst:.3e}, largest error / bound {ratio:.3}"
+    );
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    assert!(
+        matched > 0 || std::env::var_os("TEXGRAPH_SHADER_ONLY").is_some(),
+        "no graph was run"
+    );
+}
+
+/// Each graph's exported GLSL ES `_lod` functions in WebGL 2 (spacing 0, the point form's
+/// value, at every other point) against the CPU at 4096 points of the unit cube.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn exported_glsl_es_matches_the_cpu_in_webgl2() {
+    let points = unit_points(SIDE * SIDE, 35);
+    let input: Vec<f32> = points.iter().flatten().copied().collect();
+    every_graph_in_webgl2(
+        "exported_glsl_es_matches_the_cpu_in_webgl2",
+        WEBGL_SET,
+        (&input, Call::Lod),
+        |tape, out| shader_contract(tape, &points, true, out),
+    )
+    .await;
+}
+
+/// The `_filtered` functions in WebGL 2 at 4096 points of the unit cube with footprints from
+/// a point to half the cube, against the CPU's filtered estimates.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn exported_filtered_glsl_es_matches_the_cpu_in_webgl2() {
+    let points = filtered_points(SIDE * SIDE, 36);
+    let input: Vec<f32> = points
+        .iter()
+        .flat_map(|(p, e)| p.iter().chain(e.iter().flatten()).copied())
+        .collect();
+    every_graph_in_webgl2(
+        "exported_filtered_glsl_es_matches_the_cpu_in_webgl2",
+        WEBGL_FILTERED_SET,
+        (&input, Call::Filtered),
+        |tape, out| filtered_contract(tape, &points, out),
+    )
+    .await;
+}
+
+/// The script's answer as channel-planar values (channel `c` of point `i` at `c · n + i`) and
+/// the renderer's name, or the page's error.
+fn read_back(answer: &Value, channels: usize) -> Result<(String, Vec<f32>), String> {
+    if let Some(error) = answer["error"].as_str() {
+        return Err(format!("in the browser: {error}"));
+    }
+    let targets = answer["targets"]
+        .as_array()
+        .ok_or_else(|| format!("the page returned {answer}"))?;
+    let n = SIDE * SIDE;
+    let mut out = vec![0f32; channels * n];
+    for c in 0..channels {
+        let texels = targets[c / 4]
+            .as_array()
+            .ok_or("an attachment is missing")?;
+        for i in 0..n {
+            let bits = texels[4 * i + c % 4]
+                .as_u64()
+                .ok_or("a texel is not a number")?;
+            out[c * n + i] = f32::from_bits(bits as u32);
+        }
+    }
+    let renderer = answer["renderer"].as_str().unwrap_or("?").to_string();
+    Ok((renderer, out))
+}
