@@ -1476,7 +1476,12 @@ fn shader_writes_the_functions_and_refuses_bad_flags() {
     let out = run(&["shader", MARBLE, "--no-filtered"]);
     let plain = String::from_utf8(out.stdout).unwrap();
     assert!(plain.contains("fn texgraph_vein_lod(") && !plain.contains("_filtered"));
-    assert!(plain.len() * 2 < wgsl.len(), "{} of {}", plain.len(), wgsl.len());
+    assert!(
+        plain.len() * 2 < wgsl.len(),
+        "{} of {}",
+        plain.len(),
+        wgsl.len()
+    );
     assert!(
         !wgsl.contains("@fragment") && !wgsl.contains("@compute"),
         "an entry point is left"
