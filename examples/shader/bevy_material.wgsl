@@ -7,7 +7,9 @@
 // (with `--uniforms`, move its `@group(0) @binding(0)` to the material's group, `@group(2)`,
 // and give the material a uniform buffer of the params in the graph's order). The world
 // position, scaled, is the texture's `p`; the `_lod` form fades octaves finer than a pixel's
-// footprint. The tests validate this file with the marble's export pasted in (naga, as wgpu).
+// footprint; `texgraph_colour_filtered(p, mat3x3<f32>(dpdx(p), dpdy(p), vec3<f32>(0.0)))`
+// averages the texture over it (the antialiased form; more work per pixel). The tests validate
+// this file with the marble's export pasted in (naga, as wgpu).
 #import bevy_pbr::forward_io::VertexOutput
 
 // TEXGRAPH EXPORT HERE

@@ -620,17 +620,27 @@ fn engine_templates_compile() {
     let start = body.find("return `").unwrap() + "return `".len();
     let template = &body[start..start + body[start..].find("`;\n}").unwrap()];
     let glsl = exported(&tape, Lang::GlslEs).source;
-    let fragment = template
-        .replace("${exported}", &glsl)
-        .replace("${value}", "texgraph_colour_lod(p, spacing)")
-        .replace("${scale.toFixed(6)}", "1.000000");
-    assert!(
-        !fragment.contains("${"),
-        "a placeholder of the page is not filled in"
-    );
     let dir = tempfile::tempdir().unwrap();
-    glslang_compile(dir.path(), "page.frag", &fragment, false)
-        .unwrap_or_else(|e| panic!("webgl2.html's fragment shader: {e}"));
+    // The page's two forms (`form=lod`, `form=filtered`), as its script writes the calls.
+    for call in [
+        "texgraph_colour_lod(p, spacing)",
+        "texgraph_colour_filtered(p, mat3(dFdx(p), dFdy(p), vec3(0.0)))",
+    ] {
+        assert!(
+            page.contains(&call.replace("texgraph_colour", "${fn}")),
+            "{call}"
+        );
+        let fragment = template
+            .replace("${exported}", &glsl)
+            .replace("${value}", call)
+            .replace("${scale.toFixed(6)}", "1.000000");
+        assert!(
+            !fragment.contains("${"),
+            "a placeholder of the page is not filled in"
+        );
+        glslang_compile(dir.path(), "page.frag", &fragment, false)
+            .unwrap_or_else(|e| panic!("webgl2.html's fragment shader with {call}: {e}"));
+    }
 }
 
 /// Points of the unit cube (f32) each with a footprint (three edges, f32): cubes of sides 1/2,
