@@ -57,9 +57,7 @@ pub fn unsupported(tape: &Tape) -> Option<String> {
 /// channels whose filtered mean is not finite, as `Filtered::point_fallback`), the bases' f64
 /// forms, `filtered_part` and the filtered entry points.
 pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
-    if let Some(why) = unsupported(tape) {
-        return Err(GpuError::Unsupported(why));
-    }
+    let filtered = filtered_part(tape)?;
     let point = codegen::generate(tape)?;
     // The point shader without its entry points (the filtered ones replace them; its
     // bindings stay).
@@ -73,7 +71,7 @@ pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
         source.push_str(super::widen::library());
         source.push('\n');
     }
-    source.push_str(&filtered_part(tape)?);
+    source.push_str(&filtered);
     source.push_str(ENTRY);
     Ok(Shader {
         source,

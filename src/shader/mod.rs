@@ -319,8 +319,7 @@ pub fn filtered_ignores(uniforms: Option<&UniformPlan>) -> bool {
 fn tidy(text: &str, lang: Lang, functions: &[ExportedFunction]) -> String {
     let exported: std::collections::HashMap<String, String> = functions
         .iter()
-        .flat_map(|f| [Some(&f.name), Some(&f.lod), f.filtered.as_ref()])
-        .flatten()
+        .flat_map(ExportedFunction::names)
         .filter(|n| n.ends_with(|c: char| c.is_ascii_digit()))
         .map(|n| (format!("{n}_"), n.clone()))
         .collect();
@@ -528,9 +527,7 @@ fn plain_parameters(text: &str, functions: &[ExportedFunction]) -> String {
     for line in text.lines() {
         if !inside && depth == 0 {
             inside = functions.iter().any(|f| {
-                [Some(&f.name), Some(&f.lod), f.filtered.as_ref()]
-                    .into_iter()
-                    .flatten()
+                f.names()
                     .any(|n| line.contains(&format!(" {n}(")) || line.starts_with(&format!("{n}(")))
             });
         }

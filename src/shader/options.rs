@@ -37,7 +37,7 @@ pub struct ShaderOptions {
     pub version: Option<u16>,
     /// Also `texgraph_NAME_filtered(p, footprint)`: each output's mean over a footprint
     /// (`eval --footprint`'s filtered form, in f32); `--no-filtered` leaves it out (a source
-    /// about a third the size).
+    /// about a fifth the size).
     pub filtered: bool,
 }
 
@@ -63,6 +63,15 @@ pub struct ExportedFunction {
     pub filtered: Option<String>,
     /// 1 (a scalar, `f32`/`float`) or 3 (`vec3<f32>`/`vec3`/`float3`).
     pub channels: usize,
+}
+
+impl ExportedFunction {
+    /// The names of its functions: the point form, `_lod` and `_filtered` where exported.
+    pub fn names(&self) -> impl Iterator<Item = &String> {
+        [Some(&self.name), Some(&self.lod), self.filtered.as_ref()]
+            .into_iter()
+            .flatten()
+    }
 }
 
 /// Why an export failed.

@@ -375,19 +375,86 @@ pub(crate) fn selected(stem: &str, set: &[&str]) -> bool {
     (all || set.contains(&stem)) && only.split(',').any(|o| stem.contains(o))
 }
 
+/// The points a run of `call`'s form takes, as the input buffer's floats (`call.stride()` a
+/// point), and the contract its values are held to: the `_lod` form at 4096 points of the
+/// unit cube, [`shader_contract`]; the `_filtered` form at 4096 points with footprints,
+/// [`filtered_contract`].
+pub(crate) fn run_of(call: Call) -> (Vec<f32>, Box<Contract>) {
+    match call {
+        Call::Filtered => {
+            let points = filtered_points(4096, 36);
+            let input = points
+                .iter()
+                .flat_map(|(p, e)| p.iter().chain(e.iter().flatten()).copied())
+                .collect();
+            (
+                input,
+                Box::new(move |tape, out| filtered_contract(tape, &points, out)),
+            )
+        }
+        Call::Lod | Call::Point => {
+            let points = unit_points(4096, 35);
+            let input = points.iter().flatten().copied().collect();
+            let lod = call == Call::Lod;
+            (
+                input,
+                Box::new(move |tape, out| shader_contract(tape, &points, lod, out)),
+            )
+        }
+    }
+}
+
+/// A contract over a tape's values read back: the largest error and largest error / bound.
+pub(crate) type Contract = dyn Fn(&Tape, &[f32]) -> Result<(f64, f64), String>;
+
+/// What a run over graphs found: the graphs that broke the contract, the largest error and
+/// ratio to its bound among those that met it.
+#[derive(Default)]
+pub(crate) struct Tally {
+    failures: Vec<String>,
+    worst: f64,
+    ratio: f64,
+    matched: usize,
+}
+
+impl Tally {
+    pub(crate) fn record(&mut self, stem: &str, result: Result<(f64, f64), String>) {
+        match result {
+            Ok((w, r)) => {
+                self.worst = self.worst.max(w);
+                self.ratio = self.ratio.max(r);
+                self.matched += 1;
+            }
+            Err(why) => self.failures.push(format!("{stem}: {why}")),
+        }
+    }
+
+    /// Prints the figures and fails the test with every graph that broke the contract (or
+    /// when no graph ran, unless `TEXGRAPH_SHADER_ONLY` picked none).
+    pub(crate) fn finish(self, test: &str, device: &str) {
+        eprintln!(
+            "{test} on {device}: {} graphs matched, largest error {:.3e}, largest error / bound {:.3}",
+            self.matched, self.worst, self.ratio
+        );
+        assert!(self.failures.is_empty(), "{}", self.failures.join("\n"));
+        assert!(
+            self.matched > 0 || std::env::var_os("TEXGRAPH_SHADER_ONLY").is_some(),
+            "no graph was run"
+        );
+    }
+}
+
 /// Runs every graph's exported functions in `lang` (WGSL, or GLSL 4.50 through glslang's
-/// SPIR-V) on the adapter at 4096 points of the unit cube against the CPU:
-/// [`shader_contract`].
-fn every_graph_matches(test: &str, lang: Lang, subset: &[&str]) {
+/// SPIR-V) on the adapter, `call`'s form at [`run_of`]'s points, against the CPU.
+fn every_graph_matches(test: &str, lang: Lang, subset: &[&str], call: Call) {
     let Some(runner) = runner(test) else { return };
     if lang == Lang::Glsl && !glslang(test) {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
-    let points = unit_points(4096, 35);
-    let input: Vec<f32> = points.iter().flatten().copied().collect();
-    let mut failures = Vec::new();
-    let (mut worst, mut ratio, mut matched) = (0f64, 0f64, 0);
+    let (input, contract) = run_of(call);
+    let n = input.len() / call.stride();
+    let mut tally = Tally::default();
     for path in common::graph_files() {
         let stem = path.file_stem().unwrap().to_string_lossy().to_string();
         if !selected(&stem, subset) {
@@ -395,49 +462,29 @@ fn every_graph_matches(test: &str, lang: Lang, subset: &[&str]) {
         }
         let tape = tape_of(&path, &[]);
         let e = exported(&tape, lang);
-        // The `_lod` forms only (one pipeline a graph: lavapipe's compile is the cost), with
-        // spacing 0 at every other point, which is the point form's value (`texgraph_NAME(p)`
-        // is `_lod` at 0; its text is compiled by every_graph_compiles_in_every_language).
-        {
-            let lod = true;
-            let started = std::time::Instant::now();
-            let source = match lang {
-                Lang::Wgsl => Source::Wgsl(format!(
-                    "{}{}",
-                    e.source,
-                    shader_run::wgsl_entry(&e.functions, points.len(), Call::Lod)
-                )),
-                _ => {
-                    let text =
-                        shader_run::glsl_entry(&e.source, &e.functions, points.len(), Call::Lod);
-                    match spirv(dir.path(), &stem, &text) {
-                        Ok(words) => Source::SpirV(words),
-                        Err(why) => {
-                            failures.push(format!("{stem}: {why}"));
-                            continue;
-                        }
-                    }
-                }
-            };
-            let result = runner
-                .run(source, (&input, Call::Lod), tape.channels(), None)
-                .and_then(|out| shader_contract(&tape, &points, lod, &out));
-            eprintln!("{stem}: {:.2} s", started.elapsed().as_secs_f64());
-            match result {
-                Ok((w, r)) => {
-                    worst = worst.max(w);
-                    ratio = ratio.max(r);
-                    matched += 1;
-                }
-                Err(why) => failures.push(format!("{stem}: {why}")),
-            }
+        if call == Call::Filtered && e.functions.iter().any(|f| f.filtered.is_none()) {
+            tally.record(&stem, Err("no filtered form exported".into()));
+            continue;
         }
+        let started = std::time::Instant::now();
+        let source = match lang {
+            Lang::Wgsl => Ok(Source::Wgsl(format!(
+                "{}{}",
+                e.source,
+                shader_run::wgsl_entry(&e.functions, n, call)
+            ))),
+            _ => {
+                let text = shader_run::glsl_entry(&e.source, &e.functions, n, call);
+                spirv(dir.path(), &stem, &text).map(Source::SpirV)
+            }
+        };
+        let result = source
+            .and_then(|source| runner.run(source, (&input, call), tape.channels(), None))
+            .and_then(|out| contract(&tape, &out));
+        eprintln!("{stem}: {:.2} s", started.elapsed().as_secs_f64());
+        tally.record(&stem, result);
     }
-    eprintln!(
-        "{test} on {}: {matched} graphs matched, largest error {worst:.3e}, largest error / bound {ratio:.3}",
-        runner.name
-    );
-    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    tally.finish(test, &runner.name);
 }
 
 /// GLSL compiled to SPIR-V words by glslang.
@@ -515,12 +562,25 @@ const GLSL_SET: &[&str] = &[
 
 #[test]
 fn exported_wgsl_matches_the_cpu() {
-    every_graph_matches("exported_wgsl_matches_the_cpu", Lang::Wgsl, WGSL_SET);
+    // The `_lod` forms only (one pipeline a graph: lavapipe's compile is the cost), with
+    // spacing 0 at every other point, which is the point form's value (`texgraph_NAME(p)` is
+    // `_lod` at 0; its text is compiled by every_graph_compiles_in_every_language).
+    every_graph_matches(
+        "exported_wgsl_matches_the_cpu",
+        Lang::Wgsl,
+        WGSL_SET,
+        Call::Lod,
+    );
 }
 
 #[test]
 fn exported_glsl_matches_the_cpu() {
-    every_graph_matches("exported_glsl_matches_the_cpu", Lang::Glsl, GLSL_SET);
+    every_graph_matches(
+        "exported_glsl_matches_the_cpu",
+        Lang::Glsl,
+        GLSL_SET,
+        Call::Lod,
+    );
 }
 
 fn marble() -> PathBuf {
@@ -717,49 +777,10 @@ const FILTERED_SET: &[&str] = &["seed002_noise", "seed003_marble", "seed004_chec
 /// cube with footprints from a point to half the cube, against the CPU's filtered estimates.
 #[test]
 fn exported_filtered_matches_the_cpu() {
-    let test = "exported_filtered_matches_the_cpu";
-    let Some(runner) = runner(test) else { return };
-    let points = filtered_points(4096, 36);
-    let input: Vec<f32> = points
-        .iter()
-        .flat_map(|(p, e)| p.iter().chain(e.iter().flatten()).copied())
-        .collect();
-    let (mut failures, mut worst, mut matched) = (Vec::new(), 0f64, 0);
-    for path in common::graph_files() {
-        let stem = path.file_stem().unwrap().to_string_lossy().to_string();
-        if !selected(&stem, FILTERED_SET) {
-            continue;
-        }
-        let tape = tape_of(&path, &[]);
-        let e = exported(&tape, Lang::Wgsl);
-        if e.functions.iter().any(|f| f.filtered.is_none()) {
-            failures.push(format!("{stem}: no filtered form exported"));
-            continue;
-        }
-        let started = std::time::Instant::now();
-        let source = Source::Wgsl(format!(
-            "{}{}",
-            e.source,
-            shader_run::wgsl_entry(&e.functions, points.len(), Call::Filtered)
-        ));
-        let result = runner
-            .run(source, (&input, Call::Filtered), tape.channels(), None)
-            .and_then(|out| filtered_contract(&tape, &points, &out));
-        eprintln!(
-            "{stem}: {:.2} s {result:?}",
-            started.elapsed().as_secs_f64()
-        );
-        match result {
-            Ok((w, _)) => {
-                worst = worst.max(w);
-                matched += 1;
-            }
-            Err(why) => failures.push(format!("{stem}: {why}")),
-        }
-    }
-    eprintln!(
-        "{test} on {}: {matched} graphs matched, largest relative error {worst:.3e}",
-        runner.name
+    every_graph_matches(
+        "exported_filtered_matches_the_cpu",
+        Lang::Wgsl,
+        FILTERED_SET,
+        Call::Filtered,
     );
-    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

@@ -7,9 +7,7 @@
 
 use crate::common;
 use crate::serve_browser::{browser_installed, Browser};
-use crate::shader::{
-    exported, filtered_contract, filtered_points, selected, shader_contract, tape_of, unit_points,
-};
+use crate::shader::{exported, run_of, selected, tape_of, Tally};
 use crate::shader_run::Call;
 use serde_json::{json, Value};
 use std::time::{Duration, Instant};
@@ -184,21 +182,15 @@ fn fetch(call: Call, k: usize) -> String {
 }
 
 /// Runs `call`'s form of each graph's exported GLSL ES (the graphs of `set`, or all with
-/// `TEXGRAPH_SHADER_ALL=1`) in the browser at `input`'s points; `check` holds the read-back
-/// values to the contract (the largest error and largest error / bound, or why not).
-async fn every_graph_in_webgl2(
-    test: &str,
-    set: &[&str],
-    (input, call): (&[f32], Call),
-    check: impl Fn(&texgraph::Tape, &[f32]) -> Result<(f64, f64), String>,
-) {
+/// `TEXGRAPH_SHADER_ALL=1`) in the browser at [`run_of`]'s points, held to its contract.
+async fn every_graph_in_webgl2(test: &str, set: &[&str], call: Call) {
     if !browser_installed(test) {
         return;
     }
+    let (input, contract) = run_of(call);
     let bits: Vec<u32> = input.iter().map(|v| v.to_bits()).collect();
     let browser = Browser::blank(Duration::from_secs(600)).await;
-    let (mut failures, mut renderer) = (Vec::new(), String::new());
-    let (mut worst, mut ratio, mut matched) = (0f64, 0f64, 0);
+    let (mut tally, mut renderer) = (Tally::default(), String::new());
     for path in common::graph_files() {
         let stem = path.file_stem().unwrap().to_string_lossy().to_string();
         if !selected(&stem, set) {
@@ -209,74 +201,39 @@ async fn every_graph_in_webgl2(
         let (text, targets) = fragment(&e.source, &e.functions, call);
         let started = Instant::now();
         let blocks = call.stride() / 4;
-        let answer = browser
-            .run(
-                RUN,
-                vec![
-                    json!(text),
-                    json!(bits),
-                    json!(targets),
-                    json!(SIDE),
-                    json!(blocks),
-                ],
-            )
-            .await;
+        let args = [
+            json!(text),
+            json!(bits),
+            json!(targets),
+            json!(SIDE),
+            json!(blocks),
+        ];
+        let answer = browser.run(RUN, args.to_vec()).await;
         eprintln!("{stem}: {:.2} s", started.elapsed().as_secs_f64());
         let result = read_back(&answer, tape.channels()).and_then(|(name, out)| {
             renderer = name;
-            check(&tape, &out)
+            contract(&tape, &out)
         });
-        match result {
-            Ok((w, r)) => {
-                worst = worst.max(w);
-                ratio = ratio.max(r);
-                matched += 1;
-            }
-            Err(why) => failures.push(format!("{stem}: {why}")),
-        }
+        tally.record(&stem, result);
     }
     browser.close().await;
-    eprintln!(
-        "{test} on {renderer}: {matched} graphs matched, largest error {worst:.3e}, largest error / bound {ratio:.3}"
-    );
-    assert!(failures.is_empty(), "{}", failures.join("\n"));
-    assert!(
-        matched > 0 || std::env::var_os("TEXGRAPH_SHADER_ONLY").is_some(),
-        "no graph was run"
-    );
+    tally.finish(test, &renderer);
 }
 
 /// Each graph's exported GLSL ES `_lod` functions in WebGL 2 (spacing 0, the point form's
 /// value, at every other point) against the CPU at 4096 points of the unit cube.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn exported_glsl_es_matches_the_cpu_in_webgl2() {
-    let points = unit_points(SIDE * SIDE, 35);
-    let input: Vec<f32> = points.iter().flatten().copied().collect();
-    every_graph_in_webgl2(
-        "exported_glsl_es_matches_the_cpu_in_webgl2",
-        WEBGL_SET,
-        (&input, Call::Lod),
-        |tape, out| shader_contract(tape, &points, true, out),
-    )
-    .await;
+    let test = "exported_glsl_es_matches_the_cpu_in_webgl2";
+    every_graph_in_webgl2(test, WEBGL_SET, Call::Lod).await;
 }
 
 /// The `_filtered` functions in WebGL 2 at 4096 points of the unit cube with footprints from
 /// a point to half the cube, against the CPU's filtered estimates.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn exported_filtered_glsl_es_matches_the_cpu_in_webgl2() {
-    let points = filtered_points(SIDE * SIDE, 36);
-    let input: Vec<f32> = points
-        .iter()
-        .flat_map(|(p, e)| p.iter().chain(e.iter().flatten()).copied())
-        .collect();
-    every_graph_in_webgl2(
-        "exported_filtered_glsl_es_matches_the_cpu_in_webgl2",
-        WEBGL_FILTERED_SET,
-        (&input, Call::Filtered),
-        |tape, out| filtered_contract(tape, &points, out),
-    )
-    .await;
+    let test = "exported_filtered_glsl_es_matches_the_cpu_in_webgl2";
+    every_graph_in_webgl2(test, WEBGL_FILTERED_SET, Call::Filtered).await;
 }
 
 /// The script's answer as channel-planar values (channel `c` of point `i` at `c · n + i`) and
