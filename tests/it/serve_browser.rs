@@ -304,6 +304,14 @@ impl Browser {
         }
     }
 
+    /// Opens `url` in this turn's window.
+    pub(crate) async fn goto(&self, url: &str) {
+        self.client
+            .goto(url)
+            .await
+            .unwrap_or_else(|e| panic!("opening {url}: {e}"));
+    }
+
     /// Ends this test's turn: the page is left for `about:blank`, so it stops talking to a
     /// server about to stop.
     pub(crate) async fn close(self) {

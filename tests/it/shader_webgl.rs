@@ -10,6 +10,9 @@ use crate::serve_browser::{browser_installed, Browser};
 use crate::shader::{exported, run_of, selected, tape_of, Tally};
 use crate::shader_run::Call;
 use serde_json::{json, Value};
+use std::io::{Read, Write};
+use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::path::Path;
 use std::time::{Duration, Instant};
 use texgraph::shader::{ExportedFunction, Lang};
 
@@ -260,4 +263,134 @@ fn read_back(answer: &Value, channels: usize) -> Result<(String, Vec<f32>), Stri
     }
     let renderer = answer["renderer"].as_str().unwrap_or("?").to_string();
     Ok((renderer, out))
+}
+
+/// A folder served over HTTP on localhost (the page fetches its exported file, which a
+/// `file://` page may not): each GET answered with the file of that name, until the test
+/// process ends.
+fn serve_folder(dir: &Path) -> SocketAddr {
+    let listener = TcpListener::bind("127.0.0.1:0").expect("a local port");
+    let addr = listener.local_addr().expect("its address");
+    let dir = dir.to_path_buf();
+    std::thread::spawn(move || {
+        for stream in listener.incoming().flatten() {
+            let _ = answer(&dir, stream);
+        }
+    });
+    addr
+}
+
+fn answer(dir: &Path, mut stream: TcpStream) -> std::io::Result<()> {
+    stream.set_read_timeout(Some(Duration::from_secs(5)))?;
+    let mut request = Vec::new();
+    let mut buffer = [0u8; 4096];
+    while !request.windows(4).any(|w| w == b"\r\n\r\n") {
+        let n = stream.read(&mut buffer)?;
+        if n == 0 {
+            break;
+        }
+        request.extend_from_slice(&buffer[..n]);
+    }
+    let request = String::from_utf8_lossy(&request);
+    let path = request.split_whitespace().nth(1).unwrap_or("/");
+    let name = path.trim_start_matches('/').split('?').next().unwrap_or("");
+    let plain = !name.is_empty()
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "._".contains(c));
+    let (status, body) = match std::fs::read(dir.join(name)) {
+        Ok(body) if plain => ("200 OK", body),
+        _ => ("404 Not Found", b"not found".to_vec()),
+    };
+    let kind = if name.ends_with(".html") {
+        "text/html"
+    } else {
+        "text/plain"
+    };
+    write!(
+        stream,
+        "HTTP/1.1 {status}\r\nContent-Type: {kind}; charset=utf-8\r\nContent-Length: {}\r\nConnection: close\r\n\r\n",
+        body.len()
+    )?;
+    stream.write_all(&body)
+}
+
+/// The page's canvas read back: its size, how many distinct colours a sample of its pixels
+/// has, and the colours at its centre (the sphere) and a corner (the background).
+const CANVAS: &str = r#"
+const c = document.getElementById('view');
+const g = document.createElement('canvas');
+g.width = c.width;
+g.height = c.height;
+const x = g.getContext('2d');
+x.drawImage(c, 0, 0);
+const d = x.getImageData(0, 0, g.width, g.height).data;
+const at = (i, j) => { const k = 4 * (j * g.width + i); return [d[k], d[k + 1], d[k + 2]]; };
+const seen = new Set();
+for (let k = 0; k < d.length && seen.size < 64; k += 4 * 7) seen.add(d[k] << 16 | d[k + 1] << 8 | d[k + 2]);
+return { w: g.width, h: g.height, distinct: seen.size, centre: at(g.width >> 1, g.height >> 1), corner: at(1, 1) };
+"#;
+
+/// The engine template `examples/shader/webgl2.html` itself, served with exported GLSL ES
+/// beside it: it compiles, draws the sphere (textured: many colours, the centre unlike the
+/// background) and says so, with the seed 003 marble's colour at its level of detail and a
+/// plain noise's colour filtered over each pixel's footprint (the marble's filtered shader
+/// takes SwiftShader minutes to compile).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_webgl2_page_shades_a_sphere_with_an_export() {
+    if !browser_installed("the_webgl2_page_shades_a_sphere_with_an_export") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let root = common::crate_root();
+    std::fs::copy(
+        root.join("examples/shader/webgl2.html"),
+        dir.path().join("webgl2.html"),
+    )
+    .unwrap();
+    let pages = [("seed003_marble", "lod"), ("seed002_noise", "filtered")];
+    for (graph, _) in pages {
+        let tape = tape_of(&root.join(format!("graphs/{graph}.ron")), &[]);
+        let source = exported(&tape, Lang::GlslEs).source;
+        std::fs::write(dir.path().join(format!("{graph}.glsl")), source).unwrap();
+    }
+    let addr = serve_folder(dir.path());
+    let browser = Browser::blank(Duration::from_secs(60)).await;
+    for (graph, form) in pages {
+        let url = format!(
+            "http://{addr}/webgl2.html?fn=texgraph_colour&src={graph}.glsl&form={form}&still=1&size=160"
+        );
+        browser.goto(&url).await;
+        let deadline = Instant::now() + Duration::from_secs(180);
+        let status = loop {
+            let status = browser
+                .run(
+                    "return document.getElementById('status').textContent;",
+                    vec![],
+                )
+                .await;
+            let text = status.as_str().unwrap_or("").to_string();
+            if text.contains("drawn") || text.starts_with("error") || Instant::now() > deadline {
+                break text;
+            }
+            tokio::time::sleep(Duration::from_millis(200)).await;
+        };
+        assert_eq!(
+            status,
+            format!("texgraph_colour ({form}) from {graph}.glsl: drawn"),
+            "{url}"
+        );
+        let canvas = browser.run(CANVAS, vec![]).await;
+        eprintln!("{graph} ({form}): {canvas}");
+        assert_eq!(
+            (canvas["w"].as_u64(), canvas["h"].as_u64()),
+            (Some(160), Some(160))
+        );
+        assert!(
+            canvas["distinct"].as_u64().unwrap_or(0) >= 16,
+            "{url}: {canvas}"
+        );
+        assert_ne!(canvas["centre"], canvas["corner"], "{url}: no sphere");
+    }
+    browser.close().await;
 }
