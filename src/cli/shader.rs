@@ -104,7 +104,8 @@ pub fn shader(args: ShaderArgs) -> Result<(), Failure> {
     if options.filtered && exported.functions.iter().any(|f| f.filtered.is_none()) {
         let why = match crate::gpu::filtered::unsupported(&tape) {
             Some(why) => format!("the filtered form does not cover {why}"),
-            None => "its rules are built for the params' values, and --uniforms lets them change"
+            None => "the filtered form's rules are built for the params' values, which \
+                     --uniforms lets the engine change"
                 .to_string(),
         };
         eprintln!("texgraph: no `_filtered` functions: {why}");

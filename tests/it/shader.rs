@@ -177,10 +177,32 @@ fn filtered_signature(lang: Lang, f: &ExportedFunction, filtered: &str) -> Strin
 fn every_graph_compiles_in_every_language() {
     let compile = glslang("every_graph_compiles_in_every_language");
     let dir = tempfile::tempdir().unwrap();
+    let graphs = common::graph_files();
+    // Two workers over the graphs (glslang is a process per source: the test's cost).
+    let (counts, failures) = std::thread::scope(|scope| {
+        let workers: Vec<_> = graphs
+            .chunks(graphs.len().div_ceil(2).max(1))
+            .map(|chunk| scope.spawn(|| compile_graphs(chunk, compile, dir.path())))
+            .collect();
+        let mut all = ([0usize; 5], Vec::new());
+        for worker in workers {
+            let (counts, failures) = worker.join().expect("a compiling worker");
+            (0..5).for_each(|l| all.0[l] += counts[l]);
+            all.1.extend(failures);
+        }
+        all
+    });
+    eprintln!("compiled per language (wgsl, glsl, glsl-es, hlsl, msl): {counts:?}");
+    assert!(failures.is_empty(), "{}", failures.join("\n\n"));
+}
+
+/// [`every_graph_compiles_in_every_language`] over `graphs`: per language how many compiled,
+/// and what failed (glslang only where `compile`).
+fn compile_graphs(graphs: &[PathBuf], compile: bool, dir: &Path) -> ([usize; 5], Vec<String>) {
     let mut failures = Vec::new();
     let mut counts = [0usize; 5];
-    for path in common::graph_files() {
-        let tape = tape_of(&path, &[]);
+    for path in graphs {
+        let tape = tape_of(path, &[]);
         let stem = path.file_stem().unwrap().to_string_lossy().to_string();
         for (l, lang) in Lang::ALL.into_iter().enumerate() {
             let e = exported(&tape, lang);
@@ -199,13 +221,13 @@ fn every_graph_compiles_in_every_language() {
                 Lang::Msl => Ok(()),
                 _ if !compile => Ok(()),
                 Lang::Hlsl => glslang_compile(
-                    dir.path(),
+                    dir,
                     &format!("{stem}.hlsl"),
                     &stub(lang, &e.source, &e.functions),
                     true,
                 ),
                 _ => glslang_compile(
-                    dir.path(),
+                    dir,
                     &format!("{stem}_{}.frag", lang.name()),
                     &stub(lang, &e.source, &e.functions),
                     false,
@@ -217,8 +239,7 @@ fn every_graph_compiles_in_every_language() {
             }
         }
     }
-    eprintln!("compiled per language (wgsl, glsl, glsl-es, hlsl, msl): {counts:?}");
-    assert!(failures.is_empty(), "{}", failures.join("\n\n"));
+    (counts, failures)
 }
 
 fn validate_wgsl(source: &str) -> Result<(), String> {
