@@ -309,7 +309,7 @@ pub fn export(
 /// built for the params' values (a ramp's shapes over its input's range, the periodic chains'
 /// shapes, which operands are integers), so with such a param its `_filtered` functions are
 /// left out rather than filter for values the block no longer holds.
-pub fn filtered_ignores(uniforms: Option<&UniformPlan>) -> bool {
+fn filtered_ignores(uniforms: Option<&UniformPlan>) -> bool {
     uniforms.is_some_and(|u| u.params.iter().any(|p| p.constant.is_none()))
 }
 

@@ -246,6 +246,18 @@ pub fn save_by_rename(path: &std::path::Path, text: &str) {
 /// on stderr with `SKIPPED` and return false, never passing silently; with
 /// `TEXGRAPH_REQUIRE_GPU_ADAPTER=1` (set by .ci/run after installing lavapipe) a missing
 /// adapter fails the test instead.
+/// A fixed 64-bit linear congruential generator (Knuth's MMIX constants): the tests' points,
+/// reproducible without a dependency. Each call gives the next state; callers take its high bits.
+pub fn lcg(seed: u64) -> impl FnMut() -> u64 {
+    let mut state = seed;
+    move || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        state
+    }
+}
+
 pub fn gpu_available(test: &str) -> bool {
     match texgraph::gpu::usable() {
         Ok(_) => true,

@@ -21,13 +21,8 @@ fn figures_text(figures: &[(f64, f64)]) -> String {
 
 /// `n` points, each coordinate `centre + uniform(-r, r)` (a fixed LCG: reproducible).
 fn points(n: usize, centre: f64, r: f64, seed: u64) -> Vec<[f64; 3]> {
-    let mut state = seed;
-    let mut next = move || {
-        state = state
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut lcg = common::lcg(seed);
+    let mut next = move || (lcg() >> 11) as f64 / (1u64 << 53) as f64;
     (0..n)
         .map(|_| [0; 3].map(|_| centre + r * (2.0 * next() - 1.0)))
         .collect()

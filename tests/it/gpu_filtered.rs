@@ -61,13 +61,8 @@ fn every_filtered_shader_validates_or_is_refused_by_name() {
 /// Points in [-4, 4]³ (a fixed LCG), each with a footprint of its own: cubes of sides 1/2,
 /// 1/8 and 1/32, a voxel box, two anisotropic pixel parallelograms, a point, a huge cube.
 fn points_and_footprints(n: usize) -> (Vec<[f64; 3]>, Vec<Footprint>) {
-    let mut state = 7u64;
-    let mut next = move || {
-        state = state
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut lcg = common::lcg(7);
+    let mut next = move || (lcg() >> 11) as f64 / (1u64 << 53) as f64;
     let mut points = Vec::new();
     let mut footprints = Vec::new();
     for i in 0..n {

@@ -257,13 +257,8 @@ fn validate_wgsl(source: &str) -> Result<(), String> {
 /// level-of-detail forms: 0 (no level of detail: the point form's value) at every other point,
 /// else between 1e-4 and 1e-1.
 pub(crate) fn unit_points(n: usize, seed: u64) -> Vec<[f32; 4]> {
-    let mut state = seed;
-    let mut next = move || {
-        state = state
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (state >> 40) as f32 / (1u64 << 24) as f32
-    };
+    let mut lcg = common::lcg(seed);
+    let mut next = move || (lcg() >> 40) as f32 / (1u64 << 24) as f32;
     (0..n)
         .map(|i| {
             let h = if i % 2 == 0 {

@@ -71,7 +71,7 @@ impl Call {
     }
 
     /// The call of `f`'s form (`p`, `h` and `f` are the entry points' locals).
-    pub fn of(self, f: &ExportedFunction) -> String {
+    fn of(self, f: &ExportedFunction) -> String {
         match self {
             Call::Point => format!("{}(p)", f.name),
             Call::Lod => format!("{}(p, h)", f.lod),
@@ -129,21 +129,29 @@ pub fn glsl_entry(exported: &str, functions: &[ExportedFunction], n: usize, call
 /// stored channel-planar; `vec3` declares a vector local (`let` in WGSL, `vec3` in GLSL),
 /// `unsigned` is the unsigned literal suffix (`u` in WGSL).
 fn stores(functions: &[ExportedFunction], call: Call, vec3: &str, unsigned: &str) -> String {
+    assignments(functions, call, vec3, |c| {
+        format!("tg_test_out[{c}{unsigned} * N + i]")
+    })
+}
+
+/// Statements that assign channel `c` of the functions' `call` forms, in output order, to
+/// `target(c)`; `vec3` declares a vector local (`let` in WGSL, `vec3` in GLSL).
+pub fn assignments(
+    functions: &[ExportedFunction],
+    call: Call,
+    vec3: &str,
+    target: impl Fn(usize) -> String,
+) -> String {
     let mut body = String::new();
     let mut c = 0;
     for f in functions {
         let call = call.of(f);
         if f.channels == 1 {
-            body.push_str(&format!(
-                "    tg_test_out[{c}{unsigned} * N + i] = {call};\n"
-            ));
+            body.push_str(&format!("    {} = {call};\n", target(c)));
         } else {
             body.push_str(&format!("    {vec3} v{c} = {call};\n"));
             for (k, axis) in ["x", "y", "z"].iter().enumerate() {
-                body.push_str(&format!(
-                    "    tg_test_out[{}{unsigned} * N + i] = v{c}.{axis};\n",
-                    c + k
-                ));
+                body.push_str(&format!("    {} = v{c}.{axis};\n", target(c + k)));
             }
         }
         c += f.channels;

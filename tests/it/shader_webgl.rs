@@ -6,9 +6,9 @@
 //! `shader::filtered_contract`).
 
 use crate::common;
-use crate::serve_browser::{browser_installed, Browser};
+use crate::serve_browser::{browser_installed, poll, Browser};
 use crate::shader::{exported, run_of, selected, tape_of, Tally};
-use crate::shader_run::Call;
+use crate::shader_run::{self, Call};
 use serde_json::{json, Value};
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
@@ -135,19 +135,9 @@ fn fragment(exported: &str, functions: &[ExportedFunction], call: Call) -> (Stri
     for k in 0..targets * 4 {
         body.push_str(&format!("    v[{k}] = 0.0;\n"));
     }
-    let mut c = 0;
-    for f in functions {
-        let value = call.of(f);
-        if f.channels == 1 {
-            body.push_str(&format!("    v[{c}] = {value};\n"));
-        } else {
-            body.push_str(&format!("    vec3 c{c} = {value};\n"));
-            for (k, axis) in ["x", "y", "z"].iter().enumerate() {
-                body.push_str(&format!("    v[{}] = c{c}.{axis};\n", c + k));
-            }
-        }
-        c += f.channels;
-    }
+    body.push_str(&shader_run::assignments(functions, call, "vec3", |c| {
+        format!("v[{c}]")
+    }));
     let mut outs = String::new();
     for t in 0..targets {
         outs.push_str(&format!(
@@ -361,8 +351,7 @@ async fn the_webgl2_page_shades_a_sphere_with_an_export() {
             "http://{addr}/webgl2.html?fn=texgraph_colour&src={graph}.glsl&form={form}&still=1&size=160"
         );
         browser.goto(&url).await;
-        let deadline = Instant::now() + Duration::from_secs(180);
-        let status = loop {
+        let status = poll("the page's frame", async || {
             let status = browser
                 .run(
                     "return document.getElementById('status').textContent;",
@@ -370,11 +359,9 @@ async fn the_webgl2_page_shades_a_sphere_with_an_export() {
                 )
                 .await;
             let text = status.as_str().unwrap_or("").to_string();
-            if text.contains("drawn") || text.starts_with("error") || Instant::now() > deadline {
-                break text;
-            }
-            tokio::time::sleep(Duration::from_millis(200)).await;
-        };
+            (text.contains("drawn") || text.starts_with("error")).then_some(text)
+        })
+        .await;
         assert_eq!(
             status,
             format!("texgraph_colour ({form}) from {graph}.glsl: drawn"),
