@@ -4,6 +4,8 @@
 //! runs it per lane; the noise samplers, per-table statistics (`filter::noise::cached_stats`,
 //! measured on the CPU and written in as literals) and piecewise shapes (`rules::spline_shape`,
 //! `rules::hermite_shape`) are the CPU's, so both sides run the same model.
+//! For the shader export, one `fn ftape_oK(p)` per output instead, each with only the
+//! instructions its output reads (`filtered_prune.rs`).
 //!
 //! Covered: every instruction kind, the fused pairs and the periodic chains (`filter/fusions.rs`,
 //! `filter/chains.rs`; `filtered_periodic.rs`), white noise's mixture of cells and cellular
@@ -57,7 +59,7 @@ pub fn unsupported(tape: &Tape) -> Option<String> {
 /// channels whose filtered mean is not finite, as `Filtered::point_fallback`), the bases' f64
 /// forms, `filtered_part` and the filtered entry points.
 pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
-    let filtered = filtered_part(tape)?;
+    let filtered = filtered_part(tape, false)?;
     let point = codegen::generate(tape)?;
     // The point shader without its entry points (the filtered ones replace them; its
     // bindings stay).
@@ -83,7 +85,7 @@ pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
 /// function: the rules, one octave function per sampler, the shapes and `fn ftape(p) ->
 /// Channels` (reading the footprint `fp_set` stored), without bindings or entry points. The
 /// shader export (`shader/`) builds its `_filtered` functions on this.
-pub(crate) fn filtered_part(tape: &Tape) -> Result<String, GpuError> {
+pub(crate) fn filtered_part(tape: &Tape, per_output: bool) -> Result<String, GpuError> {
     if let Some(why) = unsupported(tape) {
         return Err(GpuError::Unsupported(why));
     }
@@ -98,7 +100,7 @@ pub(crate) fn filtered_part(tape: &Tape) -> Result<String, GpuError> {
         periodic: Vec::new(),
         in_range: crate::filter::ranges::restricted_shapes(tape),
     };
-    let body = g.function();
+    let body = g.function(per_output);
     let mut source = FILTER
         .replace("PW_KNOTS", &g.knots.to_string())
         .replace("PW_PIECES", &(g.knots + 1).to_string())
@@ -147,9 +149,11 @@ struct Gen<'t> {
 }
 
 impl Gen<'_> {
-    fn function(&mut self) -> String {
+    /// `fn ftape(p) -> Channels`, every output's means; with `per_output` instead one
+    /// `fn ftape_oK(p)` per output K, with only the lines that output needs
+    /// (`filtered_prune.rs`) and only its channels set.
+    fn function(&mut self, per_output: bool) -> String {
         let t = self.tape;
-        let mut w = String::new();
         for (k, h) in t.hermites.iter().enumerate() {
             let f = crate::filter::rules::hermite_shape(h);
             self.shape(&format!("pwh{k}"), &f);
@@ -164,7 +168,29 @@ impl Gen<'_> {
             let f = crate::filter::rules::spline_shape(curve.as_ref(), 0);
             self.shape(&format!("pwc{k}"), &f);
         }
-        let _ = writeln!(w, "fn ftape(p: vec3<f64>) -> Channels {{");
+        let prelude = self.prelude();
+        let lines: Vec<String> = (t.instrs.iter().enumerate())
+            .map(|(index, instr)| self.fused(index, instr))
+            .collect();
+        let mut w = String::new();
+        if !per_output {
+            let all: Vec<usize> = (0..t.outputs.len()).collect();
+            ftape(&mut w, "ftape", &prelude, lines.iter(), t, &all);
+            return w;
+        }
+        for (k, o) in t.outputs.iter().enumerate() {
+            let slot = if o.ty.channels() == 1 { 's' } else { 'v' };
+            let keep = super::filtered_prune::needed(&lines, &[format!("{slot}{}", o.slot)]);
+            let kept = lines.iter().zip(keep).filter(|(_, k)| *k).map(|(l, _)| l);
+            ftape(&mut w, &format!("ftape_o{k}"), &prelude, kept, t, &[k]);
+        }
+        w
+    }
+
+    /// The body's slot variables and the tape's constants in them.
+    fn prelude(&self) -> String {
+        let t = self.tape;
+        let mut w = String::new();
         for k in 0..t.scalar_slots {
             let _ = writeln!(w, "    var s{k}: D = dc(0.0lf);");
         }
@@ -187,31 +213,6 @@ impl Gen<'_> {
         for k in 0..self.fusions.saved {
             let _ = writeln!(w, "    var f{k}: D = dc(0.0lf);");
         }
-        for (index, instr) in t.instrs.iter().enumerate() {
-            let line = self.fused(index, instr);
-            let _ = writeln!(w, "    {line}");
-        }
-        // Each output's means; a channel whose mean is not finite takes the point value where
-        // that is finite (`Filtered::point_fallback`).
-        let _ = writeln!(w, "    var r: Channels;\n    var m: f64;");
-        let _ = writeln!(w, "    var pt: Channels;\n    var have = false;");
-        for o in &t.outputs {
-            for c in 0..o.ty.channels() {
-                let mean = if o.ty.channels() == 1 {
-                    format!("s{}.m", o.slot)
-                } else {
-                    format!("v{}[{c}].m", o.slot)
-                };
-                let ch = o.first_channel + c;
-                let _ = writeln!(
-                    w,
-                    "    m = {mean};\n    r.c[{ch}] = f32(m);\n    if (!is_finite_d(m)) {{\n        \
-                     if (!have) {{ pt = tape(p, 0.0lf); have = true; }}\n        \
-                     if (!is_nan(pt.c[{ch}]) && !is_inf(pt.c[{ch}])) {{ r.c[{ch}] = pt.c[{ch}]; }}\n    }}"
-                );
-            }
-        }
-        let _ = writeln!(w, "    return r;\n}}\n");
         w
     }
 
@@ -616,6 +617,57 @@ impl Gen<'_> {
         let _ = write!(w, "        {dst} = sum;\n        _ = weight;\n    }}");
         w
     }
+}
+
+/// `fn NAME(p) -> Channels`: `prelude`, `lines`, then the means of `outputs` (indices into
+/// the tape's outputs); a channel whose mean is not finite takes the point value where that is
+/// finite (`Filtered::point_fallback`). The point tape is called at one site (drivers inline
+/// every call: one copy of it, not one per channel).
+fn ftape<'a>(
+    w: &mut String,
+    name: &str,
+    prelude: &str,
+    lines: impl Iterator<Item = &'a String>,
+    t: &Tape,
+    outputs: &[usize],
+) {
+    let _ = writeln!(w, "fn {name}(p: vec3<f64>) -> Channels {{\n{prelude}");
+    for line in lines {
+        let _ = writeln!(w, "    {line}");
+    }
+    let channels = t
+        .outputs
+        .iter()
+        .map(|o| o.first_channel + o.ty.channels())
+        .max();
+    let channels = channels.unwrap_or(0).max(1);
+    let _ = writeln!(
+        w,
+        "    var r: Channels;\n    var m: f64;\n    var bad: array<bool, {channels}>;\n    \
+         var any_bad = false;"
+    );
+    for o in outputs.iter().map(|&k| &t.outputs[k]) {
+        for c in 0..o.ty.channels() {
+            let mean = if o.ty.channels() == 1 {
+                format!("s{}.m", o.slot)
+            } else {
+                format!("v{}[{c}].m", o.slot)
+            };
+            let ch = o.first_channel + c;
+            let _ = writeln!(
+                w,
+                "    m = {mean};\n    r.c[{ch}] = f32(m);\n    bad[{ch}] = !is_finite_d(m);\n    \
+                 any_bad = any_bad || bad[{ch}];"
+            );
+        }
+    }
+    let _ = writeln!(
+        w,
+        "    if (any_bad) {{\n        let pt = tape(p, 0.0lf);\n        \
+         for (var c = 0u; c < {channels}u; c++) {{\n            \
+         if (bad[c] && !is_nan(pt.c[c]) && !is_inf(pt.c[c])) {{ r.c[c] = pt.c[c]; }}\n        \
+         }}\n    }}\n    return r;\n}}\n"
+    );
 }
 
 /// The octaves of a fractal sum, each the statements `body(sampler, frequency, amplitude)`

@@ -13,6 +13,7 @@ mod error;
 mod evaluator;
 pub mod filtered;
 mod filtered_periodic;
+mod filtered_prune;
 #[cfg(feature = "gpu")]
 pub use evaluator::GpuEvaluator;
 #[cfg(not(feature = "gpu"))]

@@ -5,7 +5,8 @@
 //! in WGSL, GLSL 4.50 (or `--version`), GLSL ES 3.00, HLSL (shader model 5.1) or MSL (2.1).
 //!
 //! How: the GPU path's WGSL for the tape (`gpu::codegen`: the library in `gpu/wgsl/` and the
-//! tape's straight-line function; `gpu::filtered`: the filtered form's rules and `ftape`) made
+//! tape's straight-line function; `gpu::filtered`: the filtered form's rules and one `ftape_oK` per output, with only the
+//! instructions that output reads) made
 //! all-f32 (`narrow.rs`; naga's MSL and GLSL ES have no
 //! f64), the noise tables a module-scope constant array instead of a storage buffer, every name
 //! of the library prefixed `tg_`, the exported functions appended, and one stub entry point
@@ -78,7 +79,7 @@ pub fn f32_wgsl(
     source.push_str(&crate::gpu::codegen::tape_part(tape, &exprs).replace("dispatch.one", "1.0"));
     if functions.iter().any(|f| f.filtered.is_some()) {
         source.push_str(crate::gpu::widen::library());
-        match crate::gpu::filtered::filtered_part(tape) {
+        match crate::gpu::filtered::filtered_part(tape, true) {
             Ok(part) => source.push_str(&part.replace("dispatch.one", FILTER_ONE)),
             Err(e) => debug_assert!(false, "functions() checked the tape: {e}"),
         }
@@ -104,7 +105,7 @@ pub fn f32_wgsl(
         );
     }
     let p = narrow::PREFIX;
-    for (f, o) in functions.iter().zip(&tape.outputs) {
+    for (k, (f, o)) in functions.iter().zip(&tape.outputs).enumerate() {
         let c = o.first_channel;
         let (ty, value) = if f.channels == 1 {
             ("f32".to_string(), format!("r.c[{c}]"))
@@ -130,7 +131,7 @@ pub fn f32_wgsl(
                 "fn {filtered}(p: vec3<f32>, footprint: mat3x3<f32>) -> {ty} {{\n    \
                  {p}{FILTER_ONE} = select(1.0, f32(bitcast<u32>(p.y) & 255u), bitcast<u32>(p.x) == 0x7fc0bad1u);\n    \
                  {p}fp_set(footprint[0], footprint[1], footprint[2]);\n    \
-                 let r = {p}ftape(p);\n    return {value};\n}}\n"
+                 let r = {p}ftape_o{k}(p);\n    return {value};\n}}\n"
             );
         }
     }

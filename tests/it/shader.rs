@@ -497,7 +497,13 @@ fn every_graph_matches(test: &str, lang: Lang, subset: &[&str], call: Call) {
         let result = source
             .and_then(|source| runner.run(source, (&input, call), tape.channels(), None))
             .and_then(|out| contract(&tape, &out));
-        eprintln!("{stem}: {:.2} s", started.elapsed().as_secs_f64());
+        let seconds = started.elapsed().as_secs_f64();
+        match &result {
+            Ok((worst, ratio)) => {
+                eprintln!("{stem}: {seconds:.2} s, error {worst:.3e}, error / bound {ratio:.3}")
+            }
+            Err(_) => eprintln!("{stem}: {seconds:.2} s, FAILED"),
+        }
         tally.record(&stem, result);
     }
     tally.finish(test, &runner.name);
@@ -794,6 +800,10 @@ const FILTERED_SET: &[&str] = &[
     "seed004_stripes",
 ];
 
+/// What `cargo test` runs of the GLSL `_filtered` forms on lavapipe (`TEXGRAPH_SHADER_ALL=1`:
+/// every graph): glslang's SPIR-V of the same functions as [`FILTERED_SET`]'s first graph.
+const GLSL_FILTERED_SET: &[&str] = &["seed002_noise"];
+
 /// Every graph's exported WGSL `_filtered` functions on the adapter at 4096 points of the unit
 /// cube with footprints from a point to half the cube, against the CPU's filtered estimates.
 #[test]
@@ -802,6 +812,17 @@ fn exported_filtered_matches_the_cpu() {
         "exported_filtered_matches_the_cpu",
         Lang::Wgsl,
         FILTERED_SET,
+        Call::Filtered,
+    );
+}
+
+/// [`exported_filtered_matches_the_cpu`] for GLSL 4.50, through glslang's SPIR-V.
+#[test]
+fn exported_glsl_filtered_matches_the_cpu() {
+    every_graph_matches(
+        "exported_glsl_filtered_matches_the_cpu",
+        Lang::Glsl,
+        GLSL_FILTERED_SET,
         Call::Filtered,
     );
 }
