@@ -17,7 +17,10 @@ if [ "${TEXGRAPH_PYVENV_READY:-}" != 1 ] || [ ! -f "$venv/.ready" ]; then
     "$venv/bin/python" -m pip install --quiet --upgrade pip
     "$venv/bin/python" -m pip install --quiet numpy pytest "maturin>=1.7,<2"
 fi
-cargo build --locked --bin texgraph
+# The command line the tests run: the one `cargo test` builds (its dependencies' features are
+# unified with the tests' dev-dependencies; `cargo build --bin texgraph` would rebuild naga,
+# serde, hyper and the crate with other features: 52 s in CI), a no-op after `cargo test`.
+cargo test --locked --no-run --test it --quiet
 # maturin is in the environment: no isolated build environment to make (and download) again.
 PATH="$PWD/$venv/bin:$PATH" MATURIN_PEP517_ARGS="${MATURIN_PEP517_ARGS:---profile dev}" \
     "$venv/bin/python" -m pip install --quiet --no-build-isolation ./python

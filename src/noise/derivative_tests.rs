@@ -233,7 +233,7 @@ fn min_compared(basis: Basis) -> f64 {
 
 #[test]
 fn basis_gradients_match_central_differences() {
-    let pts = grad_points(1, 1500, true);
+    let pts = grad_points(1, 800, true);
     let mut report = Vec::new();
     for basis in grad_bases() {
         for seed in [0, 5] {
@@ -251,7 +251,7 @@ fn basis_gradients_match_central_differences() {
         }
     }
     // Tiled tables, on points that cross many seams.
-    let near = grad_points(2, 1500, false);
+    let near = grad_points(2, 800, false);
     let tiled = [
         (Basis::Perlin, [2, 5, 7]),
         (Basis::Gradient, [3, 3, 3]),
