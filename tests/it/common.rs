@@ -381,9 +381,17 @@ pub fn gpu_contract_lod(
         let tolerance = 2e-5 * scale + 4.0 * worst_cpu;
         // The worst point by its excess over its own tolerance.
         let (mut worst_gpu, mut excess, mut at) = (0f64, f64::NEG_INFINITY, 0);
-        for i in 0..n {
+        for (i, point) in points.iter().enumerate() {
             let k = c * n + i;
-            let e = gpu_error(on_gpu[k], reference[k]);
+            // At a point with a non-finite coordinate, `inf − inf` makes NaNs that comparisons,
+            // `min` and `max` meet, which WGSL leaves indeterminate (Rust's `max` returns the
+            // other operand): the GPU's value there is left open (docs/gpu.md, "NaN").
+            let open = point.iter().any(|c| !c.is_finite());
+            let e = if open {
+                0.0
+            } else {
+                gpu_error(on_gpu[k], reference[k])
+            };
             worst_gpu = worst_gpu.max(e);
             let bound = tolerance + 4.0 * unresolved(k);
             // Within the bound, infinite ones included (an f32 overflow the CPU f32 path has
