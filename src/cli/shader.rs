@@ -25,7 +25,7 @@ pub struct ShaderArgs {
     #[arg(long)]
     uniforms: bool,
     /// Leave out the `texgraph_NAME_filtered(p, footprint)` functions: their rules are most of
-    /// the source (the seed 003 marble: 102 kB of WGSL with them, 18.6 kB without).
+    /// the source (the seed 003 marble: 110 kB of WGSL with them, 18.6 kB without).
     #[arg(long)]
     no_filtered: bool,
     /// Warn where f32 is not enough over this region (`X0,Y0,Z0:X1,Y1,Z1`): the node and the

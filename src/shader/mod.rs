@@ -5,10 +5,9 @@
 //! in WGSL, GLSL 4.50 (or `--version`), GLSL ES 3.00, HLSL (shader model 5.1) or MSL (2.1).
 //!
 //! How: the GPU path's WGSL for the tape (`gpu::codegen`: the library in `gpu/wgsl/` and the
-//! tape's straight-line function; `gpu::filtered`: the filtered form's rules and one `ftape_oK` per output, with only the
-//! instructions that output reads) made
-//! all-f32 (`narrow.rs`; naga's MSL and GLSL ES have no
-//! f64), the noise tables a module-scope constant array instead of a storage buffer, every name
+//! tape's straight-line function; `gpu::filtered`: the filtered form's rules and one
+//! `ftape_oK` per output, with only the instructions that output reads) made all-f32
+//! (`narrow.rs`; naga's MSL and GLSL ES have no f64), the noise tables a module-scope constant array instead of a storage buffer, every name
 //! of the library prefixed `tg_`, the exported functions appended, and one stub entry point
 //! that calls them all. naga parses and validates that (without the f64 capability: the proof
 //! that nothing of f64 is left), compacts it (only what the entry point reaches stays: the

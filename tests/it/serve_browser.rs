@@ -326,6 +326,24 @@ impl Browser {
             .unwrap_or_else(|e| panic!("script failed: {e}\n{script}"))
     }
 
+    /// The text of the element `selector` picks, once `done` accepts it (polled; panics after
+    /// [`WAIT`], naming `what`).
+    pub(crate) async fn text_when(
+        &self,
+        what: &str,
+        selector: &str,
+        done: impl Fn(&str) -> bool,
+    ) -> String {
+        let script =
+            "const e = document.querySelector(arguments[0]); return e ? e.textContent : '';";
+        poll(what, async || {
+            let text = self.run(script, vec![Value::from(selector)]).await;
+            let text = text.as_str().unwrap_or("").to_string();
+            done(&text).then_some(text)
+        })
+        .await
+    }
+
     async fn snapshot(&self) -> Result<Value, String> {
         self.client
             .execute(SNAPSHOT, vec![])
@@ -381,7 +399,7 @@ impl Browser {
 }
 
 /// Polls `probe` every [`POLL`] until it answers `Some` (returned), or panics after [`WAIT`].
-pub(crate) async fn poll<T>(what: &str, mut probe: impl AsyncFnMut() -> Option<T>) -> T {
+async fn poll<T>(what: &str, mut probe: impl AsyncFnMut() -> Option<T>) -> T {
     let deadline = Instant::now() + WAIT;
     loop {
         if let Some(found) = probe().await {
@@ -718,17 +736,9 @@ async fn hovering_zooming_and_clicking_a_node_drive_the_server() {
         document.querySelector('#slice-view').dispatchEvent(new MouseEvent('mousemove', at));
         return true;"#;
     browser.run(hover, vec![]).await;
-    let text = poll("the hover values", async || {
-        let text = browser
-            .run(
-                "return document.querySelector('#hover').textContent;",
-                vec![],
-            )
-            .await;
-        let text = text.as_str().unwrap_or("").to_string();
-        text.contains("vein:").then_some(text)
-    })
-    .await;
+    let text = browser
+        .text_when("the hover values", "#hover", |t| t.contains("vein:"))
+        .await;
     // The point under the cursor: the slice's centre (to a pixel) at its depth, z = 0.5.
     let point: Vec<f64> = text
         .lines()

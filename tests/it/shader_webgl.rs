@@ -6,7 +6,7 @@
 //! `shader::filtered_contract`).
 
 use crate::common;
-use crate::serve_browser::{browser_installed, poll, Browser};
+use crate::serve_browser::{browser_installed, Browser};
 use crate::shader::{exported, run_of, selected, tape_of, Tally};
 use crate::shader_run::{self, Call};
 use serde_json::{json, Value};
@@ -351,17 +351,11 @@ async fn the_webgl2_page_shades_a_sphere_with_an_export() {
             "http://{addr}/webgl2.html?fn=texgraph_colour&src={graph}.glsl&form={form}&still=1&size=160"
         );
         browser.goto(&url).await;
-        let status = poll("the page's frame", async || {
-            let status = browser
-                .run(
-                    "return document.getElementById('status').textContent;",
-                    vec![],
-                )
-                .await;
-            let text = status.as_str().unwrap_or("").to_string();
-            (text.contains("drawn") || text.starts_with("error")).then_some(text)
-        })
-        .await;
+        let status = browser
+            .text_when("the page's frame", "#status", |t| {
+                t.contains("drawn") || t.starts_with("error")
+            })
+            .await;
         assert_eq!(
             status,
             format!("texgraph_colour ({form}) from {graph}.glsl: drawn"),
