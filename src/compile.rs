@@ -12,7 +12,7 @@ use crate::eval::Workspace;
 use crate::graph::{CheckedGraph, NodeId, Op, TableKey, Type};
 use crate::ops;
 use crate::precision::{Extent, SAMPLES};
-use crate::tape::{Instr, Slot, Tape, TapeOutput, TapeStats, Wide};
+use crate::tape::{Instr, Prec, Slot, Tape, TapeOutput, TapeStats};
 use smallvec::SmallVec;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -86,40 +86,37 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
         if emitter.constant(node, id, &uses, &mut slots) {
             continue;
         }
-        let instr = if wide[id] {
-            // Splat and Combine read f64 scalars but write a vec3 slot.
-            let dst = if node.ty == Type::Vec3 {
+        // Allocate the destination before freeing dead arguments, so an instruction never
+        // writes a slot it reads (the interpreter relies on it). A promoted scalar gets a wide
+        // slot; Splat and Combine read f64 scalars but write a vec3 slot.
+        let prec = if wide[id] { Prec::Wide } else { Prec::Lane };
+        let dst = match (node.ty, prec) {
+            (Type::Vec3, _) => {
                 slots.narrow[id] = emitter.vec3s.alloc();
                 slots.narrow[id]
-            } else {
+            }
+            (Type::Scalar, Prec::Lane) => {
+                slots.narrow[id] = emitter.scalars.alloc();
+                slots.narrow[id]
+            }
+            (Type::Scalar, Prec::Wide) => {
                 slots.wide[id] = emitter.wides.alloc();
                 slots.wide[id]
-            };
-            if let Some(plan) = &plan {
-                emitter
-                    .reasons
-                    .push((emitter.instrs.len(), plan.reason(id as NodeId)));
             }
-            if !matches!(
-                node.op,
-                Op::Noise(_) | Op::Fractal(..) | Op::NoiseGradient(_) | Op::FractalGradient(..)
-            ) {
-                lower_wide(graph, id, dst, &slots, &mut emitter.axes)
-            } else {
-                let plain = emitter.lower(graph, id, dst, &slots.narrow, options, &mut stretches);
-                promoted_noise(plain)
-            }
-        } else {
-            // Allocate the destination before freeing dead arguments, so an instruction never
-            // writes a slot it reads (the interpreter relies on it).
-            let dst = if node.ty == Type::Vec3 {
-                emitter.vec3s.alloc()
-            } else {
-                emitter.scalars.alloc()
-            };
-            slots.narrow[id] = dst;
-            emitter.lower(graph, id, dst, &slots.narrow, options, &mut stretches)
         };
+        if let Some(plan) = plan.as_ref().filter(|_| prec == Prec::Wide) {
+            emitter
+                .reasons
+                .push((emitter.instrs.len(), plan.reason(id as NodeId)));
+        }
+        let instr = emitter.lower(
+            graph,
+            id,
+            Dst { slot: dst, prec },
+            &slots,
+            options,
+            &mut stretches,
+        );
         emitter.instrs.push(instr);
         emitter.origins.push(node.origin.node.clone());
         emitter.convert(node, id, &uses, &mut slots);
@@ -155,6 +152,7 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
     };
     let mut tape = emitter.finish(outputs, stats);
     tape.precision = plan.map(std::sync::Arc::new);
+    debug_assert_eq!(tape.check_slots(), Ok(()), "{tape}");
     Ok(tape)
 }
 
@@ -254,106 +252,22 @@ struct Slots {
     wide: Vec<Slot>,
 }
 
-/// A promoted noise sample, fractal sum or gradient: the plain instruction (its side tables,
-/// noise table, octave schedule and level of detail, registered as the plain one registers
-/// them) with its result in the slot `dst` it was lowered with (wide for a scalar, the vec3
-/// slot for a gradient).
-fn promoted_noise(plain: Instr) -> Instr {
-    match plain {
-        Instr::Noise { dst, src, table } => Instr::Wide(Wide::Noise { dst, src, table }),
-        Instr::Fractal {
-            dst,
-            src,
-            table,
-            octaves,
-            style,
-            bias,
-        } => Instr::Wide(Wide::Fractal {
-            dst,
-            src,
-            table,
-            octaves,
-            style,
-            bias,
-        }),
-        Instr::NoiseGradient { dst, src, table } => {
-            Instr::Wide(Wide::NoiseGradient { dst, src, table })
-        }
-        Instr::FractalGradient {
-            dst,
-            src,
-            table,
-            octaves,
-            style,
-        } => Instr::Wide(Wide::FractalGradient {
-            dst,
-            src,
-            table,
-            octaves,
-            style,
-        }),
-        other => other,
-    }
+/// Where an instruction writes and in which precision its scalars are read and written.
+#[derive(Clone, Copy)]
+struct Dst {
+    slot: Slot,
+    prec: Prec,
 }
 
-/// The promoted instruction of live node `id` (an operation `precision::rules::promotable`
-/// accepts), writing wide slot `dst`: scalar arguments from their wide slots.
-fn lower_wide(
-    graph: &CheckedGraph,
-    id: usize,
-    dst: Slot,
-    slots: &Slots,
-    axes: &mut Vec<[f64; 3]>,
-) -> Instr {
-    let node = &graph.nodes[id];
-    let d = |i: usize| slots.wide[node.args[i] as usize];
-    let v = |i: usize| slots.narrow[node.args[i] as usize];
-    Instr::Wide(match node.op {
-        Op::Component(axis) => Wide::Component {
-            dst,
-            src: v(0),
-            axis,
-        },
-        Op::Unary(op) => Wide::Unary { op, dst, src: d(0) },
-        Op::Binary(op) => Wide::Binary {
-            op,
-            dst,
-            a: d(0),
-            b: d(1),
-        },
-        Op::Ternary(op) => Wide::Ternary {
-            op,
-            dst,
-            a: d(0),
-            b: d(1),
-            c: d(2),
-        },
-        Op::Dot => Wide::Dot {
-            dst,
-            a: v(0),
-            b: v(1),
-        },
-        Op::Length => Wide::Length { dst, src: v(0) },
-        Op::Splat => Wide::Splat { dst, src: d(0) },
-        Op::Combine => Wide::Combine {
-            dst,
-            x: d(0),
-            y: d(1),
-            z: d(2),
-        },
-        // Promoted only with a varying angle (`precision::Facts::choose`).
-        Op::Rotate { axis } => {
-            axes.push(axis);
-            Wide::Rotate {
-                dst,
-                src: v(0),
-                degrees: d(1),
-                axis: (axes.len() - 1) as u32,
-            }
+impl Slots {
+    /// The slot node `node`'s value is read from in precision `prec` (vec3 values have one
+    /// slot, in `narrow`).
+    fn of(&self, prec: Prec, node: NodeId) -> Slot {
+        match prec {
+            Prec::Lane => self.narrow[node as usize],
+            Prec::Wide => self.wide[node as usize],
         }
-        // `promotable` admits nothing else; a wide dst stays unused and harmless.
-        _ => Wide::Widen { dst, src: 0 },
-    })
+    }
 }
 
 /// The outputs to compile: all, in file order, or the named ones in the order asked (each
@@ -410,7 +324,8 @@ fn reachable(graph: &CheckedGraph, roots: impl Iterator<Item = NodeId>) -> Vec<b
 }
 
 fn unreachable_const() -> Instr {
-    // Constants are handled (and `continue`d) before this match; kept panic-free regardless.
+    // Constants are handled (and `continue`d) before lowering, and each lowering helper is
+    // called for its own operations only; kept panic-free regardless.
     Instr::Position { dst: 0 }
 }
 
@@ -468,154 +383,209 @@ struct Emitter {
 
 impl Emitter {
     /// The instruction of live node `id`, writing `dst`; side tables (noise tables, octave
-    /// schedules with level of detail, matrices, splines) are filled as needed.
+    /// schedules with level of detail, matrices, splines) are filled as needed. Scalar
+    /// arguments are read in `dst.prec` (a promoted instruction reads the wide slots).
     fn lower(
         &mut self,
         graph: &CheckedGraph,
         id: usize,
-        dst: Slot,
-        slot_of: &[Slot],
+        dst: Dst,
+        slots: &Slots,
         options: &CompileOptions,
         stretches: &mut Option<Vec<Option<f64>>>,
     ) -> Instr {
         let node = &graph.nodes[id];
-        let arg = |i: usize| slot_of[node.args[i] as usize];
+        let Dst { slot: dst, prec } = dst;
+        // A scalar argument (in the instruction's precision) and a vec3 one.
+        let s = |i: usize| slots.of(prec, node.args[i]);
+        let v = |i: usize| slots.narrow[node.args[i] as usize];
         let vec3 = node.ty == Type::Vec3;
-        match &node.op {
+        match node.op {
             Op::ConstScalar(_) | Op::ConstVec3(_) => unreachable_const(),
             Op::Position => Instr::Position { dst },
-            Op::Splat => Instr::Splat { dst, src: arg(0) },
-            Op::Combine => Instr::Combine {
+            Op::Splat => Instr::Splat {
+                prec,
                 dst,
-                x: arg(0),
-                y: arg(1),
-                z: arg(2),
+                src: s(0),
+            },
+            Op::Combine => Instr::Combine {
+                prec,
+                dst,
+                x: s(0),
+                y: s(1),
+                z: s(2),
             },
             Op::Component(axis) => Instr::Component {
+                prec,
                 dst,
-                src: arg(0),
-                axis: *axis,
+                src: v(0),
+                axis,
             },
-            Op::Unary(op) if vec3 => Instr::UnaryVec3 {
-                op: *op,
-                dst,
-                src: arg(0),
-            },
+            Op::Unary(op) if vec3 => Instr::UnaryVec3 { op, dst, src: v(0) },
             Op::Unary(op) => Instr::UnaryScalar {
-                op: *op,
+                prec,
+                op,
                 dst,
-                src: arg(0),
+                src: s(0),
             },
             Op::Binary(op) if vec3 => Instr::BinaryVec3 {
-                op: *op,
+                op,
                 dst,
-                a: arg(0),
-                b: arg(1),
+                a: v(0),
+                b: v(1),
             },
             Op::Binary(op) => Instr::BinaryScalar {
-                op: *op,
+                prec,
+                op,
                 dst,
-                a: arg(0),
-                b: arg(1),
+                a: s(0),
+                b: s(1),
             },
             Op::Ternary(op) if vec3 => Instr::TernaryVec3 {
-                op: *op,
+                op,
                 dst,
-                a: arg(0),
-                b: arg(1),
-                c: arg(2),
+                a: v(0),
+                b: v(1),
+                c: v(2),
             },
             Op::Ternary(op) => Instr::TernaryScalar {
-                op: *op,
+                prec,
+                op,
                 dst,
-                a: arg(0),
-                b: arg(1),
-                c: arg(2),
+                a: s(0),
+                b: s(1),
+                c: s(2),
             },
             Op::Dot => Instr::Dot {
+                prec,
                 dst,
-                a: arg(0),
-                b: arg(1),
+                a: v(0),
+                b: v(1),
             },
-            Op::Length => Instr::Length { dst, src: arg(0) },
+            Op::Length => Instr::Length {
+                prec,
+                dst,
+                src: v(0),
+            },
             Op::Cross => Instr::Cross {
                 dst,
-                a: arg(0),
-                b: arg(1),
+                a: v(0),
+                b: v(1),
             },
-            Op::Normalize => Instr::Normalize { dst, src: arg(0) },
+            Op::Normalize => Instr::Normalize { dst, src: v(0) },
             Op::Rotate { axis } => match graph.nodes[node.args[1] as usize].op {
                 Op::ConstScalar(degrees) => {
-                    self.matrices.push(ops::rotation_matrix(*axis, degrees));
+                    self.matrices.push(ops::rotation_matrix(axis, degrees));
                     Instr::RotateConst {
                         dst,
-                        src: arg(0),
+                        src: v(0),
                         matrix: (self.matrices.len() - 1) as u32,
                     }
                 }
                 _ => {
-                    self.axes.push(*axis);
+                    self.axes.push(axis);
                     Instr::RotateVarying {
+                        prec,
                         dst,
-                        src: arg(0),
-                        degrees: arg(1),
+                        src: v(0),
+                        degrees: s(1),
                         axis: (self.axes.len() - 1) as u32,
                     }
                 }
             },
-            Op::Noise(key) => Instr::Noise {
-                dst,
-                src: arg(0),
-                table: self.table(*key),
-            },
-            Op::NoiseGradient(key) => Instr::NoiseGradient {
-                dst,
-                src: arg(0),
-                table: self.table(*key),
-            },
-            Op::Fractal(key, params) | Op::FractalGradient(key, params) => {
-                let table = self.table(*key);
-                let stretch = stretches.get_or_insert_with(|| crate::lod::stretches(graph))
-                    [node.args[0] as usize];
-                let lod = match options.spacing {
-                    Some(spacing) => crate::lod::fractal_lod(*key, params, stretch, spacing),
-                    None => crate::lod::FractalLod {
-                        octaves: params.octaves,
-                        bias: 0.0,
-                    },
-                };
-                let kept = crate::graph::FractalParams {
-                    octaves: lod.octaves,
-                    ..*params
-                };
-                self.octaves.push(kept.schedule());
-                self.octave_counts.push((params.octaves, lod.octaves));
-                self.lane_lods
-                    .push(crate::lod::LaneLod::new(*key, params, stretch, lod));
-                if let Op::FractalGradient(..) = node.op {
-                    // The octaves left out add a constant on average: no slope.
-                    return Instr::FractalGradient {
-                        dst,
-                        src: arg(0),
-                        table,
-                        octaves: (self.octaves.len() - 1) as u32,
-                        style: params.style,
-                    };
-                }
-                Instr::Fractal {
-                    dst,
-                    src: arg(0),
-                    table,
-                    octaves: (self.octaves.len() - 1) as u32,
-                    style: params.style,
-                    bias: lod.bias,
-                }
+            Op::Noise(_) | Op::NoiseGradient(_) | Op::Fractal(..) | Op::FractalGradient(..) => {
+                let src = v(0);
+                self.lower_noise(graph, id, Dst { slot: dst, prec }, src, options, stretches)
             }
+            Op::Hermite(_) | Op::Ramp(_) | Op::Curve(_) => self.lower_spline(node, dst, s(0)),
+        }
+    }
+
+    /// A noise sample, fractal sum or gradient of the point in vec3 slot `src`: its table, and
+    /// for a fractal its octave schedule after level of detail (per compile with
+    /// `options.spacing`, and per lane, `LaneLod`).
+    fn lower_noise(
+        &mut self,
+        graph: &CheckedGraph,
+        id: usize,
+        dst: Dst,
+        src: Slot,
+        options: &CompileOptions,
+        stretches: &mut Option<Vec<Option<f64>>>,
+    ) -> Instr {
+        let node = &graph.nodes[id];
+        let Dst { slot: dst, prec } = dst;
+        let (key, params) = match &node.op {
+            Op::Noise(key) => {
+                let table = self.table(*key);
+                return Instr::Noise {
+                    prec,
+                    dst,
+                    src,
+                    table,
+                };
+            }
+            Op::NoiseGradient(key) => {
+                let table = self.table(*key);
+                return Instr::NoiseGradient {
+                    prec,
+                    dst,
+                    src,
+                    table,
+                };
+            }
+            Op::Fractal(key, params) | Op::FractalGradient(key, params) => (*key, params),
+            _ => return unreachable_const(),
+        };
+        let table = self.table(key);
+        let stretch =
+            stretches.get_or_insert_with(|| crate::lod::stretches(graph))[node.args[0] as usize];
+        let lod = match options.spacing {
+            Some(spacing) => crate::lod::fractal_lod(key, params, stretch, spacing),
+            None => crate::lod::FractalLod {
+                octaves: params.octaves,
+                bias: 0.0,
+            },
+        };
+        let kept = crate::graph::FractalParams {
+            octaves: lod.octaves,
+            ..*params
+        };
+        self.octaves.push(kept.schedule());
+        self.octave_counts.push((params.octaves, lod.octaves));
+        self.lane_lods
+            .push(crate::lod::LaneLod::new(key, params, stretch, lod));
+        let octaves = (self.octaves.len() - 1) as u32;
+        if let Op::FractalGradient(..) = node.op {
+            // The octaves left out add a constant on average: no slope.
+            return Instr::FractalGradient {
+                prec,
+                dst,
+                src,
+                table,
+                octaves,
+                style: params.style,
+            };
+        }
+        Instr::Fractal {
+            prec,
+            dst,
+            src,
+            table,
+            octaves,
+            style: params.style,
+            bias: lod.bias,
+        }
+    }
+
+    /// A Hermite step, colour ramp or curve of the lane-type scalar in slot `src`.
+    fn lower_spline(&mut self, node: &crate::graph::Node, dst: Slot, src: Slot) -> Instr {
+        match &node.op {
             Op::Hermite(h) => {
                 self.hermites.push(*h);
                 Instr::Hermite {
                     dst,
-                    src: arg(0),
+                    src,
                     spline: (self.hermites.len() - 1) as u32,
                 }
             }
@@ -623,7 +593,7 @@ impl Emitter {
                 self.ramps.push(r.clone());
                 Instr::Ramp {
                     dst,
-                    src: arg(0),
+                    src,
                     ramp: (self.ramps.len() - 1) as u32,
                 }
             }
@@ -631,10 +601,11 @@ impl Emitter {
                 self.curves.push(c.clone());
                 Instr::Curve {
                     dst,
-                    src: arg(0),
+                    src,
                     curve: (self.curves.len() - 1) as u32,
                 }
             }
+            _ => unreachable_const(),
         }
     }
 
@@ -677,20 +648,20 @@ impl Emitter {
         }
         let instr = if uses.wide_node[id] && uses.has_narrow[id] {
             slots.narrow[id] = self.scalars.alloc();
-            Wide::Narrow {
+            Instr::Narrow {
                 dst: slots.narrow[id],
                 src: slots.wide[id],
             }
         } else if !uses.wide_node[id] && uses.has_wide[id] {
             slots.wide[id] = self.wides.alloc();
-            Wide::Widen {
+            Instr::Widen {
                 dst: slots.wide[id],
                 src: slots.narrow[id],
             }
         } else {
             return;
         };
-        self.instrs.push(Instr::Wide(instr));
+        self.instrs.push(instr);
         self.origins.push(node.origin.node.clone());
     }
 
@@ -765,5 +736,63 @@ impl Emitter {
             )),
         ));
         (self.tables.len() - 1) as u32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tape(text: &str) -> Tape {
+        let source = crate::diagnostic::SourceFile::new("t.ron", text);
+        let graph = crate::check::check(source, &Default::default()).expect("checks");
+        compile(&graph, &CompileOptions::default()).expect("compiles")
+    }
+
+    const GRAPH: &str = r#"Graph(nodes: { "p": Position, "s": Sin(Mul("p.x", 3.0)) },
+        outputs: { "a": Abs("s"), "b": Add("s", "p.y") })"#;
+
+    /// The slot check every compile asserts in debug builds finds each way a tape can break
+    /// the interpreter's assumptions (so the assertion can fail).
+    #[test]
+    fn the_slot_check_names_a_broken_tape() {
+        assert_eq!(tape(GRAPH).check_slots(), Ok(()));
+        let unary = |t: &Tape| {
+            t.instrs
+                .iter()
+                .position(|i| matches!(i, Instr::UnaryScalar { .. }))
+                .expect("a unary instruction")
+        };
+        let broken = |edit: &dyn Fn(&mut Tape)| {
+            let mut t = tape(GRAPH);
+            edit(&mut t);
+            t.check_slots().expect_err("broken")
+        };
+        let own = broken(&|t| {
+            let i = unary(t);
+            if let Instr::UnaryScalar { dst, src, .. } = &mut t.instrs[i] {
+                *src = *dst;
+            }
+        });
+        assert!(own.contains("which it reads"), "{own}");
+        let range = broken(&|t| {
+            let i = unary(t);
+            if let Instr::UnaryScalar { src, .. } = &mut t.instrs[i] {
+                *src = 99;
+            }
+        });
+        assert!(range.contains("s99 is out of range"), "{range}");
+        let early = broken(&|t| t.instrs.swap(0, 1));
+        assert!(early.contains("before it is written"), "{early}");
+        let output = broken(&|t| t.outputs[0].slot = 99);
+        assert!(output.contains("output \"a\""), "{output}");
+        let constant = broken(&|t| {
+            let c = t.scalar_constants[0].0;
+            let i = unary(t);
+            if let Instr::UnaryScalar { dst, .. } = &mut t.instrs[i] {
+                *dst = c;
+            }
+        });
+        assert!(constant.contains("overwrites the constant"), "{constant}");
     }
 }

@@ -12,11 +12,29 @@
 use crate::noise;
 use crate::ops::{self, BinaryOp, TernaryOp, UnaryOp};
 use crate::real::Real;
-use crate::tape::{Instr, Slot, Tape, Wide};
+use crate::tape::{Instr, Prec, Slot, Tape};
 use std::mem::take;
 
 /// Points per chunk. 256 lanes keep a typical tape's live slots (a few KiB each) in L1/L2.
 pub const LANES: usize = 256;
+
+/// Runs `$body` with `$file` bound to the scalar slot file of precision `$prec`: the lane
+/// type's slots or the f64 wide slots. The body is written once and compiled for both files
+/// (its lane functions are generic over `Real`); it may borrow the workspace's other fields.
+macro_rules! in_file {
+    ($ws:ident, $prec:expr, $file:ident => $body:expr) => {
+        match $prec {
+            Prec::Lane => {
+                let $file = &mut $ws.scalars;
+                $body
+            }
+            Prec::Wide => {
+                let $file = &mut $ws.wides;
+                $body
+            }
+        }
+    };
+}
 
 /// Per-thread scratch slots for evaluating tapes in lane type `S`.
 #[derive(Debug, Default)]
@@ -25,7 +43,7 @@ pub struct Workspace<S: Real> {
     scalars: Vec<Vec<S>>,
     /// Each vec3 slot holds three planes of LANES f64: x, then y, then z.
     vec3s: Vec<Vec<f64>>,
-    /// f64 scalar slots of promoted instructions (`Instr::Wide`), whatever `S` is.
+    /// f64 scalar slots of promoted instructions (`Prec::Wide`), whatever `S` is.
     wides: Vec<Vec<f64>>,
     /// Level of detail per lane: the octaves each lane of a fractal keeps, and its bias.
     kept: Vec<f64>,
@@ -284,6 +302,10 @@ impl Tape {
 
     /// Runs one instruction over `n` lanes (the body of [`Tape::run_chunk`]'s loop).
     /// `spacing`: level of detail per lane ([`Tape::eval_batch_lod`]).
+    ///
+    /// An instruction with scalar operands runs on the slot file its precision names (the
+    /// lane type's, or f64 for a promoted one, `in_file!`): one handler, generic over the
+    /// file's type, serves both.
     #[inline(always)]
     fn step<S: Real, const ONE_LANE: bool>(
         &self,
@@ -293,156 +315,171 @@ impl Tape {
         spacing: Option<&[f64]>,
         n: usize,
     ) {
-        {
-            match *instr {
-                Instr::Position { dst } => {
-                    let planes = &mut ws.vec3s[dst as usize];
-                    planes[..n].copy_from_slice(x);
-                    planes[LANES..LANES + n].copy_from_slice(y);
-                    planes[2 * LANES..2 * LANES + n].copy_from_slice(z);
-                }
-                Instr::Splat { dst, src } => {
-                    let mut out = take(&mut ws.vec3s[dst as usize]);
-                    let s = &ws.scalars[src as usize][..n];
-                    for plane in out.chunks_exact_mut(LANES) {
-                        for (o, v) in plane[..n].iter_mut().zip(s) {
-                            *o = v.to_f64();
-                        }
-                    }
-                    ws.vec3s[dst as usize] = out;
-                }
-                Instr::Combine {
-                    dst,
-                    x: sx,
-                    y: sy,
-                    z: sz,
-                } => {
-                    let mut out = take(&mut ws.vec3s[dst as usize]);
-                    for (plane, src) in out.chunks_exact_mut(LANES).zip([sx, sy, sz]) {
-                        for (o, v) in plane[..n].iter_mut().zip(&ws.scalars[src as usize][..n]) {
-                            *o = v.to_f64();
-                        }
-                    }
-                    ws.vec3s[dst as usize] = out;
-                }
-                Instr::Component { dst, src, axis } => {
-                    let plane = &ws.vec3s[src as usize][axis as usize % 3 * LANES..][..n];
-                    for (o, v) in ws.scalars[dst as usize][..n].iter_mut().zip(plane) {
-                        *o = S::from_f64(*v);
+        match *instr {
+            Instr::Position { dst } => {
+                let planes = &mut ws.vec3s[dst as usize];
+                planes[..n].copy_from_slice(x);
+                planes[LANES..LANES + n].copy_from_slice(y);
+                planes[2 * LANES..2 * LANES + n].copy_from_slice(z);
+            }
+            Instr::Splat { prec, dst, src } => in_file!(ws, prec, f => {
+                let s = &f[src as usize][..n];
+                for plane in ws.vec3s[dst as usize].chunks_exact_mut(LANES) {
+                    for (o, v) in plane[..n].iter_mut().zip(s) {
+                        *o = v.to_f64();
                     }
                 }
-                // One lane (eval_point): the same per-lane `apply` on lane 0 directly; moving the
-                // lane arrays out and back costs as much as the operation (5% of a marble point).
-                Instr::UnaryScalar { op, dst, src } if ONE_LANE => {
-                    ws.scalars[dst as usize][0] = op.apply(ws.scalars[src as usize][0]);
-                }
-                Instr::BinaryScalar { op, dst, a, b } if ONE_LANE => {
-                    let (x, y) = (ws.scalars[a as usize][0], ws.scalars[b as usize][0]);
-                    ws.scalars[dst as usize][0] = op.apply(x, y);
-                }
-                Instr::UnaryScalar { op, dst, src } => {
-                    let mut out = take(&mut ws.scalars[dst as usize]);
-                    unary_lanes(op, &mut out[..n], &ws.scalars[src as usize][..n]);
-                    ws.scalars[dst as usize] = out;
-                }
-                Instr::UnaryVec3 { op, dst, src } => {
-                    let mut out = take(&mut ws.vec3s[dst as usize]);
-                    let a = &ws.vec3s[src as usize];
-                    for c in 0..3 {
-                        unary_lanes(op, &mut out[c * LANES..][..n], &a[c * LANES..][..n]);
+            }),
+            Instr::Combine {
+                prec,
+                dst,
+                x: sx,
+                y: sy,
+                z: sz,
+            } => in_file!(ws, prec, f => {
+                let out = &mut ws.vec3s[dst as usize];
+                for (plane, src) in out.chunks_exact_mut(LANES).zip([sx, sy, sz]) {
+                    for (o, v) in plane[..n].iter_mut().zip(&f[src as usize][..n]) {
+                        *o = v.to_f64();
                     }
-                    ws.vec3s[dst as usize] = out;
                 }
-                Instr::BinaryScalar { op, dst, a, b } => {
-                    let mut out = take(&mut ws.scalars[dst as usize]);
+            }),
+            Instr::Component {
+                prec,
+                dst,
+                src,
+                axis,
+            } => in_file!(ws, prec, f => {
+                let plane = &ws.vec3s[src as usize][axis as usize % 3 * LANES..][..n];
+                for (o, v) in f[dst as usize][..n].iter_mut().zip(plane) {
+                    *o = Real::from_f64(*v);
+                }
+            }),
+            // One lane (eval_point): the same per-lane `apply` on lane 0 directly; moving the
+            // lane arrays out and back costs as much as the operation (5% of a marble point).
+            Instr::UnaryScalar { prec, op, dst, src } if ONE_LANE => in_file!(ws, prec, f => {
+                f[dst as usize][0] = op.apply(f[src as usize][0]);
+            }),
+            Instr::BinaryScalar {
+                prec,
+                op,
+                dst,
+                a,
+                b,
+            } if ONE_LANE => in_file!(ws, prec, f => {
+                let (x, y) = (f[a as usize][0], f[b as usize][0]);
+                f[dst as usize][0] = op.apply(x, y);
+            }),
+            Instr::UnaryScalar { prec, op, dst, src } => in_file!(ws, prec, f => {
+                let mut out = take(&mut f[dst as usize]);
+                unary_lanes(op, &mut out[..n], &f[src as usize][..n]);
+                f[dst as usize] = out;
+            }),
+            Instr::UnaryVec3 { op, dst, src } => {
+                let mut out = take(&mut ws.vec3s[dst as usize]);
+                let a = &ws.vec3s[src as usize];
+                for c in 0..3 {
+                    unary_lanes(op, &mut out[c * LANES..][..n], &a[c * LANES..][..n]);
+                }
+                ws.vec3s[dst as usize] = out;
+            }
+            Instr::BinaryScalar {
+                prec,
+                op,
+                dst,
+                a,
+                b,
+            } => in_file!(ws, prec, f => {
+                let mut out = take(&mut f[dst as usize]);
+                binary_lanes(op, &mut out[..n], &f[a as usize][..n], &f[b as usize][..n]);
+                f[dst as usize] = out;
+            }),
+            Instr::BinaryVec3 { op, dst, a, b } => {
+                let mut out = take(&mut ws.vec3s[dst as usize]);
+                let (a, b) = (&ws.vec3s[a as usize], &ws.vec3s[b as usize]);
+                for c in 0..3 {
                     binary_lanes(
                         op,
-                        &mut out[..n],
-                        &ws.scalars[a as usize][..n],
-                        &ws.scalars[b as usize][..n],
+                        &mut out[c * LANES..][..n],
+                        &a[c * LANES..][..n],
+                        &b[c * LANES..][..n],
                     );
-                    ws.scalars[dst as usize] = out;
                 }
-                Instr::BinaryVec3 { op, dst, a, b } => {
-                    let mut out = take(&mut ws.vec3s[dst as usize]);
-                    let (a, b) = (&ws.vec3s[a as usize], &ws.vec3s[b as usize]);
-                    for c in 0..3 {
-                        binary_lanes(
-                            op,
-                            &mut out[c * LANES..][..n],
-                            &a[c * LANES..][..n],
-                            &b[c * LANES..][..n],
-                        );
-                    }
-                    ws.vec3s[dst as usize] = out;
+                ws.vec3s[dst as usize] = out;
+            }
+            Instr::TernaryScalar {
+                prec,
+                op,
+                dst,
+                a,
+                b,
+                c,
+            } => in_file!(ws, prec, f => {
+                let mut out = take(&mut f[dst as usize]);
+                let [a, b, c] = [a, b, c].map(|s| &f[s as usize][..n]);
+                ternary_lanes(op, &mut out[..n], a, b, c);
+                f[dst as usize] = out;
+            }),
+            Instr::TernaryVec3 { op, dst, a, b, c } => {
+                let mut out = take(&mut ws.vec3s[dst as usize]);
+                let v = &ws.vec3s;
+                for k in 0..3 {
+                    let plane = |slot: u32| &v[slot as usize][k * LANES..][..n];
+                    ternary_lanes(op, &mut out[k * LANES..][..n], plane(a), plane(b), plane(c));
                 }
-                Instr::TernaryScalar { op, dst, a, b, c } => {
-                    let mut out = take(&mut ws.scalars[dst as usize]);
-                    let s = &ws.scalars;
-                    ternary_lanes(
-                        op,
-                        &mut out[..n],
-                        &s[a as usize][..n],
-                        &s[b as usize][..n],
-                        &s[c as usize][..n],
-                    );
-                    ws.scalars[dst as usize] = out;
+                ws.vec3s[dst as usize] = out;
+            }
+            Instr::Dot { .. }
+            | Instr::Length { .. }
+            | Instr::Cross { .. }
+            | Instr::Normalize { .. }
+            | Instr::RotateConst { .. }
+            | Instr::RotateVarying { .. } => self.geometry(instr, ws, n),
+            Instr::Noise { .. }
+            | Instr::Fractal { .. }
+            | Instr::NoiseGradient { .. }
+            | Instr::FractalGradient { .. } => self.noise(instr, ws, spacing, n),
+            Instr::Hermite { .. } | Instr::Ramp { .. } | Instr::Curve { .. } => {
+                self.splines(instr, ws, n)
+            }
+            Instr::Widen { dst, src } => {
+                let s = &ws.scalars[src as usize][..n];
+                for (o, v) in ws.wides[dst as usize][..n].iter_mut().zip(s) {
+                    *o = v.to_f64();
                 }
-                Instr::TernaryVec3 { op, dst, a, b, c } => {
-                    let mut out = take(&mut ws.vec3s[dst as usize]);
-                    let v = &ws.vec3s;
-                    for k in 0..3 {
-                        let plane = |slot: u32| &v[slot as usize][k * LANES..][..n];
-                        ternary_lanes(op, &mut out[k * LANES..][..n], plane(a), plane(b), plane(c));
-                    }
-                    ws.vec3s[dst as usize] = out;
+            }
+            Instr::Narrow { dst, src } => {
+                let d = &ws.wides[src as usize][..n];
+                for (o, v) in ws.scalars[dst as usize][..n].iter_mut().zip(d) {
+                    *o = S::from_f64(*v);
                 }
-                Instr::Dot { .. }
-                | Instr::Length { .. }
-                | Instr::Cross { .. }
-                | Instr::Normalize { .. }
-                | Instr::RotateConst { .. }
-                | Instr::RotateVarying { .. } => self.geometry(instr, ws, n),
-                Instr::Noise { .. }
-                | Instr::Fractal { .. }
-                | Instr::NoiseGradient { .. }
-                | Instr::FractalGradient { .. } => self.noise(instr, ws, spacing, n),
-                Instr::Hermite { .. } | Instr::Ramp { .. } | Instr::Curve { .. } => {
-                    self.splines(instr, ws, n)
-                }
-                Instr::Wide(w) => self.wide_noise(w, ws, spacing, n),
             }
         }
     }
 
-    /// Per-lane vector geometry: dot, length, rotation.
+    /// Per-lane vector geometry: dot, length, cross product, normalisation, rotation.
     #[inline(always)]
     fn geometry<S: Real>(&self, instr: &Instr, ws: &mut Workspace<S>, n: usize) {
         match *instr {
-            Instr::Dot { dst, a, b } => {
+            Instr::Dot { prec, dst, a, b } => in_file!(ws, prec, f => {
                 let (a, b) = (&ws.vec3s[a as usize], &ws.vec3s[b as usize]);
-                let out = &mut ws.scalars[dst as usize][..n];
-                for (i, o) in out.iter_mut().enumerate() {
+                for (i, o) in f[dst as usize][..n].iter_mut().enumerate() {
                     let lane = |v: &[f64]| [v[i], v[LANES + i], v[2 * LANES + i]];
-                    *o = S::from_f64(ops::dot(lane(a), lane(b)));
+                    *o = Real::from_f64(ops::dot(lane(a), lane(b)));
                 }
-            }
-            Instr::Length { dst, src } => {
+            }),
+            Instr::Length { prec, dst, src } => in_file!(ws, prec, f => {
                 let a = &ws.vec3s[src as usize];
-                let out = &mut ws.scalars[dst as usize][..n];
-                for (i, o) in out.iter_mut().enumerate() {
-                    *o = S::from_f64(ops::length([a[i], a[LANES + i], a[2 * LANES + i]]));
+                for (i, o) in f[dst as usize][..n].iter_mut().enumerate() {
+                    *o = Real::from_f64(ops::length([a[i], a[LANES + i], a[2 * LANES + i]]));
                 }
-            }
+            }),
             Instr::Cross { dst, a, b } => {
                 let mut out = take(&mut ws.vec3s[dst as usize]);
                 let (a, b) = (&ws.vec3s[a as usize], &ws.vec3s[b as usize]);
                 for i in 0..n {
                     let lane = |v: &[f64]| [v[i], v[LANES + i], v[2 * LANES + i]];
-                    let c = ops::cross(lane(a), lane(b));
-                    out[i] = c[0];
-                    out[LANES + i] = c[1];
-                    out[2 * LANES + i] = c[2];
+                    set_lane(&mut out, i, ops::cross(lane(a), lane(b)));
                 }
                 ws.vec3s[dst as usize] = out;
             }
@@ -451,9 +488,7 @@ impl Tape {
                 let a = &ws.vec3s[src as usize];
                 for i in 0..n {
                     let c = ops::normalize([a[i], a[LANES + i], a[2 * LANES + i]]);
-                    out[i] = c[0];
-                    out[LANES + i] = c[1];
-                    out[2 * LANES + i] = c[2];
+                    set_lane(&mut out, i, c);
                 }
                 ws.vec3s[dst as usize] = out;
             }
@@ -463,36 +498,34 @@ impl Tape {
                 let a = &ws.vec3s[src as usize];
                 for i in 0..n {
                     let p = ops::apply_matrix(m, [a[i], a[LANES + i], a[2 * LANES + i]]);
-                    out[i] = p[0];
-                    out[LANES + i] = p[1];
-                    out[2 * LANES + i] = p[2];
+                    set_lane(&mut out, i, p);
                 }
                 ws.vec3s[dst as usize] = out;
             }
             Instr::RotateVarying {
+                prec,
                 dst,
                 src,
                 degrees,
                 axis,
-            } => {
+            } => in_file!(ws, prec, f => {
                 let axis = self.axes[axis as usize];
                 let mut out = take(&mut ws.vec3s[dst as usize]);
                 let a = &ws.vec3s[src as usize];
-                let d = &ws.scalars[degrees as usize];
+                let d = &f[degrees as usize];
                 for i in 0..n {
                     let m = ops::rotation_matrix(axis, d[i].to_f64());
                     let p = ops::apply_matrix(&m, [a[i], a[LANES + i], a[2 * LANES + i]]);
-                    out[i] = p[0];
-                    out[LANES + i] = p[1];
-                    out[2 * LANES + i] = p[2];
+                    set_lane(&mut out, i, p);
                 }
                 ws.vec3s[dst as usize] = out;
-            }
+            }),
             _ => unreachable!("run_chunk dispatches only geometry instructions here"),
         }
     }
 
-    /// Noise samples and fractal sums, through the tables' batch kernels.
+    /// Noise samples, fractal sums and their gradients, through the tables' batch kernels, in
+    /// the lane type or (promoted) in f64: every basis' f64 form is the reference path's.
     #[inline(always)]
     fn noise<S: Real>(
         &self,
@@ -502,81 +535,44 @@ impl Tape {
         n: usize,
     ) {
         match *instr {
-            Instr::Noise { dst, src, table } => {
-                let out = &mut ws.scalars[dst as usize];
-                self.sample_into(table, &ws.vec3s[src as usize], n, out);
-            }
+            Instr::Noise {
+                prec,
+                dst,
+                src,
+                table,
+            } => in_file!(ws, prec, f => {
+                self.sample_into(table, &ws.vec3s[src as usize], n, &mut f[dst as usize]);
+            }),
             Instr::Fractal {
+                prec,
                 dst,
                 src,
                 table,
                 octaves,
                 style,
                 bias,
-            } => {
+            } => in_file!(ws, prec, f => {
                 let fractal = FractalInstr {
                     table,
                     octaves,
                     style,
                     bias,
                 };
-                let out = &mut ws.scalars[dst as usize];
                 let scratch = (&mut ws.kept[..], &mut ws.bias[..]);
+                let out = &mut f[dst as usize];
                 self.fractal_into(fractal, &ws.vec3s[src as usize], spacing, scratch, n, out);
-            }
-            Instr::NoiseGradient { dst, src, table } => {
-                self.gradient_into::<S, S>(dst, src, table, None, ws, spacing, n)
-            }
+            }),
+            Instr::NoiseGradient {
+                prec,
+                dst,
+                src,
+                table,
+            } => match prec {
+                Prec::Lane => self.gradient_into::<S, S>(dst, src, table, None, ws, spacing, n),
+                Prec::Wide => self.gradient_into::<f64, S>(dst, src, table, None, ws, spacing, n),
+            },
             Instr::FractalGradient {
-                dst,
-                src,
-                table,
-                octaves,
-                style,
-            } => {
-                self.gradient_into::<S, S>(dst, src, table, Some((octaves, style)), ws, spacing, n)
-            }
-            _ => unreachable!("run_chunk dispatches only noise instructions here"),
-        }
-    }
-
-    /// A promoted noise sample or fractal sum: the instruction's own computation in f64, into
-    /// its wide slot (every basis' f64 form is the reference path's).
-    #[inline(always)]
-    fn wide_noise<S: Real>(
-        &self,
-        w: Wide,
-        ws: &mut Workspace<S>,
-        spacing: Option<&[f64]>,
-        n: usize,
-    ) {
-        match w {
-            Wide::Noise { dst, src, table } => {
-                let out = &mut ws.wides[dst as usize];
-                self.sample_into(table, &ws.vec3s[src as usize], n, out);
-            }
-            Wide::Fractal {
-                dst,
-                src,
-                table,
-                octaves,
-                style,
-                bias,
-            } => {
-                let fractal = FractalInstr {
-                    table,
-                    octaves,
-                    style,
-                    bias,
-                };
-                let out = &mut ws.wides[dst as usize];
-                let scratch = (&mut ws.kept[..], &mut ws.bias[..]);
-                self.fractal_into(fractal, &ws.vec3s[src as usize], spacing, scratch, n, out);
-            }
-            Wide::NoiseGradient { dst, src, table } => {
-                self.gradient_into::<f64, S>(dst, src, table, None, ws, spacing, n)
-            }
-            Wide::FractalGradient {
+                prec,
                 dst,
                 src,
                 table,
@@ -584,9 +580,16 @@ impl Tape {
                 style,
             } => {
                 let fractal = Some((octaves, style));
-                self.gradient_into::<f64, S>(dst, src, table, fractal, ws, spacing, n)
+                match prec {
+                    Prec::Lane => {
+                        self.gradient_into::<S, S>(dst, src, table, fractal, ws, spacing, n)
+                    }
+                    Prec::Wide => {
+                        self.gradient_into::<f64, S>(dst, src, table, fractal, ws, spacing, n)
+                    }
+                }
             }
-            other => wide(other, ws, n, &self.axes),
+            _ => unreachable!("run_chunk dispatches only noise instructions here"),
         }
     }
 
@@ -744,7 +747,7 @@ impl Tape {
     }
 }
 
-/// A fractal instruction's parameters (`Instr::Fractal`, `Wide::Fractal`).
+/// A fractal instruction's parameters (`Instr::Fractal`).
 #[derive(Clone, Copy)]
 struct FractalInstr {
     table: u32,
@@ -753,99 +756,12 @@ struct FractalInstr {
     bias: f64,
 }
 
-/// A promoted instruction: the same per-lane operations as the plain ones, on f64 lanes (those
-/// without side tables: `Tape::wide_noise` runs the noise ones).
+/// Writes a vec3 into lane `i` of three planes.
 #[inline(always)]
-fn wide<S: Real>(w: Wide, ws: &mut Workspace<S>, n: usize, axes: &[[f64; 3]]) {
-    match w {
-        Wide::Noise { .. }
-        | Wide::Fractal { .. }
-        | Wide::NoiseGradient { .. }
-        | Wide::FractalGradient { .. } => {}
-        Wide::Rotate {
-            dst,
-            src,
-            degrees,
-            axis,
-        } => {
-            let axis = axes[axis as usize];
-            let mut out = take(&mut ws.vec3s[dst as usize]);
-            let a = &ws.vec3s[src as usize];
-            let d = &ws.wides[degrees as usize];
-            for i in 0..n {
-                let m = ops::rotation_matrix(axis, d[i]);
-                let p = ops::apply_matrix(&m, [a[i], a[LANES + i], a[2 * LANES + i]]);
-                out[i] = p[0];
-                out[LANES + i] = p[1];
-                out[2 * LANES + i] = p[2];
-            }
-            ws.vec3s[dst as usize] = out;
-        }
-        Wide::Component { dst, src, axis } => {
-            let c = axis as usize % 3;
-            let src = &ws.vec3s[src as usize][c * LANES..c * LANES + n];
-            ws.wides[dst as usize][..n].copy_from_slice(src);
-        }
-        Wide::Unary { op, dst, src } => {
-            let mut out = take(&mut ws.wides[dst as usize]);
-            unary_lanes(op, &mut out[..n], &ws.wides[src as usize][..n]);
-            ws.wides[dst as usize] = out;
-        }
-        Wide::Binary { op, dst, a, b } => {
-            let mut out = take(&mut ws.wides[dst as usize]);
-            let d = &ws.wides;
-            binary_lanes(op, &mut out[..n], &d[a as usize][..n], &d[b as usize][..n]);
-            ws.wides[dst as usize] = out;
-        }
-        Wide::Ternary { op, dst, a, b, c } => {
-            let mut out = take(&mut ws.wides[dst as usize]);
-            let d = &ws.wides;
-            let (a, b, c) = (
-                &d[a as usize][..n],
-                &d[b as usize][..n],
-                &d[c as usize][..n],
-            );
-            ternary_lanes(op, &mut out[..n], a, b, c);
-            ws.wides[dst as usize] = out;
-        }
-        Wide::Dot { dst, a, b } => {
-            let (a, b) = (&ws.vec3s[a as usize], &ws.vec3s[b as usize]);
-            for (i, o) in ws.wides[dst as usize][..n].iter_mut().enumerate() {
-                let lane = |v: &[f64]| [v[i], v[LANES + i], v[2 * LANES + i]];
-                *o = ops::dot(lane(a), lane(b));
-            }
-        }
-        Wide::Length { dst, src } => {
-            let a = &ws.vec3s[src as usize];
-            for (i, o) in ws.wides[dst as usize][..n].iter_mut().enumerate() {
-                *o = ops::length([a[i], a[LANES + i], a[2 * LANES + i]]);
-            }
-        }
-        Wide::Splat { dst, src } => {
-            let s = &ws.wides[src as usize][..n];
-            for plane in ws.vec3s[dst as usize].chunks_exact_mut(LANES) {
-                plane[..n].copy_from_slice(s);
-            }
-        }
-        Wide::Combine { dst, x, y, z } => {
-            let out = &mut ws.vec3s[dst as usize];
-            for (plane, src) in out.chunks_exact_mut(LANES).zip([x, y, z]) {
-                plane[..n].copy_from_slice(&ws.wides[src as usize][..n]);
-            }
-        }
-        Wide::Widen { dst, src } => {
-            let s = &ws.scalars[src as usize][..n];
-            for (o, v) in ws.wides[dst as usize][..n].iter_mut().zip(s) {
-                *o = v.to_f64();
-            }
-        }
-        Wide::Narrow { dst, src } => {
-            let d = &ws.wides[src as usize][..n];
-            for (o, v) in ws.scalars[dst as usize][..n].iter_mut().zip(d) {
-                *o = S::from_f64(*v);
-            }
-        }
-    }
+fn set_lane(planes: &mut [f64], i: usize, v: [f64; 3]) {
+    planes[i] = v[0];
+    planes[LANES + i] = v[1];
+    planes[2 * LANES + i] = v[2];
 }
 
 /// One loop per operation: the `match` is outside, so each loop body is a single operation the

@@ -19,9 +19,97 @@ use crate::ops::{BinaryOp, Curve, Hermite, Ramp, TernaryOp, UnaryOp};
 use std::fmt;
 use std::sync::Arc;
 
-/// A slot index in the scalar or vec3 file (which one follows from the instruction).
+/// A slot index in the scalar, wide or vec3 file (which one follows from the instruction).
 pub type Slot = u32;
 
+/// Which scalar slot file an instruction's scalar operands live in: the evaluation's lane type
+/// (`s` slots in the disassembly) or f64 whatever the lane type (`d` slots: the instructions the
+/// precision plan promoted, `precision/`). Vec3 operands are always the f64 vec3 slots (`v`).
+/// On the f64 path a promoted instruction computes exactly what the plain one would.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Prec {
+    #[default]
+    Lane,
+    Wide,
+}
+
+impl Prec {
+    /// The slot file of this precision's scalars.
+    pub fn file(self) -> File {
+        match self {
+            Prec::Lane => File::Scalar,
+            Prec::Wide => File::Wide,
+        }
+    }
+}
+
+/// A slot file of a tape.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum File {
+    /// Lane-type scalars (`s`).
+    Scalar,
+    /// f64 scalars of promoted instructions (`d`).
+    Wide,
+    /// f64 points and colours (`v`).
+    Vec3,
+}
+
+impl File {
+    /// The precision of a scalar file's slots; `None` for the vec3 file.
+    pub fn prec(self) -> Option<Prec> {
+        match self {
+            File::Scalar => Some(Prec::Lane),
+            File::Wide => Some(Prec::Wide),
+            File::Vec3 => None,
+        }
+    }
+
+    /// The disassembly's (and the generated shaders') prefix of a slot of this file.
+    pub fn prefix(self) -> char {
+        match self {
+            File::Scalar => 's',
+            File::Wide => 'd',
+            File::Vec3 => 'v',
+        }
+    }
+}
+
+/// A slot with its file: what an instruction reads or writes ([`Instr::reads`],
+/// [`Instr::writes`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Operand {
+    pub file: File,
+    pub slot: Slot,
+}
+
+impl Operand {
+    pub fn scalar(prec: Prec, slot: Slot) -> Operand {
+        Operand {
+            file: prec.file(),
+            slot,
+        }
+    }
+
+    pub fn vec3(slot: Slot) -> Operand {
+        Operand {
+            file: File::Vec3,
+            slot,
+        }
+    }
+}
+
+impl fmt::Display for Operand {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}{}", self.file.prefix(), self.slot)
+    }
+}
+
+/// The slots an instruction reads: at most three, in operand order, without allocating.
+pub type Reads = smallvec::SmallVec<[Operand; 3]>;
+
+/// One instruction. Those with a scalar operand or result carry the [`Prec`] of their scalars
+/// (the slot file they are read from and written to; for a noise kernel also the type it runs
+/// in); the others read and write vec3 slots, or lane-type scalars only (the splines).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Instr {
     /// dst(vec3) = the sample point.
@@ -30,23 +118,27 @@ pub enum Instr {
     },
     /// dst(vec3) = (src, src, src).
     Splat {
+        prec: Prec,
         dst: Slot,
         src: Slot,
     },
     /// dst(vec3) = (x, y, z) from three scalar slots.
     Combine {
+        prec: Prec,
         dst: Slot,
         x: Slot,
         y: Slot,
         z: Slot,
     },
-    /// dst(scalar) = src(vec3)`[axis]`.
+    /// dst(scalar) = src(vec3)`[axis]` (rounded once to the lane type, or exact in f64).
     Component {
+        prec: Prec,
         dst: Slot,
         src: Slot,
         axis: u8,
     },
     UnaryScalar {
+        prec: Prec,
         op: UnaryOp,
         dst: Slot,
         src: Slot,
@@ -57,6 +149,7 @@ pub enum Instr {
         src: Slot,
     },
     BinaryScalar {
+        prec: Prec,
         op: BinaryOp,
         dst: Slot,
         a: Slot,
@@ -69,6 +162,7 @@ pub enum Instr {
         b: Slot,
     },
     TernaryScalar {
+        prec: Prec,
         op: TernaryOp,
         dst: Slot,
         a: Slot,
@@ -82,12 +176,15 @@ pub enum Instr {
         b: Slot,
         c: Slot,
     },
+    /// dst(scalar) = a · b (in f64, then rounded once to the lane type where `prec` is `Lane`).
     Dot {
+        prec: Prec,
         dst: Slot,
         a: Slot,
         b: Slot,
     },
     Length {
+        prec: Prec,
         dst: Slot,
         src: Slot,
     },
@@ -110,12 +207,16 @@ pub enum Instr {
     },
     /// dst(vec3) = rotation of src about `axes[axis]` by degrees(scalar slot), per lane.
     RotateVarying {
+        prec: Prec,
         dst: Slot,
         src: Slot,
         degrees: Slot,
         axis: u32,
     },
+    /// dst(scalar) = a noise sample of src(vec3), computed in the precision's type (every basis
+    /// has its f64 form, the reference path's).
     Noise {
+        prec: Prec,
         dst: Slot,
         src: Slot,
         table: u32,
@@ -123,6 +224,7 @@ pub enum Instr {
     /// Fbm (or turbulence) with the octave loop inside one instruction, plus `bias` (the
     /// average of the octaves level of detail left out; 0 without).
     Fractal {
+        prec: Prec,
         dst: Slot,
         src: Slot,
         table: u32,
@@ -130,14 +232,17 @@ pub enum Instr {
         style: Style,
         bias: f64,
     },
-    /// dst(vec3) = the analytic gradient of the noise at src (`Gradient`).
+    /// dst(vec3) = the analytic gradient of the noise at src (`Gradient`), its kernels in the
+    /// precision's type (the vec3 slot is f64 either way).
     NoiseGradient {
+        prec: Prec,
         dst: Slot,
         src: Slot,
         table: u32,
     },
     /// dst(vec3) = the analytic gradient of a fractal sum (octaves after level of detail).
     FractalGradient {
+        prec: Prec,
         dst: Slot,
         src: Slot,
         table: u32,
@@ -159,147 +264,165 @@ pub enum Instr {
         src: Slot,
         curve: u32,
     },
-    /// An instruction on the f64 ("wide") scalar slots: the scalars precision analysis promoted
-    /// (`precision.rs`). On the f64 path it computes exactly what the plain instruction would.
-    Wide(Wide),
-}
-
-/// Instructions whose scalar operands live in the wide slots (`d` in the disassembly): f64 lanes
-/// whatever the evaluation's lane type. Vec3 operands are the usual vec3 slots.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Wide {
-    /// d = v.axis, unrounded.
-    Component {
-        dst: Slot,
-        src: Slot,
-        axis: u8,
-    },
-    Unary {
-        op: UnaryOp,
-        dst: Slot,
-        src: Slot,
-    },
-    Binary {
-        op: BinaryOp,
-        dst: Slot,
-        a: Slot,
-        b: Slot,
-    },
-    Ternary {
-        op: TernaryOp,
-        dst: Slot,
-        a: Slot,
-        b: Slot,
-        c: Slot,
-    },
-    Dot {
-        dst: Slot,
-        a: Slot,
-        b: Slot,
-    },
-    Length {
-        dst: Slot,
-        src: Slot,
-    },
-    /// v = (d, d, d).
-    Splat {
-        dst: Slot,
-        src: Slot,
-    },
-    /// v = (dx, dy, dz).
-    Combine {
-        dst: Slot,
-        x: Slot,
-        y: Slot,
-        z: Slot,
-    },
-    /// v = rotation of v(src) about `axes[axis]` by d(degrees), per lane.
-    Rotate {
-        dst: Slot,
-        src: Slot,
-        degrees: Slot,
-        axis: u32,
-    },
-    /// d = a noise sample of v(src), computed in f64 (a promoted `Noise`: every basis has its
-    /// f64 form, the reference path's).
-    Noise {
-        dst: Slot,
-        src: Slot,
-        table: u32,
-    },
-    /// d = a fractal sum of v(src), computed in f64 (a promoted `Fractal`), plus `bias`.
-    Fractal {
-        dst: Slot,
-        src: Slot,
-        table: u32,
-        octaves: u32,
-        style: Style,
-        bias: f64,
-    },
-    /// v = the analytic gradient of the noise at v(src), its kernel in f64 (a promoted
-    /// `NoiseGradient`; the vec3 slot is f64 on both paths).
-    NoiseGradient {
-        dst: Slot,
-        src: Slot,
-        table: u32,
-    },
-    /// v = the gradient of a fractal sum, its kernels in f64 (a promoted `FractalGradient`).
-    FractalGradient {
-        dst: Slot,
-        src: Slot,
-        table: u32,
-        octaves: u32,
-        style: Style,
-    },
-    /// d = a lane-type scalar, exactly.
+    /// d(dst) = s(src): a lane-type scalar in f64, exactly.
     Widen {
         dst: Slot,
         src: Slot,
     },
-    /// A lane-type scalar = d, rounded (a no-op copy on the f64 path).
+    /// s(dst) = d(src), rounded once to the lane type (a copy on the f64 path).
     Narrow {
         dst: Slot,
         src: Slot,
     },
 }
 
-impl Wide {
-    /// A promoted noise sample, fractal sum or gradient as its plain instruction (the same
-    /// fields; the inverse of the compiler's promotion); `None` for every other instruction.
-    pub(crate) fn plain_noise(self) -> Option<Instr> {
-        Some(match self {
-            Wide::Noise { dst, src, table } => Instr::Noise { dst, src, table },
-            Wide::Fractal {
-                dst,
-                src,
-                table,
-                octaves,
-                style,
-                bias,
-            } => Instr::Fractal {
-                dst,
-                src,
-                table,
-                octaves,
-                style,
-                bias,
-            },
-            Wide::NoiseGradient { dst, src, table } => Instr::NoiseGradient { dst, src, table },
-            Wide::FractalGradient {
-                dst,
-                src,
-                table,
-                octaves,
-                style,
-            } => Instr::FractalGradient {
-                dst,
-                src,
-                table,
-                octaves,
-                style,
-            },
-            _ => return None,
-        })
+impl Instr {
+    /// The slot this instruction writes (every instruction writes exactly one).
+    pub fn writes(&self) -> Operand {
+        use Operand as O;
+        match *self {
+            Instr::Position { dst }
+            | Instr::Splat { dst, .. }
+            | Instr::Combine { dst, .. }
+            | Instr::UnaryVec3 { dst, .. }
+            | Instr::BinaryVec3 { dst, .. }
+            | Instr::TernaryVec3 { dst, .. }
+            | Instr::Cross { dst, .. }
+            | Instr::Normalize { dst, .. }
+            | Instr::RotateConst { dst, .. }
+            | Instr::RotateVarying { dst, .. }
+            | Instr::NoiseGradient { dst, .. }
+            | Instr::FractalGradient { dst, .. }
+            | Instr::Ramp { dst, .. } => O::vec3(dst),
+            Instr::Component { prec, dst, .. }
+            | Instr::UnaryScalar { prec, dst, .. }
+            | Instr::BinaryScalar { prec, dst, .. }
+            | Instr::TernaryScalar { prec, dst, .. }
+            | Instr::Dot { prec, dst, .. }
+            | Instr::Length { prec, dst, .. }
+            | Instr::Noise { prec, dst, .. }
+            | Instr::Fractal { prec, dst, .. } => O::scalar(prec, dst),
+            Instr::Hermite { dst, .. } | Instr::Curve { dst, .. } | Instr::Narrow { dst, .. } => {
+                O::scalar(Prec::Lane, dst)
+            }
+            Instr::Widen { dst, .. } => O::scalar(Prec::Wide, dst),
+        }
+    }
+
+    /// The slots this instruction reads, in operand order (a slot read twice is listed twice).
+    pub fn reads(&self) -> Reads {
+        use Operand as O;
+        let v = O::vec3;
+        let mut r = Reads::new();
+        match *self {
+            Instr::Position { .. } => {}
+            Instr::Splat { prec, src, .. } | Instr::UnaryScalar { prec, src, .. } => {
+                r.push(O::scalar(prec, src))
+            }
+            Instr::Combine { prec, x, y, z, .. } => r.extend([x, y, z].map(|s| O::scalar(prec, s))),
+            Instr::BinaryScalar { prec, a, b, .. } => r.extend([a, b].map(|s| O::scalar(prec, s))),
+            Instr::TernaryScalar { prec, a, b, c, .. } => {
+                r.extend([a, b, c].map(|s| O::scalar(prec, s)))
+            }
+            Instr::Component { src, .. }
+            | Instr::UnaryVec3 { src, .. }
+            | Instr::Length { src, .. }
+            | Instr::Normalize { src, .. }
+            | Instr::RotateConst { src, .. }
+            | Instr::Noise { src, .. }
+            | Instr::Fractal { src, .. }
+            | Instr::NoiseGradient { src, .. }
+            | Instr::FractalGradient { src, .. } => r.push(v(src)),
+            Instr::BinaryVec3 { a, b, .. }
+            | Instr::Dot { a, b, .. }
+            | Instr::Cross { a, b, .. } => r.extend([v(a), v(b)]),
+            Instr::TernaryVec3 { a, b, c, .. } => r.extend([v(a), v(b), v(c)]),
+            Instr::RotateVarying {
+                prec, src, degrees, ..
+            } => r.extend([v(src), O::scalar(prec, degrees)]),
+            Instr::Hermite { src, .. }
+            | Instr::Ramp { src, .. }
+            | Instr::Curve { src, .. }
+            | Instr::Widen { src, .. } => r.push(O::scalar(Prec::Lane, src)),
+            Instr::Narrow { src, .. } => r.push(O::scalar(Prec::Wide, src)),
+        }
+        r
+    }
+
+    /// The precision of the instruction's scalars: `Wide` for a promoted instruction and for
+    /// the conversions between the files (`Widen`, `Narrow`), else `Lane`.
+    pub fn prec(&self) -> Prec {
+        match *self {
+            Instr::Splat { prec, .. }
+            | Instr::Combine { prec, .. }
+            | Instr::Component { prec, .. }
+            | Instr::UnaryScalar { prec, .. }
+            | Instr::BinaryScalar { prec, .. }
+            | Instr::TernaryScalar { prec, .. }
+            | Instr::Dot { prec, .. }
+            | Instr::Length { prec, .. }
+            | Instr::RotateVarying { prec, .. }
+            | Instr::Noise { prec, .. }
+            | Instr::Fractal { prec, .. }
+            | Instr::NoiseGradient { prec, .. }
+            | Instr::FractalGradient { prec, .. } => prec,
+            Instr::Widen { .. } | Instr::Narrow { .. } => Prec::Wide,
+            _ => Prec::Lane,
+        }
+    }
+}
+
+/// One value per slot of every file of a tape: what the walks over a tape track as
+/// instructions write slots (integer flags, intervals, chains), addressed by [`Operand`] or by
+/// a scalar's precision and slot.
+#[derive(Clone, Debug)]
+pub(crate) struct SlotMap<T> {
+    pub scalars: Vec<T>,
+    pub wides: Vec<T>,
+    pub vec3s: Vec<[T; 3]>,
+}
+
+impl<T: Clone> SlotMap<T> {
+    /// Every slot of `tape` holding `init`.
+    pub fn new(tape: &Tape, init: T) -> SlotMap<T> {
+        SlotMap {
+            scalars: vec![init.clone(); tape.scalar_slots],
+            wides: vec![init.clone(); tape.wide_slots],
+            vec3s: vec![[init.clone(), init.clone(), init]; tape.vec3_slots],
+        }
+    }
+
+    /// The scalar slot `slot` of precision `prec`.
+    pub fn s(&self, prec: Prec, slot: Slot) -> &T {
+        match prec {
+            Prec::Lane => &self.scalars[slot as usize],
+            Prec::Wide => &self.wides[slot as usize],
+        }
+    }
+
+    pub fn s_mut(&mut self, prec: Prec, slot: Slot) -> &mut T {
+        match prec {
+            Prec::Lane => &mut self.scalars[slot as usize],
+            Prec::Wide => &mut self.wides[slot as usize],
+        }
+    }
+
+    pub fn v(&self, slot: Slot) -> &[T; 3] {
+        &self.vec3s[slot as usize]
+    }
+
+    pub fn v_mut(&mut self, slot: Slot) -> &mut [T; 3] {
+        &mut self.vec3s[slot as usize]
+    }
+
+    /// Sets whatever `instr` writes to `value` (each component of a vec3).
+    pub fn clear(&mut self, instr: &Instr, value: T) {
+        let w = instr.writes();
+        match w.file {
+            File::Scalar => self.scalars[w.slot as usize] = value,
+            File::Wide => self.wides[w.slot as usize] = value,
+            File::Vec3 => self.vec3s[w.slot as usize] = [value.clone(), value.clone(), value],
+        }
     }
 }
 
@@ -410,11 +533,76 @@ impl Tape {
             .collect()
     }
 
+    /// The slot discipline the interpreter relies on, checked from each instruction's
+    /// [`Instr::reads`] and [`Instr::writes`]: every slot within its file, no instruction
+    /// writing a slot it reads, every slot read written before (by an instruction, or as a
+    /// constant), no constant slot overwritten, and every output's slot written. `compile`
+    /// asserts it in debug builds (every test compiles through it); a tape failing it is a
+    /// compiler bug, named with the instruction.
+    pub(crate) fn check_slots(&self) -> Result<(), String> {
+        let mut written = SlotMap::new(self, false);
+        let mut constant = SlotMap::new(self, false);
+        for &(slot, _) in &self.scalar_constants {
+            *constant.s_mut(Prec::Lane, slot) = true;
+        }
+        for &(slot, _) in &self.wide_constants {
+            *constant.s_mut(Prec::Wide, slot) = true;
+        }
+        for &(slot, _) in &self.vec3_constants {
+            *constant.v_mut(slot) = [true; 3];
+        }
+        let count = |file: File| match file {
+            File::Scalar => self.scalar_slots,
+            File::Wide => self.wide_slots,
+            File::Vec3 => self.vec3_slots,
+        };
+        let get = |map: &SlotMap<bool>, o: Operand| match o.file.prec() {
+            Some(prec) => *map.s(prec, o.slot),
+            None => map.v(o.slot)[0],
+        };
+        for (i, instr) in self.instrs.iter().enumerate() {
+            let write = instr.writes();
+            let reads = instr.reads();
+            let text = || format!("{i:04} {}", self.instruction_text(instr));
+            for o in reads.iter().chain([&write]) {
+                if o.slot as usize >= count(o.file) {
+                    return Err(format!("{}: {o} is out of range", text()));
+                }
+            }
+            if let Some(o) = reads
+                .iter()
+                .find(|o| !get(&written, **o) && !get(&constant, **o))
+            {
+                return Err(format!("{}: {o} is read before it is written", text()));
+            }
+            if reads.contains(&write) {
+                return Err(format!("{}: writes {write}, which it reads", text()));
+            }
+            if get(&constant, write) {
+                return Err(format!("{}: overwrites the constant {write}", text()));
+            }
+            match write.file.prec() {
+                Some(prec) => *written.s_mut(prec, write.slot) = true,
+                None => *written.v_mut(write.slot) = [true; 3],
+            }
+        }
+        for output in &self.outputs {
+            let o = match output.ty {
+                Type::Scalar => Operand::scalar(Prec::Lane, output.slot),
+                Type::Vec3 => Operand::vec3(output.slot),
+            };
+            if o.slot as usize >= count(o.file) || !(get(&written, o) || get(&constant, o)) {
+                return Err(format!("output \"{}\": {o} is never written", output.name));
+            }
+        }
+        Ok(())
+    }
+
     /// Instructions that run in f64 on the fast path (promoted ones and their conversions).
     pub fn wide_instructions(&self) -> usize {
         self.instrs
             .iter()
-            .filter(|i| matches!(i, Instr::Wide(_)))
+            .filter(|i| i.prec() == Prec::Wide)
             .count()
     }
 
@@ -544,29 +732,35 @@ impl Tape {
     }
 
     fn instruction_text(&self, instr: &Instr) -> String {
-        match instr {
+        // A scalar operand's name: `s` (lane type) or `d` (wide) by the instruction's precision.
+        let p = instr.prec().file().prefix();
+        match *instr {
             Instr::Position { dst } => format!("v{dst} = position"),
-            Instr::Splat { dst, src } => format!("v{dst} = splat s{src}"),
-            Instr::Combine { dst, x, y, z } => format!("v{dst} = combine s{x}, s{y}, s{z}"),
-            Instr::Component { dst, src, axis } => {
-                format!("s{dst} = v{src}.{}", ["x", "y", "z"][*axis as usize % 3])
+            Instr::Splat { dst, src, .. } => format!("v{dst} = splat {p}{src}"),
+            Instr::Combine { dst, x, y, z, .. } => {
+                format!("v{dst} = combine {p}{x}, {p}{y}, {p}{z}")
             }
-            Instr::UnaryScalar { op, dst, src } => format!("s{dst} = {op} s{src}"),
+            Instr::Component { dst, src, axis, .. } => {
+                format!("{p}{dst} = v{src}.{}", ["x", "y", "z"][axis as usize % 3])
+            }
+            Instr::UnaryScalar { op, dst, src, .. } => format!("{p}{dst} = {op} {p}{src}"),
             Instr::UnaryVec3 { op, dst, src } => format!("v{dst} = {op} v{src}"),
-            Instr::BinaryScalar { op, dst, a, b } => format!("s{dst} = {op} s{a}, s{b}"),
+            Instr::BinaryScalar { op, dst, a, b, .. } => format!("{p}{dst} = {op} {p}{a}, {p}{b}"),
             Instr::BinaryVec3 { op, dst, a, b } => format!("v{dst} = {op} v{a}, v{b}"),
-            Instr::TernaryScalar { op, dst, a, b, c } => {
-                format!("s{dst} = {op} s{a}, s{b}, s{c}")
+            Instr::TernaryScalar {
+                op, dst, a, b, c, ..
+            } => {
+                format!("{p}{dst} = {op} {p}{a}, {p}{b}, {p}{c}")
             }
             Instr::TernaryVec3 { op, dst, a, b, c } => {
                 format!("v{dst} = {op} v{a}, v{b}, v{c}")
             }
-            Instr::Dot { dst, a, b } => format!("s{dst} = dot v{a}, v{b}"),
-            Instr::Length { dst, src } => format!("s{dst} = length v{src}"),
+            Instr::Dot { dst, a, b, .. } => format!("{p}{dst} = dot v{a}, v{b}"),
+            Instr::Length { dst, src, .. } => format!("{p}{dst} = length v{src}"),
             Instr::Cross { dst, a, b } => format!("v{dst} = cross v{a}, v{b}"),
             Instr::Normalize { dst, src } => format!("v{dst} = normalize v{src}"),
             Instr::RotateConst { dst, src, matrix } => {
-                let m = &self.matrices[*matrix as usize];
+                let m = &self.matrices[matrix as usize];
                 format!(
                     "v{dst} = rotate v{src} matrix [{}, {}, {}]",
                     vec3_text(&m[0]),
@@ -579,28 +773,38 @@ impl Tape {
                 src,
                 degrees,
                 axis,
+                ..
             } => {
                 format!(
-                    "v{dst} = rotate v{src} axis={} degrees=s{degrees}",
-                    vec3_text(&self.axes[*axis as usize])
+                    "v{dst} = rotate v{src} axis={} degrees={p}{degrees}",
+                    vec3_text(&self.axes[axis as usize])
                 )
             }
-            Instr::Noise { dst, src, table } => {
-                format!("s{dst} = {}", self.noise_text(*src, *table))
+            Instr::Noise {
+                dst, src, table, ..
+            } => {
+                format!("{p}{dst} = {}", self.noise_text(src, table))
             }
-            Instr::NoiseGradient { dst, src, table } => {
-                format!("v{dst} = {}", self.gradient_text(*src, *table, None))
+            Instr::NoiseGradient {
+                prec,
+                dst,
+                src,
+                table,
+            } => {
+                let text = self.gradient_text(src, table, None);
+                format!("v{dst} = {text}{}", f64_suffix(prec))
             }
             Instr::FractalGradient {
+                prec,
                 dst,
                 src,
                 table,
                 octaves,
                 style,
-            } => format!(
-                "v{dst} = {}",
-                self.gradient_text(*src, *table, Some((*octaves, *style)))
-            ),
+            } => {
+                let text = self.gradient_text(src, table, Some((octaves, style)));
+                format!("v{dst} = {text}{}", f64_suffix(prec))
+            }
             Instr::Fractal {
                 dst,
                 src,
@@ -608,19 +812,20 @@ impl Tape {
                 octaves,
                 style,
                 bias,
+                ..
             } => format!(
-                "s{dst} = {}",
-                self.fractal_text(*src, *table, *octaves, *style, *bias)
+                "{p}{dst} = {}",
+                self.fractal_text(src, table, octaves, style, bias)
             ),
             Instr::Hermite { dst, src, spline } => {
-                let h = &self.hermites[*spline as usize];
+                let h = &self.hermites[spline as usize];
                 format!(
                     "s{dst} = hermite s{src} p0={} p1={} m0={} m1={}",
                     h.p0, h.p1, h.m0, h.m1
                 )
             }
             Instr::Ramp { dst, src, ramp } => {
-                let r = &self.ramps[*ramp as usize];
+                let r = &self.ramps[ramp as usize];
                 let stops: Vec<String> = r
                     .knots()
                     .iter()
@@ -634,7 +839,7 @@ impl Tape {
                 )
             }
             Instr::Curve { dst, src, curve } => {
-                let c = &self.curves[*curve as usize];
+                let c = &self.curves[curve as usize];
                 let points: Vec<String> = c
                     .knots()
                     .iter()
@@ -647,7 +852,8 @@ impl Tape {
                     points.join(", ")
                 )
             }
-            Instr::Wide(w) => self.wide_text(w),
+            Instr::Widen { dst, src } => format!("d{dst} = widen s{src}"),
+            Instr::Narrow { dst, src } => format!("s{dst} = narrow d{src}"),
         }
     }
 
@@ -695,55 +901,13 @@ impl Tape {
             }
         }
     }
+}
 
-    fn wide_text(&self, w: &Wide) -> String {
-        match *w {
-            Wide::NoiseGradient { dst, src, table } => {
-                format!("v{dst} = {} f64", self.gradient_text(src, table, None))
-            }
-            Wide::FractalGradient {
-                dst,
-                src,
-                table,
-                octaves,
-                style,
-            } => format!(
-                "v{dst} = {} f64",
-                self.gradient_text(src, table, Some((octaves, style)))
-            ),
-            Wide::Noise { dst, src, table } => {
-                format!("d{dst} = {}", self.noise_text(src, table))
-            }
-            Wide::Fractal {
-                dst,
-                src,
-                table,
-                octaves,
-                style,
-                bias,
-            } => format!(
-                "d{dst} = {}",
-                self.fractal_text(src, table, octaves, style, bias)
-            ),
-            Wide::Component { dst, src, axis } => {
-                format!("d{dst} = v{src}.{}", ["x", "y", "z"][axis as usize % 3])
-            }
-            Wide::Unary { op, dst, src } => format!("d{dst} = {op} d{src}"),
-            Wide::Binary { op, dst, a, b } => format!("d{dst} = {op} d{a}, d{b}"),
-            Wide::Ternary { op, dst, a, b, c } => format!("d{dst} = {op} d{a}, d{b}, d{c}"),
-            Wide::Dot { dst, a, b } => format!("d{dst} = dot v{a}, v{b}"),
-            Wide::Length { dst, src } => format!("d{dst} = length v{src}"),
-            Wide::Splat { dst, src } => format!("v{dst} = splat d{src}"),
-            Wide::Combine { dst, x, y, z } => format!("v{dst} = combine d{x}, d{y}, d{z}"),
-            Wide::Rotate {
-                dst,
-                src,
-                degrees,
-                axis,
-            } => format!("v{dst} = rotate v{src} axis=#{axis} degrees=d{degrees}"),
-            Wide::Widen { dst, src } => format!("d{dst} = widen s{src}"),
-            Wide::Narrow { dst, src } => format!("s{dst} = narrow d{src}"),
-        }
+/// A promoted gradient's mark in the disassembly (its kernels run in f64).
+fn f64_suffix(prec: Prec) -> &'static str {
+    match prec {
+        Prec::Lane => "",
+        Prec::Wide => " f64",
     }
 }
 

@@ -12,11 +12,11 @@
 //! (`Splat`, `Combine`, `Component`) carry it. Anything else ends it.
 
 use super::moments::Piecewise;
+use super::operands::Source;
 use super::periodic::{Periodic, Shape};
 use super::rules::{hermite_shape, spline_shape};
-use super::writes::{scalar_dst, vec3_dst, wide_dst, Source};
 use crate::ops::{BinaryOp, TernaryOp, UnaryOp};
-use crate::tape::{Instr, Slot, Tape, Wide};
+use crate::tape::{Instr, Prec, Slot, SlotMap, Tape};
 
 /// A value `g(fract(scale · X))`, `X` the operand `source` of instruction `at`.
 #[derive(Clone, Debug)]
@@ -44,48 +44,32 @@ enum Operand<'c> {
     Other,
 }
 
-/// The walk's state.
+/// The walk's state: per slot of every file, the chain it holds and its constant.
 pub(super) struct Chains {
-    scalar: Vec<Option<Chain>>,
-    wide: Vec<Option<Chain>>,
-    vec3: Vec<[Option<Chain>; 3]>,
-    constant: Vec<Option<f64>>,
-    wconstant: Vec<Option<f64>>,
-    vconstant: Vec<Option<[f64; 3]>>,
+    chain: SlotMap<Option<Chain>>,
+    constant: SlotMap<Option<f64>>,
 }
 
 impl Chains {
     pub(super) fn new(tape: &Tape) -> Chains {
         let mut c = Chains {
-            scalar: vec![None; tape.scalar_slots],
-            wide: vec![None; tape.wide_slots],
-            vec3: vec![[None, None, None]; tape.vec3_slots],
-            constant: vec![None; tape.scalar_slots],
-            wconstant: vec![None; tape.wide_slots],
-            vconstant: vec![None; tape.vec3_slots],
+            chain: SlotMap::new(tape, None),
+            constant: SlotMap::new(tape, None),
         };
         for &(slot, v) in &tape.scalar_constants {
-            c.constant[slot as usize] = Some(v);
+            *c.constant.s_mut(Prec::Lane, slot) = Some(v);
         }
         for &(slot, v) in &tape.wide_constants {
-            c.wconstant[slot as usize] = Some(v);
+            *c.constant.s_mut(Prec::Wide, slot) = Some(v);
         }
         for &(slot, v) in &tape.vec3_constants {
-            c.vconstant[slot as usize] = Some(v);
+            *c.constant.v_mut(slot) = v.map(Some);
         }
         c
     }
 
-    fn scalar_operand(&self, slot: Slot) -> Operand<'_> {
-        match (&self.scalar[slot as usize], self.constant[slot as usize]) {
-            (Some(chain), _) => Operand::Chained(chain),
-            (None, Some(v)) => Operand::Constant(v),
-            _ => Operand::Other,
-        }
-    }
-
-    fn wide_operand(&self, slot: Slot) -> Operand<'_> {
-        match (&self.wide[slot as usize], self.wconstant[slot as usize]) {
+    fn scalar_operand(&self, prec: Prec, slot: Slot) -> Operand<'_> {
+        match (self.chain.s(prec, slot), *self.constant.s(prec, slot)) {
             (Some(chain), _) => Operand::Chained(chain),
             (None, Some(v)) => Operand::Constant(v),
             _ => Operand::Other,
@@ -93,9 +77,9 @@ impl Chains {
     }
 
     fn vec3_operand(&self, slot: Slot, k: usize) -> Operand<'_> {
-        match (&self.vec3[slot as usize][k], self.vconstant[slot as usize]) {
+        match (&self.chain.v(slot)[k], self.constant.v(slot)[k]) {
             (Some(chain), _) => Operand::Chained(chain),
-            (None, Some(v)) => Operand::Constant(v[k]),
+            (None, Some(v)) => Operand::Constant(v),
             _ => Operand::Other,
         }
     }
@@ -128,29 +112,35 @@ impl Chains {
                 fused = Some(parts.collect());
             }
         }
-        if let Some(dst) = scalar_dst(instr) {
-            self.scalar[dst as usize] = scalar;
-        } else if let Some(dst) = wide_dst(instr) {
-            self.wide[dst as usize] = scalar;
-        }
-        if let Some(dst) = vec3_dst(instr) {
-            self.vconstant[dst as usize] = self.made_constant(instr);
-            self.vec3[dst as usize] = vector.unwrap_or([None, None, None]);
+        let dst = instr.writes();
+        match dst.file.prec() {
+            None => {
+                *self.constant.v_mut(dst.slot) = self.made_constant(instr);
+                *self.chain.v_mut(dst.slot) = vector.unwrap_or([None, None, None]);
+            }
+            Some(prec) => {
+                *self.constant.s_mut(prec, dst.slot) = None;
+                *self.chain.s_mut(prec, dst.slot) = scalar;
+            }
         }
         fused
     }
 
-    /// A vec3 result that is constant: a splat or combination of constants (the pinned
-    /// constant slots are never written).
-    fn made_constant(&self, instr: &Instr) -> Option<[f64; 3]> {
+    /// A vec3 result that is constant, per component: a splat or combination of constants
+    /// (the pinned constant slots are never written).
+    fn made_constant(&self, instr: &Instr) -> [Option<f64>; 3] {
         match *instr {
-            Instr::Splat { src, .. } => self.constant[src as usize].map(|v| [v; 3]),
-            Instr::Combine { x, y, z, .. } => Some([
-                self.constant[x as usize]?,
-                self.constant[y as usize]?,
-                self.constant[z as usize]?,
-            ]),
-            _ => None,
+            Instr::Splat { prec, src, .. } => [*self.constant.s(prec, src); 3],
+            Instr::Combine { prec, x, y, z, .. } => {
+                let c = [x, y, z].map(|c| *self.constant.s(prec, c));
+                // All three or none, as a constant vec3 slot.
+                if c.iter().all(Option::is_some) {
+                    c
+                } else {
+                    [None; 3]
+                }
+            }
+            _ => [None; 3],
         }
     }
 
@@ -166,9 +156,9 @@ impl Chains {
     ) -> (Option<Chain>, Option<[Option<Chain>; 3]>, bool) {
         let each = |f: &dyn Fn(usize) -> Option<Chain>| Some(std::array::from_fn(f));
         match *instr {
-            Instr::UnaryScalar { op, src, .. } => {
-                let root = Source::Scalar(src);
-                match (op, self.scalar_operand(src)) {
+            Instr::UnaryScalar { prec, op, src, .. } => {
+                let root = Source::Scalar(prec, src);
+                match (op, self.scalar_operand(prec, src)) {
                     (UnaryOp::Fract, _) => (Some(start(i, root, 1.0)), None, false),
                     (_, Operand::Chained(c)) => (unary(op, c), None, true),
                     _ => (None, None, false),
@@ -182,9 +172,9 @@ impl Chains {
                 });
                 (None, made, op != UnaryOp::Fract)
             }
-            Instr::BinaryScalar { op, a, b, .. } => {
-                let (x, y) = (self.scalar_operand(a), self.scalar_operand(b));
-                match modulo(i, op, Source::Scalar(a), x, y, integer[0]) {
+            Instr::BinaryScalar { prec, op, a, b, .. } => {
+                let (x, y) = (self.scalar_operand(prec, a), self.scalar_operand(prec, b));
+                match modulo(i, op, Source::Scalar(prec, a), x, y, integer[0]) {
                     Some(root) => (Some(root), None, false),
                     None => (binary(op, x, y), None, true),
                 }
@@ -197,8 +187,10 @@ impl Chains {
                 });
                 (None, made, op != BinaryOp::Mod)
             }
-            Instr::TernaryScalar { op, a, b, c, .. } => {
-                let [x, y, z] = [a, b, c].map(|s| self.scalar_operand(s));
+            Instr::TernaryScalar {
+                prec, op, a, b, c, ..
+            } => {
+                let [x, y, z] = [a, b, c].map(|s| self.scalar_operand(prec, s));
                 (ternary(op, x, y, z), None, true)
             }
             Instr::TernaryVec3 { op, a, b, c, .. } => {
@@ -210,78 +202,34 @@ impl Chains {
             }
             Instr::Curve { src, curve, .. } => {
                 let h = spline_shape(tape.curves[curve as usize].as_ref(), 0);
-                let made = chained(self.scalar_operand(src)).and_then(|c| then(c, &h));
+                let made = chained(self.scalar_operand(Prec::Lane, src)).and_then(|c| then(c, &h));
                 (made, None, true)
             }
             Instr::Hermite { src, spline, .. } => {
                 let h = hermite_shape(&tape.hermites[spline as usize]);
-                let made = chained(self.scalar_operand(src)).and_then(|c| then(c, &h));
+                let made = chained(self.scalar_operand(Prec::Lane, src)).and_then(|c| then(c, &h));
                 (made, None, true)
             }
             Instr::Ramp { src, ramp, .. } => {
                 let r = tape.ramps[ramp as usize].as_ref();
-                let made = each(&|k| then(chained(self.scalar_operand(src))?, &spline_shape(r, k)));
+                let operand = self.scalar_operand(Prec::Lane, src);
+                let made = each(&|k| then(chained(operand)?, &spline_shape(r, k)));
                 (None, made, true)
             }
-            Instr::Splat { src, .. } => {
-                let c = self.scalar[src as usize].clone();
+            Instr::Splat { prec, src, .. } => {
+                let c = self.chain.s(prec, src).clone();
                 (None, Some([c.clone(), c.clone(), c]), false)
             }
-            Instr::Combine { x, y, z, .. } => {
-                let made = [x, y, z].map(|s| self.scalar[s as usize].clone());
+            Instr::Combine { prec, x, y, z, .. } => {
+                let made = [x, y, z].map(|s| self.chain.s(prec, s).clone());
                 (None, Some(made), false)
             }
             Instr::Component { src, axis, .. } => {
-                let c = self.vec3[src as usize][axis as usize % 3].clone();
+                let c = self.chain.v(src)[axis as usize % 3].clone();
                 (c, None, false)
             }
-            Instr::Wide(w) => self.made_wide(i, w, integer),
-            _ => (None, None, false),
-        }
-    }
-
-    /// [`Chains::made`] for a promoted instruction: the same chains on the wide slots (a
-    /// promoted tape filters as the plain one).
-    #[allow(clippy::type_complexity)]
-    fn made_wide(
-        &self,
-        i: usize,
-        w: Wide,
-        integer: [bool; 3],
-    ) -> (Option<Chain>, Option<[Option<Chain>; 3]>, bool) {
-        match w {
-            Wide::Unary { op, src, .. } => match (op, self.wide_operand(src)) {
-                (UnaryOp::Fract, _) => (Some(start(i, Source::Wide(src), 1.0)), None, false),
-                (_, Operand::Chained(c)) => (unary(op, c), None, true),
-                _ => (None, None, false),
-            },
-            Wide::Binary { op, a, b, .. } => {
-                let (x, y) = (self.wide_operand(a), self.wide_operand(b));
-                match modulo(i, op, Source::Wide(a), x, y, integer[0]) {
-                    Some(root) => (Some(root), None, false),
-                    None => (binary(op, x, y), None, true),
-                }
-            }
-            Wide::Ternary { op, a, b, c, .. } => {
-                let [x, y, z] = [a, b, c].map(|s| self.wide_operand(s));
-                (ternary(op, x, y, z), None, true)
-            }
-            Wide::Widen { src, .. } => (self.scalar[src as usize].clone(), None, false),
-            Wide::Narrow { src, .. } => (self.wide[src as usize].clone(), None, false),
-            Wide::Component { src, axis, .. } => (
-                self.vec3[src as usize][axis as usize % 3].clone(),
-                None,
-                false,
-            ),
-            Wide::Splat { src, .. } => {
-                let c = self.wide[src as usize].clone();
-                (None, Some([c.clone(), c.clone(), c]), false)
-            }
-            Wide::Combine { x, y, z, .. } => (
-                None,
-                Some([x, y, z].map(|s| self.wide[s as usize].clone())),
-                false,
-            ),
+            Instr::Widen { src, .. } => (self.chain.s(Prec::Lane, src).clone(), None, false),
+            Instr::Narrow { src, .. } => (self.chain.s(Prec::Wide, src).clone(), None, false),
             _ => (None, None, false),
         }
     }

@@ -11,10 +11,10 @@
 //! reads it from there.
 
 use super::moments::Piecewise;
+use super::operands::Source;
 use super::periodic::Periodic;
-use super::writes::{reads_scalar, scalar_dst, Source};
 use crate::ops::{BinaryOp, TernaryOp, UnaryOp};
-use crate::tape::{Instr, Slot, Tape};
+use crate::tape::{Instr, Operand, Prec, Slot, SlotMap, Tape};
 
 /// An instruction computed from its operand's producer's argument, saved in side slot `saved`.
 #[derive(Clone, Debug, PartialEq)]
@@ -80,29 +80,34 @@ pub fn fusions(tape: &Tape, integer: &[[bool; 3]]) -> Fusions {
         saved: 0,
         skip: vec![false; n],
     };
-    let mut origin = vec![Origin::Other; tape.scalar_slots];
-    let mut constant: Vec<Option<f64>> = vec![None; tape.scalar_slots];
+    // Per scalar slot (either precision): the instruction that produced its value, and its
+    // constant.
+    let mut origin = SlotMap::new(tape, Origin::Other);
+    let mut constant: SlotMap<Option<f64>> = SlotMap::new(tape, None);
     for &(slot, v) in &tape.scalar_constants {
-        constant[slot as usize] = Some(v);
+        *constant.s_mut(Prec::Lane, slot) = Some(v);
+    }
+    for &(slot, v) in &tape.wide_constants {
+        *constant.s_mut(Prec::Wide, slot) = Some(v);
     }
     for (i, instr) in tape.instrs.iter().enumerate() {
         // A step or smoothstep of the `Abs` that produced `x`, with constant edges `e0`, `e1`.
-        let folded = |f: &mut Fusions, x: Slot, e0: Slot, e1: Slot| {
-            let Origin::Abs { at } = origin[x as usize] else {
+        let folded = |f: &mut Fusions, prec: Prec, [x, e0, e1]: [Slot; 3]| {
+            let Origin::Abs { at } = *origin.s(prec, x) else {
                 return;
             };
-            let (Some(lo), Some(hi)) = (constant[e0 as usize], constant[e1 as usize]) else {
+            let (Some(lo), Some(hi)) = (*constant.s(prec, e0), *constant.s(prec, e1)) else {
                 return;
             };
             if let Some(shape) = folded_step(lo, hi) {
-                let saved = side_slot(f, at, Source::Scalar(src_of(&tape.instrs[at])));
+                let saved = side_slot(f, at, src_of(&tape.instrs[at]));
                 f.fused[i] = Some(Fusion::Folded { saved, shape });
             }
         };
         let made = match *instr {
-            Instr::UnaryScalar { op, src, .. } => {
-                if let (UnaryOp::Abs, Origin::Sin { at, cos }) = (op, origin[src as usize]) {
-                    let saved = side_slot(&mut f, at, Source::Scalar(src_of(&tape.instrs[at])));
+            Instr::UnaryScalar { prec, op, src, .. } => {
+                if let (UnaryOp::Abs, Origin::Sin { at, cos }) = (op, *origin.s(prec, src)) {
+                    let saved = side_slot(&mut f, at, src_of(&tape.instrs[at]));
                     f.fused[i] = Some(Fusion::AbsSin { saved, cos });
                 }
                 match op {
@@ -115,28 +120,30 @@ pub fn fusions(tape: &Tape, integer: &[[bool; 3]]) -> Fusions {
                 }
             }
             Instr::BinaryScalar {
+                prec,
                 op: BinaryOp::Step,
                 a,
                 b,
                 ..
             } => {
-                folded(&mut f, b, a, a);
+                folded(&mut f, prec, [b, a, a]);
                 Origin::Other
             }
             Instr::TernaryScalar {
+                prec,
                 op: TernaryOp::Smoothstep,
                 a,
                 b,
                 c,
                 ..
             } => {
-                folded(&mut f, c, a, b);
+                folded(&mut f, prec, [c, a, b]);
                 Origin::Other
             }
             _ => Origin::Other,
         };
-        if let Some(dst) = scalar_dst(instr) {
-            origin[dst as usize] = made;
+        if let Some(prec) = instr.writes().file.prec() {
+            *origin.s_mut(prec, instr.writes().slot) = made;
         }
         if let Some(parts) = chains.visit(tape, i, instr, integer[i]) {
             // A chain's rule is exact: it replaces a plain fusion of the same instruction.
@@ -158,35 +165,37 @@ pub fn fusions(tape: &Tape, integer: &[[bool; 3]]) -> Fusions {
 /// is written again, and not an output) as skipped.
 fn skip_sole_producers(tape: &Tape, f: &mut Fusions) {
     for consumer in 0..tape.instrs.len() {
-        let (Some(Fusion::AbsSin { .. }), Instr::UnaryScalar { src, .. }) =
+        let (Some(Fusion::AbsSin { .. }), &Instr::UnaryScalar { prec, src, .. }) =
             (&f.fused[consumer], &tape.instrs[consumer])
         else {
             continue;
         };
-        let slot = *src;
+        let slot = Operand::scalar(prec, src);
         // The producer: the last writer of the slot before the consumer.
         let Some(at) = (0..consumer)
             .rev()
-            .find(|&j| scalar_dst(&tape.instrs[j]) == Some(slot))
+            .find(|&j| tape.instrs[j].writes() == slot)
         else {
             continue;
         };
         let mut sole = true;
         let mut rewritten = false;
         for (j, instr) in tape.instrs.iter().enumerate().skip(at + 1) {
-            if j != consumer && reads_scalar(instr, slot) {
+            if j != consumer && instr.reads().contains(&slot) {
                 sole = false;
                 break;
             }
-            if scalar_dst(instr) == Some(slot) {
+            if instr.writes() == slot {
                 rewritten = true;
                 break;
             }
         }
-        let output = tape
-            .outputs
-            .iter()
-            .any(|o| o.ty == crate::graph::Type::Scalar && o.slot == slot);
+        // Outputs are read from lane-type or vec3 slots.
+        let output = prec == Prec::Lane
+            && tape
+                .outputs
+                .iter()
+                .any(|o| o.ty == crate::graph::Type::Scalar && o.slot == src);
         if sole && (rewritten || !output) {
             f.skip[at] = true;
         }
@@ -194,9 +203,9 @@ fn skip_sole_producers(tape: &Tape, f: &mut Fusions) {
 }
 
 /// The operand of a unary scalar instruction (the producers of the plain fusions).
-fn src_of(instr: &Instr) -> Slot {
+fn src_of(instr: &Instr) -> Source {
     match *instr {
-        Instr::UnaryScalar { src, .. } => src,
+        Instr::UnaryScalar { prec, src, .. } => Source::Scalar(prec, src),
         _ => unreachable!("plain fusions start at unary scalar instructions"),
     }
 }

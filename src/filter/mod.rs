@@ -4,8 +4,8 @@
 //! From the bottom up: `moments` (the one-variable mathematics: exact box means, variances and
 //! slopes of piecewise polynomials, `fract` and truncated powers of a value spread over a
 //! footprint) → `periodic` (`g(fract x)` for a piecewise-cubic `g`, exactly), `rules` (a value's
-//! distribution, [`Dist`], through each operation; the [`Footprint`]), `writes` (which slot an
-//! instruction writes) → `noise` (noise and fractal sums over a footprint, white and cellular
+//! distribution, [`Dist`], through each operation; the [`Footprint`]), `operands` (an operand
+//! saved for a fused instruction) → `noise` (noise and fractal sums over a footprint, white and cellular
 //! noise), `integers` (which values are integer-valued), `ranges` (the interval a value cannot leave), `chains` (periodic chains) → `fusions`
 //! (which instructions are computed from an earlier argument) → `tape` ([`Filtered`]: a compiled
 //! tape run on distributions, chunk by chunk of lanes). docs/filtering.md has every rule's
@@ -16,11 +16,11 @@ pub mod fusions;
 pub mod integers;
 pub mod moments;
 pub mod noise;
+pub mod operands;
 pub mod periodic;
 pub mod ranges;
 pub mod rules;
 pub mod tape;
-pub mod writes;
 
 pub use rules::{Dist, Footprint, FootprintError};
 pub use tape::{FilterWorkspace, Filtered};

@@ -13,7 +13,7 @@
 use super::moments::Piecewise;
 use super::rules::{hermite_shape, spline_shape};
 use crate::ops::{BinaryOp, TernaryOp, UnaryOp};
-use crate::tape::{Instr, Tape, Wide};
+use crate::tape::{Instr, Prec, SlotMap, Tape};
 
 /// A closed interval `[lo, hi]`, `lo <= hi` (or the whole line).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -49,26 +49,22 @@ impl Interval {
 /// Per instruction: the interval of a `Hermite`, `Ramp` or `Curve` instruction's input where it
 /// is bounded on at least one side; `None` for every other instruction.
 pub fn piecewise_inputs(tape: &Tape) -> Vec<Option<Interval>> {
-    let mut w = Walk {
-        scalars: vec![ALL; tape.scalar_slots],
-        wides: vec![ALL; tape.wide_slots],
-        vec3s: vec![[ALL; 3]; tape.vec3_slots],
-    };
+    let mut w = Walk(SlotMap::new(tape, ALL));
     for &(slot, v) in &tape.scalar_constants {
-        w.scalars[slot as usize] = Interval::point(v);
+        *w.0.s_mut(Prec::Lane, slot) = Interval::point(v);
     }
     for &(slot, v) in &tape.wide_constants {
-        w.wides[slot as usize] = Interval::point(v);
+        *w.0.s_mut(Prec::Wide, slot) = Interval::point(v);
     }
     for &(slot, v) in &tape.vec3_constants {
-        w.vec3s[slot as usize] = v.map(Interval::point);
+        *w.0.v_mut(slot) = v.map(Interval::point);
     }
     tape.instrs
         .iter()
         .map(|instr| {
             let input = match *instr {
                 Instr::Hermite { src, .. } | Instr::Ramp { src, .. } | Instr::Curve { src, .. } => {
-                    Some(w.scalars[src as usize]).filter(Interval::is_bounded)
+                    Some(*w.0.s(Prec::Lane, src)).filter(Interval::is_bounded)
                 }
                 _ => None,
             };
@@ -128,96 +124,65 @@ pub fn restricted_shapes(tape: &Tape) -> Vec<Option<Restricted>> {
         .collect()
 }
 
-struct Walk {
-    scalars: Vec<Interval>,
-    wides: Vec<Interval>,
-    vec3s: Vec<[Interval; 3]>,
-}
+/// Each slot's interval as the walk reaches an instruction.
+struct Walk(SlotMap<Interval>);
 
 impl Walk {
     fn step(&mut self, tape: &Tape, instr: &Instr) {
-        let s = |w: &Walk, x: u32| w.scalars[x as usize];
-        let v = |w: &Walk, x: u32| w.vec3s[x as usize];
+        let w = &mut self.0;
         match *instr {
-            Instr::UnaryScalar { op, dst, src } => {
-                self.scalars[dst as usize] = unary(op, s(self, src))
+            Instr::UnaryScalar { prec, op, dst, src } => {
+                *w.s_mut(prec, dst) = unary(op, *w.s(prec, src))
             }
-            Instr::UnaryVec3 { op, dst, src } => {
-                self.vec3s[dst as usize] = v(self, src).map(|x| unary(op, x));
-            }
-            Instr::BinaryScalar { op, dst, a, b } => {
-                self.scalars[dst as usize] = binary(op, s(self, a), s(self, b));
-            }
+            Instr::UnaryVec3 { op, dst, src } => *w.v_mut(dst) = w.v(src).map(|x| unary(op, x)),
+            Instr::BinaryScalar {
+                prec,
+                op,
+                dst,
+                a,
+                b,
+            } => *w.s_mut(prec, dst) = binary(op, *w.s(prec, a), *w.s(prec, b)),
             Instr::BinaryVec3 { op, dst, a, b } => {
-                let (x, y) = (v(self, a), v(self, b));
-                self.vec3s[dst as usize] = std::array::from_fn(|i| binary(op, x[i], y[i]));
+                let (x, y) = (*w.v(a), *w.v(b));
+                *w.v_mut(dst) = std::array::from_fn(|i| binary(op, x[i], y[i]));
             }
-            Instr::TernaryScalar { op, dst, a, b, c } => {
-                let [x, y, z] = [a, b, c].map(|k| s(self, k));
-                self.scalars[dst as usize] = ternary(op, x, y, z);
+            Instr::TernaryScalar {
+                prec,
+                op,
+                dst,
+                a,
+                b,
+                c,
+            } => {
+                let [x, y, z] = [a, b, c].map(|k| *w.s(prec, k));
+                *w.s_mut(prec, dst) = ternary(op, x, y, z);
             }
             Instr::TernaryVec3 { op, dst, a, b, c } => {
-                let [x, y, z] = [a, b, c].map(|k| v(self, k));
-                self.vec3s[dst as usize] = std::array::from_fn(|i| ternary(op, x[i], y[i], z[i]));
+                let [x, y, z] = [a, b, c].map(|k| *w.v(k));
+                *w.v_mut(dst) = std::array::from_fn(|i| ternary(op, x[i], y[i], z[i]));
             }
-            Instr::Splat { dst, src } => self.vec3s[dst as usize] = [s(self, src); 3],
-            Instr::Combine { dst, x, y, z } => {
-                self.vec3s[dst as usize] = [x, y, z].map(|k| s(self, k));
+            Instr::Splat { prec, dst, src } => *w.v_mut(dst) = [*w.s(prec, src); 3],
+            Instr::Combine { prec, dst, x, y, z } => {
+                *w.v_mut(dst) = [x, y, z].map(|k| *w.s(prec, k))
             }
-            Instr::Component { dst, src, axis } => {
-                self.scalars[dst as usize] = v(self, src)[axis as usize % 3];
+            Instr::Component {
+                prec,
+                dst,
+                src,
+                axis,
+            } => *w.s_mut(prec, dst) = w.v(src)[axis as usize % 3],
+            Instr::Length { prec, dst, .. } => {
+                *w.s_mut(prec, dst) = Interval::new(0.0, f64::INFINITY)
             }
-            Instr::Length { dst, .. } => {
-                self.scalars[dst as usize] = Interval::new(0.0, f64::INFINITY)
-            }
-            Instr::Noise { dst, table, .. } => {
+            Instr::Noise {
+                prec, dst, table, ..
+            } => {
                 let (lo, hi) = tape.tables[table as usize].1.range();
-                self.scalars[dst as usize] = Interval::new(lo, hi);
+                *w.s_mut(prec, dst) = Interval::new(lo, hi);
             }
-            Instr::Wide(w) => self.wide(tape, w),
-            ref other => {
-                if let Some(dst) = super::writes::scalar_dst(other) {
-                    self.scalars[dst as usize] = ALL;
-                }
-                if let Some(dst) = super::writes::vec3_dst(other) {
-                    self.vec3s[dst as usize] = [ALL; 3];
-                }
-            }
-        }
-    }
-
-    /// A promoted instruction: the plain one's rule on the wide slots.
-    fn wide(&mut self, tape: &Tape, w: Wide) {
-        let d = |walk: &Walk, x: u32| walk.wides[x as usize];
-        match w {
-            Wide::Unary { op, dst, src } => self.wides[dst as usize] = unary(op, d(self, src)),
-            Wide::Binary { op, dst, a, b } => {
-                self.wides[dst as usize] = binary(op, d(self, a), d(self, b));
-            }
-            Wide::Ternary { op, dst, a, b, c } => {
-                let [x, y, z] = [a, b, c].map(|k| d(self, k));
-                self.wides[dst as usize] = ternary(op, x, y, z);
-            }
-            Wide::Component { dst, src, axis } => {
-                self.wides[dst as usize] = self.vec3s[src as usize][axis as usize % 3];
-            }
-            Wide::Splat { dst, src } => self.vec3s[dst as usize] = [d(self, src); 3],
-            Wide::Combine { dst, x, y, z } => {
-                self.vec3s[dst as usize] = [x, y, z].map(|k| d(self, k));
-            }
-            Wide::Widen { dst, src } => self.wides[dst as usize] = self.scalars[src as usize],
-            Wide::Narrow { dst, src } => self.scalars[dst as usize] = self.wides[src as usize],
-            Wide::Noise { dst, table, .. } => {
-                let (lo, hi) = tape.tables[table as usize].1.range();
-                self.wides[dst as usize] = Interval::new(lo, hi);
-            }
-            Wide::Length { dst, .. } => {
-                self.wides[dst as usize] = Interval::new(0.0, f64::INFINITY)
-            }
-            Wide::Dot { dst, .. } | Wide::Fractal { dst, .. } => self.wides[dst as usize] = ALL,
-            Wide::Rotate { dst, .. }
-            | Wide::NoiseGradient { dst, .. }
-            | Wide::FractalGradient { dst, .. } => self.vec3s[dst as usize] = [ALL; 3],
+            Instr::Widen { dst, src } => *w.s_mut(Prec::Wide, dst) = *w.s(Prec::Lane, src),
+            Instr::Narrow { dst, src } => *w.s_mut(Prec::Lane, dst) = *w.s(Prec::Wide, src),
+            ref other => w.clear(other, ALL),
         }
     }
 }

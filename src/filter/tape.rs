@@ -2,21 +2,22 @@
 //! ([`Dist`]) instead of numbers, so each output is an estimate of its mean over a footprint.
 //!
 //! The instruction set is the interpreter's (`eval.rs`), one rule per instruction kind (the
-//! match below is exhaustive: a new kind does not compile without its rule). Promoted (`Wide`)
-//! instructions take the same rules: every filtered value is f64. Side tables are prepared once
+//! match below is exhaustive: a new kind does not compile without its rule). Promoted
+//! (`Prec::Wide`) instructions take the same rules on the wide slots: every filtered value is
+//! f64. Side tables are prepared once
 //! per tape ([`Filtered::new`]): each noise table's statistics, each tiled fractal's per-octave
 //! tables, each spline as piecewise cubics.
 
 use super::fusions::{Fusion, Fusions, Part};
 use super::noise::{self as fnoise, FractalSamplers, LaneScratch, Lanes, Sampler, Stats};
+use super::operands::Source;
 use super::ranges::Restricted;
 use super::rules::{hermite_shape, spline_shape, Dist, Footprint, Rules, Shapes};
-use super::writes::{scalar_dst, vec3_dst, wide_dst, Source};
 use crate::graph::Type;
 use crate::noise::{Basis, NoiseTable, Style};
 use crate::ops;
 use crate::real::Real;
-use crate::tape::{Instr, Tape, Wide};
+use crate::tape::{Instr, Prec, Tape};
 use std::collections::HashMap;
 
 use super::moments::Piecewise;
@@ -53,6 +54,24 @@ struct Slots {
     scratch: LaneScratch,
 }
 
+impl Slots {
+    /// The scalar file of precision `prec` (both hold f64 distributions).
+    fn file(&mut self, prec: Prec) -> &mut Vec<Dist> {
+        match prec {
+            Prec::Lane => &mut self.scalars,
+            Prec::Wide => &mut self.wides,
+        }
+    }
+
+    /// Element `i` of the scalar file of precision `prec`.
+    fn get(&self, prec: Prec, i: usize) -> Dist {
+        match prec {
+            Prec::Lane => self.scalars[i],
+            Prec::Wide => self.wides[i],
+        }
+    }
+}
+
 /// Lanes per chunk of a batch: the instruction loop runs over this many lanes at a time, so
 /// each noise instruction samples them in one SIMD batch.
 const WIDTH: usize = 64;
@@ -86,9 +105,7 @@ impl<'t> Filtered<'t> {
         for instr in &tape.instrs {
             let (table, octaves) = match *instr {
                 Instr::Fractal { table, octaves, .. }
-                | Instr::FractalGradient { table, octaves, .. }
-                | Instr::Wide(Wide::Fractal { table, octaves, .. })
-                | Instr::Wide(Wide::FractalGradient { table, octaves, .. }) => (table, octaves),
+                | Instr::FractalGradient { table, octaves, .. } => (table, octaves),
                 _ => continue,
             };
             let schedule = &tape.octaves[octaves as usize];
@@ -344,25 +361,25 @@ impl<'t> Filtered<'t> {
         for (index, (instr, (integer, (save, fusion)))) in
             self.tape.instrs.iter().zip(per_instruction).enumerate()
         {
-            if let Some(noise) = noise_instr(instr) {
-                self.noise_chunk(lanes, &noise, *integer, s);
+            if is_noise(instr) {
+                self.noise_chunk(lanes, instr, *integer, s);
                 continue;
             }
             for &(source, k) in save {
                 let k = k as usize * w;
                 match source {
-                    Source::Scalar(src) => {
+                    Source::Scalar(prec, src) => {
                         let src = src as usize * w;
-                        s.saved[k..k + w].copy_from_slice(&s.scalars[src..src + w]);
+                        let file = match prec {
+                            Prec::Lane => &s.scalars,
+                            Prec::Wide => &s.wides,
+                        };
+                        s.saved[k..k + w].copy_from_slice(&file[src..src + w]);
                     }
                     Source::Vec3(src, c) => {
                         for lane in 0..w {
                             s.saved[k + lane] = s.vec3s[src as usize * w + lane][c as usize];
                         }
-                    }
-                    Source::Wide(src) => {
-                        let src = src as usize * w;
-                        s.saved[k..k + w].copy_from_slice(&s.wides[src..src + w]);
                     }
                 }
             }
@@ -372,19 +389,11 @@ impl<'t> Filtered<'t> {
             for lane in 0..w {
                 let rules = lanes.rules(lane);
                 let fused = fusion.as_ref().and_then(|f| self.fused(&rules, f, s, lane));
-                let scalar = scalar_dst(instr).map(|d| (d, false));
-                match (
-                    fused,
-                    scalar.or(wide_dst(instr).map(|d| (d, true))),
-                    vec3_dst(instr),
-                ) {
-                    (Some(Fused::Scalar(v)), Some((dst, false)), _) => {
-                        s.scalars[dst as usize * w + lane] = v
-                    }
-                    (Some(Fused::Scalar(v)), Some((dst, true)), _) => {
-                        s.wides[dst as usize * w + lane] = v
-                    }
-                    (Some(Fused::Vec3(v)), _, Some(dst)) => s.vec3s[dst as usize * w + lane] = v,
+                let dst = instr.writes();
+                let at = dst.slot as usize * w + lane;
+                match (fused, dst.file.prec()) {
+                    (Some(Fused::Scalar(v)), Some(prec)) => s.file(prec)[at] = v,
+                    (Some(Fused::Vec3(v)), None) => s.vec3s[at] = v,
                     // A point (no spread: a zero footprint, a constant) takes the function
                     // itself: the restricted line is the function only to within 1e-7.
                     _ => match &self.in_range[index] {
@@ -481,42 +490,64 @@ impl<'t> Filtered<'t> {
             Instr::Position { dst } => {
                 s.vec3s[at(dst)] = std::array::from_fn(|i| Dist::position(point, i));
             }
-            Instr::Splat { dst, src } => s.vec3s[at(dst)] = [s.scalars[at(src)]; 3],
-            Instr::Combine { dst, x, y, z } => {
-                s.vec3s[at(dst)] = [x, y, z].map(|c| s.scalars[at(c)]);
+            Instr::Splat { prec, dst, src } => s.vec3s[at(dst)] = [s.get(prec, at(src)); 3],
+            Instr::Combine { prec, dst, x, y, z } => {
+                s.vec3s[at(dst)] = [x, y, z].map(|c| s.get(prec, at(c)));
             }
-            Instr::Component { dst, src, axis } => {
-                s.scalars[at(dst)] = s.vec3s[at(src)][axis as usize % 3];
+            Instr::Component {
+                prec,
+                dst,
+                src,
+                axis,
+            } => {
+                let v = s.vec3s[at(src)][axis as usize % 3];
+                s.file(prec)[at(dst)] = v;
             }
-            Instr::UnaryScalar { op, dst, src } => {
-                s.scalars[at(dst)] = rules.unary(sh, op, &s.scalars[at(src)]);
+            Instr::UnaryScalar { prec, op, dst, src } => {
+                let v = rules.unary(sh, op, &s.get(prec, at(src)));
+                s.file(prec)[at(dst)] = v;
             }
             Instr::UnaryVec3 { op, dst, src } => {
                 s.vec3s[at(dst)] = s.vec3s[at(src)].map(|c| rules.unary(sh, op, &c));
             }
-            Instr::BinaryScalar { op, dst, a, b } => {
-                let (a, b) = (s.scalars[at(a)], s.scalars[at(b)]);
-                s.scalars[at(dst)] = binary(rules, sh, op, &a, &b, integer[0]);
+            Instr::BinaryScalar {
+                prec,
+                op,
+                dst,
+                a,
+                b,
+            } => {
+                let (a, b) = (s.get(prec, at(a)), s.get(prec, at(b)));
+                s.file(prec)[at(dst)] = binary(rules, sh, op, &a, &b, integer[0]);
             }
             Instr::BinaryVec3 { op, dst, a, b } => {
                 let (a, b) = (s.vec3s[at(a)], s.vec3s[at(b)]);
                 s.vec3s[at(dst)] =
                     std::array::from_fn(|i| binary(rules, sh, op, &a[i], &b[i], integer[i]));
             }
-            Instr::TernaryScalar { op, dst, a, b, c } => {
-                let [a, b, c] = [a, b, c].map(|x| s.scalars[at(x)]);
-                s.scalars[at(dst)] = rules.ternary(sh, op, &a, &b, &c);
+            Instr::TernaryScalar {
+                prec,
+                op,
+                dst,
+                a,
+                b,
+                c,
+            } => {
+                let [a, b, c] = [a, b, c].map(|x| s.get(prec, at(x)));
+                s.file(prec)[at(dst)] = rules.ternary(sh, op, &a, &b, &c);
             }
             Instr::TernaryVec3 { op, dst, a, b, c } => {
                 let [a, b, c] = [a, b, c].map(|x| s.vec3s[at(x)]);
                 s.vec3s[at(dst)] =
                     std::array::from_fn(|i| rules.ternary(sh, op, &a[i], &b[i], &c[i]));
             }
-            Instr::Dot { dst, a, b } => {
-                s.scalars[at(dst)] = dot(rules, &s.vec3s[at(a)], &s.vec3s[at(b)]);
+            Instr::Dot { prec, dst, a, b } => {
+                let v = dot(rules, &s.vec3s[at(a)], &s.vec3s[at(b)]);
+                s.file(prec)[at(dst)] = v;
             }
-            Instr::Length { dst, src } => {
-                s.scalars[at(dst)] = length(rules, sh, &s.vec3s[at(src)]);
+            Instr::Length { prec, dst, src } => {
+                let v = length(rules, sh, &s.vec3s[at(src)]);
+                s.file(prec)[at(dst)] = v;
             }
             Instr::Cross { dst, a, b } => {
                 let (a, b) = (s.vec3s[at(a)], s.vec3s[at(b)]);
@@ -542,6 +573,7 @@ impl<'t> Filtered<'t> {
                 s.vec3s[at(dst)] = rotate(rules, m, &s.vec3s[at(src)]);
             }
             Instr::RotateVarying {
+                prec,
                 dst,
                 src,
                 degrees,
@@ -549,7 +581,7 @@ impl<'t> Filtered<'t> {
             } => {
                 let axis = self.tape.axes[axis as usize];
                 let v = s.vec3s[at(src)];
-                s.vec3s[at(dst)] = rotate_varying(rules, axis, &v, &s.scalars[at(degrees)]);
+                s.vec3s[at(dst)] = rotate_varying(rules, axis, &v, &s.get(prec, at(degrees)));
             }
             // Run per chunk by `run` (`noise_chunk`), never per lane.
             Instr::Noise { .. }
@@ -568,73 +600,24 @@ impl<'t> Filtered<'t> {
                 let f = &self.curves[curve as usize];
                 s.scalars[at(dst)] = rules.piecewise(f, &s.scalars[at(src)]);
             }
-            Instr::Wide(wide) => self.wide(rules, wide, integer[0], s, lane),
-        }
-    }
-
-    /// A promoted instruction: the plain one's rule on the wide slots.
-    fn wide(&self, rules: &Rules, w: Wide, integer: bool, s: &mut Slots, lane: usize) {
-        let sh = &self.shapes;
-        let width = s.width;
-        let at = move |x: u32| x as usize * width + lane;
-        match w {
-            Wide::Component { dst, src, axis } => {
-                s.wides[at(dst)] = s.vec3s[at(src)][axis as usize % 3];
-            }
-            Wide::Unary { op, dst, src } => {
-                s.wides[at(dst)] = rules.unary(sh, op, &s.wides[at(src)]);
-            }
-            Wide::Binary { op, dst, a, b } => {
-                let (a, b) = (s.wides[at(a)], s.wides[at(b)]);
-                s.wides[at(dst)] = binary(rules, sh, op, &a, &b, integer);
-            }
-            Wide::Ternary { op, dst, a, b, c } => {
-                let [a, b, c] = [a, b, c].map(|x| s.wides[at(x)]);
-                s.wides[at(dst)] = rules.ternary(sh, op, &a, &b, &c);
-            }
-            Wide::Dot { dst, a, b } => {
-                s.wides[at(dst)] = dot(rules, &s.vec3s[at(a)], &s.vec3s[at(b)]);
-            }
-            Wide::Length { dst, src } => {
-                s.wides[at(dst)] = length(rules, sh, &s.vec3s[at(src)]);
-            }
-            Wide::Splat { dst, src } => s.vec3s[at(dst)] = [s.wides[at(src)]; 3],
-            Wide::Combine { dst, x, y, z } => {
-                s.vec3s[at(dst)] = [x, y, z].map(|c| s.wides[at(c)]);
-            }
-            Wide::Rotate {
-                dst,
-                src,
-                degrees,
-                axis,
-            } => {
-                let axis = self.tape.axes[axis as usize];
-                let v = s.vec3s[at(src)];
-                s.vec3s[at(dst)] = rotate_varying(rules, axis, &v, &s.wides[at(degrees)]);
-            }
-            // Run per chunk by `run` (`noise_chunk`), never per lane.
-            Wide::Noise { .. }
-            | Wide::Fractal { .. }
-            | Wide::NoiseGradient { .. }
-            | Wide::FractalGradient { .. } => {}
-            Wide::Widen { dst, src } => s.wides[at(dst)] = s.scalars[at(src)],
-            Wide::Narrow { dst, src } => s.scalars[at(dst)] = s.wides[at(src)],
+            Instr::Widen { dst, src } => s.wides[at(dst)] = s.scalars[at(src)],
+            Instr::Narrow { dst, src } => s.scalars[at(dst)] = s.wides[at(src)],
         }
     }
 
     /// A noise instruction over every lane of the chunk; a scalar result goes to the wide
-    /// slots when `noise.wide` (a promoted instruction: the same rule, every filtered value
-    /// being f64).
-    fn noise_chunk(&self, lanes: Lanes, noise: &NoiseInstr, integer: [bool; 3], s: &mut Slots) {
+    /// slots for a promoted instruction (the same rule, every filtered value being f64).
+    fn noise_chunk(&self, lanes: Lanes, instr: &Instr, integer: [bool; 3], s: &mut Slots) {
         let w = s.width;
         let range = |slot: u32| slot as usize * w..(slot as usize + 1) * w;
-        let file = if noise.wide {
-            &mut s.wides
-        } else {
-            &mut s.scalars
+        let file = match instr.prec() {
+            Prec::Lane => &mut s.scalars,
+            Prec::Wide => &mut s.wides,
         };
-        match noise.instr {
-            Instr::Noise { dst, src, table } if self.per_lane(table) => {
+        match *instr {
+            Instr::Noise {
+                dst, src, table, ..
+            } if self.per_lane(table) => {
                 let sampler = self.sampler(table);
                 let white = sampler.table.basis() == Basis::White;
                 let (p, out) = (&s.vec3s[range(src)], &mut file[range(dst)]);
@@ -649,7 +632,9 @@ impl<'t> Filtered<'t> {
                         .unwrap_or_else(|| fnoise::noise(&rules, &sampler, p, &mut s.scratch));
                 }
             }
-            Instr::Noise { dst, src, table } => fnoise::noise_lanes(
+            Instr::Noise {
+                dst, src, table, ..
+            } => fnoise::noise_lanes(
                 lanes,
                 &self.sampler(table),
                 &s.vec3s[range(src)],
@@ -663,6 +648,7 @@ impl<'t> Filtered<'t> {
                 octaves,
                 style,
                 bias,
+                ..
             } => {
                 let f = self.fractal_samplers(table, octaves);
                 let out = &mut file[range(dst)];
@@ -674,7 +660,9 @@ impl<'t> Filtered<'t> {
                     }
                 }
             }
-            Instr::NoiseGradient { dst, src, table } => {
+            Instr::NoiseGradient {
+                dst, src, table, ..
+            } => {
                 for lane in 0..w {
                     let p = &s.vec3s[src as usize * w + lane];
                     let rules = lanes.rules(lane);
@@ -688,6 +676,7 @@ impl<'t> Filtered<'t> {
                 table,
                 octaves,
                 style,
+                ..
             } => {
                 for lane in 0..w {
                     let p = s.vec3s[src as usize * w + lane];
@@ -752,27 +741,15 @@ enum Fused {
     Vec3([Dist; 3]),
 }
 
-/// A noise instruction in its plain form (`wide`: promoted, its scalar result in the wide
-/// slots).
-struct NoiseInstr {
-    instr: Instr,
-    wide: bool,
-}
-
-fn noise_instr(instr: &Instr) -> Option<NoiseInstr> {
-    match *instr {
+/// A noise instruction: run per chunk (`Filtered::noise_chunk`), never per lane.
+fn is_noise(instr: &Instr) -> bool {
+    matches!(
+        instr,
         Instr::Noise { .. }
-        | Instr::Fractal { .. }
-        | Instr::NoiseGradient { .. }
-        | Instr::FractalGradient { .. } => Some(NoiseInstr {
-            instr: instr.clone(),
-            wide: false,
-        }),
-        Instr::Wide(w) => w
-            .plain_noise()
-            .map(|instr| NoiseInstr { instr, wide: true }),
-        _ => None,
-    }
+            | Instr::Fractal { .. }
+            | Instr::NoiseGradient { .. }
+            | Instr::FractalGradient { .. }
+    )
 }
 
 /// A binary rule; `Mod` of an integer-valued value by a whole constant takes the lattice into

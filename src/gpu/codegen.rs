@@ -15,7 +15,7 @@ use super::error::GpuError;
 use crate::graph::TableKey;
 use crate::noise::{Basis, CellularValue, Interpolation, Metric, Octaves, Style};
 use crate::ops::{BinaryOp, Spline, SplineInterpolation, TernaryOp, UnaryOp};
-use crate::tape::{Instr, Tape, Wide};
+use crate::tape::{Instr, Prec, Tape};
 use std::fmt::Write;
 
 /// The WGSL library, in the order the generated shader concatenates it.
@@ -55,15 +55,14 @@ pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
         source.push('\n');
     }
     if tape.instrs.iter().any(|i| {
-        matches!(
-            i,
-            Instr::Wide(
-                Wide::Noise { .. }
-                    | Wide::Fractal { .. }
-                    | Wide::NoiseGradient { .. }
-                    | Wide::FractalGradient { .. }
+        i.prec() == Prec::Wide
+            && matches!(
+                i,
+                Instr::Noise { .. }
+                    | Instr::Fractal { .. }
+                    | Instr::NoiseGradient { .. }
+                    | Instr::FractalGradient { .. }
             )
-        )
     }) {
         source.push_str(super::widen::library());
         source.push('\n');
@@ -169,19 +168,66 @@ fn tape_function(tape: &Tape, constants: &ConstantExprs) -> String {
     body
 }
 
+/// How an instruction's scalars are written in WGSL for its precision: `s` slots in f32 (the
+/// `s_` functions), or `d` slots in f64 (the `d_` functions) for a promoted instruction.
+#[derive(Clone, Copy)]
+struct Scalars(Prec);
+
+impl Scalars {
+    /// Scalar slot `slot`.
+    fn slot(self, slot: u32) -> String {
+        format!("{}{slot}", self.0.file().prefix())
+    }
+
+    /// Scalar slot `slot` as an f64 expression.
+    fn as_f64(self, slot: u32) -> String {
+        match self.0 {
+            Prec::Lane => format!("f64(s{slot})"),
+            Prec::Wide => format!("d{slot}"),
+        }
+    }
+
+    /// An f64 expression as a scalar of this precision.
+    fn of_f64(self, expr: &str) -> String {
+        match self.0 {
+            Prec::Lane => format!("f32({expr})"),
+            Prec::Wide => expr.to_string(),
+        }
+    }
+
+    /// The prefix of the library's scalar functions.
+    fn functions(self) -> &'static str {
+        match self.0 {
+            Prec::Lane => "s_",
+            Prec::Wide => "d_",
+        }
+    }
+
+    fn unary(self, op: UnaryOp, x: &str) -> String {
+        match self.0 {
+            Prec::Lane => unary_f32(op, x),
+            Prec::Wide => unary_f64(op, x),
+        }
+    }
+}
+
 /// One instruction as WGSL statements.
 fn instruction(tape: &Tape, instr: &Instr) -> String {
+    let sc = Scalars(instr.prec());
+    let s = |slot: u32| sc.slot(slot);
     match *instr {
         Instr::Position { dst } => format!("v{dst} = p;"),
-        Instr::Splat { dst, src } => format!("v{dst} = vec3<f64>(f64(s{src}));"),
-        Instr::Combine { dst, x, y, z } => {
-            format!("v{dst} = vec3<f64>(f64(s{x}), f64(s{y}), f64(s{z}));")
+        Instr::Splat { dst, src, .. } => format!("v{dst} = vec3<f64>({});", sc.as_f64(src)),
+        Instr::Combine { dst, x, y, z, .. } => {
+            let [x, y, z] = [x, y, z].map(|c| sc.as_f64(c));
+            format!("v{dst} = vec3<f64>({x}, {y}, {z});")
         }
-        Instr::Component { dst, src, axis } => {
-            format!("s{dst} = f32(v{src}.{});", axis_name(axis))
+        Instr::Component { dst, src, axis, .. } => {
+            let c = format!("v{src}.{}", axis_name(axis));
+            format!("{} = {};", s(dst), sc.of_f64(&c))
         }
-        Instr::UnaryScalar { op, dst, src } => {
-            format!("s{dst} = {};", unary_f32(op, &format!("s{src}")))
+        Instr::UnaryScalar { op, dst, src, .. } => {
+            format!("{} = {};", s(dst), sc.unary(op, &s(src)))
         }
         Instr::UnaryVec3 { op, dst, src } => {
             format!(
@@ -189,25 +235,30 @@ fn instruction(tape: &Tape, instr: &Instr) -> String {
                 per_component(|c| unary_f64(op, &format!("v{src}.{c}")))
             )
         }
-        Instr::BinaryScalar { op, dst, a, b } => {
-            format!(
-                "s{dst} = {};",
-                binary("s_", op, &format!("s{a}"), &format!("s{b}"))
-            )
+        Instr::BinaryScalar { op, dst, a, b, .. } => {
+            let value = binary(sc.functions(), op, &s(a), &s(b));
+            format!("{} = {value};", s(dst))
         }
         Instr::BinaryVec3 { op, dst, a, b } => format!(
             "v{dst} = {};",
             per_component(|c| binary("d_", op, &format!("v{a}.{c}"), &format!("v{b}.{c}")))
         ),
-        Instr::TernaryScalar { op, dst, a, b, c } => {
-            format!("s{dst} = s_{}(s{a}, s{b}, s{c});", ternary_name(op))
+        Instr::TernaryScalar {
+            op, dst, a, b, c, ..
+        } => {
+            let f = format!("{}{}", sc.functions(), ternary_name(op));
+            format!("{} = {f}({}, {}, {});", s(dst), s(a), s(b), s(c))
         }
         Instr::TernaryVec3 { op, dst, a, b, c } => format!(
             "v{dst} = {};",
             per_component(|k| format!("d_{}(v{a}.{k}, v{b}.{k}, v{c}.{k})", ternary_name(op)))
         ),
-        Instr::Dot { dst, a, b } => format!("s{dst} = f32(v_dot(v{a}, v{b}));"),
-        Instr::Length { dst, src } => format!("s{dst} = f32(v_length(v{src}));"),
+        Instr::Dot { dst, a, b, .. } => {
+            format!("{} = {};", s(dst), sc.of_f64(&format!("v_dot(v{a}, v{b})")))
+        }
+        Instr::Length { dst, src, .. } => {
+            format!("{} = {};", s(dst), sc.of_f64(&format!("v_length(v{src})")))
+        }
         Instr::Cross { dst, a, b } => format!("v{dst} = v_cross(v{a}, v{b});"),
         Instr::Normalize { dst, src } => format!("v{dst} = v_normalize(v{src});"),
         Instr::RotateConst { dst, src, matrix } => {
@@ -224,23 +275,40 @@ fn instruction(tape: &Tape, instr: &Instr) -> String {
             src,
             degrees,
             axis,
+            ..
         } => format!(
-            "v{dst} = v_rotate({}, f64(s{degrees}), v{src});",
-            vec3_literal(tape.axes[axis as usize])
+            "v{dst} = v_rotate({}, {}, v{src});",
+            vec3_literal(tape.axes[axis as usize]),
+            sc.as_f64(degrees)
         ),
-        Instr::Noise { dst, src, table } => {
+        // Promoted noise: the bases' f64 forms (`widen.rs`), as the CPU runs its f64 kernels.
+        Instr::Noise {
+            prec,
+            dst,
+            src,
+            table,
+        } => {
             let key = &tape.tables[table as usize].0;
-            format!(
-                "s{dst} = {};",
-                sample_call(table, key, key.period, &format!("v{src}"), Kernel::Value)
-            )
+            let kernel = Kernel::value(prec);
+            let call = sample_call(table, key, key.period, &format!("v{src}"), kernel);
+            format!("{} = {call};", s(dst))
         }
-        Instr::NoiseGradient { dst, src, table } => {
+        Instr::NoiseGradient {
+            prec,
+            dst,
+            src,
+            table,
+        } => {
             let key = &tape.tables[table as usize].0;
-            let call = sample_call(table, key, key.period, &format!("v{src}"), Kernel::Gradient);
-            format!("v{dst} = vec3<f64>(({call}).xyz);")
+            let kernel = Kernel::gradient(prec);
+            let call = sample_call(table, key, key.period, &format!("v{src}"), kernel);
+            match prec {
+                Prec::Lane => format!("v{dst} = vec3<f64>(({call}).xyz);"),
+                Prec::Wide => format!("v{dst} = ({call}).xyz;"),
+            }
         }
         Instr::Fractal {
+            prec,
             dst,
             src,
             table,
@@ -249,7 +317,7 @@ fn instruction(tape: &Tape, instr: &Instr) -> String {
             bias,
         } => fractal(
             tape,
-            &format!("s{dst}"),
+            (prec, dst),
             src,
             FractalInstr {
                 table,
@@ -259,12 +327,13 @@ fn instruction(tape: &Tape, instr: &Instr) -> String {
             },
         ),
         Instr::FractalGradient {
+            prec,
             dst,
             src,
             table,
             octaves,
             style,
-        } => fractal_gradient(tape, dst, src, table, octaves, style, false),
+        } => fractal_gradient(tape, dst, src, table, octaves, style, prec),
         Instr::Hermite { dst, src, spline } => {
             let h = tape.hermites[spline as usize];
             format!(
@@ -277,76 +346,8 @@ fn instruction(tape: &Tape, instr: &Instr) -> String {
         }
         Instr::Ramp { dst, src, ramp } => format!("v{dst} = ramp{ramp}(f64(s{src}));"),
         Instr::Curve { dst, src, curve } => format!("s{dst} = f32(curve{curve}(f64(s{src})));"),
-        Instr::Wide(w) => wide(tape, w),
-    }
-}
-
-/// A promoted instruction: the f64 (`d_`) forms over the wide slots.
-fn wide(tape: &Tape, w: Wide) -> String {
-    match w {
-        Wide::Component { dst, src, axis } => format!("d{dst} = v{src}.{};", axis_name(axis)),
-        Wide::Unary { op, dst, src } => format!("d{dst} = {};", unary_f64(op, &format!("d{src}"))),
-        Wide::Binary { op, dst, a, b } => {
-            format!(
-                "d{dst} = {};",
-                binary("d_", op, &format!("d{a}"), &format!("d{b}"))
-            )
-        }
-        Wide::Ternary { op, dst, a, b, c } => {
-            format!("d{dst} = d_{}(d{a}, d{b}, d{c});", ternary_name(op))
-        }
-        Wide::Dot { dst, a, b } => format!("d{dst} = v_dot(v{a}, v{b});"),
-        Wide::Length { dst, src } => format!("d{dst} = v_length(v{src});"),
-        Wide::Splat { dst, src } => format!("v{dst} = vec3<f64>(d{src});"),
-        Wide::Combine { dst, x, y, z } => format!("v{dst} = vec3<f64>(d{x}, d{y}, d{z});"),
-        Wide::Rotate {
-            dst,
-            src,
-            degrees,
-            axis,
-        } => format!(
-            "v{dst} = v_rotate({}, d{degrees}, v{src});",
-            vec3_literal(tape.axes[axis as usize])
-        ),
-        Wide::Widen { dst, src } => format!("d{dst} = f64(s{src});"),
-        Wide::Narrow { dst, src } => format!("s{dst} = f32(d{src});"),
-        // Promoted noise: the bases' f64 forms (`widen.rs`), as the CPU runs its f64 kernels.
-        Wide::Noise { dst, src, table } => {
-            let key = &tape.tables[table as usize].0;
-            let call = sample_call(table, key, key.period, &format!("v{src}"), Kernel::Wide);
-            format!("d{dst} = {call};")
-        }
-        Wide::Fractal {
-            dst,
-            src,
-            table,
-            octaves,
-            style,
-            bias,
-        } => fractal(
-            tape,
-            &format!("d{dst}"),
-            src,
-            FractalInstr {
-                table,
-                octaves,
-                style,
-                bias,
-            },
-        ),
-        Wide::NoiseGradient { dst, src, table } => {
-            let key = &tape.tables[table as usize].0;
-            let point = format!("v{src}");
-            let call = sample_call(table, key, key.period, &point, Kernel::WideGradient);
-            format!("v{dst} = ({call}).xyz;")
-        }
-        Wide::FractalGradient {
-            dst,
-            src,
-            table,
-            octaves,
-            style,
-        } => fractal_gradient(tape, dst, src, table, octaves, style, true),
+        Instr::Widen { dst, src } => format!("d{dst} = f64(s{src});"),
+        Instr::Narrow { dst, src } => format!("s{dst} = f32(d{src});"),
     }
 }
 
@@ -355,7 +356,7 @@ fn wide(tape: &Tape, w: Wide) -> String {
 /// (`noise/fractal.rs` `Shaper::add`), NaN made canonical, then the level-of-detail bias. Where the tape has a
 /// `LaneLod` for the schedule, the octaves and bias follow the point's spacing `h`
 /// ([`lane_lod`]); without a spacing they are the schedule's.
-fn fractal(tape: &Tape, dst: &str, src: u32, instr: FractalInstr) -> String {
+fn fractal(tape: &Tape, (prec, dst): (Prec, u32), src: u32, instr: FractalInstr) -> String {
     let FractalInstr {
         table,
         octaves,
@@ -363,7 +364,8 @@ fn fractal(tape: &Tape, dst: &str, src: u32, instr: FractalInstr) -> String {
         bias,
     } = instr;
     // A promoted sum (a `d` slot) runs in f64 throughout, as `fractal_into::<f64>` does.
-    let wide = dst.starts_with('d');
+    let wide = prec == Prec::Wide;
+    let dst = Scalars(prec).slot(dst);
     let (ty, p, real) = if wide {
         ("f64", "d", f64_literal as fn(f64) -> String)
     } else {
@@ -513,8 +515,9 @@ fn fractal_gradient(
     table: u32,
     octaves: u32,
     style: Style,
-    wide: bool,
+    prec: Prec,
 ) -> String {
+    let wide = prec == Prec::Wide;
     let key = &tape.tables[table as usize].0;
     let schedule = &tape.octaves[octaves as usize];
     let (code, offset, sharpness) = style_code(style);
@@ -656,6 +659,24 @@ pub(super) enum Kernel {
     Gradient,
     /// (gradient, value) in f64, for a promoted gradient.
     WideGradient,
+}
+
+impl Kernel {
+    /// The value form for an instruction of precision `prec`.
+    fn value(prec: Prec) -> Kernel {
+        match prec {
+            Prec::Lane => Kernel::Value,
+            Prec::Wide => Kernel::Wide,
+        }
+    }
+
+    /// The gradient form for an instruction of precision `prec`.
+    fn gradient(prec: Prec) -> Kernel {
+        match prec {
+            Prec::Lane => Kernel::Gradient,
+            Prec::Wide => Kernel::WideGradient,
+        }
+    }
 }
 
 /// A spline (colour ramp: vec3, curve: scalar) as a WGSL function of an f64 input, evaluated
@@ -903,14 +924,17 @@ mod tests {
         assert_eq!(shader.channels, tape.channels());
         // Noise and gradients promoted to f64 over ±1e6: the bases' f64 forms.
         let tape = compile(&graph, Some(1e6));
-        let has = |f: fn(&Wide) -> bool| {
+        let has = |f: fn(&Instr) -> bool| {
             tape.instrs
                 .iter()
-                .any(|i| matches!(i, Instr::Wide(w) if f(w)))
+                .any(|i| i.prec() == crate::tape::Prec::Wide && f(i))
         };
-        assert!(has(|w| matches!(w, Wide::Noise { .. })), "{tape}");
-        assert!(has(|w| matches!(w, Wide::Fractal { .. })), "{tape}");
-        assert!(has(|w| matches!(w, Wide::FractalGradient { .. })), "{tape}");
+        assert!(has(|i| matches!(i, Instr::Noise { .. })), "{tape}");
+        assert!(has(|i| matches!(i, Instr::Fractal { .. })), "{tape}");
+        assert!(
+            has(|i| matches!(i, Instr::FractalGradient { .. })),
+            "{tape}"
+        );
         let shader = generate(&tape).expect("generated");
         validate(&shader.source).unwrap_or_else(|e| panic!("{e}"));
     }

@@ -5,7 +5,7 @@
 //! measured on the CPU and written in as literals) and piecewise shapes (`rules::spline_shape`,
 //! `rules::hermite_shape`) are the CPU's, so both sides run the same model.
 //! For the shader export, one `fn ftape_oK(p)` per output instead, each with only the
-//! instructions its output reads (`filtered_prune.rs`).
+//! instructions its output reads (`needed`, from the tape's `Instr::reads`).
 //!
 //! Covered: every instruction kind, the fused pairs and the periodic chains (`filter/fusions.rs`,
 //! `filter/chains.rs`; `filtered_periodic.rs`), white noise's mixture of cells and cellular
@@ -18,12 +18,14 @@ use super::error::GpuError;
 use crate::filter::fusions::{Fusion, Fusions};
 use crate::filter::moments::Piecewise;
 use crate::filter::noise::Stats;
+use crate::filter::operands::Source;
 use crate::filter::periodic::Periodic;
 use crate::filter::ranges::Restricted;
-use crate::filter::writes::{scalar_dst, vec3_dst, wide_dst, Source};
 use crate::noise::{Basis, Style};
 use crate::ops::{BinaryOp, TernaryOp, UnaryOp};
-use crate::tape::{Instr, Tape, Wide};
+use crate::tape::{Instr, Operand, Prec, Tape};
+use smallvec::{smallvec, SmallVec};
+use std::collections::HashSet;
 use std::fmt::Write;
 
 const FILTER: &str = include_str!("wgsl/filter.wgsl");
@@ -129,6 +131,39 @@ pub(crate) fn filtered_part(tape: &Tape, per_output: bool) -> Result<String, Gpu
     Ok(source)
 }
 
+/// A value of the filtered body: a tape slot, or a saved operand `f{k}` (`filter/fusions.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum Var {
+    Slot(Operand),
+    Saved(u32),
+}
+
+/// One instruction's statements, and per statement, in order, what it reads and writes.
+#[derive(Default)]
+struct Line {
+    text: String,
+    effects: Vec<(SmallVec<[Var; 3]>, Var)>,
+}
+
+/// Per line, whether the value `output` needs it: a backward pass from the end of the body
+/// in which a statement that writes a live value makes its reads live and its write dead
+/// (every statement writes a whole slot); a line is kept when one of its statements is. The
+/// reads are the tape's (`Instr::reads`) and the fusions' saved operands, so the pass keeps
+/// exactly what the output depends on.
+fn needed(lines: &[Line], output: Var) -> Vec<bool> {
+    let mut live: HashSet<Var> = HashSet::from([output]);
+    let mut keep = vec![false; lines.len()];
+    for (line, keep) in lines.iter().zip(&mut keep).rev() {
+        for (reads, write) in line.effects.iter().rev() {
+            if live.remove(write) {
+                *keep = true;
+                live.extend(reads.iter().copied());
+            }
+        }
+    }
+    keep
+}
+
 struct Gen<'t> {
     tape: &'t Tape,
     /// (table, period) per sampler function `smp{k}`.
@@ -150,8 +185,8 @@ struct Gen<'t> {
 
 impl Gen<'_> {
     /// `fn ftape(p) -> Channels`, every output's means; with `per_output` instead one
-    /// `fn ftape_oK(p)` per output K, with only the lines that output needs
-    /// (`filtered_prune.rs`) and only its channels set.
+    /// `fn ftape_oK(p)` per output K, with only the lines that output needs ([`needed`]) and
+    /// only its channels set.
     fn function(&mut self, per_output: bool) -> String {
         let t = self.tape;
         for (k, h) in t.hermites.iter().enumerate() {
@@ -169,19 +204,27 @@ impl Gen<'_> {
             self.shape(&format!("pwc{k}"), &f);
         }
         let prelude = self.prelude();
-        let lines: Vec<String> = (t.instrs.iter().enumerate())
+        let lines: Vec<Line> = (t.instrs.iter().enumerate())
             .map(|(index, instr)| self.fused(index, instr))
             .collect();
         let mut w = String::new();
         if !per_output {
             let all: Vec<usize> = (0..t.outputs.len()).collect();
-            ftape(&mut w, "ftape", &prelude, lines.iter(), t, &all);
+            let texts = lines.iter().map(|l| &l.text);
+            ftape(&mut w, "ftape", &prelude, texts, t, &all);
             return w;
         }
         for (k, o) in t.outputs.iter().enumerate() {
-            let slot = if o.ty.channels() == 1 { 's' } else { 'v' };
-            let keep = super::filtered_prune::needed(&lines, &[format!("{slot}{}", o.slot)]);
-            let kept = lines.iter().zip(keep).filter(|(_, k)| *k).map(|(l, _)| l);
+            let out = match o.ty.channels() {
+                1 => Operand::scalar(Prec::Lane, o.slot),
+                _ => Operand::vec3(o.slot),
+            };
+            let keep = needed(&lines, Var::Slot(out));
+            let kept = lines
+                .iter()
+                .zip(keep)
+                .filter(|(_, k)| *k)
+                .map(|(l, _)| &l.text);
             ftape(&mut w, &format!("ftape_o{k}"), &prelude, kept, t, &[k]);
         }
         w
@@ -218,30 +261,39 @@ impl Gen<'_> {
 
     /// Instruction `index` as `Filtered::run` takes it: its operands saved for a later fused
     /// instruction first; nothing where it is skipped (its only reader computes from its
-    /// argument); a fused instruction's rule on its saved argument; else its own rule.
-    fn fused(&mut self, index: usize, instr: &Instr) -> String {
-        let mut w = String::new();
+    /// argument); a fused instruction's rule on its saved argument; else its own rule. With
+    /// the line, what each of its statements reads and writes, in order.
+    fn fused(&mut self, index: usize, instr: &Instr) -> Line {
+        let mut line = Line::default();
         for &(source, k) in &self.fusions.save[index] {
-            let from = match source {
-                Source::Scalar(s) => format!("s{s}"),
-                Source::Vec3(s, c) => format!("v{s}[{c}]"),
-                Source::Wide(s) => format!("d{s}"),
+            let (from, read) = match source {
+                Source::Scalar(prec, s) => (
+                    format!("{}{s}", prec.file().prefix()),
+                    Operand::scalar(prec, s),
+                ),
+                Source::Vec3(s, c) => (format!("v{s}[{c}]"), Operand::vec3(s)),
             };
-            let _ = write!(w, "f{k} = {from}; ");
+            let _ = write!(line.text, "f{k} = {from}; ");
+            line.effects
+                .push((smallvec![Var::Slot(read)], Var::Saved(k)));
         }
         if self.fusions.skip[index] {
-            return w;
+            return line;
         }
-        let dst = scalar_dst(instr)
-            .map(|d| format!("s{d}"))
-            .or_else(|| wide_dst(instr).map(|d| format!("d{d}")));
-        let line = match (self.fusions.fused[index].clone(), dst) {
-            (Some(Fusion::AbsSin { saved, cos }), Some(dst)) => {
-                format!("{dst} = r_abs_sin(f{saved}, {cos});")
+        let written = instr.writes();
+        let dst = written.file.prec().map(|_| written.to_string());
+        let saved =
+            |k: &[u32]| -> SmallVec<[Var; 3]> { k.iter().map(|&k| Var::Saved(k)).collect() };
+        let (text, reads) = match (self.fusions.fused[index].clone(), dst) {
+            (Some(Fusion::AbsSin { saved: k, cos }), Some(dst)) => {
+                (format!("{dst} = r_abs_sin(f{k}, {cos});"), saved(&[k]))
             }
-            (Some(Fusion::Folded { saved, shape }), Some(dst)) => {
+            (Some(Fusion::Folded { saved: k, shape }), Some(dst)) => {
                 self.shape(&format!("pwf{index}"), &shape);
-                format!("{dst} = r_piecewise(pwf{index}(), f{saved});")
+                (
+                    format!("{dst} = r_piecewise(pwf{index}(), f{k});"),
+                    saved(&[k]),
+                )
             }
             (Some(Fusion::Periodic { parts }), dst) => {
                 let calls: Vec<String> = parts
@@ -252,15 +304,27 @@ impl Gen<'_> {
                         format!("r_periodic_pc{k}(d_scale(f{}, {scale}))", p.saved)
                     })
                     .collect();
-                match (calls.as_slice(), dst, vec3_dst(instr)) {
-                    ([one], Some(dst), _) => format!("{dst} = {one};"),
-                    ([x, y, z], _, Some(v)) => format!("v{v} = array<D, 3>({x}, {y}, {z});"),
-                    _ => self.instruction(index, instr),
+                let ks: Vec<u32> = parts.iter().map(|p| p.saved).collect();
+                match (calls.as_slice(), dst) {
+                    ([one], Some(dst)) => (format!("{dst} = {one};"), saved(&ks)),
+                    ([x, y, z], None) => (
+                        format!("{written} = array<D, 3>({x}, {y}, {z});"),
+                        saved(&ks),
+                    ),
+                    _ => self.plain(index, instr),
                 }
             }
-            _ => self.instruction(index, instr),
+            _ => self.plain(index, instr),
         };
-        w + &line
+        line.text.push_str(&text);
+        line.effects.push((reads, Var::Slot(written)));
+        line
+    }
+
+    /// An instruction's own rule, and the slots it reads.
+    fn plain(&mut self, index: usize, instr: &Instr) -> (String, SmallVec<[Var; 3]>) {
+        let reads = instr.reads().into_iter().map(Var::Slot).collect();
+        (self.instruction(index, instr), reads)
     }
 
     /// The index `k` of a periodic chain's shape `pc{k}` (one per distinct shape).
@@ -320,25 +384,34 @@ impl Gen<'_> {
 
     fn instruction(&mut self, index: usize, instr: &Instr) -> String {
         let integer = self.integer[index];
+        // A scalar slot in the instruction's precision (`s` lane type, `d` promoted; both D
+        // here, every filtered value being f64).
+        let p = instr.prec().file().prefix();
         match *instr {
             Instr::Position { dst } => format!(
                 "v{dst} = array<D, 3>(d_position(p, 0u), d_position(p, 1u), d_position(p, 2u));"
             ),
-            Instr::Splat { dst, src } => format!("v{dst} = array<D, 3>(s{src}, s{src}, s{src});"),
-            Instr::Combine { dst, x, y, z } => format!("v{dst} = array<D, 3>(s{x}, s{y}, s{z});"),
-            Instr::Component { dst, src, axis } => format!("s{dst} = v{src}[{}];", axis % 3),
-            Instr::UnaryScalar { op, dst, src } => {
-                unary(op, &format!("s{dst}"), &format!("s{src}"))
+            Instr::Splat { dst, src, .. } => {
+                format!("v{dst} = array<D, 3>({p}{src}, {p}{src}, {p}{src});")
+            }
+            Instr::Combine { dst, x, y, z, .. } => {
+                format!("v{dst} = array<D, 3>({p}{x}, {p}{y}, {p}{z});")
+            }
+            Instr::Component { dst, src, axis, .. } => {
+                format!("{p}{dst} = v{src}[{}];", axis % 3)
+            }
+            Instr::UnaryScalar { op, dst, src, .. } => {
+                unary(op, &format!("{p}{dst}"), &format!("{p}{src}"))
             }
             Instr::UnaryVec3 { op, dst, src } => (0..3)
                 .map(|i| unary(op, &format!("v{dst}[{i}]"), &format!("v{src}[{i}]")))
                 .collect::<Vec<_>>()
                 .join("\n    "),
-            Instr::BinaryScalar { op, dst, a, b } => binary(
+            Instr::BinaryScalar { op, dst, a, b, .. } => binary(
                 op,
-                &format!("s{dst}"),
-                &format!("s{a}"),
-                &format!("s{b}"),
+                &format!("{p}{dst}"),
+                &format!("{p}{a}"),
+                &format!("{p}{b}"),
                 integer[0],
             ),
             Instr::BinaryVec3 { op, dst, a, b } => (0..3)
@@ -353,9 +426,13 @@ impl Gen<'_> {
                 })
                 .collect::<Vec<_>>()
                 .join("\n    "),
-            Instr::TernaryScalar { op, dst, a, b, c } => {
-                ternary(op, &format!("s{dst}"), [a, b, c].map(|x| format!("s{x}")))
-            }
+            Instr::TernaryScalar {
+                op, dst, a, b, c, ..
+            } => ternary(
+                op,
+                &format!("{p}{dst}"),
+                [a, b, c].map(|x| format!("{p}{x}")),
+            ),
             Instr::TernaryVec3 { op, dst, a, b, c } => (0..3)
                 .map(|i| {
                     ternary(
@@ -366,8 +443,8 @@ impl Gen<'_> {
                 })
                 .collect::<Vec<_>>()
                 .join("\n    "),
-            Instr::Dot { dst, a, b } => format!("s{dst} = r_dot(v{a}, v{b});"),
-            Instr::Length { dst, src } => format!("s{dst} = r_length(v{src});"),
+            Instr::Dot { dst, a, b, .. } => format!("{p}{dst} = r_dot(v{a}, v{b});"),
+            Instr::Length { dst, src, .. } => format!("{p}{dst} = r_length(v{src});"),
             Instr::Cross { dst, a, b } => format!("v{dst} = r_cross(v{a}, v{b});"),
             Instr::Normalize { dst, src } => format!("v{dst} = r_normalize(v{src});"),
             Instr::RotateConst { dst, src, matrix } => {
@@ -380,11 +457,14 @@ impl Gen<'_> {
                 src,
                 degrees,
                 axis,
+                ..
             } => format!(
-                "v{dst} = r_rotate_varying({}, v{src}, s{degrees});",
+                "v{dst} = r_rotate_varying({}, v{src}, {p}{degrees});",
                 vec3_literal(self.tape.axes[axis as usize])
             ),
-            Instr::Noise { dst, src, table } => self.noise(&format!("s{dst}"), src, table, integer),
+            Instr::Noise {
+                dst, src, table, ..
+            } => self.noise(&format!("{p}{dst}"), src, table, integer),
             Instr::Fractal {
                 dst,
                 src,
@@ -392,7 +472,8 @@ impl Gen<'_> {
                 octaves,
                 style,
                 bias,
-            } => self.fractal(&format!("s{dst}"), src, table, octaves, style, bias),
+                ..
+            } => self.fractal(&format!("{p}{dst}"), src, table, octaves, style, bias),
             // A point (no spread) takes the function itself, as on the CPU.
             Instr::Hermite { dst, src, spline } if self.in_range[index].is_some() => {
                 let name = self.in_range_shapes(index);
@@ -435,64 +516,18 @@ impl Gen<'_> {
             Instr::Curve { dst, src, curve } => {
                 format!("s{dst} = r_piecewise(pwc{curve}(), s{src});")
             }
-            Instr::Wide(w) => self.wide(w, integer),
-            Instr::NoiseGradient { dst, src, table } => self.noise_gradient(dst, src, table),
+            Instr::Widen { dst, src } => format!("d{dst} = s{src};"),
+            Instr::Narrow { dst, src } => format!("s{dst} = d{src};"),
+            Instr::NoiseGradient {
+                dst, src, table, ..
+            } => self.noise_gradient(dst, src, table),
             Instr::FractalGradient {
                 dst,
                 src,
                 table,
                 octaves,
                 style,
-            } => self.fractal_gradient(dst, src, table, octaves, style),
-        }
-    }
-
-    fn wide(&mut self, w: Wide, integers: [bool; 3]) -> String {
-        let integer = integers[0];
-        match w {
-            Wide::Component { dst, src, axis } => format!("d{dst} = v{src}[{}];", axis % 3),
-            Wide::Unary { op, dst, src } => unary(op, &format!("d{dst}"), &format!("d{src}")),
-            Wide::Binary { op, dst, a, b } => binary(
-                op,
-                &format!("d{dst}"),
-                &format!("d{a}"),
-                &format!("d{b}"),
-                integer,
-            ),
-            Wide::Ternary { op, dst, a, b, c } => {
-                ternary(op, &format!("d{dst}"), [a, b, c].map(|x| format!("d{x}")))
-            }
-            Wide::Dot { dst, a, b } => format!("d{dst} = r_dot(v{a}, v{b});"),
-            Wide::Length { dst, src } => format!("d{dst} = r_length(v{src});"),
-            Wide::Splat { dst, src } => format!("v{dst} = array<D, 3>(d{src}, d{src}, d{src});"),
-            Wide::Combine { dst, x, y, z } => format!("v{dst} = array<D, 3>(d{x}, d{y}, d{z});"),
-            Wide::Rotate {
-                dst,
-                src,
-                degrees,
-                axis,
-            } => format!(
-                "v{dst} = r_rotate_varying({}, v{src}, d{degrees});",
-                vec3_literal(self.tape.axes[axis as usize])
-            ),
-            Wide::Noise { dst, src, table } => self.noise(&format!("d{dst}"), src, table, integers),
-            Wide::Fractal {
-                dst,
-                src,
-                table,
-                octaves,
-                style,
-                bias,
-            } => self.fractal(&format!("d{dst}"), src, table, octaves, style, bias),
-            Wide::Widen { dst, src } => format!("d{dst} = s{src};"),
-            Wide::Narrow { dst, src } => format!("s{dst} = d{src};"),
-            Wide::NoiseGradient { dst, src, table } => self.noise_gradient(dst, src, table),
-            Wide::FractalGradient {
-                dst,
-                src,
-                table,
-                octaves,
-                style,
+                ..
             } => self.fractal_gradient(dst, src, table, octaves, style),
         }
     }
@@ -841,4 +876,63 @@ fn ternary(op: TernaryOp, dst: &str, [a, b, c]: [String; 3]) -> String {
          if ((d_is_const(a) && d_is_const(b) && d_is_const(c)) || is_nan_d(a.m) || is_nan_d(b.m) || is_nan_d(c.m)) \
          {{ {dst} = dc(d_{name}(a.m, b.m, c.m)); }} else {{ {dst} = {rule}; }} }}"
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn line(reads: &[Var], write: Var) -> Line {
+        Line {
+            text: String::new(),
+            effects: vec![(reads.iter().copied().collect(), write)],
+        }
+    }
+
+    /// Liveness kills a slot at its write: where a slot is reused, only the last writer before
+    /// a reader is kept, and a value nothing reads keeps nothing.
+    #[test]
+    fn needed_follows_slot_reuse() {
+        let s = |k| Var::Slot(Operand::scalar(Prec::Lane, k));
+        let v = |k| Var::Slot(Operand::vec3(k));
+        let lines = [
+            line(&[v(0)], s(0)),
+            line(&[s(0)], s(1)),
+            line(&[s(1)], Var::Saved(0)),
+            line(&[v(0)], s(0)),
+            line(&[s(0), Var::Saved(0)], s(2)),
+        ];
+        assert_eq!(needed(&lines, s(1)), [true, true, false, false, false]);
+        assert_eq!(needed(&lines, s(2)), [true; 5]);
+        assert_eq!(needed(&lines, s(0)), [false, false, false, true, false]);
+        assert_eq!(needed(&lines, s(7)), [false; 5]);
+    }
+
+    /// Each output's exported function runs only its own rules.
+    #[test]
+    fn each_output_keeps_only_its_own_rules() {
+        let source = crate::diagnostic::SourceFile::new(
+            "t.ron",
+            r#"Graph(nodes: { "p": Position }, outputs: {
+                "a": Abs(Sin(Mul("p.x", 3.0))),
+                "n": Noise(input: "p", basis: Perlin, seed: 0) })"#,
+        );
+        let graph = crate::check::check(source, &Default::default()).expect("checks");
+        let tape = crate::compile::compile(&graph, &Default::default()).expect("compiles");
+        let text = filtered_part(&tape, true).expect("covered");
+        let body = |name: &str| {
+            let start = text.find(&format!("fn {name}(")).expect("the function");
+            let end = text[start..].find("\n}\n").expect("its end");
+            text[start..start + end].to_string()
+        };
+        let (a, n) = (body("ftape_o0"), body("ftape_o1"));
+        assert!(
+            a.contains("r_abs_sin") && !a.contains("n_octave_smp"),
+            "{a}"
+        );
+        assert!(
+            n.contains("n_octave_smp") && !n.contains("r_abs_sin"),
+            "{n}"
+        );
+    }
 }

@@ -13,7 +13,6 @@ mod error;
 mod evaluator;
 pub mod filtered;
 mod filtered_periodic;
-mod filtered_prune;
 #[cfg(feature = "gpu")]
 pub use evaluator::GpuEvaluator;
 #[cfg(not(feature = "gpu"))]

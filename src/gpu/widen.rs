@@ -1,5 +1,5 @@
-//! The noise bases in f64, for noise the precision plan promoted (`Wide::Noise`,
-//! `Wide::Fractal`, `Wide::NoiseGradient`, `Wide::FractalGradient`): derived from the f32 modules (`cell.wgsl` and the bases) so that each
+//! The noise bases in f64, for noise the precision plan promoted (`Noise`, `Fractal`,
+//! `NoiseGradient` and `FractalGradient` with `Prec::Wide`): derived from the f32 modules (`cell.wgsl` and the bases) so that each
 //! basis keeps one definition. Every item whose text names `f32`, or uses such an item, gets an
 //! `_d` twin with `f32` read as `f64` and `f`-suffixed literals made abstract; the few whose
 //! f32 forms work on bit patterns are written by hand in `wide.wgsl` and the derived twin is

@@ -407,3 +407,62 @@ fn every_seed_graph_is_valid_ron_for_the_ron_crate_too() {
         assert!(parsed.is_ok(), "{}: {:?}", path.display(), parsed.err());
     }
 }
+
+/// The slots a disassembly line names: the one left of `=` (written) and those right of it
+/// (read), each as (file prefix, slot), in order; words that are no slot (operations, bases,
+/// numbers, side-table text) are skipped.
+fn line_slots(line: &str) -> ((char, u32), Vec<(char, u32)>) {
+    let slot = |word: &str| -> Option<(char, u32)> {
+        // `degrees=s3` names a slot; `v2.x` is one; `s3,` ends a list item.
+        let word = word.rsplit('=').next()?.trim_end_matches(',');
+        let word = word.split('.').next()?;
+        let file = word
+            .chars()
+            .next()
+            .filter(|c| matches!(c, 's' | 'd' | 'v'))?;
+        let digits = &word[1..];
+        let all_digits = !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit());
+        all_digits.then(|| (file, digits.parse().expect("a slot number")))
+    };
+    let (left, right) = line.split_once(" = ").expect("an assignment");
+    let written = slot(left.trim()).expect("a written slot");
+    let read = right.split([' ', '(', '[']).filter_map(slot).collect();
+    (written, read)
+}
+
+/// `Instr::reads` and `Instr::writes` — what the compiler's check, the filtered form's walks
+/// and the shader export's per-output pruning rely on — name exactly the slots the
+/// disassembly prints, for every instruction of every graph, plain and with promoted (f64)
+/// instructions (compiled for ±1e6, where most of them promote).
+#[test]
+fn instruction_reads_and_writes_match_the_disassembly() {
+    let mut checked = 0;
+    let mut wide = 0;
+    for path in &graph_files() {
+        let text = std::fs::read_to_string(path).expect("readable graph");
+        let file = SourceFile::new(path.display().to_string(), text);
+        let graph = check(file, &CheckOptions::default())
+            .unwrap_or_else(|e| panic!("{}", e.render_plain()));
+        for extent in [None, Some(texgraph::Extent::new([-1e6; 3], [1e6; 3]))] {
+            let options = CompileOptions {
+                extent,
+                ..Default::default()
+            };
+            let tape = compile(&graph, &options).unwrap_or_else(|e| panic!("{}", e.render_plain()));
+            let lines = tape.instruction_lines().map(|(_, text)| text);
+            for (instr, line) in tape.instructions().iter().zip(lines) {
+                let (written, read) = line_slots(&line);
+                let name = |o: texgraph::tape::Operand| (o.file.prefix(), o.slot);
+                assert_eq!(name(instr.writes()), written, "{}: {line}", path.display());
+                let reads: Vec<(char, u32)> = instr.reads().into_iter().map(name).collect();
+                assert_eq!(reads, read, "{}: {line}", path.display());
+                wide += usize::from(instr.prec() == texgraph::tape::Prec::Wide);
+                checked += 1;
+            }
+        }
+    }
+    assert!(
+        checked > 1000 && wide > 100,
+        "{checked} instructions, {wide} in f64"
+    );
+}
