@@ -27,13 +27,14 @@ pub struct BakeOptions {
     pub precision: Precision,
     /// Set from another thread (Ctrl-C) to stop between windows with [`BakeError::Cancelled`].
     pub cancel: Option<Arc<AtomicBool>>,
-    /// Where the windows are evaluated: `Device::Gpu` makes and reads them back on the GPU
-    /// (the tape's evaluator from `gpu::evaluator_for`, f32 precision only); the sinks,
-    /// statistics and streaming are the same. `Auto` is the CPU here (the command line
-    /// resolves it, saying which).
+    /// Where the voxels are evaluated, decided by [`super::choose_device`] for every sink:
+    /// `Device::Gpu` makes and reads them back on the GPU (the tape's point or filtered
+    /// evaluator, f32 precision only) or refuses the bake, saying why; `Auto` the GPU where it
+    /// can run the bake, else the CPU (the command line asks `choose_device` first and says
+    /// which). The sinks, statistics and streaming are the same either way.
     pub device: crate::gpu::Device,
     /// `Box`: each voxel the estimate of the graph's mean over its cell (filtered evaluation,
-    /// `crate::filter`), on the CPU; `Point`: the value at its centre.
+    /// `crate::filter`); `Point`: the value at its centre.
     pub filter: crate::filter::Filter,
 }
 
@@ -468,32 +469,12 @@ fn bake_with<S: Real>(
 ) -> Result<Vec<OutputStats>, BakeError> {
     let grid = &options.grid;
     let channels = tape.channels();
-    let gpu = match options.device {
-        crate::gpu::Device::Gpu if S::NAME == "f64" => {
-            return Err(BakeError::Refused(
-                "the GPU evaluates the f32 path; an f64 bake (--double) runs on the CPU".into(),
-            ))
-        }
-        // The filtered form on the GPU (`gpu/filtered.rs`): refused, with the instruction it
-        // cannot run yet, for a graph it does not cover.
-        crate::gpu::Device::Gpu if options.filter == crate::filter::Filter::Box => {
-            Some(crate::gpu::filtered_evaluator_for(tape).map_err(|e| {
-                BakeError::Refused(format!(
-                    "--device gpu --filter box: {e} (--device cpu runs it)"
-                ))
-            })?)
-        }
-        // `auto`: the GPU where its filtered form covers the graph, else the CPU.
-        crate::gpu::Device::Auto
-            if options.filter == crate::filter::Filter::Box && S::NAME == "f32" =>
-        {
-            crate::gpu::filtered_evaluator_for(tape).ok()
-        }
-        crate::gpu::Device::Gpu => {
-            Some(crate::gpu::evaluator_for(tape).map_err(|e| BakeError::Refused(e.to_string()))?)
-        }
-        _ => None,
-    };
+    // The device, as every sink decides it (`device.rs`): `--device gpu` that cannot run
+    // this bake is refused here too, never baked on the CPU in silence.
+    let double = S::NAME == "f64";
+    let choice = super::device::choose(tape, options.device, options.filter, double)
+        .map_err(BakeError::Refused)?;
+    let gpu = choice.evaluator.gpu();
     let filtered =
         (options.filter == crate::filter::Filter::Box).then(|| crate::filter::Filtered::new(tape));
     let mut stats: Vec<ChannelStats> = vec![ChannelStats::default(); channels];

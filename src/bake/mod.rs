@@ -24,12 +24,13 @@
 //! the thread count.
 //!
 //! The files, by layer (ARCHITECTURE.md has the whole crate's): `crate::grid` (the voxel grid and
-//! its layout) below everything; `engine.rs` (options, errors, statistics, the window engine,
-//! the `Sink` trait); `settings.rs` (what the file writers share: `BakeFileOptions`, reports,
+//! its layout) below everything; `device.rs` (which device evaluates a bake, one decision for
+//! every sink); `engine.rs` (options, errors, statistics, the window engine, the `Sink` trait); `settings.rs` (what the file writers share: `BakeFileOptions`, reports,
 //! mip grids); the writers `sinks.rs` (EXR, PNG, raw), `ktx2.rs`, `zarr.rs` (with `part.rs`) and
 //! `vdb_bake.rs` (with `vdb.rs`); `files.rs`, the dispatch, on top. This file only declares and
 //! re-exports; nothing in `bake/` refers to it.
 
+mod device;
 mod engine;
 mod files;
 mod ktx2;
@@ -41,6 +42,7 @@ mod vdb_bake;
 pub mod zarr;
 
 pub use crate::grid::{Grid, Layout, Region, Segment, SEGMENT_BYTES, SEGMENT_VOXELS, WINDOW_BYTES};
+pub use device::{choose as choose_device, Choice, Evaluator};
 pub use engine::{
     bake_into, bake_volume, bake_volume_with_progress, capped_threads, BakeError, BakeOptions,
     ChannelStats, OutputStats, Precision, Sink, Volume, VolumeOutput, Window, WindowOutput,

@@ -279,7 +279,6 @@ pub fn bake_option_misuse(args: &BakeArgs) -> Vec<String> {
 }
 
 pub fn bake(args: BakeArgs) -> Result<(), Failure> {
-    use crate::bake::{bake_files, BakeError, BakeOptions, Grid, Precision};
     let misuse = bake_option_misuse(&args);
     if !misuse.is_empty() {
         for problem in misuse {
@@ -287,54 +286,8 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
         }
         return Err(Failure::Usage);
     }
-    let part = match args.part.as_deref() {
-        None => Ok(crate::bake::part::Part::WHOLE),
-        Some("auto") => {
-            crate::bake::part::Part::from_env(args.parts, |name| std::env::var(name).ok())
-        }
-        Some(text) => crate::bake::part::Part::parse(text).map_err(|e| format!("--part: {e}")),
-    }
-    .map_err(|problem| {
-        eprintln!("error: {problem}");
-        Failure::Usage
-    })?;
-    // Several graph files: the part is a share of the sorted list, each file baked whole. One
-    // file: the part is a share of its zarr store's shards.
-    let (files, shard_part) = if args.files.len() > 1 {
-        let mut sorted = args.files.clone();
-        sorted.sort();
-        let mine: Vec<PathBuf> = sorted
-            .into_iter()
-            .enumerate()
-            .filter(|(i, _)| part.owns(*i as u64))
-            .map(|(_, f)| f)
-            .collect();
-        if !part.is_whole() {
-            eprintln!(
-                "part {part}: {} of the {} graph files",
-                mine.len(),
-                args.files.len()
-            );
-        }
-        (mine, crate::bake::part::Part::WHOLE)
-    } else {
-        (args.files.clone(), part)
-    };
-    let threads = threads_or_warn(args.threads);
-    // Box filtering on the GPU runs the GPU's filtered form (docs/gpu.md), which covers most
-    // graphs: `--device gpu` refuses one it does not cover, `auto` bakes that one on the CPU.
-    let device = match (args.filter(), args.device) {
-        (crate::filter::Filter::Box, crate::gpu::Device::Auto) => {
-            match super::resolve_device(args.device, args.double)? {
-                crate::gpu::Device::Gpu => {
-                    eprintln!("texgraph: --filter box: graphs the GPU's filtered form does not cover are baked on the CPU");
-                    crate::gpu::Device::Auto
-                }
-                other => other,
-            }
-        }
-        _ => super::resolve_device(args.device, args.double)?,
-    };
+    let (files, shard_part) = this_part(&args)?;
+    let device = run_device(&args)?;
     let cancel = Arc::new(AtomicBool::new(false));
     {
         // Ctrl-C stops between windows; temporary files are removed and nothing is renamed
@@ -343,7 +296,7 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
         let _ = ctrlc::set_handler(move || cancel.store(true, Ordering::Relaxed));
     }
     let (check_options, mut compile_options) = options(&args.graph);
-    let grid = Grid {
+    let grid = crate::bake::Grid {
         size: args.size,
         region: args.region.unwrap_or_default(),
     };
@@ -356,47 +309,139 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
         let spacing = grid.spacing().into_iter().fold(f64::INFINITY, f64::min);
         compile_options.spacing = (spacing > 0.0 && spacing.is_finite()).then_some(spacing);
     }
-    let show_progress = !args.quiet && std::io::stderr().is_terminal();
-    let mut worst: Option<Failure> = None;
-    let fail = |worst: &mut Option<Failure>, f: Failure| *worst = Failure::worst(*worst, f);
-    let (mut total_voxels, mut total_seconds, mut baked) = (0u64, 0f64, 0usize);
-    let mut produced: std::collections::HashSet<PathBuf> = std::collections::HashSet::new();
+    let mut batch = Batch {
+        args: &args,
+        grid,
+        check_options,
+        compile_options,
+        device,
+        shard_part,
+        cancel,
+        threads: threads_or_warn(args.threads),
+        show_progress: !args.quiet && std::io::stderr().is_terminal(),
+        worst: None,
+        totals: (0, 0.0, 0),
+        produced: std::collections::HashSet::new(),
+    };
     for file in &files {
-        let (graph, tape) = match crate::load::load_tape(file, &check_options, &compile_options) {
-            Ok(loaded) => loaded,
-            Err(error) => {
-                let failure = print_load_error(error);
-                fail(&mut worst, failure);
-                continue;
+        if let Err(failure) = batch.one(file) {
+            batch.worst = Failure::worst(batch.worst, failure);
+            if matches!(failure, Failure::Interrupted) {
+                return Err(failure);
             }
+        }
+    }
+    batch.summary(files.len())?;
+    batch.worst.map_or(Ok(()), Err)
+}
+
+/// `--part`: the graph files this process bakes and the share of one file's zarr shards. Several
+/// graph files: the part is a share of the sorted list, each file baked whole. One file: the
+/// part is a share of its zarr store's shards.
+fn this_part(args: &BakeArgs) -> Result<(Vec<PathBuf>, crate::bake::part::Part), Failure> {
+    use crate::bake::part::Part;
+    let part = match args.part.as_deref() {
+        None => Ok(Part::WHOLE),
+        Some("auto") => Part::from_env(args.parts, |name| std::env::var(name).ok()),
+        Some(text) => Part::parse(text).map_err(|e| format!("--part: {e}")),
+    }
+    .map_err(|problem| {
+        eprintln!("error: {problem}");
+        Failure::Usage
+    })?;
+    if args.files.len() == 1 {
+        return Ok((args.files.clone(), part));
+    }
+    let mut sorted = args.files.clone();
+    sorted.sort();
+    let mine: Vec<PathBuf> = sorted
+        .into_iter()
+        .enumerate()
+        .filter(|(i, _)| part.owns(*i as u64))
+        .map(|(_, f)| f)
+        .collect();
+    if !part.is_whole() {
+        eprintln!(
+            "part {part}: {} of the {} graph files",
+            mine.len(),
+            args.files.len()
+        );
+    }
+    Ok((mine, Part::WHOLE))
+}
+
+/// `--device` for the whole run: `gpu` needs a usable adapter (else a usage error), `auto`
+/// looks for one once (saying what it found). Which device bakes each graph is then
+/// `crate::bake::choose_device`'s per graph, as in every sink.
+fn run_device(args: &BakeArgs) -> Result<crate::gpu::Device, Failure> {
+    use crate::gpu::Device;
+    match (
+        args.device,
+        super::resolve_device(args.device, args.double)?,
+    ) {
+        // A usable GPU under `auto`: each graph still falls back to the CPU where the GPU
+        // cannot run it (said per graph).
+        (Device::Auto, Device::Gpu) => Ok(Device::Auto),
+        (_, resolved) => Ok(resolved),
+    }
+}
+
+/// One `bake` run over its graph files: the settings they share and what the run has done.
+struct Batch<'a> {
+    args: &'a BakeArgs,
+    grid: crate::bake::Grid,
+    check_options: crate::check::CheckOptions,
+    compile_options: crate::compile::CompileOptions,
+    device: crate::gpu::Device,
+    shard_part: crate::bake::part::Part,
+    cancel: Arc<AtomicBool>,
+    threads: usize,
+    show_progress: bool,
+    /// The worst failure so far (the exit code of a batch).
+    worst: Option<Failure>,
+    /// Voxels, seconds and graphs baked.
+    totals: (u64, f64, usize),
+    /// Every file written so far (two graphs of one name would write the same files).
+    produced: std::collections::HashSet<PathBuf>,
+}
+
+impl Batch<'_> {
+    /// Bakes one graph file: its errors are printed here; `Err` says how it failed.
+    fn one(&mut self, file: &Path) -> Result<(), Failure> {
+        use crate::bake::{BakeError, BakeOptions, Precision};
+        let args = self.args;
+        let (graph, tape) =
+            crate::load::load_tape(file, &self.check_options, &self.compile_options)
+                .map_err(print_load_error)?;
+        let refused = |error: BakeError| {
+            eprintln!("error: {}: {error}", file.display());
+            Failure::from_exit_code(error.exit_code())
         };
+        // The device as every sink decides it: `--device gpu` that cannot run this graph is an
+        // error, `auto` says when it bakes on the CPU.
+        let choice = crate::bake::choose_device(&tape, self.device, args.filter(), args.double)
+            .map_err(|why| refused(BakeError::Refused(why)))?;
+        if let Some(note) = &choice.note {
+            eprintln!("texgraph: {}: {note}", file.display());
+        }
         let bake = BakeOptions {
-            grid,
-            threads,
+            grid: self.grid,
+            threads: self.threads,
             precision: if args.double {
                 Precision::F64
             } else {
                 Precision::F32
             },
-            cancel: Some(cancel.clone()),
-            device: device_for(device, file, &tape),
+            cancel: Some(self.cancel.clone()),
+            device: choice.evaluator.device(),
             filter: args.filter(),
         };
-        let mut options = file_options(&args, file, &graph.params, bake);
-        options.zarr.part = shard_part;
-        // Two graphs with the same file name (a/x.ron, b/x.ron) would write the same files.
-        let planned = match crate::bake::planned_outputs(&tape, &options) {
-            Ok(planned) => planned,
-            Err(error) => {
-                eprintln!("error: {}: {error}", file.display());
-                fail(&mut worst, Failure::from_exit_code(error.exit_code()));
-                continue;
-            }
-        };
-        if let Some(clash) = planned.iter().find(|p| produced.contains(*p)) {
+        let mut options = file_options(args, file, &graph.params, bake);
+        options.zarr.part = self.shard_part;
+        let planned = crate::bake::planned_outputs(&tape, &options).map_err(refused)?;
+        if let Some(clash) = planned.iter().find(|p| self.produced.contains(*p)) {
             eprintln!("error: {}: {} was already written by an earlier graph of this batch (same file name); bake them into different --out folders", file.display(), clash.display());
-            fail(&mut worst, Failure::Usage);
-            continue;
+            return Err(Failure::Usage);
         }
         if !args.double {
             warn_shortfalls(file, &tape);
@@ -404,48 +449,12 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
         let tapes = if args.mips {
             // Filtered levels fade every octave by their own voxels: no level of detail then.
             let lod = args.filter() == crate::filter::Filter::Point;
-            match mip_tapes(&graph, &compile_options, &grid, lod) {
-                Ok(tapes) => tapes,
-                Err(error) => {
-                    fail(&mut worst, print_load_error(error));
-                    continue;
-                }
-            }
+            mip_tapes(&graph, &self.compile_options, &self.grid, lod).map_err(print_load_error)?
         } else {
             vec![tape]
         };
-        let all_voxels = (0..tapes.len() as u32)
-            .map(|l| crate::bake::mip_grid(&grid, l).voxels().unwrap_or(u64::MAX))
-            .fold(0u64, u64::saturating_add);
-        let bar = show_progress.then(|| progress_bar(file, all_voxels));
-        let mut show = |done| {
-            if let Some(bar) = &bar {
-                bar.set_position(done);
-            }
-        };
-        let result = if args.mips {
-            crate::bake::bake_mipmapped(&tapes, &options, &mut show)
-        } else {
-            bake_files(&tapes[0], &options, &mut show).map(|r| vec![r])
-        };
-        if let Some(bar) = &bar {
-            bar.finish_and_clear();
-        }
-        match result {
-            Ok(reports) => {
-                produced.extend(planned);
-                baked += 1;
-                // One report per level folder (PNG, EXR, raw), else one for the whole chain.
-                for (level, report) in reports.iter().enumerate() {
-                    total_voxels += report.voxels;
-                    total_seconds += report.seconds;
-                    let level_grid = crate::bake::mip_grid(&grid, level as u32);
-                    let clamps = eight_or_sixteen_bit(&options);
-                    let text = bake_report(file, &level_grid, report, threads, clamps);
-                    write_stdout(|out| out.write_all(text.as_bytes()))?;
-                    warn_about_values(file, report, clamps, options.format);
-                }
-            }
+        let reports = match self.run(file, &tapes, &options) {
+            Ok(reports) => reports,
             Err(BakeError::Cancelled) => {
                 eprintln!(
                     "error: {}: interrupted; no output was written",
@@ -453,23 +462,74 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
                 );
                 return Err(Failure::Interrupted);
             }
-            Err(error) => {
-                eprintln!("error: {}: {error}", file.display());
-                fail(&mut worst, Failure::from_exit_code(error.exit_code()));
-            }
+            Err(error) => return Err(refused(error)),
+        };
+        self.produced.extend(planned);
+        self.totals.2 += 1;
+        // One report per level folder (PNG, EXR, raw), else one for the whole chain.
+        for (level, report) in reports.iter().enumerate() {
+            self.totals.0 += report.voxels;
+            self.totals.1 += report.seconds;
+            let level_grid = crate::bake::mip_grid(&self.grid, level as u32);
+            let clamps = eight_or_sixteen_bit(&options);
+            let text = bake_report(file, &level_grid, report, self.threads, clamps);
+            write_stdout(|out| out.write_all(text.as_bytes()))?;
+            warn_about_values(file, report, clamps, options.format);
         }
+        Ok(())
     }
-    if files.len() > 1 {
-        let failed = files.len() - baked;
+
+    /// The bake of one graph's tapes (one, or a mip chain's), with a progress bar on a terminal.
+    fn run(
+        &self,
+        file: &Path,
+        tapes: &[crate::tape::Tape],
+        options: &crate::bake::BakeFileOptions,
+    ) -> Result<Vec<crate::bake::BakeReport>, crate::bake::BakeError> {
+        let all_voxels = (0..tapes.len() as u32)
+            .map(|l| {
+                crate::bake::mip_grid(&self.grid, l)
+                    .voxels()
+                    .unwrap_or(u64::MAX)
+            })
+            .fold(0u64, u64::saturating_add);
+        let bar = self.show_progress.then(|| progress_bar(file, all_voxels));
+        let mut show = |done| {
+            if let Some(bar) = &bar {
+                bar.set_position(done);
+            }
+        };
+        let result = if self.args.mips {
+            crate::bake::bake_mipmapped(tapes, options, &mut show)
+        } else {
+            crate::bake::bake_files(&tapes[0], options, &mut show).map(|r| vec![r])
+        };
+        if let Some(bar) = &bar {
+            bar.finish_and_clear();
+        }
+        result
+    }
+
+    /// The line after several graph files: how many baked, voxels and rate.
+    fn summary(&self, files: usize) -> Result<(), Failure> {
+        if files <= 1 {
+            return Ok(());
+        }
+        let (total_voxels, total_seconds, baked) = self.totals;
+        let failed = files - baked;
         let rate = if total_seconds > 0.0 {
             total_voxels as f64 / total_seconds / 1e6
         } else {
             0.0
         };
-        let line = format!("baked {baked} of {} graphs: {total_voxels} voxels in {total_seconds:.3} s, {rate:.2} Mvoxels/s{}\n", files.len(), if failed > 0 { format!("; {failed} failed") } else { String::new() });
-        write_stdout(|out| out.write_all(line.as_bytes()))?;
+        let failed = if failed > 0 {
+            format!("; {failed} failed")
+        } else {
+            String::new()
+        };
+        let line = format!("baked {baked} of {files} graphs: {total_voxels} voxels in {total_seconds:.3} s, {rate:.2} Mvoxels/s{failed}\n");
+        write_stdout(|out| out.write_all(line.as_bytes()))
     }
-    worst.map_or(Ok(()), Err)
 }
 
 /// The graph compiled for every level of `grid`'s mip chain, each with its level's footprint
@@ -676,23 +736,4 @@ pub fn bake_report(
         report.voxels, report.seconds
     ));
     text
-}
-
-/// The start-up check of one graph on the GPU: its shader compiled (and cached for the bake);
-/// a graph the GPU cannot run is baked on the CPU, with the reason on stderr.
-fn device_for(
-    device: crate::gpu::Device,
-    file: &std::path::Path,
-    tape: &crate::tape::Tape,
-) -> crate::gpu::Device {
-    if device != crate::gpu::Device::Gpu {
-        return crate::gpu::Device::Cpu;
-    }
-    match crate::gpu::evaluator_for(tape) {
-        Ok(_) => crate::gpu::Device::Gpu,
-        Err(e) => {
-            eprintln!("warning: {}: {e}; baking it on the CPU", file.display());
-            crate::gpu::Device::Cpu
-        }
-    }
 }

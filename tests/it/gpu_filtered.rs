@@ -240,16 +240,14 @@ fn noise_gradients_match_the_cpu() {
         return;
     }
     let tape = crate::filter::tape(GRADIENTS);
-    use texgraph::tape::{Instr, Wide};
+    use texgraph::tape::Instr;
     let gradients = tape
         .instructions()
         .iter()
         .filter(|i| {
             matches!(
                 i,
-                Instr::NoiseGradient { .. }
-                    | Instr::FractalGradient { .. }
-                    | Instr::Wide(Wide::NoiseGradient { .. } | Wide::FractalGradient { .. })
+                Instr::NoiseGradient { .. } | Instr::FractalGradient { .. }
             )
         })
         .count();
@@ -436,4 +434,126 @@ fn the_command_line_filters_on_the_gpu() {
         worst <= 1,
         "GPU and CPU box-filtered renders differ by {worst}"
     );
+}
+
+/// A graph no GPU form covers with `--filter box`: a ramp of 30 stops, more knots than the
+/// GPU's filtered shapes hold.
+fn long_ramp_graph() -> String {
+    let stops: Vec<String> = (0..30)
+        .map(|i| format!("({}, ({}, 0.5, 0.0))", f64::from(i) / 29.0, (i % 2) as f64))
+        .collect();
+    format!(
+        "Graph(nodes: {{ \"c\": ColorRamp(input: Noise(input: Position, basis: Perlin), \
+         stops: [{}], interpolation: Linear) }}, outputs: {{ \"c\": \"c\" }})",
+        stops.join(", ")
+    )
+}
+
+/// One device decision for every sink (issue 46; `bake::choose_device`): `--device gpu` on a
+/// graph the GPU's form cannot run is an error in every format, mip chains and zarr stores
+/// included (the zarr shards used to fall back to the CPU in silence), and writes nothing;
+/// `--device auto` bakes it on the CPU and says so on stderr, the same bytes as `--device
+/// cpu`. The library's decision says the same.
+#[test]
+fn every_sink_takes_the_one_device_decision() {
+    if !common::gpu_available("every_sink_takes_the_one_device_decision") {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temporary folder");
+    let graph = dir.path().join("long.ron");
+    std::fs::write(&graph, long_ramp_graph()).unwrap();
+    let graph = graph.to_str().unwrap();
+    let sinks: [&[&str]; 7] = [
+        &["--format", "raw", "--raw-type", "f32"],
+        &["--format", "png"],
+        &["--format", "exr"],
+        &["--format", "ktx2", "--mips"],
+        &["--format", "zarr", "--chunk", "4", "--shard", "4"],
+        &["--format", "zarr", "--mips", "--chunk", "2", "--shard", "2"],
+        &["--format", "vdb"],
+    ];
+    for (k, sink) in sinks.iter().enumerate() {
+        let bake = |device: &str| {
+            let out = dir.path().join(format!("{k}-{device}"));
+            let mut args = vec!["bake", graph, "--size", "8", "--filter", "box", "--quiet"];
+            args.extend_from_slice(sink);
+            args.extend(["--device", device, "--out", out.to_str().unwrap()]);
+            (texgraph(&args), out)
+        };
+        let (refused, out) = bake("gpu");
+        let said = String::from_utf8_lossy(&refused.stderr);
+        assert_eq!(refused.status.code(), Some(2), "{sink:?}: {said}");
+        assert!(
+            said.contains("--device gpu --filter box") && said.contains("more than 24 stops"),
+            "{sink:?}: {said}"
+        );
+        let written = std::fs::read_dir(&out).map_or(0, |d| d.count());
+        assert_eq!(
+            written,
+            0,
+            "{sink:?}: a refused bake wrote {}",
+            out.display()
+        );
+        let (auto, auto_out) = bake("auto");
+        let said = String::from_utf8_lossy(&auto.stderr);
+        assert!(
+            auto.status.success() && said.contains("baked on the CPU"),
+            "{sink:?}: {said}"
+        );
+        let (cpu, cpu_out) = bake("cpu");
+        assert!(cpu.status.success(), "{sink:?}");
+        // (The exr crate writes an EXR header's attributes in hash order: two bakes of one
+        // graph differ there, so EXR files are compared by size.)
+        let exr = sink.contains(&"exr");
+        let key = |files: Vec<(String, Vec<u8>)>| -> Vec<(String, Vec<u8>)> {
+            files
+                .into_iter()
+                .map(|(name, bytes)| match exr {
+                    true => (name, bytes.len().to_le_bytes().to_vec()),
+                    false => (name, bytes),
+                })
+                .collect()
+        };
+        assert_eq!(
+            key(tree_bytes(&auto_out)),
+            key(tree_bytes(&cpu_out)),
+            "{sink:?}: --device auto baked what --device cpu bakes"
+        );
+    }
+    // The library's decision, which every sink takes.
+    let source = texgraph::SourceFile::new("long.ron", long_ramp_graph());
+    let checked = texgraph::check(source, &CheckOptions::default()).expect("checks");
+    let tape = texgraph::compile(&checked, &CompileOptions::default()).expect("compiles");
+    use texgraph::bake::{choose_device, Evaluator};
+    use texgraph::filter::Filter;
+    use texgraph::gpu::Device;
+    let refused = choose_device(&tape, Device::Gpu, Filter::Box, false).expect_err("refused");
+    assert!(refused.contains("more than 24 stops"), "{refused}");
+    let auto = choose_device(&tape, Device::Auto, Filter::Box, false).expect("auto");
+    assert!(matches!(auto.evaluator, Evaluator::Cpu) && auto.note.is_some());
+    let point = choose_device(&tape, Device::Gpu, Filter::Point, false).expect("point form");
+    assert!(matches!(point.evaluator, Evaluator::Gpu(_)) && point.note.is_none());
+}
+
+/// Every file under `dir` (relative path, bytes), in path order.
+fn tree_bytes(dir: &std::path::Path) -> Vec<(String, Vec<u8>)> {
+    let mut files = Vec::new();
+    let mut dirs = vec![dir.to_path_buf()];
+    while let Some(d) = dirs.pop() {
+        for entry in std::fs::read_dir(&d).unwrap_or_else(|e| panic!("{}: {e}", d.display())) {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                dirs.push(path);
+            } else {
+                let rel = path
+                    .strip_prefix(dir)
+                    .unwrap()
+                    .to_string_lossy()
+                    .into_owned();
+                files.push((rel, std::fs::read(&path).unwrap()));
+            }
+        }
+    }
+    files.sort();
+    files
 }
