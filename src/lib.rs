@@ -26,7 +26,7 @@
 //! crate-private; `cli` is the binary's. A `CheckedGraph` and a `Tape` can only be made by
 //! checking and compiling, so evaluation never meets a malformed tape.
 
-// `unsafe` lives only in the SIMD modules (`noise/batch.rs`, `noise/vbmi.rs`), allowed there by
+// `unsafe` lives only in the SIMD modules (`noise/batch/`, `noise/vbmi.rs`), allowed there by
 // name, each block with a `// SAFETY:` comment.
 #![deny(unsafe_code)]
 #![warn(clippy::undocumented_unsafe_blocks)]

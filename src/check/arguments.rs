@@ -187,87 +187,12 @@ impl Checker {
             ArgKind::ConstScalar(range) => self
                 .constant_scalar(value, arg, range, def, origin)
                 .map(Arg::Const),
-            ArgKind::ConstAxis => {
-                let v = self.constant_vec3(value, &ArgName(arg.name, def.name), origin)?;
-                match ops::normalise_axis(v) {
-                    Some(axis) => Some(Arg::Axis(axis)),
-                    None => {
-                        self.error(
-                            Diagnostic::new(
-                                Class::BadParameter,
-                                format!(
-                                    "the rotation axis is zero: ({}, {}, {})",
-                                    crate::diagnostic::number(v[0]),
-                                    crate::diagnostic::number(v[1]),
-                                    crate::diagnostic::number(v[2])
-                                ),
-                            )
-                            .in_node(&*origin.node)
-                            .at(value.span)
-                            .label("zero axis")
-                            .help("give the axis a direction, e.g. (0, 1, 0)"),
-                        );
-                        None
-                    }
-                }
-            }
-            ArgKind::Period => {
-                let v = self.constant_vec3(value, &ArgName(arg.name, def.name), origin)?;
-                let limit = limits::MAX_PERIOD;
-                if v.iter()
-                    .all(|c| c.fract() == 0.0 && (1.0..=limit).contains(c))
-                {
-                    Some(Arg::Period(Some(v.map(|c| c as u64))))
-                } else {
-                    self.error(
-                        Diagnostic::new(
-                            Class::BadParameter,
-                            format!(
-                                "a period is a whole number of cells from 1 to {} per axis, got ({}, {}, {})",
-                                limit,
-                                crate::diagnostic::number(v[0]),
-                                crate::diagnostic::number(v[1]),
-                                crate::diagnostic::number(v[2])
-                            ),
-                        )
-                        .in_node(&*origin.node)
-                        .at(value.span)
-                        .label("not a period")
-                        .help("write e.g. `period: 4` or `period: (4, 4, 1)`"),
-                    );
-                    None
-                }
-            }
+            ArgKind::ConstAxis => self.axis_argument(value, arg, def, origin),
+            ArgKind::Period => self.period_argument(value, arg, def, origin),
             ArgKind::Basis => self
                 .basis(value, origin)
                 .map(|(b, explicit)| Arg::Basis(b, explicit)),
-            ArgKind::Choice(allowed) => {
-                let name = match &value.kind {
-                    ValueKind::Ident(n) => allowed.iter().find(|a| **a == n.as_str()).copied(),
-                    _ => None,
-                };
-                match name {
-                    Some(n) => Some(Arg::Choice(n, true)),
-                    None => {
-                        self.error(
-                            Diagnostic::new(
-                                Class::BadParameter,
-                                format!(
-                                    "`{}` of {} must be one of {}, found {}",
-                                    arg.name,
-                                    def.name,
-                                    allowed.join(", "),
-                                    value.kind.describe()
-                                ),
-                            )
-                            .in_node(&*origin.node)
-                            .at(value.span)
-                            .label(format!("not a known `{}`", arg.name)),
-                        );
-                        None
-                    }
-                }
-            }
+            ArgKind::Choice(allowed) => self.choice_argument(value, arg, def, allowed, origin),
             ArgKind::Stops => {
                 let knots = self.knots(value, def, "stops", "(t, (r, g, b))", origin)?;
                 let mut stops = Vec::with_capacity(knots.len());
@@ -276,65 +201,184 @@ impl Checker {
                 }
                 Some(Arg::Stops(stops))
             }
-            ArgKind::Text => match &value.kind {
-                ValueKind::Str(s) => Some(Arg::Text(s.to_string(), value.span)),
-                other => {
-                    self.error(
-                        Diagnostic::new(
-                            Class::Type,
-                            format!(
-                                "`{}` of {} is a string, found {}",
-                                arg.name,
-                                def.name,
-                                other.describe()
-                            ),
-                        )
-                        .in_node(&*origin.node)
-                        .at(value.span)
-                        .label("expected a string"),
-                    );
-                    None
-                }
-            },
+            ArgKind::Text => self.text_argument(value, arg, def, origin),
             ArgKind::Overrides => self.overrides(value, origin).map(Arg::Overrides),
-            ArgKind::Flag => match value.kind {
-                ValueKind::Bool(b) => Some(Arg::Flag(b)),
-                _ => {
-                    self.error(
-                        Diagnostic::new(
-                            Class::BadParameter,
-                            format!(
-                                "`{}` of {} must be true or false, found {}",
-                                arg.name,
-                                def.name,
-                                value.kind.describe()
-                            ),
-                        )
-                        .in_node(&*origin.node)
-                        .at(value.span)
-                        .label("not true or false"),
-                    );
-                    None
-                }
-            },
-            ArgKind::Points => {
-                let knots = self.knots(value, def, "points", "(x, y)", origin)?;
-                let mut points = Vec::with_capacity(knots.len());
-                let y_def = ArgDef {
-                    name: "y",
-                    kind: ArgKind::ConstScalar(nodes::Range::FINITE),
-                    default: None,
-                    doc: "",
-                };
-                for (x, v) in knots {
-                    points.push((
-                        x,
-                        self.constant_scalar(v, &y_def, nodes::Range::FINITE, def, origin)?,
-                    ));
-                }
-                Some(Arg::Points(points))
-            }
+            ArgKind::Flag => self.flag_argument(value, arg, def, origin),
+            ArgKind::Points => self.points_argument(value, def, origin),
         }
+    }
+
+    /// A rotation axis: a constant vec3 that is not zero, normalised.
+    fn axis_argument(
+        &mut self,
+        value: &Value,
+        arg: &ArgDef,
+        def: &NodeDef,
+        origin: &Origin,
+    ) -> Option<Arg> {
+        let v = self.constant_vec3(value, &ArgName(arg.name, def.name), origin)?;
+        if let Some(axis) = ops::normalise_axis(v) {
+            return Some(Arg::Axis(axis));
+        }
+        self.error(
+            Diagnostic::new(
+                Class::BadParameter,
+                format!(
+                    "the rotation axis is zero: ({}, {}, {})",
+                    crate::diagnostic::number(v[0]),
+                    crate::diagnostic::number(v[1]),
+                    crate::diagnostic::number(v[2])
+                ),
+            )
+            .in_node(&*origin.node)
+            .at(value.span)
+            .label("zero axis")
+            .help("give the axis a direction, e.g. (0, 1, 0)"),
+        );
+        None
+    }
+
+    /// A tiling period: whole numbers of cells from 1 to `limits::MAX_PERIOD` per axis.
+    fn period_argument(
+        &mut self,
+        value: &Value,
+        arg: &ArgDef,
+        def: &NodeDef,
+        origin: &Origin,
+    ) -> Option<Arg> {
+        let v = self.constant_vec3(value, &ArgName(arg.name, def.name), origin)?;
+        let limit = limits::MAX_PERIOD;
+        if v.iter()
+            .all(|c| c.fract() == 0.0 && (1.0..=limit).contains(c))
+        {
+            return Some(Arg::Period(Some(v.map(|c| c as u64))));
+        }
+        self.error(
+            Diagnostic::new(
+                Class::BadParameter,
+                format!(
+                    "a period is a whole number of cells from 1 to {} per axis, got ({}, {}, {})",
+                    limit,
+                    crate::diagnostic::number(v[0]),
+                    crate::diagnostic::number(v[1]),
+                    crate::diagnostic::number(v[2])
+                ),
+            )
+            .in_node(&*origin.node)
+            .at(value.span)
+            .label("not a period")
+            .help("write e.g. `period: 4` or `period: (4, 4, 1)`"),
+        );
+        None
+    }
+
+    /// One of the names `allowed`, written as an identifier.
+    fn choice_argument(
+        &mut self,
+        value: &Value,
+        arg: &ArgDef,
+        def: &NodeDef,
+        allowed: &[&'static str],
+        origin: &Origin,
+    ) -> Option<Arg> {
+        let name = match &value.kind {
+            ValueKind::Ident(n) => allowed.iter().find(|a| **a == n.as_str()).copied(),
+            _ => None,
+        };
+        if let Some(n) = name {
+            return Some(Arg::Choice(n, true));
+        }
+        self.error(
+            Diagnostic::new(
+                Class::BadParameter,
+                format!(
+                    "`{}` of {} must be one of {}, found {}",
+                    arg.name,
+                    def.name,
+                    allowed.join(", "),
+                    value.kind.describe()
+                ),
+            )
+            .in_node(&*origin.node)
+            .at(value.span)
+            .label(format!("not a known `{}`", arg.name)),
+        );
+        None
+    }
+
+    /// A string (an import's file name).
+    fn text_argument(
+        &mut self,
+        value: &Value,
+        arg: &ArgDef,
+        def: &NodeDef,
+        origin: &Origin,
+    ) -> Option<Arg> {
+        if let ValueKind::Str(s) = &value.kind {
+            return Some(Arg::Text(s.to_string(), value.span));
+        }
+        self.error(
+            Diagnostic::new(
+                Class::Type,
+                format!(
+                    "`{}` of {} is a string, found {}",
+                    arg.name,
+                    def.name,
+                    value.kind.describe()
+                ),
+            )
+            .in_node(&*origin.node)
+            .at(value.span)
+            .label("expected a string"),
+        );
+        None
+    }
+
+    /// `true` or `false`.
+    fn flag_argument(
+        &mut self,
+        value: &Value,
+        arg: &ArgDef,
+        def: &NodeDef,
+        origin: &Origin,
+    ) -> Option<Arg> {
+        if let ValueKind::Bool(b) = value.kind {
+            return Some(Arg::Flag(b));
+        }
+        self.error(
+            Diagnostic::new(
+                Class::BadParameter,
+                format!(
+                    "`{}` of {} must be true or false, found {}",
+                    arg.name,
+                    def.name,
+                    value.kind.describe()
+                ),
+            )
+            .in_node(&*origin.node)
+            .at(value.span)
+            .label("not true or false"),
+        );
+        None
+    }
+
+    /// A curve's points: `[(x, y), ...]`, sorted `x`, finite `y`.
+    fn points_argument(&mut self, value: &Value, def: &NodeDef, origin: &Origin) -> Option<Arg> {
+        let knots = self.knots(value, def, "points", "(x, y)", origin)?;
+        let mut points = Vec::with_capacity(knots.len());
+        let y_def = ArgDef {
+            name: "y",
+            kind: ArgKind::ConstScalar(nodes::Range::FINITE),
+            default: None,
+            doc: "",
+        };
+        for (x, v) in knots {
+            points.push((
+                x,
+                self.constant_scalar(v, &y_def, nodes::Range::FINITE, def, origin)?,
+            ));
+        }
+        Some(Arg::Points(points))
     }
 
     /// Reads `[(key, value), ...]`: constant, finite, sorted keys; the values are returned raw.

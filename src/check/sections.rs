@@ -26,58 +26,7 @@ impl Checker {
                 return None;
             }
         };
-        let mut params = None;
-        let mut nodes = None;
-        let mut outputs = None;
-        let mut ranges = None;
-        for (field, value) in fields {
-            let known = match field.value.as_str() {
-                "params" | "nodes" | "outputs" | "ranges" => field.value.as_str(),
-                other => {
-                    let hint = nodes::suggest_from(
-                        other,
-                        ["params", "nodes", "outputs", "ranges"].into_iter(),
-                    );
-                    let mut d = Diagnostic::new(
-                        Class::UnknownArgument,
-                        format!("unknown field `{other}` in Graph"),
-                    )
-                    .at(field.span)
-                    .label("not a Graph field");
-                    d = d.help(match hint {
-                        Some(h) => format!(
-                            "did you mean `{h}`? A graph has `params`, `nodes`, `outputs` and `ranges`"
-                        ),
-                        None => "a graph has `params`, `nodes`, `outputs` and `ranges`".into(),
-                    });
-                    self.error(d);
-                    // Read a near miss (`node:`) as what it was meant to be, so its contents are
-                    // still checked and its references do not cascade into more errors.
-                    match hint {
-                        Some(h) => h,
-                        None => continue,
-                    }
-                }
-            };
-            let slot = match known {
-                "params" => &mut params,
-                "nodes" => &mut nodes,
-                "ranges" => &mut ranges,
-                _ => &mut outputs,
-            };
-            if slot.is_some() {
-                self.error(
-                    Diagnostic::new(
-                        Class::DuplicateName,
-                        format!("field `{}` is given twice", field.value),
-                    )
-                    .at(field.span)
-                    .label("second time"),
-                );
-            }
-            *slot = Some(value);
-        }
-
+        let [params, nodes, outputs, ranges] = self.graph_fields(fields);
         let empty = Value {
             kind: ValueKind::Map(Vec::new()),
             span: root.span,
@@ -101,7 +50,81 @@ impl Checker {
             );
             return None;
         }
-        // Register node ids first: nodes may refer to nodes declared later in the file.
+        self.register_nodes(&node_entries);
+        self.lowered = vec![None; declared];
+        self.node_spans = node_entries
+            .iter()
+            .map(|(id, value)| (id.value.clone(), value.span))
+            .collect();
+        let order = self.dependency_order(&node_entries);
+        for i in order {
+            let (id, value) = &node_entries[i];
+            let origin = Origin {
+                node: Arc::from(id.value.as_str()),
+                span: value.span,
+            };
+            self.lowered[i] = self.expression(value, &origin);
+        }
+
+        let result_outputs = self.outputs(root, outputs);
+        let named = node_entries
+            .iter()
+            .enumerate()
+            .filter_map(|(i, (id, _))| self.lowered[i].map(|n| (id.value.clone(), n)))
+            .collect();
+        Some((result_outputs, named, declared))
+    }
+
+    /// The fields of `Graph(...)`: `params`, `nodes`, `outputs` and `ranges`, in that order,
+    /// each at most once; an unknown field is an error (a near miss, `node:`, is read as what
+    /// it was meant to be, so its contents are still checked and its references do not
+    /// cascade into more errors).
+    fn graph_fields<'v>(&mut self, fields: &'v [(Spanned<Text>, Value)]) -> [Option<&'v Value>; 4] {
+        const FIELDS: [&str; 4] = ["params", "nodes", "outputs", "ranges"];
+        let mut found = [None; 4];
+        for (field, value) in fields {
+            let known = match FIELDS.iter().position(|f| *f == field.value.as_str()) {
+                Some(k) => k,
+                None => {
+                    let other = field.value.as_str();
+                    let hint = nodes::suggest_from(other, FIELDS.into_iter());
+                    let mut d = Diagnostic::new(
+                        Class::UnknownArgument,
+                        format!("unknown field `{other}` in Graph"),
+                    )
+                    .at(field.span)
+                    .label("not a Graph field");
+                    d = d.help(match hint {
+                        Some(h) => format!(
+                            "did you mean `{h}`? A graph has `params`, `nodes`, `outputs` and `ranges`"
+                        ),
+                        None => "a graph has `params`, `nodes`, `outputs` and `ranges`".into(),
+                    });
+                    self.error(d);
+                    match hint.and_then(|h| FIELDS.iter().position(|f| *f == h)) {
+                        Some(k) => k,
+                        None => continue,
+                    }
+                }
+            };
+            if found[known].is_some() {
+                self.error(
+                    Diagnostic::new(
+                        Class::DuplicateName,
+                        format!("field `{}` is given twice", field.value),
+                    )
+                    .at(field.span)
+                    .label("second time"),
+                );
+            }
+            found[known] = Some(value);
+        }
+        found
+    }
+
+    /// Registers every node id before any node is read (nodes may refer to nodes declared
+    /// later in the file): ids must be non-empty without `.`, not a param's name, and unique.
+    fn register_nodes(&mut self, node_entries: &[(Spanned<Text>, &Value)]) {
         for (i, (id, _)) in node_entries.iter().enumerate() {
             if id.value.is_empty() || id.value.contains('.') {
                 self.error(
@@ -142,28 +165,6 @@ impl Checker {
                 self.node_index.insert(id.value.clone(), first);
             }
         }
-        self.lowered = vec![None; declared];
-        self.node_spans = node_entries
-            .iter()
-            .map(|(id, value)| (id.value.clone(), value.span))
-            .collect();
-        let order = self.dependency_order(&node_entries);
-        for i in order {
-            let (id, value) = &node_entries[i];
-            let origin = Origin {
-                node: Arc::from(id.value.as_str()),
-                span: value.span,
-            };
-            self.lowered[i] = self.expression(value, &origin);
-        }
-
-        let result_outputs = self.outputs(root, outputs);
-        let named = node_entries
-            .iter()
-            .enumerate()
-            .filter_map(|(i, (id, _))| self.lowered[i].map(|n| (id.value.clone(), n)))
-            .collect();
-        Some((result_outputs, named, declared))
     }
 
     /// The `outputs` map: at least one, no duplicates, names from the file-name character set

@@ -147,7 +147,8 @@ pub fn check_render_input(file: &Path, watch: bool) -> Result<(), String> {
 }
 
 pub fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
-    use crate::render::{self, PreviewBump, PreviewDefaults, Previewer, RenderLod, RenderOptions};
+    use crate::render::watch::Previewer;
+    use crate::render::{self, PreviewBump, PreviewDefaults, RenderLod, RenderOptions};
     let failure = |e: &render::RenderError| {
         eprint!("{}", e.render(colour()));
         Failure::from_exit_code(e.exit_code())
@@ -184,11 +185,11 @@ pub fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
             .file
             .clone()
             .unwrap_or_else(|| PathBuf::from("graphs/seed003_marble.ron"));
-        let timing = render::TimingOptions {
+        let timing = render::timing::TimingOptions {
             threads: options.threads,
             ..Default::default()
         };
-        let table = render::timing_table(&graph, &timing).map_err(|e| failure(&e))?;
+        let table = render::timing::timing_table(&graph, &timing).map_err(|e| failure(&e))?;
         let text = format!("{table}\n");
         return write_stdout(|out| out.write_all(text.as_bytes()));
     }
@@ -257,7 +258,7 @@ pub fn render_command(args: RenderArgs, watch: bool) -> Result<(), Failure> {
         };
     }
     eprintln!("watching {} (Ctrl-C to stop)", file.display());
-    let result = render::watch(&mut previewer, |result| {
+    let result = render::watch::watch(&mut previewer, |result| {
         match result {
             Ok(stats) => {
                 warn_render_shortfalls(stats);

@@ -5,7 +5,7 @@ use crate::check::CheckOptions;
 use crate::compile::CompileOptions;
 use crate::source::LoadError;
 use clap::Args;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(Args)]
 pub struct ReportArgs {
@@ -75,11 +75,11 @@ pub fn report_command(args: ReportArgs) -> Result<(), Failure> {
     let check_options = CheckOptions {
         overrides: args.sets.clone(),
     };
-    let max_error = args
-        .max_error
-        .unwrap_or(crate::precision::DEFAULT_MAX_ERROR);
-    let mut worst: Option<Failure> = None;
-    let mut json_rows: Vec<serde_json::Value> = Vec::new();
+    let mut report = Report {
+        args: &args,
+        worst: None,
+        json_rows: Vec::new(),
+    };
     if args.markdown {
         write_stdout(|out| out.write_all(crate::report::MARKDOWN_HEADER.as_bytes()))?;
     }
@@ -87,135 +87,193 @@ pub fn report_command(args: ReportArgs) -> Result<(), Failure> {
         let graph = match crate::load::load_graph(file, &check_options) {
             Ok(graph) => graph,
             Err(error) => {
-                let failure = print_load_error(error);
-                worst = Failure::worst(worst, failure);
+                report.failed(print_load_error(error));
                 continue;
             }
         };
-        let options = crate::report::ReportOptions {
-            points: args.points as usize,
-            runs: args.runs as usize,
-            region: args.region.unwrap_or_default(),
-            ..Default::default()
+        let text = if args.filtering {
+            report.filtering(file, &graph)
+        } else if args.mips {
+            report.mips(file, &graph)?
+        } else if args.markdown || args.stability {
+            report.stability(file, &graph)?
+        } else {
+            report.accuracy(file, &graph)?
         };
-        if args.filtering {
-            let rows = match filtering_rows(&graph, &args) {
-                Ok(rows) => rows,
-                Err(failure) => {
-                    worst = Failure::worst(worst, failure);
-                    continue;
-                }
-            };
-            if let Some(path) = &args.plot {
-                let title = file.display().to_string();
-                if let Err(e) = crate::filter_report::filter_plot(&rows, &title, path) {
-                    eprintln!("error: {}: {e}", path.display());
-                    worst = Some(Failure::Usage);
-                }
-            }
-            if args.json {
-                json_rows.extend(graph_rows(file, &rows));
-                continue;
-            }
-            let text = format!(
-                "{}: box means over {} random cubes per side in [{}], against {} stratified f64 samples per box; one thread\n{}",
-                file.display(),
-                args.boxes,
-                region_text(&args.region.unwrap_or_default()),
-                crate::filter_report::REFERENCE_SAMPLES,
-                crate::filter_report::filter_table_markdown(&rows)
-            );
+        if let Some(text) = text {
             write_stdout(|out| out.write_all(text.as_bytes()))?;
-            continue;
         }
-        if args.mips {
-            let region = args.region.unwrap_or_default();
-            let rows = crate::mip_report::mip_report(&graph, args.mip_size as usize, region)
-                .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
-            let rows: Vec<_> = rows
-                .into_iter()
-                .filter(|r| args.outputs.is_empty() || args.outputs.contains(&r.output))
-                .collect();
-            if args.json {
-                json_rows.extend(graph_rows(file, &rows));
-                continue;
-            }
-            let text = format!(
-                "{}: mip levels of a {}³ bake over [{}], error against the f64 reference box-filtered over each voxel\n{}",
-                file.display(),
-                args.mip_size,
-                region_text(&region),
-                crate::mip_report::mip_table_markdown(&rows)
-            );
-            write_stdout(|out| out.write_all(text.as_bytes()))?;
-            continue;
-        }
-        let text =
-            if args.markdown {
-                let rows = crate::report::accuracy_report(&graph, &args.outputs, &options)
-                    .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
-                let stability = crate::stability::stability_report_with_gpu(&graph, max_error)
-                    .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
-                format!(
-                    "\n## `{}`\n\nTape length: {}.\n{}\nStability:\n\n```text\n{}```\n",
-                    file.display(),
-                    tape_lengths(&graph),
-                    crate::report::table_markdown(&rows),
-                    crate::stability::stability_text(&stability)
-                )
-            } else if args.stability {
-                let rows = crate::stability::stability_report_with_gpu(&graph, max_error)
-                    .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
-                if args.json {
-                    json_rows.extend(rows.iter().map(
-                        |r| serde_json::json!({ "graph": file.display().to_string(), "row": r }),
-                    ));
-                    continue;
-                }
-                format!(
-                    "{}: stability\n{}",
-                    file.display(),
-                    crate::stability::stability_text(&rows)
-                )
-            } else {
-                let rows = crate::report::accuracy_report(&graph, &args.outputs, &options)
-                    .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
-                if let Some(path) = &args.plot {
-                    if let Err(e) = crate::report::plot(&rows, &file.display().to_string(), path) {
-                        eprintln!("error: {}: {e}", path.display());
-                        worst = Some(Failure::Usage);
-                    }
-                }
-                if args.json {
-                    json_rows.extend(rows.iter().map(|r| {
-                        let mut value = serde_json::to_value(r).unwrap_or_default();
-                        if let Some(object) = value.as_object_mut() {
-                            object.insert(
-                                "graph".into(),
-                                serde_json::json!(file.display().to_string()),
-                            );
-                        }
-                        value
-                    }));
-                    continue;
-                }
-                let tapes = tape_lengths(&graph);
-                format!(
-                    "{}: {} points in [{}], median of {} runs, one thread; tape length {tapes}\n{}",
-                    file.display(),
-                    args.points as usize + 4096,
-                    region_text(&options.region),
-                    args.runs,
-                    crate::report::table_text(&rows)
-                )
-            };
-        write_stdout(|out| out.write_all(text.as_bytes()))?;
     }
     if args.json {
-        let text = serde_json::to_string_pretty(&json_rows).unwrap_or_default() + "\n";
+        let text = serde_json::to_string_pretty(&report.json_rows).unwrap_or_default() + "\n";
         write_stdout(|out| out.write_all(text.as_bytes()))?;
     }
-    worst.map_or(Ok(()), Err)
+    report.worst.map_or(Ok(()), Err)
+}
+
+/// One `report` run: its arguments, the worst failure of the graphs that failed (the others
+/// are still reported), and the rows `--json` prints at the end.
+struct Report<'a> {
+    args: &'a ReportArgs,
+    worst: Option<Failure>,
+    json_rows: Vec<serde_json::Value>,
+}
+
+impl Report<'_> {
+    fn failed(&mut self, failure: Failure) {
+        self.worst = Failure::worst(self.worst, failure);
+    }
+
+    /// `--plot FILE` of one graph's rows; a failure is reported and the run goes on.
+    fn plot(&mut self, made: Result<(), String>) {
+        if let (Err(e), Some(path)) = (made, &self.args.plot) {
+            eprintln!("error: {}: {e}", path.display());
+            self.failed(Failure::Usage);
+        }
+    }
+
+    /// `--filtering`: the filtered form against point sampling and supersampling; the text
+    /// to print (`None` with `--json` or when the graph failed).
+    fn filtering(&mut self, file: &Path, graph: &crate::graph::CheckedGraph) -> Option<String> {
+        let args = self.args;
+        let rows = match filtering_rows(graph, args) {
+            Ok(rows) => rows,
+            Err(failure) => {
+                self.failed(failure);
+                return None;
+            }
+        };
+        if let Some(path) = &args.plot {
+            let title = file.display().to_string();
+            let made = crate::filter_report::filter_plot(&rows, &title, path);
+            self.plot(made.map_err(|e| e.to_string()));
+        }
+        if args.json {
+            self.json_rows.extend(graph_rows(file, &rows));
+            return None;
+        }
+        Some(format!(
+            "{}: box means over {} random cubes per side in [{}], against {} stratified f64 samples per box; one thread\n{}",
+            file.display(),
+            args.boxes,
+            region_text(&args.region.unwrap_or_default()),
+            crate::filter_report::REFERENCE_SAMPLES,
+            crate::filter_report::filter_table_markdown(&rows)
+        ))
+    }
+
+    /// `--mips`: the mip levels against the box-filtered reference.
+    fn mips(
+        &mut self,
+        file: &Path,
+        graph: &crate::graph::CheckedGraph,
+    ) -> Result<Option<String>, Failure> {
+        let args = self.args;
+        let region = args.region.unwrap_or_default();
+        let rows = crate::mip_report::mip_report(graph, args.mip_size as usize, region)
+            .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
+        let rows: Vec<_> = rows
+            .into_iter()
+            .filter(|r| args.outputs.is_empty() || args.outputs.contains(&r.output))
+            .collect();
+        if args.json {
+            self.json_rows.extend(graph_rows(file, &rows));
+            return Ok(None);
+        }
+        Ok(Some(format!(
+            "{}: mip levels of a {}³ bake over [{}], error against the f64 reference box-filtered over each voxel\n{}",
+            file.display(),
+            args.mip_size,
+            region_text(&region),
+            crate::mip_report::mip_table_markdown(&rows)
+        )))
+    }
+
+    /// `--stability` (and `--markdown`, which adds the accuracy table): every node from
+    /// |p| = 1 to 2^31.
+    fn stability(
+        &mut self,
+        file: &Path,
+        graph: &crate::graph::CheckedGraph,
+    ) -> Result<Option<String>, Failure> {
+        let args = self.args;
+        let max_error = args
+            .max_error
+            .unwrap_or(crate::precision::DEFAULT_MAX_ERROR);
+        let stability = crate::stability::stability_report_with_gpu(graph, max_error)
+            .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
+        if args.markdown {
+            let rows = crate::report::accuracy_report(graph, &args.outputs, &self.options())
+                .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
+            return Ok(Some(format!(
+                "\n## `{}`\n\nTape length: {}.\n{}\nStability:\n\n```text\n{}```\n",
+                file.display(),
+                tape_lengths(graph),
+                crate::report::table_markdown(&rows),
+                crate::stability::stability_text(&stability)
+            )));
+        }
+        if args.json {
+            self.json_rows.extend(
+                stability
+                    .iter()
+                    .map(|r| serde_json::json!({ "graph": file.display().to_string(), "row": r })),
+            );
+            return Ok(None);
+        }
+        Ok(Some(format!(
+            "{}: stability\n{}",
+            file.display(),
+            crate::stability::stability_text(&stability)
+        )))
+    }
+
+    /// The default report: every strategy against the f64 reference, with times.
+    fn accuracy(
+        &mut self,
+        file: &Path,
+        graph: &crate::graph::CheckedGraph,
+    ) -> Result<Option<String>, Failure> {
+        let args = self.args;
+        let options = self.options();
+        let rows = crate::report::accuracy_report(graph, &args.outputs, &options)
+            .map_err(|d| print_load_error(LoadError::Invalid(d)))?;
+        if let Some(path) = &args.plot {
+            let made = crate::report::plot(&rows, &file.display().to_string(), path);
+            self.plot(made.map_err(|e| e.to_string()));
+        }
+        if args.json {
+            self.json_rows.extend(rows.iter().map(|r| {
+                let mut value = serde_json::to_value(r).unwrap_or_default();
+                if let Some(object) = value.as_object_mut() {
+                    object.insert(
+                        "graph".into(),
+                        serde_json::json!(file.display().to_string()),
+                    );
+                }
+                value
+            }));
+            return Ok(None);
+        }
+        let tapes = tape_lengths(graph);
+        Ok(Some(format!(
+            "{}: {} points in [{}], median of {} runs, one thread; tape length {tapes}\n{}",
+            file.display(),
+            args.points as usize + 4096,
+            region_text(&options.region),
+            args.runs,
+            crate::report::table_text(&rows)
+        )))
+    }
+
+    fn options(&self) -> crate::report::ReportOptions {
+        crate::report::ReportOptions {
+            points: self.args.points as usize,
+            runs: self.args.runs as usize,
+            region: self.args.region.unwrap_or_default(),
+            ..Default::default()
+        }
+    }
 }
 
 /// `{ "graph": FILE, "row": ROW }` per row, the JSON of `--mips` and `--filtering`.

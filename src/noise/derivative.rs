@@ -59,7 +59,7 @@
 //!   side's). `∇w` is carried along the octaves from `∇w_0 = 0`.
 //!
 //! The point functions are the reference; the batch forms run the same per-lane arithmetic
-//! (for the lattice bases `batch.rs`'s lane kernels, see `LatticeKernel::interior_grad`) and
+//! (for the lattice bases `batch/`'s lane kernels, see `LatticeKernel::interior_grad`) and
 //! are held to the same bits by the tests (`derivative_tests.rs`), which also hold the f64
 //! gradients to central differences of the f64 value functions.
 
@@ -230,7 +230,7 @@ fn fractal_grad_point<S: Real, K: NoiseKernel>(
 
 /// Batch form of [`fractal_styled_grad`]: `out[c][i] = fractal_styled_grad::<S>(.., p_i)[c]`
 /// widened to f64, bit for bit. An untiled Fbm of a lattice basis runs the fused lane kernel
-/// of `batch.rs` (octaves accumulated in place); every other sum runs the octaves outside the
+/// of `batch/` (octaves accumulated in place); every other sum runs the octaves outside the
 /// lanes, each octave one batch gradient of the basis, then the style's shaping per lane.
 ///
 /// Panics only if the slices' lengths differ (a caller bug).

@@ -28,7 +28,7 @@ pub fn fractal<S: Real>(table: &NoiseTable, octaves: &Octaves, turbulence: bool,
 
 /// Per-lane bit-identical to [`fractal`]: the octave loop is outside the lane loop (so the basis
 /// and turbulence dispatch happen once per batch, and the lanes of one octave vectorise; see
-/// `batch.rs`), but each lane still sees the same additions in the same order, starting from
+/// `batch/`), but each lane still sees the same additions in the same order, starting from
 /// `S::ZERO`.
 ///
 /// Panics if the slices' lengths differ (a caller bug).

@@ -1,7 +1,7 @@
 //! The noise kernels' traits and their per-point references: [`NoiseKernel`], a basis as
 //! everything outside `noise/` sees it (a per-point `sample`, and batch, tiled, fractal and
 //! gradient forms whose defaults are loops over it), and [`LatticeKernel`], the form of the
-//! lattice bases that `batch.rs`'s SIMD kernels take. The kernels themselves are in
+//! lattice bases that `batch/`'s SIMD kernels take. The kernels themselves are in
 //! `kernels.rs`, above the SIMD kernels.
 
 use super::lanes::{canonical_nan, CHUNK, SMALL};
@@ -17,7 +17,7 @@ use crate::real::Real;
 /// A noise basis as everything outside this module sees it (the interpreter, fractal sums,
 /// constant folding, level of detail, the stability survey): a per-point reference and its
 /// batch forms. A basis on the integer lattice implements [`LatticeKernel`] and gets the SIMD
-/// batch kernels of `batch.rs` (points as lanes, or one point's octaves as lanes) through the
+/// batch kernels of `batch/` (points as lanes, or one point's octaves as lanes) through the
 /// blanket implementation below. A basis on another grid — cellular noise's neighbour cells,
 /// simplex noise's tetrahedra — implements this trait itself: `sample` alone is complete and
 /// correct (the batch forms default to per-point loops, bit-identical by construction), and its
@@ -201,7 +201,7 @@ pub(super) fn reference_fractal<S: Real, const TURB: bool>(
 ///
 /// Two formulations of one function: `eval` is the readable per-point reference; `hashes` and
 /// `interior` are the batch kernels' form of it after the lattice step (cell indices mod 256 and
-/// fractions already computed, see `batch.rs`): the eight corner hashes, then the arithmetic,
+/// fractions already computed, see `batch/`): the eight corner hashes, then the arithmetic,
 /// written without branches or byte tables so that a loop over lanes vectorises (and so that the
 /// hashes can come from elsewhere, see `vbmi.rs`). Both give the same bits for every input
 /// (proved by the tests, not assumed).

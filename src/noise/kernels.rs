@@ -1,5 +1,5 @@
 //! Each basis' kernel over its tables ([`NoiseKernel`]): the lattice bases through
-//! [`LatticeKernel`] and the SIMD kernels of `batch.rs` (the blanket implementation below),
+//! [`LatticeKernel`] and the SIMD kernels of `batch/` (the blanket implementation below),
 //! simplex, cellular and white noise with their own. `with_kernel!` runs code with the kernel of
 //! a [`NoiseTable`](super::table::NoiseTable)'s basis: one dispatch per call, monomorphic code
 //! inside.
@@ -42,10 +42,10 @@ impl<K: LatticeKernel> NoiseKernel for K {
 
     #[inline]
     fn sample_batch<S: Real>(&self, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
-        batch::sample(self, x, y, z, out);
+        batch::lattice::sample(self, x, y, z, out);
     }
 
-    /// The tiled SIMD kernels (`batch::periodic`).
+    /// The tiled SIMD kernels (`batch::tiled::periodic`).
     #[allow(clippy::too_many_arguments)]
     fn fractal_batch_periodic<S: Real, const TURB: bool>(
         &self,
@@ -57,11 +57,11 @@ impl<K: LatticeKernel> NoiseKernel for K {
         z: &[f64],
         out: &mut [S],
     ) {
-        batch::periodic_fractal::<S, K, TURB>(self, freqs, amps, periods, x, y, z, out);
+        batch::tiled::periodic_fractal::<S, K, TURB>(self, freqs, amps, periods, x, y, z, out);
     }
 
     /// Reduced points through the SIMD kernels, then the lanes in a period's last cell again
-    /// through [`NoiseKernel::sample_periodic`] (see `batch::periodic`).
+    /// through [`NoiseKernel::sample_periodic`] (see `batch::tiled::periodic`).
     fn sample_batch_periodic<S: Real>(
         &self,
         period: Period,
@@ -70,7 +70,7 @@ impl<K: LatticeKernel> NoiseKernel for K {
         z: &[f64],
         out: &mut [S],
     ) {
-        batch::periodic(self, period, x, y, z, out);
+        batch::tiled::periodic(self, period, x, y, z, out);
     }
 
     #[inline]
@@ -83,10 +83,10 @@ impl<K: LatticeKernel> NoiseKernel for K {
         z: &[f64],
         out: &mut [S],
     ) {
-        batch::fractal::<S, K, TURB>(self, freqs, amps, x, y, z, out);
+        batch::lattice::fractal::<S, K, TURB>(self, freqs, amps, x, y, z, out);
     }
 
-    /// The SIMD lane kernel (`batch::fractal_lod`).
+    /// The SIMD lane kernel (`batch::lattice::fractal_lod`).
     #[inline]
     fn fractal_batch_lanes<S: Real, const TURB: bool>(
         &self,
@@ -97,7 +97,7 @@ impl<K: LatticeKernel> NoiseKernel for K {
         z: &[f64],
         out: &mut [S],
     ) {
-        batch::fractal_lod::<S, K, TURB>(self, freqs, lanes, [x, y, z], out);
+        batch::lattice::fractal_lod::<S, K, TURB>(self, freqs, lanes, [x, y, z], out);
     }
 
     /// The lattice step and hashes as `sample`, then [`LatticeKernel::interior_grad`].
@@ -127,7 +127,7 @@ impl<K: LatticeKernel> NoiseKernel for K {
         (v, canonical_grad(g))
     }
 
-    /// The SIMD lane kernel (`batch::grad`) for untiled batches of [`SMALL`] lanes or
+    /// The SIMD lane kernel (`batch::lattice::grad`) for untiled batches of [`SMALL`] lanes or
     /// more; the per-point loop otherwise.
     fn sample_grad_batch<S: Real, const VALUE: bool>(
         &self,
@@ -137,12 +137,12 @@ impl<K: LatticeKernel> NoiseKernel for K {
         g: [&mut [S]; 3],
     ) {
         match period {
-            None if n.len() >= SMALL => batch::grad::<S, K, VALUE>(self, p, n, g),
+            None if n.len() >= SMALL => batch::lattice::grad::<S, K, VALUE>(self, p, n, g),
             _ => reference_grad_batch(self, period, p, n, g),
         }
     }
 
-    /// The fused SIMD lane kernel (`batch::fbm_grad`).
+    /// The fused SIMD lane kernel (`batch::lattice::fbm_grad`).
     fn fbm_grad_batch<S: Real>(
         &self,
         freqs: &[f64],
@@ -161,7 +161,7 @@ impl<K: LatticeKernel> NoiseKernel for K {
                 out,
             );
         }
-        batch::fbm_grad::<S, K>(self, freqs, amps, p, out);
+        batch::lattice::fbm_grad::<S, K>(self, freqs, amps, p, out);
     }
 }
 
@@ -339,12 +339,12 @@ impl NoiseKernel for SimplexKernel<'_> {
         canonical_nan(simplex::sample(self.perm, p))
     }
 
-    /// The lane kernel of `batch.rs`, bit for bit `sample`.
+    /// The lane kernel of `batch/`, bit for bit `sample`.
     fn sample_batch<S: Real>(&self, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
         if out.len() < SMALL {
             return reference_batch(|p| self.sample(p), x, y, z, out);
         }
-        batch::simplex(self.perm, self.signs, x, y, z, out);
+        batch::simplex::simplex(self.perm, self.signs, x, y, z, out);
     }
 
     /// Vertices hashed as their translates into the period box (`simplex::sample_periodic`).
@@ -352,7 +352,7 @@ impl NoiseKernel for SimplexKernel<'_> {
         canonical_nan(simplex::sample_periodic(self.perm, p, period))
     }
 
-    /// The tiled lane kernel of `batch.rs`, bit for bit `sample_periodic`.
+    /// The tiled lane kernel of `batch/`, bit for bit `sample_periodic`.
     fn sample_batch_periodic<S: Real>(
         &self,
         period: Period,
@@ -364,7 +364,7 @@ impl NoiseKernel for SimplexKernel<'_> {
         if out.len() < SMALL {
             return reference_batch(|p| self.sample_periodic(p, period), x, y, z, out);
         }
-        batch::simplex_periodic(self.perm, self.signs, period, x, y, z, out);
+        batch::simplex::simplex_periodic(self.perm, self.signs, period, x, y, z, out);
     }
 
     fn sample_grad<S: Real>(&self, p: [f64; 3]) -> (S, [S; 3]) {
@@ -391,12 +391,12 @@ impl NoiseKernel for CellularKernel {
         canonical_nan(cellular::sample(self.key, self.params, None, p))
     }
 
-    /// The SIMD kernel of `batch.rs` (the 27 nearest cells over lanes), bit for bit `sample`.
+    /// The SIMD kernel of `batch/` (the 27 nearest cells over lanes), bit for bit `sample`.
     fn sample_batch<S: Real>(&self, x: &[f64], y: &[f64], z: &[f64], out: &mut [S]) {
         if out.len() < SMALL {
             return reference_batch(|p| self.sample(p), x, y, z, out);
         }
-        batch::cellular(self.key, self.params, x, y, z, out);
+        batch::cellular::cellular(self.key, self.params, x, y, z, out);
     }
 
     /// The point reduced into its period, and the neighbour cells wrapped around it.

@@ -7,7 +7,7 @@
 //! The tables are built by a frozen generator (`rng.rs`) so a graph's output never changes, and
 //! stored in f32 precision so the f32 and f64 paths read identical numbers.
 //!
-//! The batch functions (`batch.rs`) run a SIMD formulation of the same arithmetic: per octave, a
+//! The batch functions (`batch/`) run a SIMD formulation of the same arithmetic: per octave, a
 //! lattice loop in f64, the corner hashes (gathers, or byte shuffles on AVX-512 VBMI in
 //! `vbmi.rs`) and an interior loop in S, compiled per instruction set and picked at run time.
 //! They return the point functions' bits (Rust never contracts or reassociates float arithmetic;
@@ -17,14 +17,14 @@
 //! respect to the point of every basis and fractal sum ([`NoiseTable::sample_grad`],
 //! [`fractal_styled_grad`] and their batch forms), under the same precision contract and the
 //! same bit-for-bit rule; the lattice bases through `LatticeKernel::interior_grad` and the lane
-//! kernels of `batch.rs` (an 8-octave Perlin fbm's gradient costs about twice its value).
+//! kernels of `batch/` (an 8-octave Perlin fbm's gradient costs about twice its value).
 //!
 //! The files, by layer (nothing refers to a file above it, and nothing in `noise/` to this
 //! one, which only declares and re-exports): `lanes.rs` (chunk sizes, the canonical NaN) and
 //! `rng.rs`, `lattice.rs` (the lattice step, hashes, blends), `period.rs`; the bases' point
 //! functions `perlin.rs`, `gradient.rs`, `value.rs`, `simplex.rs`, `cellular.rs`; `basis.rs`
 //! (names, ranges, bounds); `octaves.rs` (schedules, styles, the octave loop); `kernel.rs` (the
-//! kernel traits and their per-point references); `vbmi.rs` and `batch.rs` (the SIMD kernels);
+//! kernel traits and their per-point references); `vbmi.rs` and `batch/` (the SIMD kernels);
 //! `kernels.rs` (each basis' kernel, `with_kernel!`); `table.rs` ([`NoiseTable`]); `fractal.rs`
 //! and `derivative.rs` (the fractal sums and gradients callers use).
 

@@ -359,7 +359,7 @@ impl<S: Real> GradShaper<S> {
     };
 
     /// One octave: its value `n` and basis gradient `g` at `p · freq`, weighted `amplitude`.
-    /// Fbm adds `S(amplitude · freq) · g` per component (the fused lane kernel of `batch.rs`
+    /// Fbm adds `S(amplitude · freq) · g` per component (the fused lane kernel of `batch/`
     /// does exactly this).
     #[inline(always)]
     pub(super) fn add(&mut self, style: Style, n: S, g: [S; 3], amplitude: f64, freq: f64) {

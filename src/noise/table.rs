@@ -193,7 +193,7 @@ impl NoiseTable {
     }
 
     /// `out[i] = sample(x[i], y[i], z[i])` bit for bit: one basis dispatch per batch, then the
-    /// SIMD lane kernels of `batch.rs` (runtime CPU feature detection), or for a handful of lanes
+    /// SIMD lane kernels of `batch/` (runtime CPU feature detection), or for a handful of lanes
     /// or a CPU without SSE4.1 a straight loop running [`NoiseTable::sample`]'s kernel.
     ///
     /// Panics only if the slices' lengths differ (a caller bug).

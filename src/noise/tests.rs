@@ -933,7 +933,7 @@ fn fractal_batch_equals_fractal_bit_for_bit() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Batch kernels (batch.rs, vbmi.rs): bit for bit the point functions
+// Batch kernels (batch/, vbmi.rs): bit for bit the point functions
 
 /// A pool of points mixing the first `kinds` kinds of coordinate: random at scales from 1 to
 /// 2^40, integers, points just off integers and off multiples of 256, ±0 and negatives (kinds
@@ -1305,7 +1305,7 @@ fn byte_lookup_reads_the_whole_table() {
 /// path does) agree, whichever of them this CPU's dispatch runs.
 #[test]
 fn both_forms_of_the_lane_loop_agree() {
-    use super::batch::Lattice;
+    use super::batch::lattice::Lattice;
     use super::lanes::CHUNK;
     fn run<S: Real>(t: &NoiseTable, pts: &[[f64; 3]]) {
         match t.basis {

@@ -4,7 +4,8 @@
 
 use super::session::{self, Loaded};
 use super::shared::{lock, Kick, Mode, Shared};
-use crate::render::{Cancel, RenderError, WatchList};
+use crate::render::watch::WatchList;
+use crate::render::{Cancel, RenderError};
 use serde_json::{json, Value};
 use std::path::PathBuf;
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
@@ -27,7 +28,7 @@ pub(super) fn spawn(
         let watched = watched.clone();
         notify::recommended_watcher(move |event: notify::Result<notify::Event>| {
             if let Ok(event) = event {
-                if crate::render::relevant(&event, &lock(&watched)) {
+                if crate::render::watch::relevant(&event, &lock(&watched)) {
                     shared.change(true);
                 }
             }
@@ -124,7 +125,7 @@ impl Worker {
     /// Watches the folders of `files` (not watched yet) and makes them the relevant set.
     fn watch(&mut self, files: Vec<PathBuf>) {
         use notify::{RecursiveMode, Watcher};
-        let list = crate::render::watch_list(&files);
+        let list = crate::render::watch::watch_list(&files);
         for (dir, _) in &list {
             if !self.watched_dirs.contains(dir)
                 && self.watcher.watch(dir, RecursiveMode::NonRecursive).is_ok()

@@ -666,3 +666,142 @@ fn the_reference_reader_finds_circles_and_ignores_what_is_not_code() {
     assert_eq!(clean.edges["p.rs"], BTreeSet::new());
     assert_eq!(clean.edges["q.rs"].len(), 1);
 }
+
+/// The longest a function may be (ARCHITECTURE.md, "Size"), in lines from its `fn` to its
+/// closing brace.
+const MAX_FUNCTION_LINES: usize = 150;
+/// The longest a source file may be, without its test module.
+const MAX_FILE_LINES: usize = 1500;
+
+/// Every `.rs` file under `root` (relative to the repository), with its text.
+fn rust_files(root: &str) -> Vec<(String, String)> {
+    let base = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files = Vec::new();
+    let mut dirs = vec![base.join(root)];
+    while let Some(dir) = dirs.pop() {
+        for entry in std::fs::read_dir(&dir).expect("a readable folder") {
+            let path = entry.expect("a directory entry").path();
+            if path.is_dir() {
+                dirs.push(path);
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                let rel = path.strip_prefix(base).expect("under the repository");
+                let text = std::fs::read_to_string(&path).expect("UTF-8 source");
+                files.push((rel.to_string_lossy().replace('\\', "/"), text));
+            }
+        }
+    }
+    files.sort();
+    files
+}
+
+/// Each function of `code` (comments and strings already blanked, `code_only`): its name, its
+/// first line (from 1) and its length in lines, `fn` to closing brace. Functions nested in
+/// others count on their own and inside their parent; a declaration without a body (a
+/// trait's) is none.
+fn functions(code: &str) -> Vec<(String, usize, usize)> {
+    let mut found = Vec::new();
+    // Open functions: (name, first line, brace depth of their body).
+    let mut open: Vec<(String, usize, usize)> = Vec::new();
+    // A `fn` read whose body has not begun, and the bracket depth it was read at.
+    let mut pending: Option<(String, usize, usize)> = None;
+    let (mut depth, mut brackets, mut line) = (0usize, 0usize, 1usize);
+    let bytes = code.as_bytes();
+    for (i, &b) in bytes.iter().enumerate() {
+        let word_start = i == 0 || !(bytes[i - 1].is_ascii_alphanumeric() || bytes[i - 1] == b'_');
+        if word_start && code[i..].starts_with("fn ") {
+            let name: String = code[i + 3..]
+                .trim_start()
+                .chars()
+                .take_while(|c| c.is_alphanumeric() || *c == '_')
+                .collect();
+            if !name.is_empty() {
+                pending = Some((name, line, brackets));
+            }
+        }
+        match b {
+            b'\n' => line += 1,
+            b'(' | b'[' => brackets += 1,
+            b')' | b']' => brackets = brackets.saturating_sub(1),
+            b'{' => {
+                depth += 1;
+                if let Some((name, first, _)) = pending.take() {
+                    open.push((name, first, depth));
+                }
+            }
+            b'}' => {
+                if open.last().is_some_and(|f| f.2 == depth) {
+                    let (name, first, _) = open.pop().expect("an open function");
+                    found.push((name, first, line - first + 1));
+                }
+                depth = depth.saturating_sub(1);
+            }
+            b';' if pending.as_ref().is_some_and(|p| p.2 == brackets) => pending = None,
+            _ => {}
+        }
+    }
+    found
+}
+
+/// The code of a file without its inline test module (`#[cfg(test)] mod tests { ... }`,
+/// which by this project's habit comes last), and nothing of a file that is a test module
+/// itself (`tests.rs`, `*_tests.rs`).
+fn without_tests(rel: &str, text: &str) -> String {
+    let name = rel.rsplit('/').next().unwrap_or(rel);
+    if name == "tests.rs" || name.ends_with("_tests.rs") {
+        return String::new();
+    }
+    match text.find("#[cfg(test)]\nmod ") {
+        Some(at) => text[..at].to_string(),
+        None => text.to_string(),
+    }
+}
+
+/// No function of the library or the Python binding is longer than [`MAX_FUNCTION_LINES`],
+/// and no file, without its tests, longer than [`MAX_FILE_LINES`] (ARCHITECTURE.md, "Size").
+#[test]
+fn no_function_or_file_is_too_long() {
+    let mut problems = Vec::new();
+    for (rel, text) in rust_files("src")
+        .into_iter()
+        .chain(rust_files("python/src"))
+    {
+        let code = code_only(&without_tests(&rel, &text));
+        let lines = code.lines().count();
+        if lines > MAX_FILE_LINES {
+            problems.push(format!(
+                "{rel}: {lines} lines without its tests (at most {MAX_FILE_LINES})"
+            ));
+        }
+        for (name, first, length) in functions(&code) {
+            if length > MAX_FUNCTION_LINES {
+                problems.push(format!(
+                    "{rel}:{first}: fn {name} is {length} lines (at most {MAX_FUNCTION_LINES})"
+                ));
+            }
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+/// The function reader counts what it should: nested functions, bodiless declarations,
+/// braces in strings and comments (blanked by `code_only`).
+#[test]
+fn the_function_reader_measures_functions() {
+    let code = code_only(
+        "trait T {\n    fn f(&self);\n}\nfn a() {\n    let s = \"{\";\n    // }\n    fn b() {\n    }\n}\n\
+         impl X {\n    fn c(x: [u8; 3]) -> u8 {\n        x[0]\n    }\n}\n",
+    );
+    assert_eq!(
+        functions(&code),
+        [
+            ("b".to_string(), 7, 2),
+            ("a".to_string(), 4, 6),
+            ("c".to_string(), 11, 3)
+        ]
+    );
+    assert_eq!(without_tests("x/tests.rs", "fn a() {}"), "");
+    assert_eq!(
+        without_tests("x/y.rs", "fn a() {}\n#[cfg(test)]\nmod tests {\n}\n"),
+        "fn a() {}\n"
+    );
+}

@@ -5,10 +5,11 @@
 //! `TEXGRAPH_BLESS=1 cargo test --test it render::` re-blesses them.
 
 use std::path::{Path, PathBuf};
+use texgraph::render::timing::{timing_table, TimingOptions};
+use texgraph::render::watch::Previewer;
 use texgraph::render::{
-    self, load_input, load_scene, render, timing_table, InputKind, PreviewDefaults, PreviewObject,
-    Previewer, RenderError, RenderFilter, RenderLod, RenderOptions, RenderedImage, Scene,
-    SceneDesc, Space, TimingOptions,
+    self, load_input, load_scene, render, InputKind, PreviewDefaults, PreviewObject, RenderError,
+    RenderFilter, RenderLod, RenderOptions, RenderedImage, Scene, SceneDesc, Space,
 };
 
 const MARBLE: &str = "graphs/seed003_marble.ron";
@@ -471,7 +472,7 @@ fn the_watch_loop_re_renders_when_the_graph_is_saved() {
     std::thread::spawn(move || {
         let mut previewer = Previewer::new(&path, PreviewDefaults::default(), small(1), &out);
         let mut results = Vec::new();
-        let outcome = render::watch(&mut previewer, |result| {
+        let outcome = render::watch::watch(&mut previewer, |result| {
             results.push(result.as_ref().map(|_| ()).map_err(|e| e.to_string()));
             if results.len() == 1 {
                 // An editor saving a broken version.
