@@ -241,11 +241,6 @@ pub fn save_by_rename(path: &std::path::Path, text: &str) {
     std::fs::rename(&temp, path).unwrap();
 }
 
-#[cfg(feature = "gpu")]
-/// Whether the GPU tests can run: a usable adapter (lavapipe counts). Without one they say so
-/// on stderr with `SKIPPED` and return false, never passing silently; with
-/// `TEXGRAPH_REQUIRE_GPU_ADAPTER=1` (set by .ci/run after installing lavapipe) a missing
-/// adapter fails the test instead.
 /// A fixed 64-bit linear congruential generator (Knuth's MMIX constants): the tests' points,
 /// reproducible without a dependency. Each call gives the next state; callers take its high bits.
 pub fn lcg(seed: u64) -> impl FnMut() -> u64 {
@@ -258,6 +253,11 @@ pub fn lcg(seed: u64) -> impl FnMut() -> u64 {
     }
 }
 
+#[cfg(feature = "gpu")]
+/// Whether the GPU tests can run: a usable adapter (lavapipe counts). Without one they say so
+/// on stderr with `SKIPPED` and return false, never passing silently; with
+/// `TEXGRAPH_REQUIRE_GPU_ADAPTER=1` (set by .ci/run after installing lavapipe) a missing
+/// adapter fails the test instead.
 pub fn gpu_available(test: &str) -> bool {
     match texgraph::gpu::usable() {
         Ok(_) => true,

@@ -16,6 +16,12 @@ use crate::common;
 use tokio_tungstenite::tungstenite::Message;
 
 const WAIT: Duration = Duration::from_secs(30);
+/// How long the accuracy report may take: it is work, not a message that may have been lost
+/// (every strategy over 20 000 points three times, a 64³ bake and a GPU pipeline, in a test
+/// build; 13 s on an idle 2-core machine, 28 s before the crate was optimised in test builds,
+/// more when the other test thread loads the cores). [`WAIT`] is for messages that come at
+/// once.
+const REPORT_WAIT: Duration = Duration::from_secs(180);
 
 type Socket =
     tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
@@ -47,7 +53,12 @@ impl Tab {
 
     /// Reads messages until `done` holds for the newest state (or panics after [`WAIT`]).
     async fn until(&mut self, what: &str, done: impl Fn(&Tab) -> bool) {
-        let deadline = Instant::now() + WAIT;
+        self.until_within(what, WAIT, done).await
+    }
+
+    /// [`Tab::until`] with a deadline of its own.
+    async fn until_within(&mut self, what: &str, wait: Duration, done: impl Fn(&Tab) -> bool) {
+        let deadline = Instant::now() + wait;
         while !done(self) {
             let left = deadline.saturating_duration_since(Instant::now());
             let next = tokio::time::timeout(left, self.socket.next()).await;
@@ -681,8 +692,8 @@ async fn the_report_answers_the_asking_tab_only() {
     asking.send(json!({"type": "report"})).await;
     other.send(json!({"type": "report"})).await;
     let answered = |t: &Tab| t.reply("report").is_some() || t.reply("error").is_some();
-    asking.until("an answer", answered).await;
-    other.until("an answer", answered).await;
+    asking.until_within("an answer", REPORT_WAIT, answered).await;
+    other.until_within("an answer", REPORT_WAIT, answered).await;
     let (asking, other) = if asking.reply("report").is_some() {
         (&mut asking, &mut other)
     } else {
