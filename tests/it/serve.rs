@@ -692,7 +692,9 @@ async fn the_report_answers_the_asking_tab_only() {
     asking.send(json!({"type": "report"})).await;
     other.send(json!({"type": "report"})).await;
     let answered = |t: &Tab| t.reply("report").is_some() || t.reply("error").is_some();
-    asking.until_within("an answer", REPORT_WAIT, answered).await;
+    asking
+        .until_within("an answer", REPORT_WAIT, answered)
+        .await;
     other.until_within("an answer", REPORT_WAIT, answered).await;
     let (asking, other) = if asking.reply("report").is_some() {
         (&mut asking, &mut other)
