@@ -3,9 +3,9 @@
 # package built into it by `pip install ./python` (maturin), then pytest against the command
 # line of the same checkout. `.ci/run` runs this after `cargo test`.
 #
-# The package is built with cargo's dev profile (MATURIN_PEP517_ARGS, default "--profile dev")
-# so it reuses what `cargo test` compiled; `pip install ./python` without it builds the
-# optimised release a user gets.
+# The package is built with cargo's dev profile (MATURIN_PEP517_ARGS, default "--profile dev"
+# with texgraph unoptimised, below) so it reuses the dependencies `cargo test` compiled;
+# `pip install ./python` without it builds the optimised release a user gets.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 venv=target/pyvenv
@@ -22,7 +22,10 @@ fi
 # serde, hyper and the crate with other features: 52 s in CI), a no-op after `cargo test`.
 cargo test --locked --no-run --test it --quiet
 # maturin is in the environment: no isolated build environment to make (and download) again.
-PATH="$PWD/$venv/bin:$PATH" MATURIN_PEP517_ARGS="${MATURIN_PEP517_ARGS:---profile dev}" \
+# The binding's texgraph has other features than the test build's (no GPU path), so it is a
+# build of its own: unoptimised (the profile's opt-level 1 for the crate doubles its build time
+# to 200 s on 2 cores, for tests that then take 6 s instead of 12).
+PATH="$PWD/$venv/bin:$PATH" MATURIN_PEP517_ARGS="${MATURIN_PEP517_ARGS:---profile dev --config profile.dev.package.texgraph.opt-level=0}" \
     "$venv/bin/python" -m pip install --quiet --no-build-isolation ./python
 # pytest from the repository root, so `import texgraph` finds the installed package and not
 # the source folder python/texgraph.
