@@ -1,8 +1,9 @@
 //! Level of detail and box filtering per pixel on a plane to the horizon
 //! (`graphs/scenes/horizon.ron`): the scene at one sample per pixel with point samples (with
 //! and without level of detail) and box-filtered, and at four point samples per pixel, each
-//! against a many-sample reference without level of detail; prints the RMS errors, the texture times (median of several renders)
-//! and their ratios.
+//! against a many-sample reference without level of detail, and at as many point samples per
+//! pixel as fit in the box-filtered render's texture time (equal time); prints the RMS errors,
+//! the texture times (median of several renders) and their ratios.
 //!
 //! ```text
 //! cargo run --release --example horizon_lod [-- REFERENCE_SAMPLES [RUNS [THREADS]]]
@@ -64,6 +65,12 @@ fn main() {
         f.texture_seconds_four * 1e3
     );
     println!(
+        "| {} samples per pixel, point with LOD (equal time: as many as fit in the box-filtered time) | {:.5} | {:.2} ms |",
+        f.equal_samples,
+        f.rms_equal,
+        f.texture_seconds_equal * 1e3
+    );
+    println!(
         "| ratio (with LOD / without) | {:.3}× | {:.3}× |",
         f.error_ratio(),
         f.time_ratio()
@@ -71,5 +78,16 @@ fn main() {
     println!(
         "median of the {} pairwise texture-time ratios: {:.3}×",
         comparison.runs, f.pair_time_ratio
+    );
+    println!(
+        "at equal texture time: {} (box-filtered {:.5} vs {} point samples {:.5})",
+        if f.filtered_wins_at_equal_time() {
+            "the box filter wins"
+        } else {
+            "point samples win"
+        },
+        f.rms_filtered,
+        f.equal_samples,
+        f.rms_equal
     );
 }

@@ -6,7 +6,11 @@
 //! samples per box (6³ jittered cells); against it, over every channel of every box:
 //! - point: the f64 value at the box centre;
 //! - 4 and 16 samples: the mean of a Latin hypercube of 4 or 16 f64 samples in the box;
-//! - filtered: the filtered form's estimate of the box mean ([`crate::filter::Filtered`]).
+//! - filtered: the filtered form's estimate of the box mean ([`crate::filter::Filtered`]);
+//! - equal-time samples (issue 47): a Latin hypercube of as many f64 samples per box as fit in
+//!   the filtered form's measured time per box (the filtered time over the point time, at
+//!   least 1, at most the reference's 216: beyond that the reference cannot judge them), the
+//!   same boxes; the filtered form *wins* a row where its RMS is at most theirs.
 //!
 //! Each strategy's time is per box, one thread, summed over the boxes (a strategy with `k`
 //! samples makes `k` point evaluations).
@@ -54,17 +58,38 @@ pub struct FilterRow {
     pub samples4_us: f64,
     pub samples16_us: f64,
     pub filtered_us: f64,
+    /// Samples per box that fit in the filtered form's time (`filtered_us / point_us`, 1 to
+    /// [`REFERENCE_SAMPLES`]).
+    pub equal_samples: usize,
+    pub equal_rms: f64,
+    pub equal_us: f64,
+    /// Whether the filtered form's RMS is at most the equal-time samples' (ties within 1e-6).
+    pub filtered_wins: bool,
 }
 
 impl FilterRow {
     /// The strategies as (name, RMS, µs per box), in the table's order.
-    pub fn strategies(&self) -> [(&'static str, f64, f64); 4] {
+    pub fn strategies(&self) -> [(&'static str, f64, f64); 5] {
         [
             ("point", self.point_rms, self.point_us),
             ("4 samples", self.samples4_rms, self.samples4_us),
             ("16 samples", self.samples16_rms, self.samples16_us),
             ("filtered", self.filtered_rms, self.filtered_us),
+            ("equal-time samples", self.equal_rms, self.equal_us),
         ]
+    }
+
+    /// The supersampling curve: (samples per box, RMS, µs per box) for 1, 4, 16 and the
+    /// equal-time count, by count.
+    pub fn supersampling(&self) -> Vec<(usize, f64, f64)> {
+        let mut curve = vec![
+            (1, self.point_rms, self.point_us),
+            (4, self.samples4_rms, self.samples4_us),
+            (16, self.samples16_rms, self.samples16_us),
+            (self.equal_samples, self.equal_rms, self.equal_us),
+        ];
+        curve.sort_by_key(|c| c.0);
+        curve
     }
 }
 
@@ -127,15 +152,45 @@ fn mean_of(
     sum.iter().map(|s| s / points.len() as f64).collect()
 }
 
+/// The samples per box that fit in `filtered_us` at `point_us` each: at least 1, at most
+/// [`REFERENCE_SAMPLES`].
+pub fn equal_time_samples(filtered_us: f64, point_us: f64) -> usize {
+    if point_us.is_nan() || point_us <= 0.0 || !filtered_us.is_finite() {
+        return 1;
+    }
+    ((filtered_us / point_us).floor() as usize).clamp(1, REFERENCE_SAMPLES)
+}
+
+/// One random box: its centre and the reference mean of every channel.
+struct RandomBox {
+    centre: [f64; 3],
+    reference: Vec<f64>,
+}
+
+/// Adds each finite reference channel's squared error of `estimate` to `tally`; the number of
+/// channels counted.
+fn score(reference: &[f64], estimate: &[f64], tally: &mut Tally) -> f64 {
+    let mut count = 0.0;
+    for (r, e) in reference.iter().zip(estimate) {
+        if r.is_finite() {
+            tally.squares += (e - r).powi(2);
+            count += 1.0;
+        }
+    }
+    count
+}
+
 /// The figures of one side.
 fn measure(tape: &Tape, filtered: &Filtered, side: f64, options: &FilterOptions) -> FilterRow {
     let channels = tape.channels();
     let footprint = Footprint::cube(side).unwrap_or(Footprint::POINT);
     let mut ws = Workspace::<f64>::new();
+    let mut fws = crate::filter::FilterWorkspace::<f64>::default();
     let mut rng = Rng::new(0x5eed ^ side.to_bits());
-    let mut tallies: [Tally; 4] = Default::default();
+    let mut tallies: [Tally; 5] = Default::default();
     let mut ignore = Tally::default();
     let mut count = 0.0f64;
+    let mut boxes = Vec::with_capacity(options.boxes);
     let Region { min, max } = options.region;
     for _ in 0..options.boxes {
         let c: [f64; 3] = std::array::from_fn(|a| min[a] + (max[a] - min[a]) * rng.next());
@@ -153,35 +208,53 @@ fn measure(tape: &Tape, filtered: &Filtered, side: f64, options: &FilterOptions)
             mean_of(tape, &mut ws, &four, &mut tallies[1]),
             mean_of(tape, &mut ws, &sixteen, &mut tallies[2]),
             {
+                // Through a kept workspace, as a bake's or render's worker calls it (the
+                // point samples reuse theirs too): no allocation in the timed call.
                 let mut f = vec![0.0; channels];
+                let (x, y, z) = ([c[0]], [c[1]], [c[2]]);
+                let fp = std::slice::from_ref(&footprint);
                 let started = Instant::now();
-                filtered.eval_point(c, &footprint, &mut f);
+                filtered.eval_batch_with(&mut fws, [&x, &y, &z], fp, &mut f);
                 tallies[3].seconds += started.elapsed().as_secs_f64();
                 f
             },
         ];
-        for (ch, r) in reference.iter().enumerate() {
-            if !r.is_finite() {
-                continue;
-            }
-            for (tally, estimate) in tallies.iter_mut().zip(&estimates) {
-                tally.squares += (estimate[ch] - r).powi(2);
-            }
-            count += 1.0;
+        // Every strategy scores the same channels: the box's finite reference means.
+        count += score(&reference, &estimates[0], &mut tallies[0]);
+        for (tally, estimate) in tallies[1..].iter_mut().zip(&estimates[1..]) {
+            score(&reference, estimate, tally);
         }
+        boxes.push(RandomBox {
+            centre: c,
+            reference,
+        });
+    }
+    let per_box = |t: &Tally| t.seconds * 1e6 / options.boxes.max(1) as f64;
+    let equal_samples = equal_time_samples(per_box(&tallies[3]), per_box(&tallies[0]));
+    // The equal-time samples: the same boxes, their own draws (a second generator, so the
+    // columns above do not depend on the count).
+    let mut rng = Rng::new(0xe9a1 ^ side.to_bits());
+    for b in &boxes {
+        let points = rng.latin(b.centre, side, equal_samples);
+        let estimate = mean_of(tape, &mut ws, &points, &mut tallies[4]);
+        score(&b.reference, &estimate, &mut tallies[4]);
     }
     let rms = |t: &Tally| (t.squares / count.max(1.0)).sqrt();
-    let us = |t: &Tally| t.seconds * 1e6 / options.boxes.max(1) as f64;
+    let (filtered_rms, equal_rms) = (rms(&tallies[3]), rms(&tallies[4]));
     FilterRow {
         side,
         point_rms: rms(&tallies[0]),
         samples4_rms: rms(&tallies[1]),
         samples16_rms: rms(&tallies[2]),
-        filtered_rms: rms(&tallies[3]),
-        point_us: us(&tallies[0]),
-        samples4_us: us(&tallies[1]),
-        samples16_us: us(&tallies[2]),
-        filtered_us: us(&tallies[3]),
+        filtered_rms,
+        point_us: per_box(&tallies[0]),
+        samples4_us: per_box(&tallies[1]),
+        samples16_us: per_box(&tallies[2]),
+        filtered_us: per_box(&tallies[3]),
+        equal_samples,
+        equal_rms,
+        equal_us: per_box(&tallies[4]),
+        filtered_wins: filtered_rms <= equal_rms + 1e-6,
     }
 }
 
@@ -208,11 +281,11 @@ fn side_text(side: f64) -> String {
 /// The rows as a Markdown table.
 pub fn filter_table_markdown(rows: &[FilterRow]) -> String {
     let mut text = String::from(
-        "| side | point RMS | 4 samples RMS | 16 samples RMS | filtered RMS | point µs | 4 samples µs | 16 samples µs | filtered µs |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| side | point RMS | 4 samples RMS | 16 samples RMS | filtered RMS | point µs | 4 samples µs | 16 samples µs | filtered µs | equal-time samples | their RMS | at equal time |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|:---|\n",
     );
     for r in rows {
         text.push_str(&format!(
-            "| {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.2} | {:.2} | {:.2} | {:.2} |\n",
+            "| {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {:.4} | {} |\n",
             side_text(r.side),
             r.point_rms,
             r.samples4_rms,
@@ -221,14 +294,19 @@ pub fn filter_table_markdown(rows: &[FilterRow]) -> String {
             r.point_us,
             r.samples4_us,
             r.samples16_us,
-            r.filtered_us
+            r.filtered_us,
+            r.equal_samples,
+            r.equal_rms,
+            if r.filtered_wins { "filtered wins" } else { "samples win" },
         ));
     }
     text
 }
 
 /// RMS error (log) against µs per box (log), one colour per strategy, each point labelled by
-/// its side, as a PNG.
+/// its side, as a PNG. Each side's supersampling curve (1, 4, 16 and the equal-time number of
+/// samples per box) is a grey line: the filtered point wins where it lies below the curve at
+/// its own time.
 pub fn filter_plot(rows: &[FilterRow], title: &str, path: &std::path::Path) -> Result<(), String> {
     use plotters::prelude::*;
     let all: Vec<(f64, f64)> = rows
@@ -259,8 +337,23 @@ pub fn filter_plot(rows: &[FilterRow], title: &str, path: &std::path::Path) -> R
         RGBColor(255, 127, 14),
         RGBColor(44, 160, 44),
         RGBColor(214, 39, 40),
+        RGBColor(148, 103, 189),
     ];
     frame.draw(path, |chart| {
+        let grey = RGBColor(150, 150, 150);
+        for (i, r) in rows.iter().enumerate() {
+            let curve = r.supersampling();
+            let line = LineSeries::new(
+                curve.iter().map(|&(_, e, t)| (t.max(1e-3), e.max(floor))),
+                grey.stroke_width(1),
+            );
+            let drawn = chart.draw_series(line).map_err(error)?;
+            if i == 0 {
+                drawn
+                    .label("supersampling (1, 4, 16, equal-time samples)")
+                    .legend(move |(x, y)| PathElement::new([(x - 8, y), (x + 8, y)], grey));
+            }
+        }
         for (s, colour) in palette.iter().enumerate() {
             let name = rows.first().map_or("", |r| r.strategies()[s].0);
             let at = |r: &FilterRow| {
@@ -273,9 +366,6 @@ pub fn filter_plot(rows: &[FilterRow], title: &str, path: &std::path::Path) -> R
                 .map_err(error)?
                 .label(name)
                 .legend(move |(x, y)| Circle::new((x, y), 5, colour.filled()));
-            chart
-                .draw_series(LineSeries::new(rows.iter().map(at), colour.stroke_width(1)))
-                .map_err(error)?;
             for r in rows {
                 let label = EmptyElement::at(at(r))
                     + Text::new(
@@ -313,12 +403,30 @@ mod tests {
         for r in &rows {
             assert!((r.point_rms - r.filtered_rms).abs() < 1e-12, "{r:?}");
             assert!(r.point_rms < 0.01, "{r:?}");
+            assert!((1..=REFERENCE_SAMPLES).contains(&r.equal_samples), "{r:?}");
+            assert!(r.equal_rms.is_finite(), "{r:?}");
+            assert_eq!(
+                r.filtered_wins,
+                r.filtered_rms <= r.equal_rms + 1e-6,
+                "{r:?}"
+            );
             for (name, rms, us) in r.strategies() {
                 assert!(rms.is_finite() && us >= 0.0, "{name}: {rms}, {us}");
             }
         }
         assert_eq!(side_text(0.125), "1/8");
         assert_eq!(side_text(2.0), "2");
+    }
+
+    /// As many samples as fit in the filtered time, at least one, at most the reference's.
+    #[test]
+    fn equal_time_samples_fit_the_filtered_time() {
+        assert_eq!(equal_time_samples(10.0, 1.0), 10);
+        assert_eq!(equal_time_samples(10.9, 1.0), 10);
+        assert_eq!(equal_time_samples(0.5, 1.0), 1);
+        assert_eq!(equal_time_samples(1e9, 1.0), REFERENCE_SAMPLES);
+        assert_eq!(equal_time_samples(5.0, 0.0), 1);
+        assert_eq!(equal_time_samples(f64::NAN, 1.0), 1);
     }
 
     /// A Latin hypercube puts one sample in each stratum of each axis.

@@ -45,9 +45,10 @@ pub struct RenderArgs {
     /// Graph files only: override a param (repeatable).
     #[arg(long = "set", value_name = "NAME=VALUE", value_parser = parse_set)]
     sets: Vec<(String, f64)>,
-    /// What each texture sample shows: box (its mean over the sample's footprint, the pixel's
-    /// share carried into texture space by ray differentials; on the CPU) or point (its value
-    /// at the hit, with level of detail) [default: box; point with --no-lod or --device gpu].
+    /// What each texture sample shows: point (its value at the hit, with level of detail) or
+    /// box (its mean over the sample's footprint, the pixel's share carried into texture space
+    /// by ray differentials) [default: point: at equal texture time more point samples per
+    /// pixel beat one box-filtered sample, docs/filtering.md, "Renders"].
     #[arg(long, value_enum, value_name = "FILTER")]
     filter: Option<FilterArg>,
     /// Point samples with every octave at every pixel (no level of detail per pixel): the
@@ -82,9 +83,9 @@ pub enum FilterArg {
     Box,
 }
 
-/// The render filter the flags ask for: box unless point is named or implied by `--no-lod`
-/// (on the CPU or the GPU: each texture the GPU's filtered form does not cover is filtered on
-/// the CPU). A usage error where they disagree.
+/// The render filter the flags ask for: point (with level of detail unless `--no-lod`) unless
+/// box is named (on the CPU or the GPU: each texture the GPU's filtered form does not cover is
+/// filtered on the CPU). A usage error where they disagree.
 pub fn render_filter(
     filter: Option<FilterArg>,
     no_lod: bool,
@@ -96,8 +97,7 @@ pub fn render_filter(
         ),
         Some(FilterArg::Box) => Ok(RenderFilter::Box),
         Some(FilterArg::Point) => Ok(RenderFilter::Point),
-        None if no_lod => Ok(RenderFilter::Point),
-        None => Ok(RenderFilter::Box),
+        None => Ok(RenderFilter::default()),
     }
 }
 

@@ -891,10 +891,12 @@ impl Integrand {
 }
 
 /// The pieces of a piecewise polynomial that meet the support, each with its [`Part`]s (and a
-/// sign: an interior piece can be a difference of two), plus the quadrature nodes.
+/// sign: an interior piece can be a difference of two), plus the quadrature nodes. On the
+/// stack for the usual few pieces (no heap allocation per call, issue 47); a support over many
+/// knots spills to the heap.
 struct Plan {
-    parts: Vec<(usize, f64, Part)>,
-    nodes: Vec<(f64, f64)>,
+    parts: smallvec::SmallVec<[(usize, f64, Part); 6]>,
+    nodes: smallvec::SmallVec<[(f64, f64); 20]>,
 }
 
 /// Chooses how each piece meeting the support `[t − Σw/2, t + Σw/2]` is integrated.
@@ -930,8 +932,8 @@ fn plan(knots: &[f64], polys: &[&[[f64; 4]]], t: f64, ws: &Widths) -> Plan {
         tp: tp_means(c - t, ws, 0, 0, len),
     };
     let mut plan = Plan {
-        parts: Vec::with_capacity(last - first + 2),
-        nodes: Vec::new(),
+        parts: smallvec::SmallVec::new(),
+        nodes: smallvec::SmallVec::new(),
     };
     let (corners, n_corners) = ws.corners();
     for i in first..=last {

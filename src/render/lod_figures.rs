@@ -36,6 +36,12 @@ pub struct LodFigures {
     /// Four point samples per pixel with level of detail.
     pub rms_four: f64,
     pub texture_seconds_four: f64,
+    /// Equal time (issue 47): as many point samples per pixel with level of detail as fit in
+    /// the box-filtered render's texture time (its median over the one-sample point render's,
+    /// at least 1, at most a quarter of the reference's samples), rendered once.
+    pub equal_samples: u32,
+    pub rms_equal: f64,
+    pub texture_seconds_equal: f64,
     /// The median over the runs of each pair's texture-time ratio (with over without): robust
     /// to a machine whose speed drifts between runs.
     pub pair_time_ratio: f64,
@@ -51,6 +57,12 @@ impl LodFigures {
     /// Texture time with level of detail over that without (median over median).
     pub fn time_ratio(&self) -> f64 {
         self.texture_seconds_lod / self.texture_seconds_plain
+    }
+
+    /// Whether one box-filtered sample per pixel is closer to the reference than the point
+    /// samples that fit in its texture time.
+    pub fn filtered_wins_at_equal_time(&self) -> bool {
+        self.rms_filtered <= self.rms_equal
     }
 }
 
@@ -94,14 +106,22 @@ pub fn compare_lod(scene: &Scene, comparison: &LodComparison) -> Result<LodFigur
         .zip(&plain_times)
         .map(|(a, b)| a / b)
         .collect();
+    let texture_seconds_lod = median(&mut lod_times);
+    let texture_seconds_filtered = median(&mut filtered_times);
+    let equal_samples = ((texture_seconds_filtered / texture_seconds_lod).floor() as u32)
+        .clamp(1, (comparison.reference_samples / 4).max(1));
+    let (image, s) = render(scene, &options(equal_samples, lod, point))?;
     Ok(LodFigures {
+        equal_samples,
+        rms_equal: rms(&image, &reference),
+        texture_seconds_equal: s.texture_seconds,
         rms_lod,
         rms_plain,
         pair_time_ratio: median(&mut ratios),
-        texture_seconds_lod: median(&mut lod_times),
+        texture_seconds_lod,
         texture_seconds_plain: median(&mut plain_times),
         rms_filtered,
-        texture_seconds_filtered: median(&mut filtered_times),
+        texture_seconds_filtered,
         rms_four,
         texture_seconds_four: median(&mut four_times),
         reference_seconds: stats.seconds,

@@ -135,13 +135,14 @@ pub struct RenderOptions {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum RenderFilter {
     /// The texture's value at the hit, with the octaves the footprint resolves
-    /// ([`RenderLod`]).
+    /// ([`RenderLod`]). The default (issue 47): at equal texture time, point samples per
+    /// pixel beat one box-filtered sample (docs/filtering.md, "Renders").
+    #[default]
     Point,
     /// The estimate of the texture's mean over the sample's footprint (its pixel's share,
     /// carried into texture space by the ray differentials as an anisotropic parallelogram):
     /// the filtered form of each tape (`crate::filter`), on the CPU, or on the GPU's filtered
     /// form with `--device gpu` (or `auto` finding one) where that covers the tape.
-    #[default]
     Box,
 }
 

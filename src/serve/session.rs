@@ -581,10 +581,10 @@ pub fn preview(
         threads: None,
         progress: false,
         cancel: Some(cancel.clone()),
-        // Each pixel's texture mean over its footprint (box filtering, as `render`): the
-        // preview does not alias toward its horizon.
+        // As `render` by default: point samples with level of detail per pixel (the octaves
+        // each footprint resolves), so the preview does not alias toward its horizon.
         lod: render::RenderLod::default(),
-        filter: render::RenderFilter::Box,
+        filter: render::RenderFilter::default(),
         device: crate::gpu::Device::Cpu,
     };
     let began = Instant::now();

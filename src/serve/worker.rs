@@ -325,9 +325,9 @@ impl Worker {
         self.preview(generation, since, scene, image, "draft", output, cancel)
     }
 
-    /// The full preview: the settings' size at the scene's samples per pixel, else one: the
-    /// preview box-filters its textures (each sample is its pixel's texture mean already), so
-    /// more samples would only smooth silhouettes, at several times the cost.
+    /// The full preview: the settings' size at the scene's samples per pixel, else
+    /// `render`'s default (point samples with level of detail: at equal time several of them
+    /// beat one box-filtered sample, docs/filtering.md, "Renders").
     fn full(
         &mut self,
         generation: u64,
@@ -337,7 +337,7 @@ impl Worker {
         cancel: &Cancel,
     ) -> Result<(), Stop> {
         let size = lock(&self.shared.settings).preview_size;
-        let samples = scene.samples().unwrap_or(1);
+        let samples = scene.samples().unwrap_or(crate::render::DEFAULT_SAMPLES);
         self.preview(
             generation,
             since,

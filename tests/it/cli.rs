@@ -1367,9 +1367,10 @@ fn bake_filter_box_devices_and_conflicts() {
     assert!(stderr(&lod).contains("--lod"), "{}", stderr(&lod));
 }
 
-/// `render --filter`: box by default (its texture points counted like point samples), point on
-/// request; `--no-lod` implies point and contradicts an explicit box; `auto` renders box
-/// filtered (on the GPU's filtered form where there is a GPU: `gpu_filtered.rs`).
+/// `render --filter`: point samples with level of detail by default (issue 47: at equal time
+/// they beat the box filter), box on request; `--no-lod` is point samples at every octave and
+/// contradicts an explicit box; `auto` renders (box filtered on the GPU's filtered form where
+/// there is a GPU: `gpu_filtered.rs`).
 #[test]
 fn render_filter_flags() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -1391,12 +1392,12 @@ fn render_filter_flags() {
         std::fs::read(png).expect("the PNG")
     };
     let default = image(&[]);
-    assert_eq!(default, image(&["--filter", "box"]), "box is the default");
-    assert_ne!(
+    assert_eq!(
         default,
         image(&["--filter", "point"]),
-        "box filtering shows"
+        "point is the default"
     );
+    assert_ne!(default, image(&["--filter", "box"]), "box filtering shows");
     assert_eq!(
         image(&["--no-lod"]),
         image(&["--no-lod", "--filter", "point"])
@@ -1406,9 +1407,9 @@ fn render_filter_flags() {
     expect_code(&[&base[..], &["--device", "auto"]].concat(), 0);
 }
 
-/// `report --filtering`: a row per box side with every strategy's RMS and time, the filtered
-/// marble closer to the box mean than point sampling at side 1/2; JSON rows and the plot; the
-/// flags it excludes are usage errors.
+/// `report --filtering`: a row per box side with every strategy's RMS and time (equal-time
+/// supersampling and its verdict among them), the filtered marble closer to the box mean than
+/// point sampling at side 1/2; JSON rows and the plot; the flags it excludes are usage errors.
 #[test]
 fn report_filtering_table_json_and_plot() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -1426,6 +1427,10 @@ fn report_filtering_table_json_and_plot() {
     let table = stdout(&expect_code(&base, 0));
     assert!(
         table.contains("| side | point RMS | 4 samples RMS | 16 samples RMS | filtered RMS |"),
+        "{table}"
+    );
+    assert!(
+        table.contains("| equal-time samples | their RMS | at equal time |"),
         "{table}"
     );
     for side in ["| 1/2 |", "| 1/8 |", "| 1/32 |"] {
@@ -1449,6 +1454,22 @@ fn report_filtering_table_json_and_plot() {
         "filtered {filtered} vs point {point}"
     );
     assert!(half["filtered_us"].as_f64().unwrap() > 0.0);
+    // Equal-time supersampling: as many samples as fit in the filtered time, scored on the
+    // same boxes; the verdict is the comparison of the two RMS figures.
+    for row in rows {
+        let row = &row["row"];
+        let samples = row["equal_samples"].as_u64().unwrap();
+        assert!((1..=216).contains(&samples), "{row}");
+        let (f, e) = (
+            row["filtered_rms"].as_f64().unwrap(),
+            row["equal_rms"].as_f64().unwrap(),
+        );
+        assert_eq!(
+            row["filtered_wins"].as_bool().unwrap(),
+            f <= e + 1e-6,
+            "{row}"
+        );
+    }
     let image = image::open(&png).expect("a PNG");
     assert_eq!((image.width(), image.height()), (1000, 640));
     for other in [["--mips"], ["--stability"]] {
