@@ -43,8 +43,9 @@ pub struct ReportArgs {
     /// Compare ways of showing a footprint instead (docs/filtering.md): for cubes of side 1/2,
     /// 1/8 and 1/32 centred at --boxes random points of the region, the RMS error against a
     /// 216-sample stratified f64 box mean of point sampling, 4 and 16 samples per box (Latin
-    /// hypercubes) and the filtered evaluation, with their times per box; --plot draws error
-    /// against time.
+    /// hypercubes), the filtered evaluation, and as many samples per box as fit in the
+    /// filtered evaluation's time (equal time: which wins), with their times per box; --plot
+    /// draws error against time.
     #[arg(long, conflicts_with_all = ["stability", "markdown", "mips", "points", "runs"])]
     filtering: bool,
     /// With --filtering: random boxes per side (1 to 100 000).
