@@ -221,18 +221,12 @@ impl Checker {
             return Some(Arg::Axis(axis));
         }
         self.error(
-            Diagnostic::new(
-                Class::BadParameter,
-                format!(
-                    "the rotation axis is zero: ({}, {}, {})",
-                    crate::diagnostic::number(v[0]),
-                    crate::diagnostic::number(v[1]),
-                    crate::diagnostic::number(v[2])
-                ),
+            bad_parameter(
+                origin,
+                value.span,
+                format!("the rotation axis is zero: {}", triple(v)),
+                "zero axis",
             )
-            .in_node(&*origin.node)
-            .at(value.span)
-            .label("zero axis")
             .help("give the axis a direction, e.g. (0, 1, 0)"),
         );
         None
@@ -254,19 +248,15 @@ impl Checker {
             return Some(Arg::Period(Some(v.map(|c| c as u64))));
         }
         self.error(
-            Diagnostic::new(
-                Class::BadParameter,
+            bad_parameter(
+                origin,
+                value.span,
                 format!(
-                    "a period is a whole number of cells from 1 to {} per axis, got ({}, {}, {})",
-                    limit,
-                    crate::diagnostic::number(v[0]),
-                    crate::diagnostic::number(v[1]),
-                    crate::diagnostic::number(v[2])
+                    "a period is a whole number of cells from 1 to {limit} per axis, got {}",
+                    triple(v)
                 ),
+                "not a period",
             )
-            .in_node(&*origin.node)
-            .at(value.span)
-            .label("not a period")
             .help("write e.g. `period: 4` or `period: (4, 4, 1)`"),
         );
         None
@@ -288,21 +278,18 @@ impl Checker {
         if let Some(n) = name {
             return Some(Arg::Choice(n, true));
         }
-        self.error(
-            Diagnostic::new(
-                Class::BadParameter,
-                format!(
-                    "`{}` of {} must be one of {}, found {}",
-                    arg.name,
-                    def.name,
-                    allowed.join(", "),
-                    value.kind.describe()
-                ),
-            )
-            .in_node(&*origin.node)
-            .at(value.span)
-            .label(format!("not a known `{}`", arg.name)),
-        );
+        self.error(bad_parameter(
+            origin,
+            value.span,
+            format!(
+                "`{}` of {} must be one of {}, found {}",
+                arg.name,
+                def.name,
+                allowed.join(", "),
+                value.kind.describe()
+            ),
+            format!("not a known `{}`", arg.name),
+        ));
         None
     }
 
@@ -345,20 +332,17 @@ impl Checker {
         if let ValueKind::Bool(b) = value.kind {
             return Some(Arg::Flag(b));
         }
-        self.error(
-            Diagnostic::new(
-                Class::BadParameter,
-                format!(
-                    "`{}` of {} must be true or false, found {}",
-                    arg.name,
-                    def.name,
-                    value.kind.describe()
-                ),
-            )
-            .in_node(&*origin.node)
-            .at(value.span)
-            .label("not true or false"),
-        );
+        self.error(bad_parameter(
+            origin,
+            value.span,
+            format!(
+                "`{}` of {} must be true or false, found {}",
+                arg.name,
+                def.name,
+                value.kind.describe()
+            ),
+            "not true or false",
+        ));
         None
     }
 
@@ -407,15 +391,12 @@ impl Checker {
             return None;
         };
         if items.is_empty() {
-            self.error(
-                Diagnostic::new(
-                    Class::BadParameter,
-                    format!("`{what}` of {} is empty", def.name),
-                )
-                .in_node(&*origin.node)
-                .at(value.span)
-                .label("needs at least one entry"),
-            );
+            self.error(bad_parameter(
+                origin,
+                value.span,
+                format!("`{what}` of {} is empty", def.name),
+                "needs at least one entry",
+            ));
             return None;
         }
         if items.len() > limits::MAX_RAMP_STOPS {
@@ -481,16 +462,15 @@ impl Checker {
             if let Some(&(previous, _)) = out.last() {
                 if key < previous {
                     self.error(
-                        Diagnostic::new(
-                            Class::BadParameter,
+                        bad_parameter(
+                            origin,
+                            pair[0].span,
                             format!(
                                 "`{what}` of {} are not sorted: {key} comes after {previous}",
                                 def.name
                             ),
+                            "smaller than the one before",
                         )
-                        .in_node(&*origin.node)
-                        .at(pair[0].span)
-                        .label("smaller than the one before")
                         .help("sort the entries by their first number"),
                     );
                     return None;
@@ -518,15 +498,12 @@ impl Checker {
                     ValueKind::Ident(i) if i == "Linear" => Interpolation::Linear,
                     ValueKind::Ident(i) if i == "Smooth" => Interpolation::Smooth,
                     _ => {
-                        self.error(
-                            Diagnostic::new(
-                                Class::BadParameter,
-                                "value noise interpolation is Linear or Smooth",
-                            )
-                            .in_node(&*origin.node)
-                            .at(items[0].span)
-                            .label("unknown interpolation"),
-                        );
+                        self.error(bad_parameter(
+                            origin,
+                            items[0].span,
+                            "value noise interpolation is Linear or Smooth",
+                            "unknown interpolation",
+                        ));
                         return None;
                     }
                 };
@@ -547,13 +524,12 @@ impl Checker {
             }
             "Perlin" | "Gradient" | "Simplex" => {
                 self.error(
-                    Diagnostic::new(
-                        Class::BadParameter,
+                    bad_parameter(
+                        origin,
+                        value.span,
                         format!("the {name} basis takes no arguments"),
+                        "only Value and Cellular noise take arguments",
                     )
-                    .in_node(&*origin.node)
-                    .at(value.span)
-                    .label("only Value and Cellular noise take arguments")
                     .help(format!("write `basis: {name}`")),
                 );
                 return None;
@@ -570,10 +546,7 @@ impl Checker {
                         }
                         _ => {
                             self.error(
-                                Diagnostic::new(Class::BadParameter, "Value noise takes `interpolation: Linear` or `interpolation: Smooth`")
-                                    .in_node(&*origin.node)
-                                    .at(field.span.to(v.span))
-                                    .label("not understood"),
+                                bad_parameter(origin, field.span.to(v.span), "Value noise takes `interpolation: Linear` or `interpolation: Smooth`", "not understood"),
                             );
                             return None;
                         }
@@ -585,13 +558,12 @@ impl Checker {
                 ));
             }
             _ => {
-                let mut d = Diagnostic::new(
-                    Class::BadParameter,
+                let mut d = bad_parameter(
+                    origin,
+                    span,
                     format!("unknown noise basis {}", value.kind.describe()),
-                )
-                .in_node(&*origin.node)
-                .at(span)
-                .label("not a basis");
+                    "not a basis",
+                );
                 d = d.help(match nodes::suggest_from(name, BASES.into_iter()) {
                     Some(s) if !name.is_empty() => format!("did you mean `{s}`?"),
                     _ => "the bases are Perlin, Gradient, Value, Simplex and Cellular".into(),
@@ -630,19 +602,16 @@ impl Checker {
                 _ => false,
             };
             if !ok {
-                self.error(
-                    Diagnostic::new(
-                        Class::BadParameter,
-                        format!(
-                            "Cellular takes `jitter: 0..1`, `metric: {}` and `value: {}`",
-                            nodes::METRICS.join(" | "),
-                            nodes::CELLULAR_VALUES.join(" | ")
-                        ),
-                    )
-                    .in_node(&*origin.node)
-                    .at(field.span.to(v.span))
-                    .label("not understood"),
-                );
+                self.error(bad_parameter(
+                    origin,
+                    field.span.to(v.span),
+                    format!(
+                        "Cellular takes `jitter: 0..1`, `metric: {}` and `value: {}`",
+                        nodes::METRICS.join(" | "),
+                        nodes::CELLULAR_VALUES.join(" | ")
+                    ),
+                    "not understood",
+                ));
                 return None;
             }
         }
@@ -656,3 +625,23 @@ impl Checker {
 
 /// The basis names `basis:` accepts, for "did you mean" hints.
 const BASES: [&str; 5] = ["Perlin", "Gradient", "Value", "Simplex", "Cellular"];
+
+/// A bad parameter of `origin`'s node: `message`, with `span` labelled `label` (add a help with
+/// [`Diagnostic::help`]).
+fn bad_parameter(
+    origin: &Origin,
+    span: Span,
+    message: impl Into<String>,
+    label: impl Into<String>,
+) -> Diagnostic {
+    Diagnostic::new(Class::BadParameter, message)
+        .in_node(&*origin.node)
+        .at(span)
+        .label(label)
+}
+
+/// `(x, y, z)`, each number as diagnostics write it.
+fn triple(v: [f64; 3]) -> String {
+    let [x, y, z] = v.map(crate::diagnostic::number);
+    format!("({x}, {y}, {z})")
+}
