@@ -10,6 +10,109 @@ pub fn blessing() -> bool {
     std::env::var_os("TEXGRAPH_BLESS").is_some_and(|v| v == "1")
 }
 
+/// Whether the slow sets run whole: `TEXGRAPH_FULL=1` (`bash .ci/run --full`, run before each
+/// closing note). Without it, the tests that compile a pipeline per graph on lavapipe or a
+/// source per graph with glslang take [`covering`]'s graphs, the filtered-form comparisons their
+/// listed families and the GPU property test fewer cases, so that `cargo test` runs in minutes.
+pub fn full() -> bool {
+    std::env::var_os("TEXGRAPH_FULL").is_some_and(|v| v == "1")
+}
+
+/// What one instruction line of a tape's disassembly (`0004  v0 = ramp s0 Smooth [...]`) asks
+/// of an evaluator: its operation, the words that select a variant of it (a basis, a style, a
+/// metric, `key=word` settings; not numbers, slot names or tables), and whether it is a wide
+/// (f64) instruction.
+fn instruction_forms(line: &str) -> Vec<String> {
+    let numbered = line
+        .split_whitespace()
+        .next()
+        .is_some_and(|w| w.chars().all(|c| c.is_ascii_digit()));
+    let Some((dst, rest)) = line.split_once(" = ").filter(|_| numbered) else {
+        return Vec::new();
+    };
+    let body = rest.split(" ; ").next().unwrap_or(rest);
+    let body = body.split('[').next().unwrap_or(body);
+    let mut words = body.split_whitespace();
+    let Some(op) = words.next() else {
+        return Vec::new();
+    };
+    let slot = |w: &str| {
+        let w = w.trim_end_matches(',');
+        w.len() > 1
+            && w[1..].chars().all(|c| c.is_ascii_digit())
+            && w.starts_with(['s', 'v', 'd', 'w'])
+    };
+    let wide = dst
+        .split_whitespace()
+        .last()
+        .is_some_and(|d| d.starts_with(['d', 'w']))
+        || body
+            .split_whitespace()
+            .any(|w| slot(w) && w.starts_with(['d', 'w']));
+    let mut forms = vec![op.to_string()];
+    if wide {
+        forms.push(format!("{op} wide"));
+    }
+    for word in words.filter(|w| !slot(w)) {
+        let word = word.trim_end_matches(',');
+        let variant = match word.split_once('=') {
+            Some((key, value)) if value.parse::<f64>().is_ok() => key.to_string(),
+            Some(_) => word.to_string(),
+            None if word.chars().all(|c| c.is_ascii_alphabetic()) => word.to_string(),
+            None => continue,
+        };
+        forms.push(format!("{op} {variant}"));
+    }
+    forms
+}
+
+/// Of `graphs`, a few that together use every instruction form (operation, variant words,
+/// width; see [`instruction_forms`]) that any of them uses in its tape compiled by default:
+/// picked greedily, the graph adding most forms first (the shorter tape on a tie). A graph
+/// with a new instruction, basis or style joins the set by itself.
+pub fn covering(graphs: &[std::path::PathBuf]) -> Vec<std::path::PathBuf> {
+    let forms: Vec<(usize, BTreeSet<String>)> = graphs
+        .iter()
+        .map(|path| {
+            let options = texgraph::CompileOptions::default();
+            let (_, tape) = texgraph::load_tape(path, &texgraph::CheckOptions::default(), &options)
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            let text = tape.to_string();
+            let set = text.lines().flat_map(instruction_forms).collect();
+            (tape.instructions().len(), set)
+        })
+        .collect();
+    let mut missing: BTreeSet<String> = forms.iter().flat_map(|(_, f)| f.clone()).collect();
+    let mut chosen = Vec::new();
+    while !missing.is_empty() {
+        let (best, _) = forms
+            .iter()
+            .enumerate()
+            .map(|(i, (len, f))| {
+                (
+                    i,
+                    (f.intersection(&missing).count(), std::cmp::Reverse(*len)),
+                )
+            })
+            .max_by_key(|(_, key)| *key)
+            .expect("a graph");
+        missing.retain(|form| !forms[best].1.contains(form));
+        chosen.push(graphs[best].clone());
+    }
+    chosen.sort();
+    chosen
+}
+
+/// Every graph of `graphs/` and `graphs/library/` with [`full`], else [`covering`] them.
+pub fn slow_set() -> Vec<std::path::PathBuf> {
+    let graphs = graph_files();
+    if full() {
+        graphs
+    } else {
+        covering(&graphs)
+    }
+}
+
 /// The node kinds a graph text uses: every identifier outside string literals that names a
 /// catalogue kind (`Position` bare, the others before their parentheses).
 pub fn kinds_used(text: &str) -> BTreeSet<&'static str> {
@@ -414,4 +517,56 @@ pub fn gpu_contract_lod(
         figures.push((worst_gpu, worst_cpu));
     }
     Ok(figures)
+}
+
+/// [`instruction_forms`] reads a disassembly line's variant words, and [`covering`]'s graphs
+/// use every form that all graphs use, in fewer graphs.
+#[test]
+fn the_covering_graphs_use_every_instruction_form() {
+    let line = "0002  s0 = noise v2 cellular jitter=0.9 metric=Euclidean seed=3 ; cells";
+    assert_eq!(
+        instruction_forms(line),
+        [
+            "noise",
+            "noise cellular",
+            "noise jitter",
+            "noise metric=Euclidean",
+            "noise seed"
+        ]
+    );
+    assert_eq!(
+        instruction_forms("0001  d2 = mul d0, d1"),
+        ["mul", "mul wide"]
+    );
+    assert!(instruction_forms("const s2 = 1").is_empty());
+    let forms_of = |paths: &[std::path::PathBuf]| -> BTreeSet<String> {
+        paths
+            .iter()
+            .flat_map(|path| {
+                let options = texgraph::CompileOptions::default();
+                let (_, tape) =
+                    texgraph::load_tape(path, &texgraph::CheckOptions::default(), &options)
+                        .unwrap();
+                let text = tape.to_string();
+                text.lines().flat_map(instruction_forms).collect::<Vec<_>>()
+            })
+            .collect()
+    };
+    let graphs = graph_files();
+    let chosen = covering(&graphs);
+    assert_eq!(forms_of(&chosen), forms_of(&graphs));
+    assert!(
+        chosen.len() * 2 <= graphs.len(),
+        "{} of {}",
+        chosen.len(),
+        graphs.len()
+    );
+    eprintln!(
+        "covering: {}",
+        chosen
+            .iter()
+            .map(|p| p.file_stem().unwrap().to_string_lossy())
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
 }

@@ -128,30 +128,28 @@ fn compare(
 }
 
 /// Graphs of `graphs/` whose estimates on the GPU are compared with the CPU's: one or more per
-/// rule family (fused `|sin|` and a ramp, the lattice `mod` of a checker, `floor`, periodic
-/// chains with and without tiled octaves, a warp, turbulence, cellular sub-footprints; white
-/// noise is in [`RULES`]). lavapipe takes seconds to minutes to compile a filtered shader, so CI
-/// compares these; `TEXGRAPH_GPU_FILTERED_ALL=1` compares every covered graph (each passed
-/// when the form landed).
-const COMPARED: [&str; 8] = [
+/// rule family (fused `|sin|` and a ramp, the lattice `mod` and `floor` of a checker, periodic
+/// chains with tiled octaves, cellular sub-footprints; white noise, a warp by a noise, ridged
+/// and billow sums are in [`RULES`]). lavapipe takes seconds to minutes to
+/// compile a filtered shader, so `cargo test` compares these; `TEXGRAPH_FULL=1` (or
+/// `TEXGRAPH_GPU_FILTERED_ALL=1`) compares every covered graph (each passed when the form
+/// landed; `seed002_noise`, `seed000_wood`, `warped_wood` and `seed004_turbulence` were in
+/// this list until the test loop was cut to five minutes, issue 46).
+const COMPARED: [&str; 4] = [
     "seed003_marble.ron",
     "seed004_checker3d.ron",
-    "seed002_noise.ron",
-    "seed000_wood.ron",
     "tiling_marble.ron",
-    "warped_wood.ron",
-    "seed004_turbulence.ron",
     "cells.ron",
 ];
 
-/// The covered graphs of `graphs/` (those in [`COMPARED`], or all with
+/// The covered graphs of `graphs/` (those in [`COMPARED`], or all with `TEXGRAPH_FULL=1` or
 /// `TEXGRAPH_GPU_FILTERED_ALL=1`): the GPU's estimates are the CPU's.
 #[test]
 fn gpu_filtered_matches_cpu_filtered() {
     if !common::gpu_available("gpu_filtered_matches_cpu_filtered") {
         return;
     }
-    let all = std::env::var("TEXGRAPH_GPU_FILTERED_ALL").is_ok_and(|v| v == "1");
+    let all = common::full() || std::env::var("TEXGRAPH_GPU_FILTERED_ALL").is_ok_and(|v| v == "1");
     let (points, footprints) = points_and_footprints(400);
     let mut failures = Vec::new();
     for (path, tape) in covered() {
@@ -213,7 +211,9 @@ fn every_rule_matches_the_cpu() {
         .map(|(p, f)| ([p[0].abs() + 1e6, p[1].abs(), p[2].abs()], *f))
         .unzip();
     let mut promoted = 0;
-    for name in ["seed000_wood_rings.ron", "seed001_wood.ron"] {
+    // The second graph with `TEXGRAPH_FULL=1` (lavapipe compiles a pipeline per graph).
+    let graphs = ["seed000_wood_rings.ron", "seed001_wood.ron"];
+    for name in &graphs[..if common::full() { 2 } else { 1 }] {
         let path = common::crate_root().join("graphs").join(name);
         let (_, tape) = texgraph::load_tape(&path, &CheckOptions::default(), &options).unwrap();
         let text = tape.to_string();

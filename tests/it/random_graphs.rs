@@ -303,7 +303,8 @@ proptest! {
 #[cfg(feature = "gpu")]
 proptest! {
     // Each case compiles a shader (a second or so on lavapipe): fewer cases than the CPU tests.
-    #![proptest_config(ProptestConfig { cases: 10, max_shrink_iters: 20, ..ProptestConfig::default() })]
+    // 4 cases (lavapipe compiles a pipeline per case), 10 with `TEXGRAPH_FULL=1`.
+    #![proptest_config(ProptestConfig { cases: if crate::common::full() { 10 } else { 4 }, max_shrink_iters: 20, ..ProptestConfig::default() })]
 
     /// Random graphs on the GPU against the f64 reference, within the contract of
     /// `common::gpu_contract` (tapes compiled for the points' extent, as bakes are).

@@ -172,17 +172,28 @@ fn filtered_signature(lang: Lang, f: &ExportedFunction, filtered: &str) -> Strin
 /// Every graph of `graphs/` and `graphs/library/` in every language, with and without
 /// `--uniforms`: WGSL validates with naga (no f64 capability), GLSL 4.50 and GLSL ES 3.00
 /// compile with glslang inside a fragment shader calling every function, HLSL with glslang's
-/// HLSL front end, MSL is written; each function has the contract's name and signature.
+/// HLSL front end (glslang: every graph with `TEXGRAPH_FULL=1`, else [`common::covering`]'s),
+/// MSL is written; each function has the contract's name and signature.
 #[test]
 fn every_graph_compiles_in_every_language() {
     let compile = glslang("every_graph_compiles_in_every_language");
     let dir = tempfile::tempdir().unwrap();
     let graphs = common::graph_files();
-    // Two workers over the graphs (glslang is a process per source: the test's cost).
+    // glslang (a process per source, half the test's time) compiles every graph with
+    // `TEXGRAPH_FULL=1`, else the graphs that together use every instruction form.
+    let glslang_set = if common::full() {
+        graphs.clone()
+    } else {
+        common::covering(&graphs)
+    };
+    // Two workers over the graphs.
     let (counts, failures) = std::thread::scope(|scope| {
         let workers: Vec<_> = graphs
             .chunks(graphs.len().div_ceil(2).max(1))
-            .map(|chunk| scope.spawn(|| compile_graphs(chunk, compile, dir.path())))
+            .map(|chunk| {
+                let (glslang_set, dir) = (&glslang_set, dir.path());
+                scope.spawn(move || compile_graphs(chunk, compile, glslang_set, dir))
+            })
             .collect();
         let mut all = ([0usize; 5], Vec::new());
         for worker in workers {
@@ -197,11 +208,17 @@ fn every_graph_compiles_in_every_language() {
 }
 
 /// [`every_graph_compiles_in_every_language`] over `graphs`: per language how many compiled,
-/// and what failed (glslang only where `compile`).
-fn compile_graphs(graphs: &[PathBuf], compile: bool, dir: &Path) -> ([usize; 5], Vec<String>) {
+/// and what failed (glslang only where `compile`, on the graphs of `glslang_set`).
+fn compile_graphs(
+    graphs: &[PathBuf],
+    compile: bool,
+    glslang_set: &[PathBuf],
+    dir: &Path,
+) -> ([usize; 5], Vec<String>) {
     let mut failures = Vec::new();
     let mut counts = [0usize; 5];
     for path in graphs {
+        let compile = compile && glslang_set.contains(path);
         let tape = tape_of(path, &[]);
         let stem = path.file_stem().unwrap().to_string_lossy().to_string();
         for (l, lang) in Lang::ALL.into_iter().enumerate() {
@@ -386,7 +403,7 @@ pub(crate) fn shader_contract(
 /// `TEXGRAPH_SHADER_ALL=1`; of those, with `TEXGRAPH_SHADER_ONLY=a,b`, the ones whose name
 /// contains `a` or `b` (while debugging, or to time a few).
 pub(crate) fn selected(stem: &str, set: &[&str]) -> bool {
-    let all = std::env::var_os("TEXGRAPH_SHADER_ALL").is_some_and(|v| v == "1");
+    let all = common::full() || std::env::var_os("TEXGRAPH_SHADER_ALL").is_some_and(|v| v == "1");
     let only = std::env::var("TEXGRAPH_SHADER_ONLY").unwrap_or_default();
     (all || set.contains(&stem)) && only.split(',').any(|o| stem.contains(o))
 }
