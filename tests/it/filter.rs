@@ -42,8 +42,10 @@ impl Rng {
     }
 }
 
-/// The mean of the point tape's first channel along x over `[x − w/2, x + w/2]` (y, z fixed):
-/// composite Gauss–Legendre (4 points) on `panels` panels — the independent reference.
+/// The mean of the tape's first channel along x over `[x − w/2, x + w/2]` (y, z fixed):
+/// composite Gauss–Legendre (4 points) on `panels` panels — the independent reference. The
+/// nodes run in f64 batches of 4096 (the batch path is the point path bit for bit:
+/// `properties::point_and_batch_agree`), a few times faster than point by point.
 fn line_mean(tape: &Tape, p: [f64; 3], w: f64, panels: usize) -> f64 {
     const NODES: [f64; 4] = [
         -0.861_136_311_594_052_6,
@@ -57,15 +59,23 @@ fn line_mean(tape: &Tape, p: [f64; 3], w: f64, panels: usize) -> f64 {
         0.652_145_154_862_546_1,
         0.347_854_845_137_453_9,
     ];
+    const CHUNK: usize = 1024; // panels per batch: 4096 points
     let h = w / panels as f64;
-    let mut ws = Workspace::new();
-    let mut out = vec![0.0; tape.channels()];
+    let mut ws = Workspace::<f64>::new();
+    let (mut x, mut out) = (Vec::new(), Vec::new());
     let mut sum = 0.0;
-    for k in 0..panels {
-        let centre = p[0] - w / 2.0 + (k as f64 + 0.5) * h;
-        for (x, wt) in NODES.iter().zip(WEIGHTS) {
-            tape.eval_point(&mut ws, [centre + x * h / 2.0, p[1], p[2]], &mut out);
-            sum += wt / 2.0 * out[0];
+    for first in (0..panels).step_by(CHUNK) {
+        let count = CHUNK.min(panels - first);
+        x.clear();
+        for k in first..first + count {
+            let centre = p[0] - w / 2.0 + (k as f64 + 0.5) * h;
+            x.extend(NODES.iter().map(|node| centre + node * h / 2.0));
+        }
+        let (y, z) = (vec![p[1]; x.len()], vec![p[2]; x.len()]);
+        out.resize(tape.channels() * x.len(), 0.0);
+        tape.eval_batch(&mut ws, &x, &y, &z, &mut out);
+        for (i, v) in out[..x.len()].iter().enumerate() {
+            sum += WEIGHTS[i % 4] / 2.0 * v;
         }
     }
     sum / panels as f64
