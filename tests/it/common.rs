@@ -11,54 +11,41 @@ pub fn blessing() -> bool {
 }
 
 /// Whether the slow sets run whole: `TEXGRAPH_FULL=1` (`bash .ci/run --full`, run before each
-/// closing note). Without it, the tests that compile a pipeline per graph on lavapipe or a
-/// source per graph with glslang take [`covering`]'s graphs, the filtered-form comparisons their
-/// listed families and the GPU property test fewer cases, so that `cargo test` runs in minutes.
+/// closing note), the one switch for all of them. Without it, the tests that compile a
+/// pipeline per graph on lavapipe or a source per graph with glslang take [`covering`]'s
+/// graphs or their listed sets, and the GPU property test fewer cases, so that `cargo test`
+/// runs in minutes.
 pub fn full() -> bool {
     std::env::var_os("TEXGRAPH_FULL").is_some_and(|v| v == "1")
 }
 
-/// What one instruction line of a tape's disassembly (`0004  v0 = ramp s0 Smooth [...]`) asks
-/// of an evaluator: its operation, the words that select a variant of it (a basis, a style, a
-/// metric, `key=word` settings; not numbers, slot names or tables), and whether it is a wide
-/// (f64) instruction.
-fn instruction_forms(line: &str) -> Vec<String> {
-    let numbered = line
-        .split_whitespace()
-        .next()
-        .is_some_and(|w| w.chars().all(|c| c.is_ascii_digit()));
-    let Some((dst, rest)) = line.split_once(" = ").filter(|_| numbered) else {
+/// What one instruction asks of an evaluator, from its disassembly line
+/// (`0004  v0 = ramp s0 Smooth [...]`) and its precision: its operation, the words that select
+/// a variant of it (a basis, a style, a metric, `key=word` settings; not numbers, slot names
+/// or tables), and `wide` for a promoted (f64) instruction.
+fn instruction_forms(line: &str, wide: bool) -> Vec<String> {
+    let Some((_, rest)) = line.split_once(" = ") else {
         return Vec::new();
     };
     let body = rest.split(" ; ").next().unwrap_or(rest);
-    let body = body.split('[').next().unwrap_or(body);
-    let mut words = body.split_whitespace();
+    let mut words = body.split('[').next().unwrap_or(body).split_whitespace();
     let Some(op) = words.next() else {
         return Vec::new();
     };
     let slot = |w: &str| {
-        let w = w.trim_end_matches(',');
         w.len() > 1
             && w[1..].chars().all(|c| c.is_ascii_digit())
             && w.starts_with(['s', 'v', 'd', 'w'])
     };
-    let wide = dst
-        .split_whitespace()
-        .last()
-        .is_some_and(|d| d.starts_with(['d', 'w']))
-        || body
-            .split_whitespace()
-            .any(|w| slot(w) && w.starts_with(['d', 'w']));
     let mut forms = vec![op.to_string()];
     if wide {
         forms.push(format!("{op} wide"));
     }
-    for word in words.filter(|w| !slot(w)) {
-        let word = word.trim_end_matches(',');
+    for word in words.map(|w| w.trim_end_matches(',')).filter(|w| !slot(w)) {
         let variant = match word.split_once('=') {
-            Some((key, value)) if value.parse::<f64>().is_ok() => key.to_string(),
-            Some(_) => word.to_string(),
-            None if word.chars().all(|c| c.is_ascii_alphabetic()) => word.to_string(),
+            Some((key, value)) if value.parse::<f64>().is_ok() => key,
+            Some(_) => word,
+            None if word.chars().all(|c| c.is_ascii_alphabetic()) => word,
             None => continue,
         };
         forms.push(format!("{op} {variant}"));
@@ -66,22 +53,32 @@ fn instruction_forms(line: &str) -> Vec<String> {
     forms
 }
 
+/// The instruction forms ([`instruction_forms`]) of the graph at `path`, compiled by default,
+/// and its instruction count.
+fn tape_forms(path: &std::path::Path) -> (usize, BTreeSet<String>) {
+    let options = texgraph::CompileOptions::default();
+    let (_, tape) = texgraph::load_tape(path, &texgraph::CheckOptions::default(), &options)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let text = tape.to_string();
+    // The numbered lines are the instructions, in order (the others: constants, outputs).
+    let lines = text.lines().filter(|l| {
+        l.split_whitespace()
+            .next()
+            .is_some_and(|w| w.chars().all(|c| c.is_ascii_digit()))
+    });
+    let forms = lines
+        .zip(tape.instructions())
+        .flat_map(|(line, i)| instruction_forms(line, i.prec() == texgraph::tape::Prec::Wide))
+        .collect();
+    (tape.instructions().len(), forms)
+}
+
 /// Of `graphs`, a few that together use every instruction form (operation, variant words,
 /// width; see [`instruction_forms`]) that any of them uses in its tape compiled by default:
 /// picked greedily, the graph adding most forms first (the shorter tape on a tie). A graph
 /// with a new instruction, basis or style joins the set by itself.
 pub fn covering(graphs: &[std::path::PathBuf]) -> Vec<std::path::PathBuf> {
-    let forms: Vec<(usize, BTreeSet<String>)> = graphs
-        .iter()
-        .map(|path| {
-            let options = texgraph::CompileOptions::default();
-            let (_, tape) = texgraph::load_tape(path, &texgraph::CheckOptions::default(), &options)
-                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-            let text = tape.to_string();
-            let set = text.lines().flat_map(instruction_forms).collect();
-            (tape.instructions().len(), set)
-        })
-        .collect();
+    let forms: Vec<(usize, BTreeSet<String>)> = graphs.iter().map(|p| tape_forms(p)).collect();
     let mut missing: BTreeSet<String> = forms.iter().flat_map(|(_, f)| f.clone()).collect();
     let mut chosen = Vec::new();
     while !missing.is_empty() {
@@ -525,7 +522,7 @@ pub fn gpu_contract_lod(
 fn the_covering_graphs_use_every_instruction_form() {
     let line = "0002  s0 = noise v2 cellular jitter=0.9 metric=Euclidean seed=3 ; cells";
     assert_eq!(
-        instruction_forms(line),
+        instruction_forms(line, false),
         [
             "noise",
             "noise cellular",
@@ -535,22 +532,11 @@ fn the_covering_graphs_use_every_instruction_form() {
         ]
     );
     assert_eq!(
-        instruction_forms("0001  d2 = mul d0, d1"),
+        instruction_forms("0001  d2 = mul d0, d1", true),
         ["mul", "mul wide"]
     );
-    assert!(instruction_forms("const s2 = 1").is_empty());
     let forms_of = |paths: &[std::path::PathBuf]| -> BTreeSet<String> {
-        paths
-            .iter()
-            .flat_map(|path| {
-                let options = texgraph::CompileOptions::default();
-                let (_, tape) =
-                    texgraph::load_tape(path, &texgraph::CheckOptions::default(), &options)
-                        .unwrap();
-                let text = tape.to_string();
-                text.lines().flat_map(instruction_forms).collect::<Vec<_>>()
-            })
-            .collect()
+        paths.iter().flat_map(|path| tape_forms(path).1).collect()
     };
     let graphs = graph_files();
     let chosen = covering(&graphs);

@@ -63,6 +63,7 @@ fn line_mean(tape: &Tape, p: [f64; 3], w: f64, panels: usize) -> f64 {
     let h = w / panels as f64;
     let mut ws = Workspace::<f64>::new();
     let (mut x, mut out) = (Vec::new(), Vec::new());
+    let (y, z) = (vec![p[1]; 4 * CHUNK], vec![p[2]; 4 * CHUNK]);
     let mut sum = 0.0;
     for first in (0..panels).step_by(CHUNK) {
         let count = CHUNK.min(panels - first);
@@ -71,10 +72,10 @@ fn line_mean(tape: &Tape, p: [f64; 3], w: f64, panels: usize) -> f64 {
             let centre = p[0] - w / 2.0 + (k as f64 + 0.5) * h;
             x.extend(NODES.iter().map(|node| centre + node * h / 2.0));
         }
-        let (y, z) = (vec![p[1]; x.len()], vec![p[2]; x.len()]);
-        out.resize(tape.channels() * x.len(), 0.0);
-        tape.eval_batch(&mut ws, &x, &y, &z, &mut out);
-        for (i, v) in out[..x.len()].iter().enumerate() {
+        let n = x.len();
+        out.resize(tape.channels() * n, 0.0);
+        tape.eval_batch(&mut ws, &x, &y[..n], &z[..n], &mut out);
+        for (i, v) in out[..n].iter().enumerate() {
             sum += WEIGHTS[i % 4] / 2.0 * v;
         }
     }

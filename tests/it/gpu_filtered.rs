@@ -131,8 +131,7 @@ fn compare(
 /// rule family (fused `|sin|` and a ramp, the lattice `mod` and `floor` of a checker, periodic
 /// chains with tiled octaves, cellular sub-footprints; white noise, a warp by a noise, ridged
 /// and billow sums are in [`RULES`]). lavapipe takes seconds to minutes to
-/// compile a filtered shader, so `cargo test` compares these; `TEXGRAPH_FULL=1` (or
-/// `TEXGRAPH_GPU_FILTERED_ALL=1`) compares every covered graph (each passed when the form
+/// compile a filtered shader, so `cargo test` compares these; `TEXGRAPH_FULL=1` compares every covered graph (each passed when the form
 /// landed; `seed002_noise`, `seed000_wood`, `warped_wood` and `seed004_turbulence` were in
 /// this list until the test loop was cut to five minutes, issue 46).
 const COMPARED: [&str; 4] = [
@@ -142,19 +141,17 @@ const COMPARED: [&str; 4] = [
     "cells.ron",
 ];
 
-/// The covered graphs of `graphs/` (those in [`COMPARED`], or all with `TEXGRAPH_FULL=1` or
-/// `TEXGRAPH_GPU_FILTERED_ALL=1`): the GPU's estimates are the CPU's.
+/// The covered graphs of `graphs/` (those in [`COMPARED`], or all with `TEXGRAPH_FULL=1`): the GPU's estimates are the CPU's.
 #[test]
 fn gpu_filtered_matches_cpu_filtered() {
     if !common::gpu_available("gpu_filtered_matches_cpu_filtered") {
         return;
     }
-    let all = common::full() || std::env::var("TEXGRAPH_GPU_FILTERED_ALL").is_ok_and(|v| v == "1");
     let (points, footprints) = points_and_footprints(400);
     let mut failures = Vec::new();
     for (path, tape) in covered() {
         let listed = COMPARED.iter().any(|name| path.ends_with(name));
-        if !(all || listed) {
+        if !(common::full() || listed) {
             continue;
         }
         match compare(&path.display().to_string(), &tape, &points, &footprints) {

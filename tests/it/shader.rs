@@ -400,12 +400,11 @@ pub(crate) fn shader_contract(
 }
 
 /// Whether a run takes the graph `stem`: those of `set`, or every graph with
-/// `TEXGRAPH_SHADER_ALL=1`; of those, with `TEXGRAPH_SHADER_ONLY=a,b`, the ones whose name
+/// `TEXGRAPH_FULL=1`; of those, with `TEXGRAPH_SHADER_ONLY=a,b`, the ones whose name
 /// contains `a` or `b` (while debugging, or to time a few).
 pub(crate) fn selected(stem: &str, set: &[&str]) -> bool {
-    let all = common::full() || std::env::var_os("TEXGRAPH_SHADER_ALL").is_some_and(|v| v == "1");
     let only = std::env::var("TEXGRAPH_SHADER_ONLY").unwrap_or_default();
-    (all || set.contains(&stem)) && only.split(',').any(|o| stem.contains(o))
+    (common::full() || set.contains(&stem)) && only.split(',').any(|o| stem.contains(o))
 }
 
 /// The points a run of `call`'s form takes, as the input buffer's floats (`call.stride()` a
@@ -550,7 +549,7 @@ fn spirv(dir: &Path, stem: &str, text: &str) -> Result<Vec<u32>, String> {
         .collect())
 }
 
-/// What `cargo test` runs on lavapipe (`TEXGRAPH_SHADER_ALL=1`: every graph): every basis
+/// What `cargo test` runs on lavapipe (`TEXGRAPH_FULL=1`: every graph): every basis
 /// (Perlin, Gradient, Value, Simplex, cellular, white), every fractal style, tiling, warps,
 /// ramps and the seeds' math, in graphs lavapipe compiles in seconds. Mesa lowers a table read
 /// at a run-time index to a ladder of branches over the array, so a library graph with a dozen
@@ -805,7 +804,7 @@ pub(crate) fn filtered_contract(
 /// 1.4e-4), a tenth of what the estimates are off from the true means (docs/filtering.md).
 pub(crate) const FILTERED_TOLERANCE: f64 = 1e-3;
 
-/// What `cargo test` runs of the filtered forms on lavapipe (`TEXGRAPH_SHADER_ALL=1`: every
+/// What `cargo test` runs of the filtered forms on lavapipe (`TEXGRAPH_FULL=1`: every
 /// graph): plain noise through a ramp, a sine, the lattice `mod` of a checker, a periodic
 /// chain. lavapipe inlines every call: a seed graph's filtered shader compiles in 1 to 40 s
 /// (the seed 003 marble's 24 s: run before stops), `floor_tiles` took more than 13 minutes and
@@ -817,7 +816,7 @@ const FILTERED_SET: &[&str] = &[
     "seed004_stripes",
 ];
 
-/// What `cargo test` runs of the GLSL `_filtered` forms on lavapipe (`TEXGRAPH_SHADER_ALL=1`:
+/// What `cargo test` runs of the GLSL `_filtered` forms on lavapipe (`TEXGRAPH_FULL=1`:
 /// every graph): glslang's SPIR-V of the same functions as [`FILTERED_SET`]'s first graph.
 const GLSL_FILTERED_SET: &[&str] = &["seed002_noise"];
 

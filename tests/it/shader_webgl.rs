@@ -19,7 +19,7 @@ use texgraph::shader::{ExportedFunction, Lang};
 /// The points' texture is `SIDE` × `SIDE` texels: 4096 points.
 const SIDE: usize = 64;
 
-/// What `cargo test` runs in the browser (`TEXGRAPH_SHADER_ALL=1`: every graph): cellular,
+/// What `cargo test` runs in the browser (`TEXGRAPH_FULL=1`: every graph): cellular,
 /// simplex, Perlin, Value and white noise, a fractal with its octave fade, tiling, sines (the
 /// exported sin and cos are written out: SwiftShader's are off by 1e-4), a vec3 colour output
 /// and a graph of several outputs, chosen among the graphs SwiftShader compiles in a few
@@ -36,7 +36,7 @@ const WEBGL_SET: &[&str] = &[
     "seed004_wood_grain",
 ];
 
-/// The graphs whose `_filtered` forms `cargo test` runs in the browser (`TEXGRAPH_SHADER_ALL=1`:
+/// The graphs whose `_filtered` forms `cargo test` runs in the browser (`TEXGRAPH_FULL=1`:
 /// every graph): noise through a ramp, a periodic chain. SwiftShader inlines every call, so a
 /// filtered shader compiles slowly: 4 s for these, 33 s for `cells`, 554 s for the seed 003
 /// marble's (docs/shaders.md).
@@ -175,7 +175,7 @@ fn fetch(call: Call, k: usize) -> String {
 }
 
 /// Runs `call`'s form of each graph's exported GLSL ES (the graphs of `set`, or all with
-/// `TEXGRAPH_SHADER_ALL=1`) in the browser at [`run_of`]'s points, held to its contract.
+/// `TEXGRAPH_FULL=1`) in the browser at [`run_of`]'s points, held to its contract.
 async fn every_graph_in_webgl2(test: &str, set: &[&str], call: Call) {
     if !browser_installed(test) {
         return;
