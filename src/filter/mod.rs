@@ -14,6 +14,7 @@
 mod chains;
 pub mod fusions;
 pub mod integers;
+mod lanes;
 pub mod moments;
 pub mod noise;
 pub mod operands;

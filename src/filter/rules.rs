@@ -198,6 +198,16 @@ impl Footprint {
         self.edges
     }
 
+    /// `Σ_k e_k e_kᵀ / 12`, the covariance of linear parts as a quadratic form.
+    pub(super) fn quad(&self) -> &[[f64; 3]; 3] {
+        &self.quad
+    }
+
+    /// The slope fit's matrix ([`Footprint::slope_with`]); `None` for nearly parallel edges.
+    pub(super) fn fit(&self) -> Option<&[[f64; 3]; 3]> {
+        self.fit.as_ref()
+    }
+
     /// Whether every edge is zero: filtered evaluation is then point evaluation.
     pub fn is_point(&self) -> bool {
         self.live == 0
