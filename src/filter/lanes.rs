@@ -7,7 +7,7 @@
 //! per-lane arithmetic does not depend on how the lanes are grouped, so one lane of a batch and
 //! [`super::tape::Filtered::eval_point`] get the same bits.
 
-use super::rules::Dist;
+use super::rules::{dot, residual, Dist};
 use multiversion::multiversion;
 
 /// One octave at each lane of a run: mean, linear part and residual variance, and whether the
@@ -221,25 +221,8 @@ pub(super) fn sampled(run: &CentreRun, value: &[f64], grad: [&[f64]; 3], out: &m
     }
 }
 
-#[inline(always)]
-fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
 /// `gᵀ Q g`.
 #[inline(always)]
 fn quadratic(q: &[[f64; 3]; 3], g: &[f64; 3]) -> f64 {
     g[0] * dot(&q[0], g) + g[1] * dot(&q[1], g) + g[2] * dot(&q[2], g)
-}
-
-/// `rules::residual`, branch-free: the part of `total` the linear part does not explain, 0
-/// where that is not a positive finite number above rounding.
-#[inline(always)]
-fn residual(total: f64, linear: f64) -> f64 {
-    let r = total - linear;
-    if r.is_finite() & (r > 1e-9 * total.abs()) {
-        r
-    } else {
-        0.0
-    }
 }

@@ -321,15 +321,10 @@ pub struct LaneScratch {
     fades: Vec<Fade>,
     which: Vec<u32>,
     sampled: Vec<usize>,
-    coords: [Vec<f64>; 3],
-    value: Vec<f64>,
-    grad: [Vec<f64>; 3],
     weight: Vec<Dist>,
     octave: Vec<Dist>,
     same: Vec<bool>,
-    /// The sub-box centres sampled for their value alone.
-    value_coords: [Vec<f64>; 3],
-    values: Vec<f64>,
+    samples: Samples,
     /// The runs of lanes sharing a fade, and a run's octave (`lanes.rs`).
     runs: Vec<Run>,
     kernel: super::lanes::Octave,
@@ -338,31 +333,37 @@ pub struct LaneScratch {
     centres: [Vec<f64>; 3],
 }
 
-/// The noise's values at sub-box centres (one batch of the SIMD kernels, in f64: f32 samples
-/// moved lava's f32 filtered value by 1.6e-5 and a steep random graph's by 15 %, past the f32
-/// contract, docs/filtering.md).
-fn sub_values(s: &Sampler, [x, y, z]: [&[f64]; 3], values: &mut Vec<f64>) {
-    values.clear();
-    values.resize(x.len(), 0.0);
-    s.table.sample_batch(x, y, z, values);
+/// An octave's two batches of samples: the value and gradient at `coords` (centres, and the
+/// sub-box centres of inputs with residual variance), the value alone at `value_coords`.
+#[derive(Default)]
+struct Samples {
+    coords: [Vec<f64>; 3],
+    value: Vec<f64>,
+    grad: [Vec<f64>; 3],
+    value_coords: [Vec<f64>; 3],
+    values: Vec<f64>,
 }
 
-/// The noise's value and gradient at `coords` (one batch of the SIMD kernels' gradient).
-fn value_grads(
-    s: &Sampler,
-    coords: &[Vec<f64>; 3],
-    value: &mut Vec<f64>,
-    grad: &mut [Vec<f64>; 3],
-) {
-    let n = coords[0].len();
-    value.resize(n, 0.0);
-    grad.iter_mut().for_each(|g| g.resize(n, 0.0));
-    let [gx, gy, gz] = grad;
-    s.table.sample_value_grad_batch(
-        [&coords[0], &coords[1], &coords[2]],
-        value,
-        [gx.as_mut_slice(), gy.as_mut_slice(), gz.as_mut_slice()],
-    );
+impl Samples {
+    fn clear(&mut self) {
+        self.coords.iter_mut().for_each(Vec::clear);
+        self.value_coords.iter_mut().for_each(Vec::clear);
+    }
+
+    /// Both batches, each one call of the SIMD kernels, in f64 (f32 samples moved lava's f32
+    /// filtered value by 1.6e-5 and a steep random graph's by 15 %, past the f32 contract,
+    /// docs/filtering.md).
+    fn sample(&mut self, s: &Sampler) {
+        let [x, y, z] = &self.coords;
+        self.value.resize(x.len(), 0.0);
+        self.grad.iter_mut().for_each(|g| g.resize(x.len(), 0.0));
+        let [gx, gy, gz] = &mut self.grad;
+        s.table
+            .sample_value_grad_batch([x, y, z], &mut self.value, [gx, gy, gz]);
+        let [x, y, z] = &self.value_coords;
+        self.values.resize(x.len(), 0.0);
+        s.table.sample_batch(x, y, z, &mut self.values);
+    }
 }
 
 /// A lane's fade: `α`, the damping of its slope (`Footprint::damp_matrix` of the `β`s), and
@@ -381,6 +382,20 @@ struct Fade {
 struct Sub {
     offsets: [[f64; 3]; 8],
     alpha: f64,
+}
+
+impl Fade {
+    /// The fade of `q` over the lane's footprint, its slope damping and, in the sub-sampled
+    /// band, its sub-boxes.
+    fn new(rules: &Rules, stats: &Stats, q: &[Dist; 3]) -> Fade {
+        let (alpha, beta) = fade(rules, stats, q);
+        let band = (SUB_BAND.0..=SUB_BAND.1).contains(&alpha);
+        Fade {
+            alpha,
+            damp: rules.footprint.damp_matrix(beta),
+            sub: band.then(|| Sub::new(rules, stats, q)),
+        }
+    }
 }
 
 impl Sub {
@@ -423,14 +438,7 @@ fn lane_fades(
     which.clear();
     for (lane, q) in p.iter().enumerate() {
         if fades.is_empty() || !same[lane] {
-            let rules = lanes.rules(lane);
-            let (alpha, beta) = fade(&rules, stats, q);
-            let band = (SUB_BAND.0..=SUB_BAND.1).contains(&alpha);
-            fades.push(Fade {
-                alpha,
-                damp: rules.footprint.damp_matrix(beta),
-                sub: band.then(|| Sub::new(&rules, stats, q)),
-            });
+            fades.push(Fade::new(&lanes.rules(lane), stats, q));
         }
         which.push(fades.len() as u32 - 1);
     }
@@ -492,11 +500,7 @@ fn octave_lanes(
         which,
         sampled: todo,
         runs,
-        coords,
-        value,
-        grad,
-        value_coords,
-        values,
+        samples,
         kernel: octave,
         ..
     } = scratch;
@@ -520,9 +524,7 @@ fn octave_lanes(
             Some(_) => Kind::SubGrads,
         };
         match runs.last_mut() {
-            Some(r) if r.fade == which[lane] && r.kind == kind && r.lanes.end == t => {
-                r.lanes.end += 1
-            }
+            Some(r) if r.fade == which[lane] && r.kind == kind => r.lanes.end += 1,
             _ => runs.push(Run {
                 fade: which[lane],
                 kind,
@@ -531,8 +533,12 @@ fn octave_lanes(
             }),
         }
     }
-    coords.iter_mut().for_each(Vec::clear);
-    value_coords.iter_mut().for_each(Vec::clear);
+    samples.clear();
+    let Samples {
+        coords,
+        value_coords,
+        ..
+    } = samples;
     for run in runs.iter_mut() {
         let run_lanes = &todo[run.lanes.clone()];
         let offsets = fades[run.fade as usize].sub.map(|sub| sub.offsets);
@@ -564,29 +570,21 @@ fn octave_lanes(
             }
         }
     }
-    value_grads(s, coords, value, grad);
-    let [vx, vy, vz] = &*value_coords;
-    sub_values(s, [vx, vy, vz], values);
-    let samples = Samples {
-        coords,
-        value,
-        grad,
-        value_coords,
-        values,
-    };
+    samples.sample(s);
+    let samples = &*samples;
     for run in runs.iter() {
         let fade = &fades[run.fade as usize];
         let run_lanes = &todo[run.lanes.clone()];
         let first = run_lanes[0];
         let (rules, q) = (lanes.rules(first), &p[first]);
         if run.kind == Kind::SubGrads {
+            let sub = fade
+                .sub
+                .as_ref()
+                .expect("a sub-sampled run has its sub-boxes");
             for (k, &lane) in run_lanes.iter().enumerate() {
                 let r = run.at + 8 * k..run.at + 8 * k + 8;
                 let grads = [0, 1, 2].map(|i| &samples.grad[i][r.clone()]);
-                let sub = fade
-                    .sub
-                    .as_ref()
-                    .expect("a sub-sampled run has its sub-boxes");
                 out[lane] = subsampled(
                     &rules,
                     &s.stats,
@@ -596,27 +594,18 @@ fn octave_lanes(
                     Some(grads),
                 )
                 .unwrap_or_else(|| {
-                    degenerate(&rules, s, &p[lane], fade, &samples, Kind::SubGrads, r.start)
+                    degenerate(&rules, s, &p[lane], fade, samples, Kind::SubGrads, r.start)
                 });
             }
             continue;
         }
-        run_kernel(&rules, s, q, fade, run, run_lanes.len(), &samples, octave);
+        run_kernel(&rules, s, q, fade, run, run_lanes.len(), samples, octave);
         for (k, &lane) in run_lanes.iter().enumerate() {
             out[lane] = octave
                 .get(k)
-                .unwrap_or_else(|| fallback(&rules, s, &p[lane], fade, &samples, run, k));
+                .unwrap_or_else(|| fallback(&rules, s, &p[lane], fade, samples, run, k));
         }
     }
-}
-
-/// The batches of an octave's samples, for the runs to read.
-struct Samples<'a> {
-    coords: &'a [Vec<f64>; 3],
-    value: &'a [f64],
-    grad: &'a [Vec<f64>; 3],
-    value_coords: &'a [Vec<f64>; 3],
-    values: &'a [f64],
 }
 
 /// A centre-sampled or value-only sub-sampled run's kernel (`lanes.rs`) over its `n` lanes.
@@ -698,9 +687,9 @@ fn degenerate(
     first: usize,
 ) -> Dist {
     let c = if kind == Kind::SubValues {
-        samples.value_coords
+        &samples.value_coords
     } else {
-        samples.coords
+        &samples.coords
     };
     let (value, g) = s
         .table
@@ -1014,45 +1003,34 @@ fn shared_octave(
     let rules = lanes.rules(0);
     let stats = &s.stats;
     let q0 = p[0].map(|c| c.scale(freq));
-    let (alpha, beta) = fade(&rules, stats, &q0);
-    if alpha < FADED {
-        let faded = unsampled(s, &q0, alpha).expect("faded");
+    let fade = Fade::new(&rules, stats, &q0);
+    if fade.alpha < FADED {
+        let faded = unsampled(s, &q0, fade.alpha).expect("faded");
         (0..p.len()).for_each(|lane| sum.add(lane, amp, &faded));
         return true;
     }
     let constant = q0.iter().all(|c| c.var == 0.0 && c.grad == [0.0; 3]);
-    let band = (SUB_BAND.0..=SUB_BAND.1).contains(&alpha);
     let value_only = q0.iter().all(|c| c.var == 0.0);
-    if (alpha == 1.0 && constant) || (band && !value_only) {
+    if (fade.alpha == 1.0 && constant) || (fade.sub.is_some() && !value_only) {
         return false;
     }
-    let fade = Fade {
-        alpha,
-        damp: rules.footprint.damp_matrix(beta),
-        sub: band.then(|| Sub::new(&rules, stats, &q0)),
-    };
     let n = p.len();
     let LaneScratch {
-        coords,
-        value,
-        grad,
-        value_coords,
-        values,
+        samples,
         kernel: octave,
         ..
     } = scratch;
-    coords.iter_mut().for_each(Vec::clear);
-    value_coords.iter_mut().for_each(Vec::clear);
+    samples.clear();
     let kind = match &fade.sub {
         None => {
-            for (i, c) in coords.iter_mut().enumerate() {
+            for (i, c) in samples.coords.iter_mut().enumerate() {
                 c.extend(centres[i].iter().map(|m| freq * m));
             }
             Kind::Centre
         }
         // Sub-box j of lane i at `j * n + i`.
         Some(sub) => {
-            for (i, c) in value_coords.iter_mut().enumerate() {
+            for (i, c) in samples.value_coords.iter_mut().enumerate() {
                 for offset in &sub.offsets {
                     c.extend(centres[i].iter().map(|m| freq * m + offset[i]));
                 }
@@ -1060,26 +1038,18 @@ fn shared_octave(
             Kind::SubValues
         }
     };
-    value_grads(s, coords, value, grad);
-    let [vx, vy, vz] = &*value_coords;
-    sub_values(s, [vx, vy, vz], values);
-    let samples = Samples {
-        coords,
-        value,
-        grad,
-        value_coords,
-        values,
-    };
+    samples.sample(s);
+    let samples = &*samples;
     let run = Run {
         fade: 0,
         kind,
         lanes: 0..n,
         at: 0,
     };
-    run_kernel(&rules, s, &q0, &fade, &run, n, &samples, octave);
+    run_kernel(&rules, s, &q0, &fade, &run, n, samples, octave);
     if !sum.add_scaled(amp, octave) {
         for lane in (0..n).filter(|&lane| !octave.holds(lane)) {
-            let d = fallback(&rules, s, &q0, &fade, &samples, &run, lane);
+            let d = fallback(&rules, s, &q0, &fade, samples, &run, lane);
             sum.add(lane, amp, &d);
         }
     }

@@ -306,6 +306,7 @@ pub(super) fn apply(m: &Option<[[f64; 3]; 3]>, g: [f64; 3]) -> [f64; 3] {
     }
 }
 
+#[inline]
 pub(super) fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
@@ -1059,6 +1060,7 @@ impl Rules<'_> {
 /// The residual variance left when a linear part of variance `linear` is taken out of a total
 /// variance `total`: 0 where the difference is rounding (below 1e-9 of the total), and where
 /// either overflowed (an overflowing variance is dropped, not propagated as ∞ or NaN).
+#[inline]
 pub(super) fn residual(total: f64, linear: f64) -> f64 {
     let r = total - linear;
     if r.is_finite() && r > 1e-9 * total.abs() {
