@@ -64,6 +64,8 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
         )?;
         plan.keep_plain(sampled_error(&plain, &plan.extent));
     }
+    let narrow = narrow_samples(graph, &live, &selected, options);
+    let mut narrow_instrs = Vec::new();
     let no_wide = vec![false; graph.nodes.len()];
     let wide = plan.as_ref().map_or(&no_wide, |p| &p.wide);
     let uses = Uses::new(graph, &live, &selected, wide);
@@ -117,6 +119,9 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
             options,
             &mut stretches,
         );
+        if narrow[id] > 0.0 {
+            narrow_instrs.push((emitter.instrs.len(), narrow[id]));
+        }
         emitter.instrs.push(instr);
         emitter.origins.push(node.origin.node.clone());
         emitter.convert(node, id, &uses, &mut slots);
@@ -152,8 +157,61 @@ pub fn compile(graph: &CheckedGraph, options: &CompileOptions) -> Result<Tape, D
     };
     let mut tape = emitter.finish(outputs, stats);
     tape.precision = plan.map(std::sync::Arc::new);
+    tape.narrow_samples = vec![0.0; tape.instrs.len()];
+    for (i, share) in narrow_instrs {
+        tape.narrow_samples[i] = share;
+    }
     debug_assert_eq!(tape.check_slots(), Ok(()), "{tape}");
     Ok(tape)
+}
+
+/// What the f32 noise samples of the filtered form may add to an f32 result, at most (issue
+/// 47's contract: an f32 filtered value within 1e-5 of the f64 one; half of it for the
+/// first-order bound, the rest for the filtered rules' own f32 rounding of the result).
+pub const NARROW_SAMPLE_ERROR: f64 = 5e-6;
+
+/// Per graph node: the share of a lattice noise's or an Fbm or turbulence fractal's
+/// amplitude whose value-only samples the filtered form may take in f32 for an f32 result
+/// (`Tape::narrow_samples`; 0 elsewhere). The precision analysis bounds what the node's own
+/// f32 roundings add to the outputs (over the extent, or all of space without one); each of
+/// the `n` such nodes gets `NARROW_SAMPLE_ERROR / n` of it, and a fractal's octaves from
+/// octave `k` up may sample in f32 where their share of its summed amplitude keeps its bound
+/// within that (the fine octaves: `filter/noise.rs`' `FractalSamplers`), a noise where its
+/// whole bound does (a share of at least 1).
+fn narrow_samples(
+    graph: &CheckedGraph,
+    live: &[bool],
+    selected: &[&crate::graph::Output],
+    options: &CompileOptions,
+) -> Vec<f64> {
+    use crate::noise::{Basis, Style};
+    let mut share = vec![0.0; graph.nodes.len()];
+    let sampled = |op: &Op| match op {
+        Op::Noise(key) => !matches!(key.basis, Basis::White | Basis::Cellular(_)),
+        Op::Fractal(key, params) => {
+            !matches!(key.basis, Basis::White | Basis::Cellular(_))
+                && matches!(params.style, Style::Fbm | Style::Turbulence)
+        }
+        _ => false,
+    };
+    let candidates: Vec<usize> = (0..graph.nodes.len())
+        .filter(|&n| live[n] && sampled(&graph.nodes[n].op))
+        .collect();
+    if candidates.is_empty() {
+        return share;
+    }
+    let outputs: Vec<NodeId> = selected.iter().map(|o| o.node).collect();
+    let extent = options.extent.unwrap_or_else(Extent::unbounded);
+    let costs = crate::precision::f32_costs(graph, live, &outputs, extent, NARROW_SAMPLE_ERROR);
+    let each = NARROW_SAMPLE_ERROR / candidates.len() as f64;
+    for n in candidates {
+        share[n] = if costs[n] == 0.0 {
+            f64::INFINITY
+        } else {
+            each / costs[n]
+        };
+    }
+    share
 }
 
 /// The precision plan's confirmation: the largest |f32 − f64| of `tape` (compiled plain) on [`SAMPLES`] points spread over
@@ -722,6 +780,7 @@ impl Emitter {
             wide_constants: self.wide_constants,
             precision: None,
             reasons: self.reasons,
+            narrow_samples: Vec::new(),
         }
     }
 

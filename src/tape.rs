@@ -480,6 +480,11 @@ pub struct Tape {
     /// instruction why (instruction index, reason).
     pub(crate) precision: Option<Arc<crate::precision::Plan>>,
     pub(crate) reasons: Vec<(usize, String)>,
+    /// Per instruction: the share of a lattice noise's or fractal's summed amplitude whose
+    /// value-only samples the filtered form may take in f32 for an f32 result, its finest
+    /// octaves first (`compile::narrow_samples`: the precision analysis bounds what that adds
+    /// within `compile::NARROW_SAMPLE_ERROR`); 0: none.
+    pub(crate) narrow_samples: Vec<f64>,
 }
 
 /// A tape is built only by [`crate::compile::compile()`]: its fields are private to the crate, so no caller

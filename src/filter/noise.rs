@@ -102,6 +102,9 @@ pub fn cached_stats(key: crate::graph::TableKey, table: &NoiseTable) -> Stats {
 pub struct Sampler<'a> {
     pub table: &'a NoiseTable,
     pub stats: Stats,
+    /// The value-only sub-box samples in f32 (an f32 result, and the precision analysis
+    /// bounds what that adds: `Tape::narrow_samples`).
+    pub narrow: bool,
 }
 
 /// The fade `α` of a noise whose input is `p` (noise space) over the footprint, and the
@@ -342,6 +345,7 @@ struct Samples {
     grad: [Vec<f64>; 3],
     value_coords: [Vec<f64>; 3],
     values: Vec<f64>,
+    narrow: Vec<f32>,
 }
 
 impl Samples {
@@ -350,9 +354,10 @@ impl Samples {
         self.value_coords.iter_mut().for_each(Vec::clear);
     }
 
-    /// Both batches, each one call of the SIMD kernels, in f64 (f32 samples moved lava's f32
-    /// filtered value by 1.6e-5 and a steep random graph's by 15 %, past the f32 contract,
-    /// docs/filtering.md).
+    /// Both batches, each one call of the SIMD kernels: the value and gradient in f64, the
+    /// values alone in f32 where the sampler is narrow (its f32 error bounded by the precision
+    /// analysis; sampling every noise in f32 moved lava's f32 filtered value by 1.6e-5 and a
+    /// steep random graph's by 15 %, docs/filtering.md), else in f64.
     fn sample(&mut self, s: &Sampler) {
         let [x, y, z] = &self.coords;
         self.value.resize(x.len(), 0.0);
@@ -362,7 +367,15 @@ impl Samples {
             .sample_value_grad_batch([x, y, z], &mut self.value, [gx, gy, gz]);
         let [x, y, z] = &self.value_coords;
         self.values.resize(x.len(), 0.0);
-        s.table.sample_batch(x, y, z, &mut self.values);
+        if s.narrow {
+            self.narrow.resize(x.len(), 0.0);
+            s.table.sample_batch(x, y, z, &mut self.narrow);
+            for (v, &n) in self.values.iter_mut().zip(&self.narrow) {
+                *v = f64::from(n);
+            }
+        } else {
+            s.table.sample_batch(x, y, z, &mut self.values);
+        }
     }
 }
 
@@ -872,21 +885,29 @@ pub struct FractalSamplers<'a> {
     pub octaves: &'a Octaves,
     pub base: Sampler<'a>,
     pub periodic: Option<&'a [NoiseTable]>,
+    /// The share of the summed amplitude whose value-only samples may be f32
+    /// (`Tape::narrow_samples`).
+    pub narrow: f64,
 }
 
 impl<'a> FractalSamplers<'a> {
-    /// Each octave's sampler, frequency and amplitude.
+    /// Each octave's sampler, frequency and amplitude. Octave `k` samples its values in f32
+    /// where the octaves from `k` on hold at most the `narrow` share of the summed amplitude
+    /// (the precision analysis' bound then holds whichever of them a footprint sub-samples).
     fn each(&self) -> impl Iterator<Item = (Sampler<'a>, f64, f64)> + '_ {
         let octaves = &self.octaves;
+        let total: f64 = octaves.amplitudes.iter().map(|a| a.abs()).sum();
+        let mut rest = total;
         (octaves.frequencies.iter().zip(&octaves.amplitudes))
             .enumerate()
-            .map(|(k, (&freq, &amp))| {
-                let sampler = match self.periodic {
-                    Some(tables) => Sampler {
-                        table: &tables[k],
-                        stats: self.base.stats,
-                    },
-                    None => Sampler { ..self.base },
+            .map(move |(k, (&freq, &amp))| {
+                let narrow = self.narrow > 0.0 && rest <= self.narrow * total;
+                rest -= amp.abs();
+                let table = self.periodic.map_or(self.base.table, |tables| &tables[k]);
+                let sampler = Sampler {
+                    table,
+                    narrow,
+                    ..self.base
                 };
                 (sampler, freq, amp)
             })

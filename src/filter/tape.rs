@@ -235,7 +235,13 @@ impl<'t> Filtered<'t> {
         out: &mut [S],
     ) {
         let lanes = Lanes::new(footprints, slots.width);
-        self.run(slots, points, lanes);
+        // An f32 result may take f32 noise samples where the tape allows (`narrow_samples`).
+        self.run(
+            slots,
+            points,
+            lanes,
+            S::MANTISSA_BITS < f64::MANTISSA_DIGITS,
+        );
         let channels = self.tape.channels();
         let w = slots.width;
         for (lane, out) in out.chunks_exact_mut(channels).enumerate() {
@@ -354,7 +360,7 @@ impl<'t> Filtered<'t> {
 
     /// The tape over a chunk: instruction by instruction, each over every lane (a noise
     /// instruction samples all lanes in one batch, `noise_chunk`).
-    fn run(&self, s: &mut Slots, points: [&[f64]; 3], lanes: Lanes) {
+    fn run(&self, s: &mut Slots, points: [&[f64]; 3], lanes: Lanes, narrow: bool) {
         let f = &self.fusions;
         let w = s.width;
         let per_instruction = self.integer.iter().zip(f.save.iter().zip(&f.fused));
@@ -362,7 +368,12 @@ impl<'t> Filtered<'t> {
             self.tape.instrs.iter().zip(per_instruction).enumerate()
         {
             if is_noise(instr) {
-                self.noise_chunk(lanes, instr, *integer, s);
+                let share = if narrow {
+                    self.tape.narrow_samples[index]
+                } else {
+                    0.0
+                };
+                self.noise_chunk(lanes, instr, *integer, s, share);
                 continue;
             }
             for &(source, k) in save {
@@ -419,17 +430,22 @@ impl<'t> Filtered<'t> {
         )
     }
 
-    fn sampler(&self, table: u32) -> Sampler<'_> {
+    /// Table `table`'s sampler; `narrow`: its value-only samples in f32.
+    fn sampler(&self, table: u32, narrow: bool) -> Sampler<'_> {
         Sampler {
             table: &self.tape.tables[table as usize].1,
             stats: self.stats[table as usize],
+            narrow,
         }
     }
 
-    fn fractal_samplers(&self, table: u32, octaves: u32) -> FractalSamplers<'_> {
+    /// A fractal's octave samplers; `share`: of its summed amplitude, how much may take f32
+    /// value-only samples.
+    fn fractal_samplers(&self, table: u32, octaves: u32, share: f64) -> FractalSamplers<'_> {
         FractalSamplers {
             octaves: &self.tape.octaves[octaves as usize],
-            base: self.sampler(table),
+            narrow: share,
+            base: self.sampler(table, false),
             periodic: self.octave_tables.get(&(table, octaves)).map(Vec::as_slice),
         }
     }
@@ -607,7 +623,16 @@ impl<'t> Filtered<'t> {
 
     /// A noise instruction over every lane of the chunk; a scalar result goes to the wide
     /// slots for a promoted instruction (the same rule, every filtered value being f64).
-    fn noise_chunk(&self, lanes: Lanes, instr: &Instr, integer: [bool; 3], s: &mut Slots) {
+    /// A noise instruction over the chunk; `share`: of its summed amplitude, how much may take
+    /// f32 value-only samples (`Tape::narrow_samples`, 0 for an f64 result).
+    fn noise_chunk(
+        &self,
+        lanes: Lanes,
+        instr: &Instr,
+        integer: [bool; 3],
+        s: &mut Slots,
+        share: f64,
+    ) {
         let w = s.width;
         let range = |slot: u32| slot as usize * w..(slot as usize + 1) * w;
         let file = match instr.prec() {
@@ -618,7 +643,7 @@ impl<'t> Filtered<'t> {
             Instr::Noise {
                 dst, src, table, ..
             } if self.per_lane(table) => {
-                let sampler = self.sampler(table);
+                let sampler = self.sampler(table, false);
                 let white = sampler.table.basis() == Basis::White;
                 let (p, out) = (&s.vec3s[range(src)], &mut file[range(dst)]);
                 for (lane, (o, p)) in out.iter_mut().zip(p).enumerate() {
@@ -636,7 +661,7 @@ impl<'t> Filtered<'t> {
                 dst, src, table, ..
             } => fnoise::noise_lanes(
                 lanes,
-                &self.sampler(table),
+                &self.sampler(table, share >= 1.0),
                 &s.vec3s[range(src)],
                 &mut file[range(dst)],
                 &mut s.scratch,
@@ -650,7 +675,7 @@ impl<'t> Filtered<'t> {
                 bias,
                 ..
             } => {
-                let f = self.fractal_samplers(table, octaves);
+                let f = self.fractal_samplers(table, octaves, share);
                 let out = &mut file[range(dst)];
                 let p = &s.vec3s[range(src)];
                 fnoise::fractal_lanes(lanes, &self.shapes, &f, style, p, out, &mut s.scratch);
@@ -667,7 +692,7 @@ impl<'t> Filtered<'t> {
                     let p = &s.vec3s[src as usize * w + lane];
                     let rules = lanes.rules(lane);
                     s.vec3s[dst as usize * w + lane] =
-                        fnoise::noise_gradient(&rules, &self.sampler(table), p, 1.0);
+                        fnoise::noise_gradient(&rules, &self.sampler(table, false), p, 1.0);
                 }
             }
             Instr::FractalGradient {
@@ -697,7 +722,7 @@ impl<'t> Filtered<'t> {
         style: Style,
         p: &[Dist; 3],
     ) -> [Dist; 3] {
-        let f = self.fractal_samplers(table, octaves);
+        let f = self.fractal_samplers(table, octaves, 0.0);
         let base = &self.tape.tables[table as usize].1;
         let point = if style == Style::Fbm {
             [0.0; 3]

@@ -293,6 +293,33 @@ pub(crate) fn plan(
     }
 }
 
+/// Per graph node, a bound on what its own f32 roundings add to the outputs over `extent`,
+/// every other node exact (`∞` for a node the outputs do not read or cannot bound): what the
+/// filtered form reads to choose which noise instructions may sample in f32 for an f32 result
+/// (`Tape::narrow_samples`). The filtered form's means move with a sample by at most the point
+/// tape's slopes (a mean of `f(X)` moves by at most `sup |f'|` times a move of `X`), so the
+/// point tape's sensitivities bound them.
+pub(crate) fn f32_costs(
+    graph: &CheckedGraph,
+    live: &[bool],
+    outputs: &[NodeId],
+    extent: Extent,
+    max_error: f64,
+) -> Vec<f64> {
+    let facts = Facts::new(graph, live, extent, max_error);
+    let all = facts.sensitivities(outputs.iter().copied());
+    (0..graph.nodes.len())
+        .map(|n| {
+            let cost = facts.own_cost(n, &all);
+            if live[n] && !cost.is_nan() {
+                cost
+            } else {
+                f64::INFINITY
+            }
+        })
+        .collect()
+}
+
 /// A bound and its largest term.
 #[derive(Default)]
 struct Bound {

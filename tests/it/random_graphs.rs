@@ -289,8 +289,11 @@ proptest! {
                 let v = f64s[c];
                 prop_assert!(v.to_bits() == batch[c * n + i].to_bits() || (v.is_nan() && batch[c * n + i].is_nan()),
                     "batch {} vs point {v} at {p:?}\n{text}", batch[c * n + i]);
-                // (An f64 mean beyond f32's range takes the point value in f32.)
-                prop_assert!(f32s[c].to_bits() == (v as f32).to_bits() || (v.is_nan() && f32s[c].is_nan()) || !(v as f32).is_finite(),
+                // Issue 47's f32 contract: within 1e-5 of the f64 value (f32 noise samples where
+                // the precision analysis allows them). (An f64 mean beyond f32's range takes the
+                // point value in f32.)
+                let narrow = f64::from(f32s[c]);
+                prop_assert!((narrow - v).abs() <= 1e-5 * v.abs().max(1.0) || (v.is_nan() && f32s[c].is_nan()) || !(v as f32).is_finite(),
                     "f32 {} vs f64 {v}\n{text}", f32s[c]);
                 if exact[c].is_finite() {
                     prop_assert!(v.is_finite(), "channel {c} at {p:?} over {footprint:?}: filtered {v}, point {}\n{text}", exact[c]);
