@@ -789,10 +789,14 @@ impl Rules<'_> {
         let m = d.mean;
         match op {
             UnaryOp::Neg => d.scale(-1.0),
-            UnaryOp::Abs => match moments::abs_moments(d.mean, &self.spread(d)) {
-                Some(m) if !d.is_constant() => self.out_of_moments(d, m),
-                _ => self.piecewise(&shapes.abs, d),
-            },
+            // One spread for both the corner sum and the piecewise rule (it was made twice
+            // where the corner sum declines: most lanes, whose support misses 0).
+            UnaryOp::Abs => {
+                let spread = self.spread(d);
+                let m = moments::abs_moments(d.mean, &spread)
+                    .unwrap_or_else(|| shapes.abs.moments(d.mean, &spread));
+                self.out_of_moments(d, m)
+            }
             UnaryOp::Sign => self.piecewise(&shapes.sign, d),
             UnaryOp::Sin => self.sin_cos(d, false),
             UnaryOp::Cos => self.sin_cos(d, true),

@@ -623,8 +623,8 @@ impl<'t> Filtered<'t> {
 
     /// A noise instruction over every lane of the chunk; a scalar result goes to the wide
     /// slots for a promoted instruction (the same rule, every filtered value being f64).
-    /// A noise instruction over the chunk; `share`: of its summed amplitude, how much may take
-    /// f32 value-only samples (`Tape::narrow_samples`, 0 for an f64 result).
+    /// `share`: of its summed amplitude, how much may take f32 value-only samples
+    /// (`Tape::narrow_samples`; 0 for an f64 result).
     fn noise_chunk(
         &self,
         lanes: Lanes,
