@@ -488,10 +488,13 @@ fn moment_series(w: &[f64]) -> [f64; SERIES] {
     e
 }
 
-/// `x^j / j!` for `j < SERIES`.
-fn power_series(x: f64) -> [f64; SERIES] {
+/// `x^j / j!` for `j < n` (at most `SERIES`; the entries past `n` are not computed and must
+/// not be read). Each term is a division of the one before (a dependent chain): computing only
+/// the terms a caller reads halves the cost of the periodic chains' moments (`tp_means` of one
+/// order asks for one term, `plan`'s for seven).
+fn power_series(x: f64, n: usize) -> [f64; SERIES] {
     let mut p = [1.0; SERIES];
-    for j in 1..SERIES {
+    for j in 1..n.min(SERIES) {
         p[j] = p[j - 1] * x / j as f64;
     }
     p
@@ -547,7 +550,7 @@ impl Widths {
 fn poly_means(x: f64, ws: &Widths, level: usize, n0: usize, len: usize) -> [f64; 7] {
     debug_assert!(n0 + 6 < SERIES);
     let e = &ws.series[level];
-    let p = power_series(x);
+    let p = power_series(x, n0 + len);
     array::from_fn(|d| {
         if d >= len {
             return 0.0;
@@ -1112,7 +1115,8 @@ fn piecewise_early(knots: &[f64], polys: &[[f64; 4]], t: f64, s: &Spread) -> Opt
 
 /// `B_n(u) / n!` (`n <= 10`).
 fn bernoulli_over_factorial(n: usize, u: f64) -> f64 {
-    horner(&BERNOULLI[n], u) / FACT[n]
+    // B_n's leading coefficient (of u^n) is 1: its row up to n holds every non-zero one.
+    horner(&BERNOULLI[n][..=n], u) / FACT[n]
 }
 
 /// `Φ_n(x) = E[B_n(fract(x + S_level))] / n!` for `n >= 1`, `S_level` over the widths
@@ -1183,7 +1187,7 @@ pub fn abs_moments(t: f64, s: &Spread) -> Option<Moments> {
             }
         }
         if x > 0.0 {
-            let p = power_series(x);
+            let p = power_series(x, k + 2);
             plus += sign * p[k + 1];
             above += sign * p[k];
         }
