@@ -10,6 +10,14 @@
 use super::rules::{dot, residual, Dist};
 use multiversion::multiversion;
 
+/// [`Octave::planes`]: mean, slope, variance and whether the estimate holds, one plane each.
+type Planes<'a> = (
+    &'a mut [f64],
+    [&'a mut [f64]; 3],
+    &'a mut [f64],
+    &'a mut [bool],
+);
+
 /// One octave at each lane of a run: mean, linear part and residual variance, and whether the
 /// kernel's estimate holds (else the caller's scalar rule).
 #[derive(Default)]
@@ -26,6 +34,18 @@ impl Octave {
         self.grad.iter_mut().for_each(|g| g.resize(n, 0.0));
         self.var.resize(n, 0.0);
         self.ok.resize(n, false);
+    }
+
+    /// The `n` lanes' planes to write (mean, slope, variance, whether the estimate holds).
+    fn planes(&mut self, n: usize) -> Planes<'_> {
+        self.resize(n);
+        let [g0, g1, g2] = &mut self.grad;
+        (
+            &mut self.mean[..n],
+            [&mut g0[..n], &mut g1[..n], &mut g2[..n]],
+            &mut self.var[..n],
+            &mut self.ok[..n],
+        )
     }
 
     /// `n` lanes, each left to the caller's scalar rule.
@@ -122,14 +142,8 @@ pub(super) struct SubRun<'a> {
 /// variance the eight's spread plus the sub-boxes' fades, less the slope's.
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma", "x86_64+sse4.1"))]
 pub(super) fn subsampled(run: &SubRun, values: &[f64], n: usize, out: &mut Octave) {
-    out.resize(n);
     let values = &values[..8 * n];
-    let Octave {
-        mean: means,
-        grad: [g0, g1, g2],
-        var: vars,
-        ok,
-    } = out;
+    let (means, [g0, g1, g2], vars, ok) = out.planes(n);
     for i in 0..n {
         let mut m = [0.0; 8];
         let mut total = 0.0;
@@ -184,14 +198,8 @@ pub(super) struct CentreRun<'a> {
 #[multiversion(targets("x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma", "x86_64+sse4.1"))]
 pub(super) fn sampled(run: &CentreRun, value: &[f64], grad: [&[f64]; 3], out: &mut Octave) {
     let n = value.len();
-    out.resize(n);
     let (gx, gy, gz) = (&grad[0][..n], &grad[1][..n], &grad[2][..n]);
-    let Octave {
-        mean: means,
-        grad: [g0, g1, g2],
-        var: vars,
-        ok,
-    } = out;
+    let (means, [g0, g1, g2], vars, ok) = out.planes(n);
     let a2 = run.alpha * run.alpha;
     for i in 0..n {
         let finite = |c: f64| if c.is_finite() { c } else { 0.0 };

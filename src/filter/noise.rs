@@ -411,7 +411,43 @@ impl Fade {
     }
 }
 
+impl Fade {
+    /// What a centre-sampled run of input `q`'s lanes shares (`lanes::sampled`).
+    fn centre_run<'a>(
+        &'a self,
+        stats: &Stats,
+        q: &[Dist; 3],
+        quad: &'a [[f64; 3]; 3],
+    ) -> super::lanes::CentreRun<'a> {
+        super::lanes::CentreRun {
+            alpha: self.alpha,
+            base: (1.0 - self.alpha) * stats.mean,
+            faded: (1.0 - self.alpha * self.alpha) * stats.var,
+            jac: q.map(|c| c.grad),
+            spread: q.map(|c| c.var),
+            damp: self.damp.as_ref(),
+            quad,
+        }
+    }
+}
+
 impl Sub {
+    /// What a value-only sub-sampled run's lanes share (`lanes::subsampled`).
+    fn run<'a>(
+        &self,
+        stats: &Stats,
+        fit: &'a [[f64; 3]; 3],
+        quad: &'a [[f64; 3]; 3],
+    ) -> super::lanes::SubRun<'a> {
+        super::lanes::SubRun {
+            alpha: self.alpha,
+            base: (1.0 - self.alpha) * stats.mean,
+            within: (1.0 - self.alpha * self.alpha) * stats.var,
+            fit,
+            quad,
+        }
+    }
+
     fn new(rules: &Rules, stats: &Stats, p: &[Dist; 3]) -> Sub {
         let edges = noise_edges(rules, p);
         let l2 = edges.map(|e| dot(&e, &e) / 4.0);
@@ -637,27 +673,12 @@ fn run_kernel(
     let quad = rules.footprint.quad();
     match (run.kind, &fade.sub, rules.footprint.fit()) {
         (Kind::SubValues, Some(sub), Some(fit)) => {
-            let shared = super::lanes::SubRun {
-                alpha: sub.alpha,
-                base: (1.0 - sub.alpha) * stats.mean,
-                within: (1.0 - sub.alpha * sub.alpha) * stats.var,
-                fit,
-                quad,
-            };
             let r = run.at..run.at + 8 * n;
-            super::lanes::subsampled(&shared, &samples.values[r], n, octave);
+            super::lanes::subsampled(&sub.run(stats, fit, quad), &samples.values[r], n, octave);
         }
         (Kind::SubValues, _, _) => octave.none(n),
         _ => {
-            let shared = super::lanes::CentreRun {
-                alpha: fade.alpha,
-                base: (1.0 - fade.alpha) * stats.mean,
-                faded: (1.0 - fade.alpha * fade.alpha) * stats.var,
-                jac: q.map(|c| c.grad),
-                spread: q.map(|c| c.var),
-                damp: fade.damp.as_ref(),
-                quad,
-            };
+            let shared = fade.centre_run(stats, q, quad);
             let r = run.at..run.at + n;
             let grad = [0, 1, 2].map(|i| &samples.grad[i][r.clone()]);
             super::lanes::sampled(&shared, &samples.value[r.clone()], grad, octave);
@@ -1144,6 +1165,16 @@ mod tests {
         let mut next =
             |lo: f64, hi: f64| lo + (hi - lo) * (rng.next_u64() >> 11) as f64 / 2f64.powi(53);
         let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(b.abs()).max(1e-3);
+        let agree = |case: usize, got: Dist, want: Dist| {
+            assert!(
+                close(got.mean, want.mean) && close(got.var, want.var),
+                "{case}: {got:?} vs {want:?}"
+            );
+            assert!(
+                (0..3).all(|k| close(got.grad[k], want.grad[k])),
+                "{case}: {got:?} vs {want:?}"
+            );
+        };
         for case in 0..40 {
             let side = [0.01, 0.3, 1.0, 4.0][case % 4] * next(0.5, 2.0);
             let fp = Footprint::from_sides([side, side * next(0.2, 1.0), side]).unwrap();
@@ -1178,15 +1209,7 @@ mod tests {
             let grad: [Vec<f64>; 3] =
                 std::array::from_fn(|_| (0..n).map(|_| next(-3.0, 3.0)).collect());
             let mut out = super::super::lanes::Octave::default();
-            let centre = super::super::lanes::CentreRun {
-                alpha,
-                base: (1.0 - alpha) * stats.mean,
-                faded: (1.0 - alpha * alpha) * stats.var,
-                jac,
-                spread,
-                damp: f.damp.as_ref(),
-                quad: fp.quad(),
-            };
+            let centre = f.centre_run(&stats, &q, fp.quad());
             super::super::lanes::sampled(
                 &centre,
                 &value[..n],
@@ -1202,37 +1225,15 @@ mod tests {
                     value[i],
                     [grad[0][i], grad[1][i], grad[2][i]],
                 );
-                let got = out.get(i).expect("finite");
-                assert!(
-                    close(got.mean, want.mean) && close(got.var, want.var),
-                    "{case}: {got:?} vs {want:?}"
-                );
-                assert!(
-                    (0..3).all(|k| close(got.grad[k], want.grad[k])),
-                    "{case}: {got:?} vs {want:?}"
-                );
+                agree(case, out.get(i).expect("finite"), want);
             }
             let sub = f.sub.unwrap();
-            let run = super::super::lanes::SubRun {
-                alpha: sub.alpha,
-                base: (1.0 - sub.alpha) * stats.mean,
-                within: (1.0 - sub.alpha * sub.alpha) * stats.var,
-                fit: fp.fit().unwrap(),
-                quad: fp.quad(),
-            };
+            let run = sub.run(&stats, fp.fit().unwrap(), fp.quad());
             super::super::lanes::subsampled(&run, &value, n, &mut out);
             for i in 0..n {
                 let eight: [f64; 8] = std::array::from_fn(|j| value[j * n + i]);
                 let want = subsampled(&rules, &stats, &q, &sub, &eight, None).expect("an estimate");
-                let got = out.get(i).expect("finite");
-                assert!(
-                    close(got.mean, want.mean) && close(got.var, want.var),
-                    "{case}: {got:?} vs {want:?}"
-                );
-                assert!(
-                    (0..3).all(|k| close(got.grad[k], want.grad[k])),
-                    "{case}: {got:?} vs {want:?}"
-                );
+                agree(case, out.get(i).expect("finite"), want);
             }
         }
     }
