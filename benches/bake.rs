@@ -9,6 +9,12 @@
 //! is the scaling a user sees (docs/performance.md). Flat sampling, 10 runs each: about a
 //! minute for the group.
 //!
+//! `bake/texture_set/knot_2048` bakes the same marble into the UV layout of
+//! `examples/meshes/knot.glb` (10 000 triangles) at 2048² texels, as `texgraph bake --mesh
+//! examples/meshes/knot.glb --size 2048` does before encoding (rasterisation, evaluation,
+//! padding), on 2 threads; `bake/texture_set/volume_same_points` bakes a volume of as many voxels
+//! as the knot covers texels: the ratio is the texture set's overhead (issue 48: ≤ 1.5×).
+//!
 //! Run: `cargo bench --bench bake`.
 
 use criterion::{criterion_group, criterion_main, Criterion, SamplingMode, Throughput};
@@ -74,6 +80,52 @@ fn benches(c: &mut Criterion) {
     });
     group.finish();
     threads(c, &tape);
+    texture_set(c, &tape);
+}
+
+/// The marble into the knot's UV layout at 2048², against a volume of as many points.
+fn texture_set(c: &mut Criterion, tape: &texgraph::Tape) {
+    use texgraph::mesh::{bake_texture_set, load_model, raster::rasterize, MeshBakeOptions, Space};
+    let model = load_model("examples/meshes/knot.glb".as_ref(), Space::Object).expect("the knot");
+    let size = 2048;
+    let covered = rasterize(&model, size, size).hits.len();
+    let grid = Grid {
+        size: [size, covered.div_ceil(size), 1],
+        region: Default::default(),
+    };
+    let mut group = c.benchmark_group("bake/texture_set");
+    group.throughput(Throughput::Elements(covered as u64));
+    group
+        .sampling_mode(SamplingMode::Flat)
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(10))
+        .warm_up_time(Duration::from_secs(1));
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .expect("threads");
+    let options = MeshBakeOptions {
+        width: size,
+        height: size,
+        ..Default::default()
+    };
+    group.bench_function("knot_2048", |b| {
+        b.iter(|| {
+            pool.install(|| bake_texture_set(tape, None, &model, &options, None).expect("bakes"))
+        })
+    });
+    let options = BakeOptions {
+        grid,
+        threads: 2,
+        precision: Precision::F32,
+        cancel: None,
+        device: Default::default(),
+        filter: Default::default(),
+    };
+    group.bench_function("volume_same_points", |b| {
+        b.iter(|| bake_into(tape, &options, &mut Discard, &mut |_| {}).expect("bakes"))
+    });
+    group.finish();
 }
 
 /// The 256³ marble to raw and PNG files on 1 and 2 threads, end to end.

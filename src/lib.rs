@@ -48,6 +48,7 @@ pub mod grid;
 pub mod limits;
 pub mod load;
 pub(crate) mod lod;
+pub mod mesh;
 pub mod mip_report;
 pub mod nodes;
 pub mod noise;

@@ -43,7 +43,7 @@ enum Command {
     /// unless --force. Prints min, max, mean and non-finite counts per output. Exit code 1 if a
     /// graph is invalid, 2 if a bake was refused or failed to write (the other graphs still
     /// bake), 130 if interrupted by Ctrl-C (nothing of the interrupted graph is written).
-    Bake(BakeArgs),
+    Bake(Box<BakeArgs>),
     /// Check a zarr store written by `bake --format zarr` (or by the parts of a split bake):
     /// every shard present, matching its manifest's length and crc32c, baked for the array's
     /// metadata and tape.
@@ -146,7 +146,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Check(args) => cli::check::check(args),
         Command::Eval(args) => cli::eval::eval(*args),
-        Command::Bake(args) => cli::bake::bake(args),
+        Command::Bake(args) => cli::bake::bake(*args),
         Command::Verify(args) => cli::verify::verify(args),
         Command::Report(args) => cli::report::report_command(args),
         Command::Render(args) => cli::render::render_command(args, false),

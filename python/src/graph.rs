@@ -280,6 +280,129 @@ impl Graph {
         Ok(d.into_any())
     }
 
+    /// Bakes the graph into the UV layout of the model at `path` (glTF `.gltf`/`.glb` or
+    /// `.obj`), as `texgraph bake --mesh`: `size` is W or (W, H) texels; returns `{name:
+    /// array}` of float32, shape (H, W) for scalars and (H, W, 3) for colours (row 0 the top,
+    /// texel (i, j) at `[j, i]`), bit for bit the values `--format exr` writes; with
+    /// `output=NAME` that output only. `normal=NAME` adds `"normal"`, the tangent-space normal
+    /// map of that scalar output's gradient, encoded (n · 0.5 + 0.5) as `--normal` writes it;
+    /// `filter`, `padding`, `space`, `normal_strength`, `normal_y` as the command's options.
+    #[pyo3(signature = (path, size, output=None, normal=None, filter="point", padding=8, space="object", normal_strength=1.0, normal_y="up", f64=false, threads=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn bake_mesh<'py>(
+        &self,
+        py: Python<'py>,
+        path: std::path::PathBuf,
+        size: &Bound<'py, PyAny>,
+        output: Option<&str>,
+        normal: Option<&str>,
+        filter: &str,
+        padding: u32,
+        space: &str,
+        normal_strength: f64,
+        normal_y: &str,
+        f64: bool,
+        threads: Option<usize>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        use texgraph::mesh::{GreenAxis, MeshBakeOptions, Space};
+        let choice = |what: &str, given: &str, options: &[&str]| {
+            PyValueError::new_err(format!("{what}={given:?}: give one of {options:?}"))
+        };
+        let (width, height) = match size.extract::<usize>() {
+            Ok(w) => (w, w),
+            Err(_) => size.extract::<(usize, usize)>()?,
+        };
+        if width == 0 || height == 0 {
+            return Err(PyValueError::new_err("size: W and H must be positive"));
+        }
+        let filter = match filter {
+            "point" => Filter::Point,
+            "box" => Filter::Box,
+            other => return Err(choice("filter", other, &["point", "box"])),
+        };
+        let space = match space {
+            "object" => Space::Object,
+            "world" => Space::World,
+            other => return Err(choice("space", other, &["object", "world"])),
+        };
+        let green = match normal_y {
+            "up" => GreenAxis::Up,
+            "down" => GreenAxis::Down,
+            other => return Err(choice("normal_y", other, &["up", "down"])),
+        };
+        let tape = self.tape(py, output, None)?;
+        let gradient = match normal {
+            Some(height) => {
+                self.known_output(height)?;
+                if self.graph.output("normal").is_some() {
+                    return Err(PyValueError::new_err("the graph has an output named \"normal\", which normal= would overwrite in the result"));
+                }
+                let options = CompileOptions::default();
+                Some(
+                    texgraph::mesh::gradient_tape(&self.graph, height, &options)
+                        .map_err(PyValueError::new_err)?,
+                )
+            }
+            None => None,
+        };
+        let held =
+            (width as u64 * height as u64).saturating_mul(81 + 8 * (tape.channels() as u64 + 3));
+        if held > texgraph::bake::DEFAULT_MAX_HELD_BYTES {
+            return Err(PyValueError::new_err(format!(
+                "a {width}×{height} texture set would hold about {} in memory, more than 2 GiB",
+                texgraph::bake::human_bytes(held)
+            )));
+        }
+        let model = py
+            .detach(|| texgraph::mesh::load_model(&path, space))
+            .map_err(|e| match e.exit_code() {
+                1 => PyValueError::new_err(e.to_string()),
+                _ => pyo3::exceptions::PyOSError::new_err(e.to_string()),
+            })?;
+        let options = MeshBakeOptions {
+            width,
+            height,
+            filter,
+            padding,
+            precision: if f64 { Precision::F64 } else { Precision::F32 },
+            normal_strength,
+            green,
+        };
+        let threads = texgraph::bake::capped_threads(threads.unwrap_or(0)).0;
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let set = run::interruptible(py, true, |cancel| {
+            pool.install(|| {
+                texgraph::mesh::bake_texture_set(
+                    &tape,
+                    gradient.as_ref(),
+                    &model,
+                    &options,
+                    Some(cancel),
+                )
+            })
+        })?
+        .map_err(|e| match e {
+            BakeError::Cancelled => pyo3::exceptions::PyKeyboardInterrupt::new_err("bake stopped"),
+            other => PyValueError::new_err(other.to_string()),
+        })?;
+        let d = PyDict::new(py);
+        for image in set.images.into_iter().chain(set.normal) {
+            let array = image.data.into_pyarray(py);
+            let array = match image.ty.channels() {
+                1 => array.reshape([height, width])?.into_any(),
+                c => array.reshape([height, width, c])?.into_any(),
+            };
+            if output.is_some() && normal.is_none() {
+                return Ok(array);
+            }
+            d.set_item(&image.name, array)?;
+        }
+        Ok(d.into_any())
+    }
+
     /// Pickling (`multiprocessing`, `concurrent.futures`): the graph's text, file name and
     /// `set=` values, checked again on loading (imports resolve from the same file name).
     #[allow(clippy::type_complexity)]

@@ -82,6 +82,24 @@ class Graph:
         filter: str = "point",
     ) -> np.ndarray: ...
 
+    def bake_mesh(
+        self,
+        path: Union[str, "PathLike[str]"],
+        size: Union[int, Tuple[int, int]],
+        output: Optional[str] = None,
+        normal: Optional[str] = None,
+        filter: str = "point",
+        padding: int = 8,
+        space: str = "object",
+        normal_strength: float = 1.0,
+        normal_y: str = "up",
+        f64: bool = False,
+        threads: Optional[int] = None,
+    ) -> Any:
+        """Bakes into a mesh's UV layout (`texgraph bake --mesh`): {name: (H, W[, 3]) float32},
+        with "normal" when `normal=` names a height; with `output=` (and no `normal=`) that array."""
+        ...
+
 def load(path: Union[str, "PathLike[str]"], set: Optional[Mapping[str, float]] = None) -> Graph:
     """Reads and checks a graph file (imports relative to it)."""
 

@@ -123,7 +123,7 @@ impl Default for ChannelStats {
 
 impl ChannelStats {
     #[inline]
-    pub(super) fn add(&mut self, v: f32) {
+    pub(crate) fn add(&mut self, v: f32) {
         self.below_zero += u64::from(v < 0.0);
         self.above_one += u64::from(v > 1.0);
         if v.is_finite() {
@@ -141,7 +141,7 @@ impl ChannelStats {
         }
     }
 
-    pub(super) fn merge(&mut self, other: &ChannelStats) {
+    pub(crate) fn merge(&mut self, other: &ChannelStats) {
         self.min = self.min.min(other.min);
         self.max = self.max.max(other.max);
         self.sum += other.sum;

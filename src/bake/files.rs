@@ -709,6 +709,19 @@ enum Staged {
     Dir(tempfile::TempDir),
 }
 
+/// Moves finished temporary files to their final paths in `out_dir`, all or nothing (as a
+/// bake's files): a texture set's images and asset.
+pub fn commit_files(
+    files: Vec<(tempfile::TempPath, PathBuf)>,
+    out_dir: &Path,
+) -> Result<(), BakeError> {
+    let staged = files
+        .into_iter()
+        .map(|(temp, path)| (Staged::File(temp), path))
+        .collect();
+    commit(staged, out_dir)
+}
+
 /// Moves every staged temporary to its final path, all or nothing: existing finals are moved
 /// aside first; if any move fails, the ones already made are undone and the old files put back.
 fn commit(staged: Vec<(Staged, PathBuf)>, out_dir: &Path) -> Result<(), BakeError> {

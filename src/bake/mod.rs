@@ -48,10 +48,11 @@ pub use engine::{
     ChannelStats, OutputStats, Precision, Sink, Volume, VolumeOutput, Window, WindowOutput,
     MAX_THREADS_PER_CORE,
 };
+pub use files::commit_files;
 pub use files::{bake_files, bake_mipmapped, planned_outputs, validate_grid};
 pub use settings::{
     human_bytes, mip_grid, mip_level_count, mip_spacing, mips_note, BakeFileOptions, BakeReport,
     BakedFile, ExrCompression, Format, Ktx2SampleType, RawSampleType, Transfer,
     DEFAULT_MAX_BAKE_BYTES, DEFAULT_MAX_HELD_BYTES, DEFAULT_ZSTD_LEVEL, ZSTD_LEVELS,
 };
-pub use sinks::{encode_u16, encode_u8, srgb_encode};
+pub use sinks::{encode_u16, encode_u8, png_bytes, srgb_encode, write_exr_image};

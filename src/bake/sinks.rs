@@ -82,7 +82,7 @@ fn png_encoder<W: Write>(
 }
 
 /// Bytes of one PNG image: `samples` interleaved, `width` × `height`, 8 or 16 bits.
-pub(super) fn png_bytes(
+pub fn png_bytes(
     samples: &[f32],
     width: usize,
     height: usize,
@@ -457,6 +457,29 @@ impl Sink for Exr {
         }
         Ok(())
     }
+}
+
+/// Writes one `width` × `height` image (`data` interleaved, row-major) as a 32-bit float EXR
+/// (zip-compressed) to `file` at `path`: a texture set's image.
+pub fn write_exr_image(
+    path: &Path,
+    file: std::fs::File,
+    data: Vec<f32>,
+    ty: Type,
+    [width, height]: [usize; 2],
+    attributes: &[(&str, String)],
+) -> Result<(), BakeError> {
+    let grid = Grid {
+        size: [width, height, 1],
+        region: Default::default(),
+    };
+    let exr = Exr {
+        output: 0,
+        ty,
+        data,
+    };
+    let zip = super::settings::ExrCompression::Zip;
+    exr.write(path, file, &grid, false, zip, attributes)
 }
 
 impl Exr {

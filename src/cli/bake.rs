@@ -7,14 +7,17 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
+mod mesh;
+
 #[derive(Args)]
 pub struct BakeArgs {
     /// Graph files to bake.
     #[arg(required = true, value_name = "FILE")]
     files: Vec<PathBuf>,
-    /// Voxels per axis: N (a cube) or NX,NY,NZ.
-    #[arg(long, value_name = "N|NX,NY,NZ", default_value = "64", value_parser = parse_size)]
-    size: [usize; 3],
+    /// Voxels per axis: N (a cube) or NX,NY,NZ. With --mesh: the images' texels, W or W,H
+    /// (H defaults to W).
+    #[arg(long, value_name = "N|NX,NY,NZ|W,H", default_value = "64", value_parser = parse_size)]
+    size: super::SizeArg,
     /// The box baked, X0,Y0,Z0:X1,Y1,Z1 (default: the unit cube 0,0,0:1,1,1).
     #[arg(long, value_name = "X0,Y0,Z0:X1,Y1,Z1", value_parser = parse_region, allow_hyphen_values = true)]
     region: Option<crate::grid::Region>,
@@ -121,6 +124,8 @@ pub struct BakeArgs {
     #[arg(long = "allow-large")]
     allow_large: bool,
     #[command(flatten)]
+    mesh: mesh::MeshArgs,
+    #[command(flatten)]
     graph: GraphOptions,
 }
 
@@ -132,6 +137,49 @@ pub enum FilterArg {
 }
 
 impl BakeArgs {
+    /// What a mesh bake (or a flat bake's normal map) reads of the command line, with the
+    /// volume-only options that were given.
+    fn mesh_request(&self) -> mesh::Request<'_> {
+        let volume_only = [
+            (self.region.is_some(), "--region"),
+            (self.part.is_some(), "--part"),
+            (self.parts.is_some(), "--parts"),
+            (self.mips, "--mips"),
+            (self.atlas, "--atlas"),
+            (self.chunk.is_some(), "--chunk"),
+            (self.shard.is_some(), "--shard"),
+            (self.compression.is_some(), "--compression"),
+            (self.zstd.is_some(), "--zstd"),
+            (self.half, "--half"),
+            (self.float, "--float"),
+            (self.raw_type.is_some(), "--raw-type"),
+            (self.alpha, "--alpha"),
+            (self.exr_compression.is_some(), "--exr-compression"),
+            (self.lod, "--lod"),
+            (self.graph.spacing.is_some(), "--spacing"),
+        ];
+        mesh::Request {
+            files: &self.files,
+            size: self.size,
+            format: self.format,
+            out: &self.out,
+            force: self.force,
+            threads: self.threads,
+            double: self.double,
+            depth: self.depth,
+            transfer: self.transfer,
+            device: self.device,
+            filter: self.filter(),
+            allow_large: self.allow_large,
+            graph: &self.graph,
+            volume_only: volume_only
+                .into_iter()
+                .filter_map(|(given, flag)| given.then_some(flag))
+                .collect(),
+            mesh: &self.mesh,
+        }
+    }
+
     /// The filter this bake uses: `--filter`, else point (docs/baking.md says why).
     /// Box when asked for, and by default with `--mips` (every level its voxels' means)
     /// unless the GPU is asked for (its filtered form does not cover every graph yet: an
@@ -156,14 +204,24 @@ pub fn parse_depth(text: &str) -> Result<u8, String> {
     }
 }
 
-pub fn parse_size(text: &str) -> Result<[usize; 3], String> {
+pub fn parse_size(text: &str) -> Result<super::SizeArg, String> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
     let numbers: Result<Vec<usize>, _> = parts.iter().map(|p| p.parse::<usize>()).collect();
     match numbers.as_deref() {
-        Ok([n]) if *n > 0 => Ok([*n; 3]),
-        Ok([x, y, z]) if *x > 0 && *y > 0 && *z > 0 => Ok([*x, *y, *z]),
+        Ok([n]) if *n > 0 => Ok(super::SizeArg {
+            dims: [*n; 3],
+            given: 1,
+        }),
+        Ok([w, h]) if *w > 0 && *h > 0 => Ok(super::SizeArg {
+            dims: [*w, *h, 0],
+            given: 2,
+        }),
+        Ok([x, y, z]) if *x > 0 && *y > 0 && *z > 0 => Ok(super::SizeArg {
+            dims: [*x, *y, *z],
+            given: 3,
+        }),
         _ => Err(format!(
-            "expected N or NX,NY,NZ with positive integers, found `{text}`"
+            "expected N or NX,NY,NZ (with --mesh: W or W,H) with positive integers, found `{text}`"
         )),
     }
 }
@@ -279,7 +337,16 @@ pub fn bake_option_misuse(args: &BakeArgs) -> Vec<String> {
 }
 
 pub fn bake(args: BakeArgs) -> Result<(), Failure> {
-    let misuse = bake_option_misuse(&args);
+    if args.mesh.mesh.is_some() {
+        return mesh::bake_mesh(&args.mesh_request());
+    }
+    let mut misuse = bake_option_misuse(&args);
+    misuse.extend(args.mesh.volume_misuse(
+        args.size,
+        args.format,
+        args.mips || args.part.is_some(),
+    ));
+    misuse.extend(args.mesh.normal_misuse());
     if !misuse.is_empty() {
         for problem in misuse {
             eprintln!("error: {problem}");
@@ -297,7 +364,7 @@ pub fn bake(args: BakeArgs) -> Result<(), Failure> {
     }
     let (check_options, mut compile_options) = options(&args.graph);
     let grid = crate::bake::Grid {
-        size: args.size,
+        size: args.size.dims,
         region: args.region.unwrap_or_default(),
     };
     // Precision per instruction for the region the voxel centres lie in.
@@ -417,6 +484,16 @@ impl Batch<'_> {
             eprintln!("error: {}: {error}", file.display());
             Failure::from_exit_code(error.exit_code())
         };
+        // A flat bake's normal map: its gradient compiled (and refused) before any work.
+        let gradient = match &args.mesh.normal {
+            Some(height) => Some(mesh::gradient_tape(
+                file,
+                &graph,
+                height,
+                &self.compile_options,
+            )?),
+            None => None,
+        };
         // The device as every sink decides it: `--device gpu` that cannot run this graph is an
         // error, `auto` says when it bakes on the CPU.
         let choice = crate::bake::choose_device(&tape, self.device, args.filter(), args.double)
@@ -475,6 +552,15 @@ impl Batch<'_> {
             let text = bake_report(file, &level_grid, report, self.threads, clamps);
             write_stdout(|out| out.write_all(text.as_bytes()))?;
             warn_about_values(file, report, clamps, options.format);
+        }
+        if let Some(gradient) = &gradient {
+            mesh::flat_normal(
+                &args.mesh_request(),
+                file,
+                gradient,
+                &self.grid,
+                &self.cancel,
+            )?;
         }
         Ok(())
     }
@@ -618,34 +704,6 @@ fn progress_bar(file: &Path, voxels: u64) -> indicatif::ProgressBar {
     bar
 }
 
-/// Warnings on stderr for non-finite values and, in 8/16-bit files, clamped ones.
-fn warn_about_values(
-    file: &Path,
-    report: &crate::bake::BakeReport,
-    clamps: bool,
-    format: crate::bake::Format,
-) {
-    let keep = if format == crate::bake::Format::Ktx2 {
-        "bake with --half or --float to keep them"
-    } else {
-        "bake --format exr or --raw-type f32 to keep them"
-    };
-    for stats in &report.stats {
-        if stats.non_finite() > 0 {
-            eprintln!(
-                "warning: {}: output \"{}\" has {} non-finite voxel values (see the counts above)",
-                file.display(),
-                stats.name,
-                stats.non_finite()
-            );
-        }
-        let (below, above) = stats.clamped();
-        if clamps && below + above > 0 {
-            eprintln!("warning: {}: output \"{}\": {below} values below 0 and {above} above 1 were clamped to [0, 1] in the 8/16-bit file ({keep})", file.display(), stats.name);
-        }
-    }
-}
-
 /// The per-graph report: files, statistics per output, and the speed line.
 pub fn bake_report(
     file: &Path,
@@ -666,65 +724,7 @@ pub fn bake_report(
         hi[1],
         hi[2]
     );
-    for baked in &report.files {
-        text.push_str(&format!(
-            "  {} -> {} ({})\n",
-            baked.output,
-            baked.path.display(),
-            baked.description
-        ));
-    }
-    let list = |values: Vec<f64>| -> String {
-        // f32 precision is plenty for a report; scientific notation keeps tiny values short.
-        let short = |v: f64| {
-            let v = v as f32;
-            if v != 0.0 && v.is_finite() && !(1e-4..1e7).contains(&v.abs()) {
-                format!("{v:e}")
-            } else {
-                v.to_string()
-            }
-        };
-        let parts: Vec<String> = values.iter().map(|v| short(*v)).collect();
-        if parts.len() == 1 {
-            parts[0].clone()
-        } else {
-            format!("({})", parts.join(", "))
-        }
-    };
-    for stats in &report.stats {
-        let c = &stats.channels;
-        let non_finite = stats.non_finite();
-        let detail = if non_finite > 0 {
-            let nan: u64 = c.iter().map(|s| s.nan).sum();
-            let pos: u64 = c.iter().map(|s| s.pos_inf).sum();
-            let neg: u64 = c.iter().map(|s| s.neg_inf).sum();
-            format!("{non_finite} (NaN {nan}, +inf {pos}, -inf {neg})")
-        } else {
-            "0".to_string()
-        };
-        let (below, above) = stats.clamped();
-        let range = if c.iter().all(|s| s.finite() == 0) {
-            "no finite values".to_string()
-        } else {
-            // A channel without finite values shows NaN instead of ±inf.
-            let shown = |v: f64| if v.is_infinite() { f64::NAN } else { v };
-            format!(
-                "min {} max {} mean {}",
-                list(c.iter().map(|s| shown(s.min)).collect()),
-                list(c.iter().map(|s| shown(s.max)).collect()),
-                list(c.iter().map(|s| s.mean).collect()),
-            )
-        };
-        let clamped = if clamps {
-            format!("; clamped to [0, 1]: {below} below 0, {above} above 1")
-        } else {
-            String::new()
-        };
-        text.push_str(&format!(
-            "  {}: {range}; non-finite {detail}{clamped}\n",
-            stats.name,
-        ));
-    }
+    text.push_str(&report_body(report, clamps));
     let rate = if report.seconds > 0.0 {
         report.voxels as f64 / report.seconds / 1e6
     } else {

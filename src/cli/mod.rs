@@ -248,3 +248,104 @@ pub(crate) fn warn_shortfalls(file: &Path, tape: &Tape) {
         eprintln!("warning: {}: {shortfall}", file.display());
     }
 }
+
+/// `--size`: the numbers given (1, 2 or 3) and the three dimensions they mean (one number: a
+/// cube, or a square image; W,H: an image, depth 0).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SizeArg {
+    pub dims: [usize; 3],
+    pub given: u8,
+}
+
+/// Warnings on stderr for non-finite values and, in 8/16-bit files, clamped ones.
+pub(crate) fn warn_about_values(
+    file: &Path,
+    report: &crate::bake::BakeReport,
+    clamps: bool,
+    format: crate::bake::Format,
+) {
+    let keep = if format == crate::bake::Format::Ktx2 {
+        "bake with --half or --float to keep them"
+    } else {
+        "bake --format exr or --raw-type f32 to keep them"
+    };
+    for stats in &report.stats {
+        if stats.non_finite() > 0 {
+            eprintln!(
+                "warning: {}: output \"{}\" has {} non-finite voxel values (see the counts above)",
+                file.display(),
+                stats.name,
+                stats.non_finite()
+            );
+        }
+        let (below, above) = stats.clamped();
+        if clamps && below + above > 0 {
+            eprintln!("warning: {}: output \"{}\": {below} values below 0 and {above} above 1 were clamped to [0, 1] in the 8/16-bit file ({keep})", file.display(), stats.name);
+        }
+    }
+}
+
+/// A report's files and the statistics of each output, one line each.
+pub(crate) fn report_body(report: &crate::bake::BakeReport, clamps: bool) -> String {
+    let mut text = String::new();
+    for baked in &report.files {
+        text.push_str(&format!(
+            "  {} -> {} ({})\n",
+            baked.output,
+            baked.path.display(),
+            baked.description
+        ));
+    }
+    let list = |values: Vec<f64>| -> String {
+        // f32 precision is plenty for a report; scientific notation keeps tiny values short.
+        let short = |v: f64| {
+            let v = v as f32;
+            if v != 0.0 && v.is_finite() && !(1e-4..1e7).contains(&v.abs()) {
+                format!("{v:e}")
+            } else {
+                v.to_string()
+            }
+        };
+        let parts: Vec<String> = values.iter().map(|v| short(*v)).collect();
+        if parts.len() == 1 {
+            parts[0].clone()
+        } else {
+            format!("({})", parts.join(", "))
+        }
+    };
+    for stats in &report.stats {
+        let c = &stats.channels;
+        let non_finite = stats.non_finite();
+        let detail = if non_finite > 0 {
+            let nan: u64 = c.iter().map(|s| s.nan).sum();
+            let pos: u64 = c.iter().map(|s| s.pos_inf).sum();
+            let neg: u64 = c.iter().map(|s| s.neg_inf).sum();
+            format!("{non_finite} (NaN {nan}, +inf {pos}, -inf {neg})")
+        } else {
+            "0".to_string()
+        };
+        let (below, above) = stats.clamped();
+        let range = if c.iter().all(|s| s.finite() == 0) {
+            "no finite values".to_string()
+        } else {
+            // A channel without finite values shows NaN instead of ±inf.
+            let shown = |v: f64| if v.is_infinite() { f64::NAN } else { v };
+            format!(
+                "min {} max {} mean {}",
+                list(c.iter().map(|s| shown(s.min)).collect()),
+                list(c.iter().map(|s| shown(s.max)).collect()),
+                list(c.iter().map(|s| s.mean).collect()),
+            )
+        };
+        let clamped = if clamps {
+            format!("; clamped to [0, 1]: {below} below 0, {above} above 1")
+        } else {
+            String::new()
+        };
+        text.push_str(&format!(
+            "  {}: {range}; non-finite {detail}{clamped}\n",
+            stats.name,
+        ));
+    }
+    text
+}

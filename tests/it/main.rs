@@ -23,6 +23,7 @@ mod errors;
 mod far_points;
 mod filter;
 mod fuzz_corpus;
+mod gltf_clients;
 mod golden;
 #[cfg(feature = "gpu")]
 mod gpu;
@@ -31,6 +32,7 @@ mod gpu_filtered;
 mod gradient;
 mod imports;
 mod lod_lanes;
+mod mesh;
 mod precision;
 mod properties;
 mod random_graphs;

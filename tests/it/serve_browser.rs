@@ -399,7 +399,7 @@ impl Browser {
 }
 
 /// Polls `probe` every [`POLL`] until it answers `Some` (returned), or panics after [`WAIT`].
-async fn poll<T>(what: &str, mut probe: impl AsyncFnMut() -> Option<T>) -> T {
+pub(crate) async fn poll<T>(what: &str, mut probe: impl AsyncFnMut() -> Option<T>) -> T {
     let deadline = Instant::now() + WAIT;
     loop {
         if let Some(found) = probe().await {

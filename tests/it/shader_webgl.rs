@@ -6,13 +6,11 @@
 //! `shader::filtered_contract`).
 
 use crate::common;
+use crate::gltf_clients::serve_folders;
 use crate::serve_browser::{browser_installed, Browser};
 use crate::shader::{exported, run_of, selected, tape_of, Tally};
 use crate::shader_run::{self, Call};
 use serde_json::{json, Value};
-use std::io::{Read, Write};
-use std::net::{SocketAddr, TcpListener, TcpStream};
-use std::path::Path;
 use std::time::{Duration, Instant};
 use texgraph::shader::{ExportedFunction, Lang};
 
@@ -255,56 +253,6 @@ fn read_back(answer: &Value, channels: usize) -> Result<(String, Vec<f32>), Stri
     Ok((renderer, out))
 }
 
-/// A folder served over HTTP on localhost (the page fetches its exported file, which a
-/// `file://` page may not): each GET answered with the file of that name, until the test
-/// process ends.
-fn serve_folder(dir: &Path) -> SocketAddr {
-    let listener = TcpListener::bind("127.0.0.1:0").expect("a local port");
-    let addr = listener.local_addr().expect("its address");
-    let dir = dir.to_path_buf();
-    std::thread::spawn(move || {
-        for stream in listener.incoming().flatten() {
-            let _ = answer(&dir, stream);
-        }
-    });
-    addr
-}
-
-fn answer(dir: &Path, mut stream: TcpStream) -> std::io::Result<()> {
-    stream.set_read_timeout(Some(Duration::from_secs(5)))?;
-    let mut request = Vec::new();
-    let mut buffer = [0u8; 4096];
-    while !request.windows(4).any(|w| w == b"\r\n\r\n") {
-        let n = stream.read(&mut buffer)?;
-        if n == 0 {
-            break;
-        }
-        request.extend_from_slice(&buffer[..n]);
-    }
-    let request = String::from_utf8_lossy(&request);
-    let path = request.split_whitespace().nth(1).unwrap_or("/");
-    let name = path.trim_start_matches('/').split('?').next().unwrap_or("");
-    let plain = !name.is_empty()
-        && name
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || "._".contains(c));
-    let (status, body) = match std::fs::read(dir.join(name)) {
-        Ok(body) if plain => ("200 OK", body),
-        _ => ("404 Not Found", b"not found".to_vec()),
-    };
-    let kind = if name.ends_with(".html") {
-        "text/html"
-    } else {
-        "text/plain"
-    };
-    write!(
-        stream,
-        "HTTP/1.1 {status}\r\nContent-Type: {kind}; charset=utf-8\r\nContent-Length: {}\r\nConnection: close\r\n\r\n",
-        body.len()
-    )?;
-    stream.write_all(&body)
-}
-
 /// The page's canvas read back: its size, how many distinct colours a sample of its pixels
 /// has, and the colours at its centre (the sphere) and a corner (the background).
 const CANVAS: &str = r#"
@@ -344,12 +292,12 @@ async fn the_webgl2_page_shades_a_sphere_with_an_export() {
         let source = exported(&tape, Lang::GlslEs).source;
         std::fs::write(dir.path().join(format!("{graph}.glsl")), source).unwrap();
     }
-    let addr = serve_folder(dir.path());
+    let server = serve_folders(vec![dir.path().to_path_buf()]);
     let browser = Browser::blank(Duration::from_secs(60)).await;
     for (graph, form) in pages {
-        let url = format!(
-            "http://{addr}/webgl2.html?fn=texgraph_colour&src={graph}.glsl&form={form}&still=1&size=160"
-        );
+        let url = server.url(&format!(
+            "webgl2.html?fn=texgraph_colour&src={graph}.glsl&form={form}&still=1&size=160"
+        ));
         browser.goto(&url).await;
         let status = browser
             .text_when("the page's frame", "#status", |t| {
