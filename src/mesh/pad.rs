@@ -19,7 +19,7 @@ pub fn nearest_covered(covered: &[bool], width: usize, height: usize, radius: u3
     let r = radius as i64;
     // Per texel, the column of the nearest covered texel in its own row within `radius` (-1:
     // none); ties to the left.
-    let mut row_nearest = vec![-1i64; width * height];
+    let mut row_nearest = vec![-1i32; width * height];
     row_nearest
         .par_chunks_mut(width)
         .zip(covered.par_chunks(width))
@@ -44,7 +44,7 @@ pub fn nearest_covered(covered: &[bool], width: usize, height: usize, radius: u3
                     (l, None) => l,
                     (l, Some(c)) if c - (i as i64) < (i as i64) - l => c,
                     (l, Some(_)) => l,
-                };
+                } as i32;
             }
         });
     let mut source = vec![NONE; width * height];
@@ -61,7 +61,7 @@ pub fn nearest_covered(covered: &[bool], width: usize, height: usize, radius: u3
                 let top = (j as i64 - r).max(0) as usize;
                 let bottom = (j as i64 + r).min(height as i64 - 1) as usize;
                 for row in top..=bottom {
-                    let c = row_nearest[row * width + i];
+                    let c = i64::from(row_nearest[row * width + i]);
                     if c < 0 {
                         continue;
                     }

@@ -56,8 +56,9 @@ struct Prepared {
     triangle: u32,
     /// Snapped vertices, counter-clockwise in (column, row) space's orientation test.
     fixed: [[i64; 2]; 3],
-    /// UVs as stored, in the triangle's own vertex order.
-    uv: [[f64; 2]; 3],
+    /// The barycentric coordinates b1 and b2 (in the triangle's own vertex order) as affine
+    /// functions of the UV: `b = k[0] u + k[1] v + k[2]` (made once, two products a texel).
+    affine: [[f64; 3]; 2],
     rows: (usize, usize),
     columns: (usize, usize),
 }
@@ -128,7 +129,7 @@ fn prepare(model: &Model, width: usize, height: usize) -> Vec<Prepared> {
                 part: p as u32,
                 triangle: t as u32,
                 fixed,
-                uv,
+                affine: affine_barycentric(&uv),
                 rows,
                 columns,
             });
@@ -137,15 +138,34 @@ fn prepare(model: &Model, width: usize, height: usize) -> Vec<Prepared> {
     prepared
 }
 
-/// The barycentric coordinates of `p` on the triangle `uv`, clamped onto it (the snapped
-/// coverage test can accept a centre a 1/256 texel outside the stored triangle).
-fn barycentric(uv: &[[f64; 2]; 3], p: [f64; 2]) -> [f64; 3] {
-    let cross = |a: [f64; 2], b: [f64; 2]| a[0] * b[1] - a[1] * b[0];
-    let sub = |a: [f64; 2], b: [f64; 2]| [a[0] - b[0], a[1] - b[1]];
-    let (e1, e2, d) = (sub(uv[1], uv[0]), sub(uv[2], uv[0]), sub(p, uv[0]));
-    let area = cross(e1, e2);
-    let b1 = (cross(d, e2) / area).clamp(0.0, 1.0);
-    let b2 = (cross(e1, d) / area).clamp(0.0, 1.0);
+/// b1 and b2 of the triangle `uv` as affine functions of the UV (`cross(p − uv0, e2) / area`
+/// and `cross(e1, p − uv0) / area` expanded).
+fn affine_barycentric(uv: &[[f64; 2]; 3]) -> [[f64; 3]; 2] {
+    let (e1, e2) = (
+        [uv[1][0] - uv[0][0], uv[1][1] - uv[0][1]],
+        [uv[2][0] - uv[0][0], uv[2][1] - uv[0][1]],
+    );
+    let area = e1[0] * e2[1] - e1[1] * e2[0];
+    let [u0, v0] = uv[0];
+    [
+        [
+            e2[1] / area,
+            -e2[0] / area,
+            (v0 * e2[0] - u0 * e2[1]) / area,
+        ],
+        [
+            -e1[1] / area,
+            e1[0] / area,
+            (u0 * e1[1] - v0 * e1[0]) / area,
+        ],
+    ]
+}
+
+/// The barycentric coordinates at UV `p`, clamped onto the triangle (the snapped coverage test
+/// can accept a centre a 1/256 texel outside the stored triangle).
+fn barycentric(affine: &[[f64; 3]; 2], p: [f64; 2]) -> [f64; 3] {
+    let at = |k: &[f64; 3]| (k[0] * p[0] + k[1] * p[1] + k[2]).clamp(0.0, 1.0);
+    let (b1, b2) = (at(&affine[0]), at(&affine[1]));
     let sum = b1 + b2;
     let (b1, b2) = if sum > 1.0 {
         (b1 / sum, b2 / sum)
@@ -278,7 +298,7 @@ fn rasterize_band(
             texel: (j * width + i) as u32,
             part: tri.part,
             triangle: tri.triangle,
-            bary: barycentric(&tri.uv, centre),
+            bary: barycentric(&tri.affine, centre),
         });
     }
     (hits, overlaps)
