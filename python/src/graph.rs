@@ -334,9 +334,6 @@ impl Graph {
         let gradient = match normal {
             Some(height) => {
                 self.known_output(height)?;
-                if self.graph.output("normal").is_some() {
-                    return Err(PyValueError::new_err("the graph has an output named \"normal\", which normal= would overwrite in the result"));
-                }
                 let options = CompileOptions::default();
                 Some(
                     texgraph::mesh::gradient_tape(&self.graph, height, &options)
@@ -345,8 +342,8 @@ impl Graph {
             }
             None => None,
         };
-        let held =
-            (width as u64 * height as u64).saturating_mul(81 + 8 * (tape.channels() as u64 + 3));
+        let normal_values = if gradient.is_some() { 3 } else { 0 };
+        let held = texgraph::mesh::held_bytes(width, height, tape.channels() + normal_values);
         if held > texgraph::bake::DEFAULT_MAX_HELD_BYTES {
             return Err(PyValueError::new_err(format!(
                 "a {width}×{height} texture set would hold about {} in memory, more than 2 GiB",

@@ -382,6 +382,16 @@ pub fn bake_texture_set(
     })
 }
 
+/// Bytes a `width` × `height` texture set holds while it is made, with `values` values per
+/// texel (every output's channels, and 3 for a normal map): the band buffer and the images
+/// (4 bytes each per value), the coverage mask, the padding's source and row tables.
+pub fn held_bytes(width: usize, height: usize, values: usize) -> u64 {
+    let per_texel = 8 * values as u64 + 1 + 4 + 4;
+    (width as u64)
+        .saturating_mul(height as u64)
+        .saturating_mul(per_texel)
+}
+
 /// The tape of scalar output `height`'s exact gradient (one vec3 output), compiled with
 /// `options` but for that output alone: what a normal map is made from.
 pub fn gradient_tape(
@@ -390,6 +400,9 @@ pub fn gradient_tape(
     options: &crate::compile::CompileOptions,
 ) -> Result<Tape, String> {
     const NAME: &str = "texgraph_normal_gradient";
+    if graph.output("normal").is_some() {
+        return Err("the graph has an output named `normal`, which the normal map (STEM.normal) would overwrite".into());
+    }
     let with = graph.with_gradient_output(height, NAME)?;
     let mut options = options.clone();
     options.outputs = vec![NAME.to_string()];

@@ -12,7 +12,8 @@ pub mod raster;
 pub mod tangent;
 
 pub use bake::{
-    bake_texture_set, flat_normal_map, gradient_tape, MeshBakeOptions, TextureImage, TextureSet,
+    bake_texture_set, flat_normal_map, gradient_tape, held_bytes, MeshBakeOptions, TextureImage,
+    TextureSet,
 };
-pub use model::{load_model, Model, ModelError, ModelFormat, Part, Space};
+pub use model::{load_model, Model, ModelError, Part, Space};
 pub use tangent::GreenAxis;

@@ -13,13 +13,6 @@ pub enum Space {
     World,
 }
 
-/// Which file format a model came from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ModelFormat {
-    Gltf,
-    Obj,
-}
-
 /// One triangle list: a glTF primitive (in world space: one per node instance) or an OBJ
 /// object.
 #[derive(Clone, Debug)]
@@ -39,7 +32,6 @@ pub struct Part {
 #[derive(Clone, Debug)]
 pub struct Model {
     pub path: PathBuf,
-    pub format: ModelFormat,
     pub parts: Vec<Part>,
     /// Primitives that are not triangle lists (points, lines, strips, fans), left out.
     pub skipped: usize,
@@ -115,28 +107,23 @@ fn check_model(model: &Model) -> Result<(), ModelError> {
         return Err(invalid("the model has no triangles".into()));
     }
     for part in &model.parts {
-        if let Some(i) = part
-            .positions
-            .iter()
-            .position(|p| p.iter().any(|c| !c.is_finite()))
-        {
+        let vertex = [
+            ("position", first_non_finite(&part.positions)),
+            ("texture coordinate", first_non_finite(&part.uvs)),
+        ];
+        if let Some((what, i)) = vertex.into_iter().find_map(|(w, i)| i.map(|i| (w, i))) {
             return Err(invalid(format!(
-                "{}: vertex {i} has a non-finite position {:?}",
-                part.name, part.positions[i]
-            )));
-        }
-        if let Some(i) = part
-            .uvs
-            .iter()
-            .position(|t| t.iter().any(|c| !c.is_finite()))
-        {
-            return Err(invalid(format!(
-                "{}: vertex {i} has a non-finite texture coordinate {:?}",
-                part.name, part.uvs[i]
+                "{}: vertex {i} has a non-finite {what}",
+                part.name
             )));
         }
     }
     Ok(())
+}
+
+/// The first vertex with a component that is not finite.
+fn first_non_finite<const N: usize>(values: &[[f64; N]]) -> Option<usize> {
+    values.iter().position(|v| v.iter().any(|c| !c.is_finite()))
 }
 
 /// A glTF file's buffers: the GLB's binary chunk, `data:` URIs, files beside the `.gltf`.
@@ -250,7 +237,6 @@ fn read_gltf(path: &Path, bytes: &[u8], space: Space) -> Result<Model, ModelErro
     }
     let mut model = Model {
         path: path.to_path_buf(),
-        format: ModelFormat::Gltf,
         parts: Vec::new(),
         skipped: 0,
     };
@@ -361,7 +347,6 @@ fn read_obj(path: &Path, bytes: &[u8]) -> Result<Model, ModelError> {
     })?;
     let mut model = Model {
         path: path.to_path_buf(),
-        format: ModelFormat::Obj,
         parts: Vec::new(),
         skipped: 0,
     };

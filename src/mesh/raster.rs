@@ -307,14 +307,13 @@ fn rasterize_band(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::model::{ModelFormat, Part};
+    use crate::mesh::model::Part;
 
     fn quad_model() -> Model {
         // Two triangles sharing the diagonal from (0,0) to (1,1): centres on it (W = H) must
         // go to one triangle only.
         Model {
             path: "quad".into(),
-            format: ModelFormat::Gltf,
             skipped: 0,
             parts: vec![Part {
                 name: "quad".into(),

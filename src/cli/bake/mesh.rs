@@ -84,10 +84,6 @@ pub fn parse_strength(text: &str) -> Result<f64, String> {
     }
 }
 
-/// Bytes a mesh bake holds per texel before its outputs: the coverage (the hit, its surface
-/// point, the owner while rasterising), the padding's tables.
-const HELD_PER_TEXEL: u64 = 40 + 24 + 4 + 1 + 4 + 8;
-
 /// Options that do not apply to a mesh bake (each a usage error), and mesh options given
 /// without what they need.
 pub(super) fn misuse(args: &Request) -> Vec<String> {
@@ -207,9 +203,6 @@ pub(super) fn gradient_tape(
         eprintln!("error: {}: {why}", file.display());
         Failure::Usage
     };
-    if graph.output("normal").is_some() {
-        return Err(refuse("the graph has an output named `normal`, which --normal's map STEM.normal would overwrite".into()));
-    }
     crate::mesh::gradient_tape(graph, height, compile_options)
         .map_err(|why| refuse(format!("--normal {height}: {why}")))
 }
@@ -247,9 +240,7 @@ fn check_size(args: &Request, [width, height]: [usize; 2], channels: usize) -> R
             "--size {width},{height}: an image side is at most {MAX_SIDE} texels"
         ));
     }
-    let texels = (width as u64).saturating_mul(height as u64);
-    let per_texel = HELD_PER_TEXEL + 8 * channels as u64;
-    let held = texels.saturating_mul(per_texel);
+    let held = crate::mesh::held_bytes(width, height, channels);
     let limit = if args.allow_large {
         u64::MAX
     } else {
@@ -342,7 +333,8 @@ fn one_graph(
         eprintln!("error: {}: {why}", file.display());
         Failure::Usage
     };
-    check_size(args, size, tape.channels().max(1) + 3).map_err(usage)?;
+    let normal_values = if args.mesh.normal.is_some() { 3 } else { 0 };
+    check_size(args, size, tape.channels() + normal_values).map_err(usage)?;
     let gradient = match &args.mesh.normal {
         Some(height) => Some(gradient_tape(file, &graph, height, &compile_options)?),
         None => None,
@@ -686,7 +678,6 @@ pub(super) fn flat_normal(
     };
     let model = Model {
         path: PathBuf::new(),
-        format: crate::mesh::ModelFormat::Gltf,
         parts: Vec::new(),
         skipped: 0,
     };
