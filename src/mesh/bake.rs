@@ -3,7 +3,7 @@
 //! padded around the UV islands, and the tangent-space normal map of a height's gradient.
 
 use super::model::Model;
-use super::pad::nearest_covered;
+use super::pad;
 use super::raster::{Bins, Hit, BAND};
 use super::tangent::{bump_normal, corner_tangents, encode, frame, GreenAxis};
 use crate::bake::{BakeError, ChannelStats, OutputStats, Precision};
@@ -73,17 +73,18 @@ pub struct TextureSet {
     pub tangents: Vec<Vec<[[f32; 4]; 3]>>,
 }
 
-/// The surface point under a hit.
-fn surface_point(model: &Model, hit: &Hit) -> [f64; 3] {
-    let part = &model.parts[hit.part as usize];
-    let t = part.triangles[hit.triangle as usize];
-    let mut p = [0.0; 3];
-    for (k, &i) in t.iter().enumerate() {
-        for (c, value) in p.iter_mut().enumerate() {
-            *value += hit.bary[k] * part.positions[i as usize][c];
-        }
-    }
-    p
+/// Per part and triangle, its corners' positions (what a surface point reads, in one place).
+fn triangle_corners(model: &Model) -> Vec<Vec<[DVec3; 3]>> {
+    model
+        .parts
+        .iter()
+        .map(|part| {
+            part.triangles
+                .iter()
+                .map(|t| t.map(|i| DVec3::from(part.positions[i as usize])))
+                .collect()
+        })
+        .collect()
 }
 
 /// Per part and triangle: the texel's footprint on the surface, the parallelogram the
@@ -120,6 +121,8 @@ fn triangle_footprints(model: &Model, width: usize, height: usize) -> Vec<Vec<Fo
 struct Scratch<S: Real> {
     ws: Workspace<S>,
     fws: FilterWorkspace<S>,
+    owner: Vec<u32>,
+    hits: Vec<Hit>,
     coords: [Vec<f64>; 3],
     footprints: Vec<Footprint>,
     planar: Vec<S>,
@@ -130,6 +133,8 @@ impl<S: Real> Scratch<S> {
         Scratch {
             ws: Workspace::new(),
             fws: FilterWorkspace::default(),
+            owner: Vec::new(),
+            hits: Vec::new(),
             coords: Default::default(),
             footprints: Vec::new(),
             planar: Vec::new(),
@@ -162,82 +167,112 @@ struct Bake<'a> {
     filtered: Option<Filtered<'a>>,
     gradient: Option<(&'a Tape, Option<Filtered<'a>>)>,
     bins: Bins,
+    /// Per part and triangle, its corners' positions.
+    corners: Vec<Vec<[DVec3; 3]>>,
     /// Per part and triangle, the texel's footprint (box filter only).
     footprints: Vec<Vec<Footprint>>,
     tangents: Vec<Vec<[[f32; 4]; 3]>>,
     options: &'a MeshBakeOptions,
-    /// Values per texel in the band buffers: every output's channels, then the normal's 3.
-    stride: usize,
+    /// Channels per texel: every output's, then the normal's 3 (numbered across images).
+    channels: usize,
     cancel: Option<&'a AtomicBool>,
+}
+
+/// A band's rows of every image (each output's, then the normal map's) and of the mask.
+struct BandRows<'a> {
+    images: Vec<&'a mut [f32]>,
+    mask: &'a mut [bool],
 }
 
 /// What a band found.
 struct Band {
     covered: u64,
     overlaps: u64,
-    /// Per value of the stride, over the band's covered texels.
+    /// Per channel (numbered across images), over the band's covered texels.
     stats: Vec<ChannelStats>,
 }
 
 impl Bake<'_> {
-    /// Rasterises band `band` and evaluates its covered texels into `texels` (the band's rows,
-    /// `stride` values per texel) and `mask`; `None` when cancelled.
+    /// Rasterises band `band` and evaluates its covered texels into `rows`; `None` when
+    /// cancelled.
     fn band<S: Real>(
         &self,
         scratch: &mut Scratch<S>,
         band: usize,
-        texels: &mut [f32],
-        mask: &mut [bool],
+        rows: &mut BandRows<'_>,
     ) -> Option<Band> {
         if self.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
             return None;
         }
-        let (hits, overlaps) = self.bins.band(band);
+        let overlaps = self
+            .bins
+            .band_into(band, &mut scratch.owner, &mut scratch.hits);
+        let hits = std::mem::take(&mut scratch.hits);
         let first = band * BAND * self.options.width;
-        for c in &mut scratch.coords {
-            c.clear();
-        }
-        scratch.footprints.clear();
-        for hit in &hits {
-            let p = surface_point(self.model, hit);
-            for (c, coords) in scratch.coords.iter_mut().enumerate() {
-                coords.push(p[c]);
-            }
-            if self.filtered.is_some() {
-                scratch
-                    .footprints
-                    .push(self.footprints[hit.part as usize][hit.triangle as usize]);
-            }
-        }
-        let (n, channels) = (hits.len(), self.tape.channels());
+        let n = hits.len();
+        self.surface_points(scratch, &hits);
         scratch.evaluate(self.tape, self.filtered.as_ref());
-        for (h, hit) in hits.iter().enumerate() {
-            let at = (hit.texel as usize - first) * self.stride;
-            for c in 0..channels {
-                texels[at + c] = scratch.planar[c * n + h].to_f64() as f32;
+        let mut stats = vec![ChannelStats::default(); self.channels];
+        for (output, image) in self.tape.outputs().iter().zip(&mut rows.images) {
+            let k = output.ty.channels();
+            for c in 0..k {
+                let channel = output.first_channel + c;
+                let values = &scratch.planar[channel * n..(channel + 1) * n];
+                let stats = &mut stats[channel];
+                for (hit, value) in hits.iter().zip(values) {
+                    let value = value.to_f64() as f32;
+                    image[(hit.texel as usize - first) * k + c] = value;
+                    stats.add(value);
+                }
             }
-            mask[hit.texel as usize - first] = true;
+        }
+        for hit in &hits {
+            rows.mask[hit.texel as usize - first] = true;
         }
         if let Some((gradient, filtered)) = &self.gradient {
             scratch.evaluate(gradient, filtered.as_ref());
+            let first_channel = self.tape.channels();
+            let image = rows.images.last_mut().expect("the normal map's rows");
             for (h, hit) in hits.iter().enumerate() {
                 let g = [0, 1, 2].map(|c| scratch.planar[c * n + h].to_f64());
-                let at = (hit.texel as usize - first) * self.stride + channels;
-                texels[at..at + 3].copy_from_slice(&self.normal(hit, g));
+                let normal = self.normal(hit, g);
+                let at = (hit.texel as usize - first) * 3;
+                image[at..at + 3].copy_from_slice(&normal);
+                for (c, &v) in normal.iter().enumerate() {
+                    stats[first_channel + c].add(v);
+                }
             }
         }
-        let mut stats = vec![ChannelStats::default(); self.stride];
-        for hit in &hits {
-            let at = (hit.texel as usize - first) * self.stride;
-            for (c, stats) in stats.iter_mut().enumerate() {
-                stats.add(texels[at + c]);
-            }
-        }
+        scratch.hits = hits;
         Some(Band {
             covered: n as u64,
             overlaps,
             stats,
         })
+    }
+
+    /// The surface points under `hits` into the scratch's coordinates (and their footprints
+    /// when filtering).
+    fn surface_points<S: Real>(&self, scratch: &mut Scratch<S>, hits: &[Hit]) {
+        let [x, y, z] = &mut scratch.coords;
+        for c in [&mut *x, &mut *y, &mut *z] {
+            c.clear();
+            c.reserve(hits.len());
+        }
+        for hit in hits {
+            let [a, b, c] = self.corners[hit.part as usize][hit.triangle as usize];
+            let p = a * hit.bary[0] + b * hit.bary[1] + c * hit.bary[2];
+            x.push(p.x);
+            y.push(p.y);
+            z.push(p.z);
+        }
+        scratch.footprints.clear();
+        if self.filtered.is_some() {
+            scratch.footprints.extend(
+                hits.iter()
+                    .map(|hit| self.footprints[hit.part as usize][hit.triangle as usize]),
+            );
+        }
     }
 
     /// The encoded tangent-space normal at a hit from the height's gradient there.
@@ -252,42 +287,34 @@ impl Bake<'_> {
         encode(frame, bumped, self.options.green)
     }
 
-    /// Every band in parallel into `texels` and `mask`, their findings in band order.
-    fn run<S: Real>(&self, texels: &mut [f32], mask: &mut [bool]) -> Option<Vec<Band>> {
-        let width = self.options.width;
-        texels
-            .par_chunks_mut(BAND * width * self.stride)
-            .zip(mask.par_chunks_mut(BAND * width))
+    /// Every band in parallel into `images` (`k` channels a texel each) and `mask`, their
+    /// findings in band order.
+    fn run<S: Real>(
+        &self,
+        images: &mut [(Vec<f32>, usize)],
+        mask: &mut [bool],
+    ) -> Option<Vec<Band>> {
+        let rows = BAND * self.options.width;
+        let mut bands: Vec<BandRows<'_>> = mask
+            .chunks_mut(rows)
+            .map(|mask| BandRows {
+                images: Vec::with_capacity(images.len()),
+                mask,
+            })
+            .collect();
+        for (image, k) in images.iter_mut() {
+            for (band, rows) in bands.iter_mut().zip(image.chunks_mut(rows * *k)) {
+                band.images.push(rows);
+            }
+        }
+        bands
+            .into_par_iter()
             .enumerate()
-            .map_init(Scratch::<S>::new, |scratch, (band, (texels, mask))| {
-                self.band(scratch, band, texels, mask)
+            .map_init(Scratch::<S>::new, |scratch, (band, mut rows)| {
+                self.band(scratch, band, &mut rows)
             })
             .collect()
     }
-}
-
-/// Channels `first..first + k` of every texel of `texels` (`stride` values each) as an image,
-/// an uncovered texel taking its padding source's values (0 without one).
-fn gather(
-    texels: &[f32],
-    stride: usize,
-    first: usize,
-    k: usize,
-    sources: &[u32],
-    width: usize,
-) -> Vec<f32> {
-    let mut data = vec![0.0f32; sources.len() * k];
-    data.par_chunks_mut(width * k)
-        .zip(sources.par_chunks(width))
-        .for_each(|(row, sources)| {
-            for (texel, &source) in row.chunks_exact_mut(k).zip(sources) {
-                if source != super::pad::NONE {
-                    let at = source as usize * stride + first;
-                    texel.copy_from_slice(&texels[at..at + k]);
-                }
-            }
-        });
-    data
 }
 
 /// Bakes every output of `tape` into `model`'s UV layout; with `gradient` (a tape whose one
@@ -302,13 +329,13 @@ pub fn bake_texture_set(
 ) -> Result<TextureSet, BakeError> {
     let (width, height) = (options.width, options.height);
     let boxed = options.filter == Filter::Box;
-    let channels = tape.channels();
     let bake = Bake {
         model,
         tape,
         filtered: boxed.then(|| Filtered::new(tape)),
         gradient: gradient.map(|g| (g, boxed.then(|| Filtered::new(g)))),
         bins: Bins::new(model, width, height),
+        corners: triangle_corners(model),
         footprints: if boxed {
             triangle_footprints(model, width, height)
         } else {
@@ -320,17 +347,27 @@ pub fn bake_texture_set(
             Vec::new()
         },
         options,
-        stride: channels + if gradient.is_some() { 3 } else { 0 },
+        channels: tape.channels() + if gradient.is_some() { 3 } else { 0 },
         cancel,
     };
-    let mut texels = vec![0.0f32; width * height * bake.stride];
+    // Every output's image, then the normal map's: (name, type).
+    let kinds: Vec<(String, Type)> = tape
+        .outputs()
+        .iter()
+        .map(|o| (o.name.clone(), o.ty))
+        .chain(gradient.map(|_| ("normal".to_string(), Type::Vec3)))
+        .collect();
+    let mut planes: Vec<(Vec<f32>, usize)> = kinds
+        .iter()
+        .map(|(_, ty)| (vec![0.0f32; width * height * ty.channels()], ty.channels()))
+        .collect();
     let mut mask = vec![false; width * height];
     let bands = match options.precision {
-        Precision::F32 => bake.run::<f32>(&mut texels, &mut mask),
-        Precision::F64 => bake.run::<f64>(&mut texels, &mut mask),
+        Precision::F32 => bake.run::<f32>(&mut planes, &mut mask),
+        Precision::F64 => bake.run::<f64>(&mut planes, &mut mask),
     }
     .ok_or(BakeError::Cancelled)?;
-    let mut stats = vec![ChannelStats::default(); bake.stride];
+    let mut stats = vec![ChannelStats::default(); bake.channels];
     let (mut covered, mut overlaps) = (0, 0);
     for band in &bands {
         covered += band.covered;
@@ -339,23 +376,20 @@ pub fn bake_texture_set(
             all.merge(part);
         }
     }
-    let sources = nearest_covered(&mask, width, height, options.padding);
-    let padded = sources
-        .par_iter()
-        .zip(&mask)
-        .filter(|(s, c)| !**c && **s != super::pad::NONE)
-        .count() as u64;
-    let image = |name: &str, ty: Type, first: usize| TextureImage {
-        name: name.to_string(),
-        ty,
-        data: gather(&texels, bake.stride, first, ty.channels(), &sources, width),
-    };
-    let images: Vec<TextureImage> = tape
-        .outputs()
-        .iter()
-        .map(|o| image(&o.name, o.ty, o.first_channel))
+    let pairs = pad::padding(&mask, width, height, options.padding);
+    pad::apply(
+        &pairs,
+        &mut planes
+            .iter_mut()
+            .map(|(data, k)| (data.as_mut_slice(), *k))
+            .collect::<Vec<_>>(),
+    );
+    let mut images: Vec<TextureImage> = kinds
+        .into_iter()
+        .zip(planes)
+        .map(|((name, ty), (data, _))| TextureImage { name, ty, data })
         .collect();
-    let normal = gradient.map(|_| image("normal", Type::Vec3, channels));
+    let normal = gradient.and_then(|_| images.pop());
     let stats = images
         .iter()
         .chain(normal.as_ref())
@@ -377,16 +411,16 @@ pub fn bake_texture_set(
         stats,
         covered,
         overlaps,
-        padded,
+        padded: pairs.len() as u64,
         tangents: bake.tangents,
     })
 }
 
 /// Bytes a `width` × `height` texture set holds while it is made, with `values` values per
-/// texel (every output's channels, and 3 for a normal map): the band buffer and the images
-/// (4 bytes each per value), the coverage mask, the padding's source and row tables.
+/// texel (every output's channels, and 3 for a normal map): the images (4 bytes a value), the
+/// coverage mask, the padding's row table and its (texel, source) pairs (at most one a texel).
 pub fn held_bytes(width: usize, height: usize, values: usize) -> u64 {
-    let per_texel = 8 * values as u64 + 1 + 4 + 4;
+    let per_texel = 4 * values as u64 + 1 + 4 + 8;
     (width as u64)
         .saturating_mul(height as u64)
         .saturating_mul(per_texel)

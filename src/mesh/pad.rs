@@ -9,12 +9,9 @@
 
 use rayon::prelude::*;
 
-/// No source.
-pub const NONE: u32 = u32::MAX;
-
-/// Per texel: itself when covered, the nearest covered texel within `radius` texels (Euclidean)
-/// when not, else [`NONE`].
-pub fn nearest_covered(covered: &[bool], width: usize, height: usize, radius: u32) -> Vec<u32> {
+/// The padded texels: per uncovered texel within `radius` texels (Euclidean) of a covered one,
+/// `(texel, nearest covered texel)`, in texel order. Texels are `j * width + i`.
+pub fn padding(covered: &[bool], width: usize, height: usize, radius: u32) -> Vec<(u32, u32)> {
     assert_eq!(covered.len(), width * height);
     let r = radius as i64;
     // Per texel, the column of the nearest covered texel in its own row within `radius` (-1:
@@ -25,12 +22,11 @@ pub fn nearest_covered(covered: &[bool], width: usize, height: usize, radius: u3
         .zip(covered.par_chunks(width))
         .for_each(|(nearest, covered)| {
             let mut left = None;
-            let mut lefts = vec![-1i64; width];
             for i in 0..width {
                 if covered[i] {
                     left = Some(i as i64);
                 }
-                lefts[i] = left.filter(|&l| i as i64 - l <= r).unwrap_or(-1);
+                nearest[i] = left.filter(|&l| i as i64 - l <= r).unwrap_or(-1) as i32;
             }
             let mut right = None;
             for i in (0..width).rev() {
@@ -38,28 +34,31 @@ pub fn nearest_covered(covered: &[bool], width: usize, height: usize, radius: u3
                     right = Some(i as i64);
                 }
                 let right = right.filter(|&c| c - i as i64 <= r);
-                nearest[i] = match (lefts[i], right) {
-                    (-1, None) => -1,
+                let l = i64::from(nearest[i]);
+                nearest[i] = match (l, right) {
                     (-1, Some(c)) => c,
-                    (l, None) => l,
-                    (l, Some(c)) if c - (i as i64) < (i as i64) - l => c,
-                    (l, Some(_)) => l,
+                    (l, Some(c)) if l >= 0 && c - (i as i64) < (i as i64) - l => c,
+                    (l, _) => l,
                 } as i32;
             }
         });
-    let mut source = vec![NONE; width * height];
-    source
-        .par_chunks_mut(width)
+    let any: Vec<bool> = covered
+        .par_chunks(width)
+        .map(|row| row.iter().any(|&c| c))
+        .collect();
+    let rows: Vec<Vec<(u32, u32)>> = covered
+        .par_chunks(width)
         .enumerate()
-        .for_each(|(j, sources)| {
-            for (i, out) in sources.iter_mut().enumerate() {
-                if covered[j * width + i] {
-                    *out = (j * width + i) as u32;
-                    continue;
-                }
+        .map(|(j, covered)| {
+            let top = (j as i64 - r).max(0) as usize;
+            let bottom = (j as i64 + r).min(height as i64 - 1) as usize;
+            // A row with no covered texel within reach pads nothing.
+            if !any[top..=bottom].iter().any(|&a| a) {
+                return Vec::new();
+            }
+            let mut pairs = Vec::new();
+            for (i, _) in covered.iter().enumerate().filter(|(_, c)| !**c) {
                 let mut best: Option<(i64, usize)> = None;
-                let top = (j as i64 - r).max(0) as usize;
-                let bottom = (j as i64 + r).min(height as i64 - 1) as usize;
                 for row in top..=bottom {
                     let c = i64::from(row_nearest[row * width + i]);
                     if c < 0 {
@@ -72,16 +71,32 @@ pub fn nearest_covered(covered: &[bool], width: usize, height: usize, radius: u3
                     }
                 }
                 if let Some((_, texel)) = best {
-                    *out = texel as u32;
+                    pairs.push(((j * width + i) as u32, texel as u32));
                 }
             }
-        });
-    source
+            pairs
+        })
+        .collect();
+    rows.concat()
+}
+
+/// Copies each padded texel's source into it, in every image (`k` values a texel each).
+pub fn apply(pairs: &[(u32, u32)], images: &mut [(&mut [f32], usize)]) {
+    images.par_iter_mut().for_each(|(data, k)| {
+        let k = *k;
+        for &(texel, source) in pairs {
+            let (t, s) = (texel as usize * k, source as usize * k);
+            data.copy_within(s..s + k, t);
+        }
+    });
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// No source.
+    const NONE: u32 = u32::MAX;
 
     /// The same answer by brute force: every covered texel, nearest by distance, ties to the
     /// upper row then the left column.
@@ -104,6 +119,17 @@ mod tests {
                 best.map_or(NONE, |b| b.3 as u32)
             })
             .collect()
+    }
+
+    /// Per texel: itself when covered, its padding source when padded, else [`NONE`].
+    fn nearest_covered(covered: &[bool], width: usize, height: usize, radius: u32) -> Vec<u32> {
+        let mut sources: Vec<u32> = (0..covered.len())
+            .map(|t| if covered[t] { t as u32 } else { NONE })
+            .collect();
+        for (texel, source) in padding(covered, width, height, radius) {
+            sources[texel as usize] = source;
+        }
+        sources
     }
 
     #[test]

@@ -163,9 +163,21 @@ fn affine_barycentric(uv: &[[f64; 2]; 3]) -> [[f64; 3]; 2] {
 
 /// The barycentric coordinates at UV `p`, clamped onto the triangle (the snapped coverage test
 /// can accept a centre a 1/256 texel outside the stored triangle).
+#[inline]
 fn barycentric(affine: &[[f64; 3]; 2], p: [f64; 2]) -> [f64; 3] {
-    let at = |k: &[f64; 3]| (k[0] * p[0] + k[1] * p[1] + k[2]).clamp(0.0, 1.0);
+    let at = |k: &[f64; 3]| k[0] * p[0] + k[1] * p[1] + k[2];
     let (b1, b2) = (at(&affine[0]), at(&affine[1]));
+    if b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0 {
+        [1.0 - b1 - b2, b1, b2]
+    } else {
+        clamped(b1, b2)
+    }
+}
+
+/// [`barycentric`] for a centre outside the stored triangle (rare: on its rim).
+#[cold]
+fn clamped(b1: f64, b2: f64) -> [f64; 3] {
+    let (b1, b2) = (b1.clamp(0.0, 1.0), b2.clamp(0.0, 1.0));
     let sum = b1 + b2;
     let (b1, b2) = if sum > 1.0 {
         (b1 / sum, b2 / sum)
@@ -204,12 +216,21 @@ impl Bins {
     /// The covered texels of band `band` (rows `band * BAND ..`), in texel order, and the
     /// overlaps counted there.
     pub fn band(&self, band: usize) -> (Vec<Hit>, u64) {
+        let mut hits = Vec::new();
+        let overlaps = self.band_into(band, &mut Vec::new(), &mut hits);
+        (hits, overlaps)
+    }
+
+    /// [`Bins::band`] into `hits` (cleared first), with `owner` as the band's scratch: what a
+    /// worker calls band after band without allocating.
+    pub fn band_into(&self, band: usize, owner: &mut Vec<u32>, hits: &mut Vec<Hit>) -> u64 {
         rasterize_band(
             &self.prepared,
             &self.bins[band],
             band,
-            self.width,
-            self.height,
+            [self.width, self.height],
+            owner,
+            hits,
         )
     }
 }
@@ -239,12 +260,14 @@ fn rasterize_band(
     prepared: &[Prepared],
     bin: &[u32],
     band: usize,
-    width: usize,
-    height: usize,
-) -> (Vec<Hit>, u64) {
+    [width, height]: [usize; 2],
+    owner: &mut Vec<u32>,
+    hits: &mut Vec<Hit>,
+) -> u64 {
     let row0 = band * BAND;
     let rows = BAND.min(height - row0);
-    let mut owner = vec![NONE; rows * width];
+    owner.clear();
+    owner.resize(rows * width, NONE);
     let mut overlaps = 0u64;
     for &k in bin {
         let tri = &prepared[k as usize];
@@ -283,25 +306,25 @@ fn rasterize_band(
             }
         }
     }
-    let mut hits = Vec::with_capacity(owner.iter().filter(|&&k| k != NONE).count());
-    for (local, &k) in owner.iter().enumerate() {
-        if k == NONE {
-            continue;
+    hits.clear();
+    // Texel centres by products with the reciprocals (within an ulp of the quotients).
+    let (w, h) = (1.0 / width as f64, 1.0 / height as f64);
+    for (j, row) in (row0..).zip(owner.chunks_exact(width)) {
+        let v = (j as f64 + 0.5) * h;
+        for (i, &k) in row.iter().enumerate() {
+            if k == NONE {
+                continue;
+            }
+            let tri = &prepared[k as usize];
+            hits.push(Hit {
+                texel: (j * width + i) as u32,
+                part: tri.part,
+                triangle: tri.triangle,
+                bary: barycentric(&tri.affine, [(i as f64 + 0.5) * w, v]),
+            });
         }
-        let tri = &prepared[k as usize];
-        let (i, j) = (local % width, row0 + local / width);
-        let centre = [
-            (i as f64 + 0.5) / width as f64,
-            (j as f64 + 0.5) / height as f64,
-        ];
-        hits.push(Hit {
-            texel: (j * width + i) as u32,
-            part: tri.part,
-            triangle: tri.triangle,
-            bary: barycentric(&tri.affine, centre),
-        });
     }
-    (hits, overlaps)
+    overlaps
 }
 
 #[cfg(test)]
