@@ -231,6 +231,7 @@ const img = (sel) => {
 const diagnostics = document.getElementById('diagnostics');
 return {
     preview: img('#preview'),
+    preview_stage: text('#preview-stage'),
     slice: img('#slice'),
     nodes: [...document.querySelectorAll('#nodes div.node')].map((n) => {
         const t = n.querySelector('img.thumb');
@@ -423,7 +424,7 @@ fn drawn(s: &Value, nodes: &[&str]) -> bool {
         .as_array()
         .map(|a| a.iter().filter_map(|n| n["name"].as_str()).collect())
         .unwrap_or_default();
-    image_loaded(&s["preview"], PREVIEW)
+    full_preview(s)
         && image_loaded(&s["slice"], SLICE)
         && names == nodes
         && s["nodes"]
@@ -433,9 +434,19 @@ fn drawn(s: &Value, nodes: &[&str]) -> bool {
         && s["stale"] == false
 }
 
+/// The preview shows a full render at the full size. The draft that comes first has the
+/// same size when the preview is small (`common::SMALL_IMAGES`'s 128 is the draft's size too), so
+/// the size alone does not tell them apart: the stage the page shows does.
+fn full_preview(s: &Value) -> bool {
+    image_loaded(&s["preview"], PREVIEW)
+        && s["preview_stage"]
+            .as_str()
+            .is_some_and(|t| t.starts_with("full"))
+}
+
 /// A new full preview: not the remembered one.
 fn preview_changed(s: &Value) -> bool {
-    image_loaded(&s["preview"], PREVIEW) && s["preview"]["same"] == false
+    full_preview(s) && s["preview"]["same"] == false
 }
 
 /// The server's newest state (`/api/state`).
