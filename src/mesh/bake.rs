@@ -2,7 +2,7 @@
 //! covered texel centre (at the point, or its mean over the texel's footprint on the surface),
 //! padded around the UV islands, and the tangent-space normal map of a height's gradient.
 
-use super::model::Model;
+use super::model::{Model, Part};
 use super::pad;
 use super::raster::{Bins, Hit, BAND};
 use super::tangent::{bump_normal, corner_tangents, encode, frame, GreenAxis};
@@ -73,48 +73,39 @@ pub struct TextureSet {
     pub tangents: Vec<Vec<[[f32; 4]; 3]>>,
 }
 
-/// Per part and triangle, its corners' positions (what a surface point reads, in one place).
-fn triangle_corners(model: &Model) -> Vec<Vec<[DVec3; 3]>> {
+/// `f` of every triangle (its part and vertex indices), per part.
+fn per_triangle<T>(model: &Model, f: impl Fn(&Part, [u32; 3]) -> T) -> Vec<Vec<T>> {
     model
         .parts
         .iter()
-        .map(|part| {
-            part.triangles
-                .iter()
-                .map(|t| t.map(|i| DVec3::from(part.positions[i as usize])))
-                .collect()
-        })
+        .map(|part| part.triangles.iter().map(|&t| f(part, t)).collect())
         .collect()
+}
+
+/// A triangle's corners' positions.
+fn corners(part: &Part, t: [u32; 3]) -> [DVec3; 3] {
+    t.map(|i| DVec3::from(part.positions[i as usize]))
 }
 
 /// Per part and triangle: the texel's footprint on the surface, the parallelogram the
 /// UV-to-position Jacobian maps a texel to (a point where the UVs are degenerate).
 fn triangle_footprints(model: &Model, width: usize, height: usize) -> Vec<Vec<Footprint>> {
-    model
-        .parts
-        .iter()
-        .map(|part| {
-            part.triangles
-                .iter()
-                .map(|t| {
-                    let p = t.map(|i| DVec3::from(part.positions[i as usize]));
-                    let uv = t.map(|i| part.uvs[i as usize]);
-                    let (p1, p2) = (p[1] - p[0], p[2] - p[0]);
-                    let (du1, dv1) = (uv[1][0] - uv[0][0], uv[1][1] - uv[0][1]);
-                    let (du2, dv2) = (uv[2][0] - uv[0][0], uv[2][1] - uv[0][1]);
-                    let det = du1 * dv2 - du2 * dv1;
-                    let pu = (p1 * dv2 - p2 * dv1) / det;
-                    let pv = (p2 * du1 - p1 * du2) / det;
-                    let edges = [
-                        (pu / width as f64).to_array(),
-                        (pv / height as f64).to_array(),
-                        [0.0; 3],
-                    ];
-                    Footprint::from_edges(edges).unwrap_or(Footprint::POINT)
-                })
-                .collect()
-        })
-        .collect()
+    per_triangle(model, |part, t| {
+        let p = corners(part, t);
+        let uv = t.map(|i| part.uvs[i as usize]);
+        let (p1, p2) = (p[1] - p[0], p[2] - p[0]);
+        let (du1, dv1) = (uv[1][0] - uv[0][0], uv[1][1] - uv[0][1]);
+        let (du2, dv2) = (uv[2][0] - uv[0][0], uv[2][1] - uv[0][1]);
+        let det = du1 * dv2 - du2 * dv1;
+        let pu = (p1 * dv2 - p2 * dv1) / det;
+        let pv = (p2 * du1 - p1 * du2) / det;
+        let edges = [
+            (pu / width as f64).to_array(),
+            (pv / height as f64).to_array(),
+            [0.0; 3],
+        ];
+        Footprint::from_edges(edges).unwrap_or(Footprint::POINT)
+    })
 }
 
 /// What one worker keeps between its evaluations (no allocation after the first band).
@@ -335,7 +326,7 @@ pub fn bake_texture_set(
         filtered: boxed.then(|| Filtered::new(tape)),
         gradient: gradient.map(|g| (g, boxed.then(|| Filtered::new(g)))),
         bins: Bins::new(model, width, height),
-        corners: triangle_corners(model),
+        corners: per_triangle(model, corners),
         footprints: if boxed {
             triangle_footprints(model, width, height)
         } else {
