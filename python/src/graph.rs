@@ -342,8 +342,7 @@ impl Graph {
             }
             None => None,
         };
-        let normal_values = if gradient.is_some() { 3 } else { 0 };
-        let held = texgraph::mesh::held_bytes(width, height, tape.channels() + normal_values);
+        let held = texgraph::mesh::held_bytes(width, height, tape.channels(), gradient.is_some());
         if held > texgraph::bake::DEFAULT_MAX_HELD_BYTES {
             return Err(PyValueError::new_err(format!(
                 "a {width}×{height} texture set would hold about {} in memory, more than 2 GiB",

@@ -688,7 +688,8 @@ fn gpu_window(
     }))
 }
 
-pub(super) fn collect_stats(tape: &Tape, stats: &[ChannelStats]) -> Vec<OutputStats> {
+/// Per output of `tape`, its channels' statistics out of `stats` (one per channel).
+pub(crate) fn collect_stats(tape: &Tape, stats: &[ChannelStats]) -> Vec<OutputStats> {
     tape.outputs
         .iter()
         .map(|o| OutputStats {

@@ -43,6 +43,7 @@ pub mod zarr;
 
 pub use crate::grid::{Grid, Layout, Region, Segment, SEGMENT_BYTES, SEGMENT_VOXELS, WINDOW_BYTES};
 pub use device::{choose as choose_device, Choice, Evaluator};
+pub(crate) use engine::collect_stats;
 pub use engine::{
     bake_into, bake_volume, bake_volume_with_progress, capped_threads, BakeError, BakeOptions,
     ChannelStats, OutputStats, Precision, Sink, Volume, VolumeOutput, Window, WindowOutput,

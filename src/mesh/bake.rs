@@ -278,13 +278,8 @@ impl Bake<'_> {
         encode(frame, bumped, self.options.green)
     }
 
-    /// Every band in parallel into `images` (`k` channels a texel each) and `mask`, their
-    /// findings in band order.
-    fn run<S: Real>(
-        &self,
-        images: &mut [(Vec<f32>, usize)],
-        mask: &mut [bool],
-    ) -> Option<Vec<Band>> {
+    /// Every band in parallel into `images` and `mask`, their findings in band order.
+    fn run<S: Real>(&self, images: &mut [TextureImage], mask: &mut [bool]) -> Option<Vec<Band>> {
         let rows = BAND * self.options.width;
         let mut bands: Vec<BandRows<'_>> = mask
             .chunks_mut(rows)
@@ -293,8 +288,9 @@ impl Bake<'_> {
                 mask,
             })
             .collect();
-        for (image, k) in images.iter_mut() {
-            for (band, rows) in bands.iter_mut().zip(image.chunks_mut(rows * *k)) {
+        for image in images.iter_mut() {
+            let k = image.ty.channels();
+            for (band, rows) in bands.iter_mut().zip(image.data.chunks_mut(rows * k)) {
                 band.images.push(rows);
             }
         }
@@ -341,21 +337,22 @@ pub fn bake_texture_set(
         channels: tape.channels() + if gradient.is_some() { 3 } else { 0 },
         cancel,
     };
-    // Every output's image, then the normal map's: (name, type).
-    let kinds: Vec<(String, Type)> = tape
+    // Every output's image, then the normal map's.
+    let blank = |name: &str, ty: Type| TextureImage {
+        name: name.to_string(),
+        ty,
+        data: vec![0.0f32; width * height * ty.channels()],
+    };
+    let mut images: Vec<TextureImage> = tape
         .outputs()
         .iter()
-        .map(|o| (o.name.clone(), o.ty))
-        .chain(gradient.map(|_| ("normal".to_string(), Type::Vec3)))
-        .collect();
-    let mut planes: Vec<(Vec<f32>, usize)> = kinds
-        .iter()
-        .map(|(_, ty)| (vec![0.0f32; width * height * ty.channels()], ty.channels()))
+        .map(|o| blank(&o.name, o.ty))
+        .chain(gradient.map(|_| blank("normal", Type::Vec3)))
         .collect();
     let mut mask = vec![false; width * height];
     let bands = match options.precision {
-        Precision::F32 => bake.run::<f32>(&mut planes, &mut mask),
-        Precision::F64 => bake.run::<f64>(&mut planes, &mut mask),
+        Precision::F32 => bake.run::<f32>(&mut images, &mut mask),
+        Precision::F64 => bake.run::<f64>(&mut images, &mut mask),
     }
     .ok_or(BakeError::Cancelled)?;
     let mut stats = vec![ChannelStats::default(); bake.channels];
@@ -368,38 +365,23 @@ pub fn bake_texture_set(
         }
     }
     let pairs = pad::padding(&mask, width, height, options.padding);
-    pad::apply(
-        &pairs,
-        &mut planes
-            .iter_mut()
-            .map(|(data, k)| (data.as_mut_slice(), *k))
-            .collect::<Vec<_>>(),
-    );
-    let mut images: Vec<TextureImage> = kinds
-        .into_iter()
-        .zip(planes)
-        .map(|((name, ty), (data, _))| TextureImage { name, ty, data })
-        .collect();
+    images
+        .par_iter_mut()
+        .for_each(|image| pad::apply(&pairs, &mut image.data, image.ty.channels()));
     let normal = gradient.and_then(|_| images.pop());
-    let stats = images
-        .iter()
-        .chain(normal.as_ref())
-        .scan(0, |first, image| {
-            let k = image.ty.channels();
-            let output = OutputStats {
-                name: image.name.clone(),
-                channels: stats[*first..*first + k].to_vec(),
-            };
-            *first += k;
-            Some(output)
-        })
-        .collect();
+    let mut stats_by_output = crate::bake::collect_stats(tape, &stats);
+    if let Some(normal) = &normal {
+        stats_by_output.push(OutputStats {
+            name: normal.name.clone(),
+            channels: stats[tape.channels()..].to_vec(),
+        });
+    }
     Ok(TextureSet {
         width,
         height,
         images,
         normal,
-        stats,
+        stats: stats_by_output,
         covered,
         overlaps,
         padded: pairs.len() as u64,
@@ -407,11 +389,12 @@ pub fn bake_texture_set(
     })
 }
 
-/// Bytes a `width` × `height` texture set holds while it is made, with `values` values per
-/// texel (every output's channels, and 3 for a normal map): the images (4 bytes a value), the
-/// coverage mask, the padding's row table and its (texel, source) pairs (at most one a texel).
-pub fn held_bytes(width: usize, height: usize, values: usize) -> u64 {
-    let per_texel = 4 * values as u64 + 1 + 4 + 8;
+/// Bytes a `width` × `height` texture set of `channels` channels (every output's), and a
+/// normal map when `normal`, holds while it is made: the images (4 bytes a value), the coverage
+/// mask, the padding's row table and its (texel, source) pairs (at most one a texel).
+pub fn held_bytes(width: usize, height: usize, channels: usize, normal: bool) -> u64 {
+    let values = channels as u64 + if normal { 3 } else { 0 };
+    let per_texel = 4 * values + 1 + 4 + 8;
     (width as u64)
         .saturating_mul(height as u64)
         .saturating_mul(per_texel)

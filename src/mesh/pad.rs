@@ -80,15 +80,12 @@ pub fn padding(covered: &[bool], width: usize, height: usize, radius: u32) -> Ve
     rows.concat()
 }
 
-/// Copies each padded texel's source into it, in every image (`k` values a texel each).
-pub fn apply(pairs: &[(u32, u32)], images: &mut [(&mut [f32], usize)]) {
-    images.par_iter_mut().for_each(|(data, k)| {
-        let k = *k;
-        for &(texel, source) in pairs {
-            let (t, s) = (texel as usize * k, source as usize * k);
-            data.copy_within(s..s + k, t);
-        }
-    });
+/// Copies each padded texel's source into it, in `data` (`k` values a texel).
+pub fn apply(pairs: &[(u32, u32)], data: &mut [f32], k: usize) {
+    for &(texel, source) in pairs {
+        let (t, s) = (texel as usize * k, source as usize * k);
+        data.copy_within(s..s + k, t);
+    }
 }
 
 #[cfg(test)]

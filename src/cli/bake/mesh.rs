@@ -232,7 +232,8 @@ fn image_size(args: &Request) -> [usize; 2] {
     [args.size.dims[0], args.size.dims[1]]
 }
 
-/// Refuses a size whose images would not fit the formats or the memory limit.
+/// Refuses a size whose images (`channels` of the outputs, and the normal map when asked for)
+/// would not fit the formats or the memory limit.
 fn check_size(args: &Request, [width, height]: [usize; 2], channels: usize) -> Result<(), String> {
     const MAX_SIDE: usize = i32::MAX as usize;
     if width > MAX_SIDE || height > MAX_SIDE {
@@ -240,7 +241,7 @@ fn check_size(args: &Request, [width, height]: [usize; 2], channels: usize) -> R
             "--size {width},{height}: an image side is at most {MAX_SIDE} texels"
         ));
     }
-    let held = crate::mesh::held_bytes(width, height, channels);
+    let held = crate::mesh::held_bytes(width, height, channels, args.mesh.normal.is_some());
     let limit = if args.allow_large {
         u64::MAX
     } else {
@@ -333,8 +334,7 @@ fn one_graph(
         eprintln!("error: {}: {why}", file.display());
         Failure::Usage
     };
-    let normal_values = if args.mesh.normal.is_some() { 3 } else { 0 };
-    check_size(args, size, tape.channels() + normal_values).map_err(usage)?;
+    check_size(args, size, tape.channels()).map_err(usage)?;
     let gradient = match &args.mesh.normal {
         Some(height) => Some(gradient_tape(file, &graph, height, &compile_options)?),
         None => None,
