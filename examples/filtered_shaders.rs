@@ -13,25 +13,14 @@ use std::path::PathBuf;
 use std::time::Instant;
 use texgraph::shader::{export, Lang, ShaderOptions};
 
+#[path = "common/graphs.rs"]
+mod graphs;
+
 fn graphs(args: &[String]) -> Vec<PathBuf> {
-    let named: Vec<PathBuf> = args.iter().map(PathBuf::from).collect();
-    if !named.is_empty() {
-        return named;
+    if args.is_empty() {
+        return graphs::graph_files(std::path::Path::new(env!("CARGO_MANIFEST_DIR")));
     }
-    let mut files = Vec::new();
-    for dir in ["graphs", "graphs/library"] {
-        let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(dir);
-        for entry in std::fs::read_dir(root)
-            .expect("the graphs folder")
-            .flatten()
-        {
-            if entry.path().extension().is_some_and(|e| e == "ron") {
-                files.push(entry.path());
-            }
-        }
-    }
-    files.sort();
-    files
+    args.iter().map(PathBuf::from).collect()
 }
 
 fn main() {

@@ -14,21 +14,16 @@ use texgraph::filter_report::{filter_report, FilterOptions};
 use texgraph::grid::Region;
 use texgraph::{load_tape, CheckOptions, CompileOptions};
 
+#[path = "common/graphs.rs"]
+mod graphs;
+
 fn main() {
     let boxes: usize = std::env::args()
         .nth(1)
         .and_then(|a| a.parse().ok())
         .unwrap_or(100);
-    let mut files = Vec::new();
-    for dir in ["graphs", "graphs/library"] {
-        for entry in std::fs::read_dir(dir).expect("run from the crate root") {
-            let path = entry.expect("entry").path();
-            if path.extension().is_some_and(|e| e == "ron") {
-                files.push(path);
-            }
-        }
-    }
-    files.sort();
+    // Relative to the crate root, where it runs (the table names the files so).
+    let files = graphs::graph_files(std::path::Path::new(""));
     let options = FilterOptions {
         boxes,
         region: Region {
