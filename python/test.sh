@@ -17,12 +17,14 @@ if [ "${TEXGRAPH_PYVENV_READY:-}" != 1 ] || [ ! -f "$venv/.ready" ]; then
     "$venv/bin/python" -m pip install --quiet --upgrade pip
     "$venv/bin/python" -m pip install --quiet numpy pytest "maturin>=1.7,<2"
 fi
-# The command line the tests run: the one `cargo test` builds (its dependencies' features are
-# unified with the tests' dev-dependencies; `cargo build --bin texgraph` would rebuild naga,
-# serde, hyper and the crate with other features: 52 s in CI), a no-op after `cargo test`
-# (after .ci/run's `cargo build --workspace --all-targets`, with `--workspace`: the features
-# unified with the binding's).
-cargo test --locked --no-run ${TEXGRAPH_PY_MODULE:+--workspace} --test it --quiet
+# The command line the tests run: TEXGRAPH_CLI when the caller built it (.ci/run), else the one
+# `cargo test` builds (its dependencies' features are unified with the tests' dev-dependencies;
+# `cargo build --bin texgraph` would rebuild naga, serde, hyper and the crate with other
+# features: 52 s in CI), a no-op after `cargo test`.
+if [ -z "${TEXGRAPH_CLI:-}" ]; then
+    cargo test --locked --no-run --test it --quiet
+    TEXGRAPH_CLI="$PWD/target/debug/texgraph"
+fi
 if [ -n "${TEXGRAPH_PY_MODULE:-}" ]; then
     # The extension module built already (.ci/run: `cargo build --workspace --all-targets`
     # builds it with the test build, whose texgraph and dependencies it shares, instead of a
@@ -43,4 +45,4 @@ else
 fi
 # pytest from the repository root, so `import texgraph` finds the installed package and not
 # the source folder python/texgraph.
-TEXGRAPH_CLI="${TEXGRAPH_CLI:-$PWD/target/debug/texgraph}" "$venv/bin/python" -m pytest -q -p no:cacheprovider python/tests "$@"
+TEXGRAPH_CLI="$TEXGRAPH_CLI" "$venv/bin/python" -m pytest -q -p no:cacheprovider python/tests "$@"
