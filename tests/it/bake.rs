@@ -39,7 +39,7 @@ const NON_FINITE: &str = r#"Graph(nodes: { "p": Position }, outputs: {
 // ---------------------------------------------------------------------------------------------
 // Graphs and grids
 
-use common::{crate_root as root, load_graph_file as load_with};
+use common::{crate_root as root, load_graph_file as load_with, Png};
 
 fn load(path: &str) -> Tape {
     load_with(path, &[]).0
@@ -291,45 +291,16 @@ fn read_exr(path: &Path) -> ExrImage {
     }
 }
 
-/// A PNG: size, channels per pixel, bits per sample, samples row by row.
-struct Png {
-    width: usize,
-    height: usize,
-    channels: usize,
-    bits: u8,
-    samples: Vec<u16>,
-}
-
-impl Png {
-    fn pixel(&self, x: usize, y: usize) -> &[u16] {
-        let at = (y * self.width + x) * self.channels;
-        &self.samples[at..at + self.channels]
-    }
-}
-
+/// A PNG of gray or RGB samples, 8 or 16 bits (what `bake` writes).
 fn read_png(path: &Path) -> Png {
-    use image::DynamicImage::*;
-    let image = image::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let (width, height) = (image.width() as usize, image.height() as usize);
-    let widen = |v: Vec<u8>| v.into_iter().map(u16::from).collect::<Vec<u16>>();
-    let (channels, bits, samples) = match image {
-        ImageLuma8(i) => (1, 8, widen(i.into_raw())),
-        ImageRgb8(i) => (3, 8, widen(i.into_raw())),
-        ImageLuma16(i) => (1, 16, i.into_raw()),
-        ImageRgb16(i) => (3, 16, i.into_raw()),
-        other => panic!(
-            "{}: unexpected PNG colour type {:?}",
-            path.display(),
-            other.color()
-        ),
-    };
-    Png {
-        width,
-        height,
-        channels,
-        bits,
-        samples,
-    }
+    let png = Png::open(path).unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        matches!(png.channels, 1 | 3),
+        "{}: unexpected PNG of {} channels",
+        path.display(),
+        png.channels
+    );
+    png
 }
 
 // ---------------------------------------------------------------------------------------------

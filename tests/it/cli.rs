@@ -1,6 +1,7 @@
 //! The `texgraph` command line, run as a user runs it: the built binary, real files, real exit
 //! codes (0 success; 1 invalid graph or input; 2 usage or I/O error; never 101, a panic).
 
+use crate::common;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -1042,8 +1043,8 @@ fn render_writes_a_png_of_the_requested_size() {
     ]);
     assert_eq!(code(&output), 0, "{}", stderr(&output));
     assert!(stdout(&output).contains("wrote"), "{}", stdout(&output));
-    let image = image::open(&out).expect("a png").to_rgb8();
-    assert_eq!(image.dimensions(), (48, 32));
+    let image = common::Png::open(&out).expect("a png");
+    assert_eq!((image.width, image.height), (48, 32));
     // A scene file renders too.
     let scene_out = dir.path().join("scene.png");
     let output = run(&[
@@ -1470,8 +1471,8 @@ fn report_filtering_table_json_and_plot() {
             "{row}"
         );
     }
-    let image = image::open(&png).expect("a PNG");
-    assert_eq!((image.width(), image.height()), (1000, 640));
+    let image = common::Png::open(&png).expect("a PNG");
+    assert_eq!((image.width, image.height), (1000, 640));
     for other in [["--mips"], ["--stability"]] {
         expect_code(&[&base[..], &other[..]].concat(), 2);
     }

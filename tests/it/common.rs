@@ -556,3 +556,91 @@ fn the_covering_graphs_use_every_instruction_form() {
             .join(" ")
     );
 }
+
+/// A PNG as the `png` crate decodes it (palettes and bit depths under 8 expanded): size,
+/// channels per pixel (1 grey, 2 grey and alpha, 3 RGB, 4 RGBA), bits per sample (8 or 16),
+/// samples row by row.
+pub struct Png {
+    pub width: usize,
+    pub height: usize,
+    pub channels: usize,
+    pub bits: u8,
+    pub samples: Vec<u16>,
+}
+
+impl Png {
+    /// The PNG file at `path`.
+    pub fn open(path: &std::path::Path) -> Result<Png, String> {
+        let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        Png::decode(&bytes).map_err(|e| format!("{}: {e}", path.display()))
+    }
+
+    /// The PNG in `bytes`.
+    pub fn decode(bytes: &[u8]) -> Result<Png, String> {
+        let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+        decoder.set_transformations(png::Transformations::EXPAND);
+        let mut reader = decoder.read_info().map_err(|e| e.to_string())?;
+        let mut buffer = vec![0; reader.output_buffer_size().ok_or("a PNG too large")?];
+        let info = reader.next_frame(&mut buffer).map_err(|e| e.to_string())?;
+        buffer.truncate(info.buffer_size());
+        let channels = info.color_type.samples();
+        let (bits, samples) = match info.bit_depth {
+            png::BitDepth::Sixteen => (
+                16,
+                buffer
+                    .chunks_exact(2)
+                    .map(|b| u16::from_be_bytes([b[0], b[1]]))
+                    .collect(),
+            ),
+            png::BitDepth::Eight => (8, buffer.into_iter().map(u16::from).collect()),
+            other => return Err(format!("{other:?} bits per sample after expansion")),
+        };
+        Ok(Png {
+            width: info.width as usize,
+            height: info.height as usize,
+            channels,
+            bits,
+            samples,
+        })
+    }
+
+    /// (width, height) in pixels.
+    pub fn dimensions(&self) -> (u32, u32) {
+        (self.width as u32, self.height as u32)
+    }
+
+    /// The samples of pixel (x, y).
+    pub fn pixel(&self, x: usize, y: usize) -> &[u16] {
+        let at = (y * self.width + x) * self.channels;
+        &self.samples[at..at + self.channels]
+    }
+
+    /// The 8-bit pixels as RGB (grey repeated, alpha dropped), row by row.
+    pub fn rgb8(&self) -> Vec<u8> {
+        self.with_alpha(false)
+    }
+
+    /// The 8-bit pixels as RGBA (grey repeated, opaque where the file has no alpha).
+    pub fn rgba8(&self) -> Vec<u8> {
+        self.with_alpha(true)
+    }
+
+    fn with_alpha(&self, alpha: bool) -> Vec<u8> {
+        assert_eq!(self.bits, 8, "an 8-bit PNG");
+        let mut out = Vec::with_capacity(self.width * self.height * 4);
+        for p in self.samples.chunks_exact(self.channels) {
+            let p: Vec<u8> = p.iter().map(|&s| s as u8).collect();
+            let (rgb, a) = match p.len() {
+                1 => ([p[0]; 3], 255),
+                2 => ([p[0]; 3], p[1]),
+                3 => ([p[0], p[1], p[2]], 255),
+                _ => ([p[0], p[1], p[2]], p[3]),
+            };
+            out.extend_from_slice(&rgb);
+            if alpha {
+                out.push(a);
+            }
+        }
+        out
+    }
+}

@@ -419,16 +419,10 @@ fn the_command_line_filters_on_the_gpu() {
             "{}",
             String::from_utf8_lossy(&out.stderr)
         );
-        image::open(&png).expect("a PNG").to_rgba8()
+        common::Png::open(&png).expect("a PNG").rgba8()
     };
     let (c, g) = (render("cpu"), render("gpu"));
-    let worst = c
-        .as_raw()
-        .iter()
-        .zip(g.as_raw())
-        .map(|(a, b)| a.abs_diff(*b))
-        .max()
-        .unwrap();
+    let worst = c.iter().zip(&g).map(|(a, b)| a.abs_diff(*b)).max().unwrap();
     assert!(
         worst <= 1,
         "GPU and CPU box-filtered renders differ by {worst}"

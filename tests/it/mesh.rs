@@ -232,13 +232,15 @@ fn read_exr(path: &Path) -> (usize, usize, usize, Vec<f32>) {
 
 /// 8-bit PNG samples.
 fn read_png8(path: &Path) -> (usize, usize, usize, Vec<u8>) {
-    let image = image::open(path).unwrap();
-    let (w, h) = (image.width() as usize, image.height() as usize);
-    match image {
-        image::DynamicImage::ImageLuma8(i) => (w, h, 1, i.into_raw()),
-        image::DynamicImage::ImageRgb8(i) => (w, h, 3, i.into_raw()),
-        other => panic!("unexpected {:?}", other.color()),
-    }
+    let png = common::Png::open(path).unwrap();
+    assert!(
+        png.bits == 8 && matches!(png.channels, 1 | 3),
+        "unexpected {} channels of {} bits",
+        png.channels,
+        png.bits
+    );
+    let samples = png.samples.iter().map(|&s| s as u8).collect();
+    (png.width, png.height, png.channels, samples)
 }
 
 fn tape_of(path: &str) -> texgraph::tape::Tape {

@@ -53,19 +53,14 @@ fn assert_golden(name: &str, image: &RenderedImage) {
         std::fs::write(&path, got.encode_png()).expect("write golden");
         return;
     }
-    let want = image::open(&path)
-        .unwrap_or_else(|e| {
-            panic!(
-                "{}: {e}; run with TEXGRAPH_BLESS=1 to create it",
-                path.display()
-            )
-        })
-        .to_rgb8();
-    assert_eq!(got.dimensions(), want.dimensions(), "{name}: size");
+    let want = common::Png::open(&path)
+        .unwrap_or_else(|e| panic!("{e}; run with TEXGRAPH_BLESS=1 to create it"));
+    let size = (want.width as u32, want.height as u32);
+    assert_eq!(got.dimensions(), size, "{name}: size");
     let diffs: Vec<i32> = got
         .as_raw()
         .iter()
-        .zip(want.as_raw())
+        .zip(&want.rgb8())
         .map(|(a, b)| (*a as i32 - *b as i32).abs())
         .collect();
     let big = diffs.iter().filter(|d| **d > 8).count();
@@ -811,8 +806,8 @@ fn png_files_are_written_whole_or_not_at_all() {
     };
     let path = dir.path().join("x.png");
     image.write_png(&path).unwrap();
-    let back = image::open(&path).unwrap().to_rgb8();
-    assert_eq!(back.as_raw(), &[255, 0, 0, 0, 0, 255]);
+    let back = common::Png::open(&path).unwrap().rgb8();
+    assert_eq!(back, [255, 0, 0, 0, 0, 255]);
     let error = image
         .write_png(&dir.path().join("missing/x.png"))
         .unwrap_err();
@@ -1676,7 +1671,7 @@ fn render_bump_on_the_command_line() {
         args.extend_from_slice(&["-o", out]);
         texgraph(&args)
     };
-    let pixels = |path: &str| image::open(path).unwrap().to_rgb8().into_raw();
+    let pixels = |path: &str| common::Png::open(Path::new(path)).unwrap().rgb8();
     assert_eq!(run(&[], &png("plain.png")).0, 0);
     let (code, err) = run(&["--bump", "stone"], &png("bumped.png"));
     assert_eq!(code, 0, "{err}");
