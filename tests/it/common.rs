@@ -625,11 +625,16 @@ impl Png {
         self.with_alpha(true)
     }
 
-    fn with_alpha(&self, alpha: bool) -> Vec<u8> {
+    /// The samples of an 8-bit PNG as bytes, as stored.
+    pub fn samples8(&self) -> Vec<u8> {
         assert_eq!(self.bits, 8, "an 8-bit PNG");
+        self.samples.iter().map(|&s| s as u8).collect()
+    }
+
+    fn with_alpha(&self, alpha: bool) -> Vec<u8> {
+        let samples = self.samples8();
         let mut out = Vec::with_capacity(self.width * self.height * 4);
-        for p in self.samples.chunks_exact(self.channels) {
-            let p: Vec<u8> = p.iter().map(|&s| s as u8).collect();
+        for p in samples.chunks_exact(self.channels) {
             let (rgb, a) = match p.len() {
                 1 => ([p[0]; 3], 255),
                 2 => ([p[0]; 3], p[1]),

@@ -233,14 +233,8 @@ fn read_exr(path: &Path) -> (usize, usize, usize, Vec<f32>) {
 /// 8-bit PNG samples.
 fn read_png8(path: &Path) -> (usize, usize, usize, Vec<u8>) {
     let png = common::Png::open(path).unwrap();
-    assert!(
-        png.bits == 8 && matches!(png.channels, 1 | 3),
-        "unexpected {} channels of {} bits",
-        png.channels,
-        png.bits
-    );
-    let samples = png.samples.iter().map(|&s| s as u8).collect();
-    (png.width, png.height, png.channels, samples)
+    assert!(matches!(png.channels, 1 | 3), "{} channels", png.channels);
+    (png.width, png.height, png.channels, png.samples8())
 }
 
 fn tape_of(path: &str) -> texgraph::tape::Tape {
