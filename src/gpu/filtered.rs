@@ -96,6 +96,7 @@ pub(crate) fn filtered_part(tape: &Tape, per_output: bool) -> Result<String, Gpu
         tape,
         samplers: Vec::new(),
         shapes: String::new(),
+        rules: HashSet::new(),
         fusions: crate::filter::fusions::fusions(tape, &integer),
         knots: 2,
         integer,
@@ -168,8 +169,11 @@ struct Gen<'t> {
     tape: &'t Tape,
     /// (table, period) per sampler function `smp{k}`.
     samplers: Vec<(u32, Option<[u64; 3]>)>,
-    /// The piecewise shapes' functions (`pwh`, `pwr`, `pwc`, `pwf`).
+    /// The piecewise shapes' functions (`pwh`, `pwr`, `pwc`, `pwf`) and the rule functions
+    /// (`u_`, `b_`, `t_` and the op's name).
     shapes: String,
+    /// The rule functions written.
+    rules: HashSet<String>,
     /// The pairs computed together (`filter/fusions.rs`): their side slots `f{k}`.
     fusions: Fusions,
     /// The most knots of a shape written so far (the built-in shapes have 2).
@@ -230,18 +234,19 @@ impl Gen<'_> {
         w
     }
 
-    /// The body's slot variables and the tape's constants in them.
+    /// The body's slot variables (zero-initialised, as WGSL makes them: `dc(0.0)`) and the
+    /// tape's constants in them.
     fn prelude(&self) -> String {
         let t = self.tape;
         let mut w = String::new();
         for k in 0..t.scalar_slots {
-            let _ = writeln!(w, "    var s{k}: D = dc(0.0lf);");
+            let _ = writeln!(w, "    var s{k}: D;");
         }
         for k in 0..t.vec3_slots {
             let _ = writeln!(w, "    var v{k}: array<D, 3>;");
         }
         for k in 0..t.wide_slots {
-            let _ = writeln!(w, "    var d{k}: D = dc(0.0lf);");
+            let _ = writeln!(w, "    var d{k}: D;");
         }
         for &(slot, v) in &t.scalar_constants {
             let _ = writeln!(w, "    s{slot} = dc({});", f64_literal(v));
@@ -254,7 +259,7 @@ impl Gen<'_> {
             let _ = writeln!(w, "    v{slot} = array<D, 3>(dc({x}), dc({y}), dc({z}));");
         }
         for k in 0..self.fusions.saved {
-            let _ = writeln!(w, "    var f{k}: D = dc(0.0lf);");
+            let _ = writeln!(w, "    var f{k}: D;");
         }
         w
     }
@@ -336,6 +341,24 @@ impl Gen<'_> {
         self.periodic.len() - 1
     }
 
+    /// A rule function (`unary`, `binary`, `ternary`), written once; its name.
+    fn rule(&mut self, (name, function): (String, String)) -> String {
+        if self.rules.insert(name.clone()) {
+            self.shapes.push_str(&function);
+        }
+        name
+    }
+
+    /// A binary rule's call on `a` and `b`: `Mod` by tape.rs's `binary`, with `integer` whether
+    /// `a` is integer-valued.
+    fn binary(&mut self, op: BinaryOp, a: &str, b: &str, integer: bool) -> String {
+        if op == BinaryOp::Mod {
+            return format!("r_mod({a}, {b}, {integer})");
+        }
+        let f = self.rule(binary(op));
+        format!("{f}({a}, {b})")
+    }
+
     fn shape(&mut self, name: &str, f: &Piecewise) {
         let knots = shape_function(&mut self.shapes, name, f);
         self.knots = self.knots.max(knots);
@@ -401,48 +424,34 @@ impl Gen<'_> {
                 format!("{p}{dst} = v{src}[{}];", axis % 3)
             }
             Instr::UnaryScalar { op, dst, src, .. } => {
-                unary(op, &format!("{p}{dst}"), &format!("{p}{src}"))
+                let f = self.rule(unary(op));
+                format!("{p}{dst} = {f}({p}{src});")
             }
-            Instr::UnaryVec3 { op, dst, src } => (0..3)
-                .map(|i| unary(op, &format!("v{dst}[{i}]"), &format!("v{src}[{i}]")))
-                .collect::<Vec<_>>()
-                .join("\n    "),
-            Instr::BinaryScalar { op, dst, a, b, .. } => binary(
-                op,
-                &format!("{p}{dst}"),
-                &format!("{p}{a}"),
-                &format!("{p}{b}"),
-                integer[0],
-            ),
-            Instr::BinaryVec3 { op, dst, a, b } => (0..3)
-                .map(|i| {
-                    binary(
-                        op,
-                        &format!("v{dst}[{i}]"),
-                        &format!("v{a}[{i}]"),
-                        &format!("v{b}[{i}]"),
-                        integer[i],
-                    )
-                })
-                .collect::<Vec<_>>()
-                .join("\n    "),
+            Instr::UnaryVec3 { op, dst, src } => {
+                let f = self.rule(unary(op));
+                format!("v{dst} = array<D, 3>({f}(v{src}[0]), {f}(v{src}[1]), {f}(v{src}[2]));")
+            }
+            Instr::BinaryScalar { op, dst, a, b, .. } => {
+                let call = self.binary(op, &format!("{p}{a}"), &format!("{p}{b}"), integer[0]);
+                format!("{p}{dst} = {call};")
+            }
+            Instr::BinaryVec3 { op, dst, a, b } => {
+                let [x, y, z] = [0, 1, 2].map(|i| {
+                    self.binary(op, &format!("v{a}[{i}]"), &format!("v{b}[{i}]"), integer[i])
+                });
+                format!("v{dst} = array<D, 3>({x}, {y}, {z});")
+            }
             Instr::TernaryScalar {
                 op, dst, a, b, c, ..
-            } => ternary(
-                op,
-                &format!("{p}{dst}"),
-                [a, b, c].map(|x| format!("{p}{x}")),
-            ),
-            Instr::TernaryVec3 { op, dst, a, b, c } => (0..3)
-                .map(|i| {
-                    ternary(
-                        op,
-                        &format!("v{dst}[{i}]"),
-                        [a, b, c].map(|x| format!("v{x}[{i}]")),
-                    )
-                })
-                .collect::<Vec<_>>()
-                .join("\n    "),
+            } => {
+                let f = self.rule(ternary(op));
+                format!("{p}{dst} = {f}({p}{a}, {p}{b}, {p}{c});")
+            }
+            Instr::TernaryVec3 { op, dst, a, b, c } => {
+                let f = self.rule(ternary(op));
+                let [x, y, z] = [0, 1, 2].map(|i| format!("{f}(v{a}[{i}], v{b}[{i}], v{c}[{i}])"));
+                format!("v{dst} = array<D, 3>({x}, {y}, {z});")
+            }
             Instr::Dot { dst, a, b, .. } => format!("{p}{dst} = r_dot(v{a}, v{b});"),
             Instr::Length { dst, src, .. } => format!("{p}{dst} = r_length(v{src});"),
             Instr::Cross { dst, a, b } => format!("v{dst} = r_cross(v{a}, v{b});"),
@@ -786,8 +795,9 @@ fn shape_function(w: &mut String, name: &str, f: &Piecewise) -> usize {
     f.knots().len()
 }
 
-/// A unary rule (rules.rs `unary`): a constant or NaN operand takes the point operation.
-fn unary(op: UnaryOp, dst: &str, src: &str) -> String {
+/// A unary rule (rules.rs `unary`) as a function of its operand, `u_{op}`: a constant or NaN
+/// operand takes the point operation. Its name and text.
+fn unary(op: UnaryOp) -> (String, String) {
     let rule = match op {
         UnaryOp::Neg => "d_scale(a, -1.0lf)".to_string(),
         UnaryOp::Abs => "r_piecewise(shape_abs(), a)".into(),
@@ -818,9 +828,11 @@ fn unary(op: UnaryOp, dst: &str, src: &str) -> String {
         UnaryOp::Trunc => "r_trunc(a)".into(),
     };
     let point = point_unary(op, "a.m");
-    format!(
-        "{{ let a = {src}; if (d_is_const(a) || is_nan_d(a.m)) {{ {dst} = dc({point}); }} else {{ {dst} = {rule}; }} }}"
-    )
+    let name = format!("u_{}", op.name());
+    let function = format!(
+        "fn {name}(a: D) -> D {{\n    if (d_is_const(a) || is_nan_d(a.m)) {{\n        return dc({point});\n    }}\n    return {rule};\n}}\n"
+    );
+    (name, function)
 }
 
 fn point_unary(op: UnaryOp, x: &str) -> String {
@@ -832,12 +844,10 @@ fn point_unary(op: UnaryOp, x: &str) -> String {
     }
 }
 
-/// A binary rule (rules.rs `binary`; `Mod` by tape.rs's `binary`, with `integer` whether `a`
-/// is integer-valued).
-fn binary(op: BinaryOp, dst: &str, a: &str, b: &str, integer: bool) -> String {
-    if op == BinaryOp::Mod {
-        return format!("{dst} = r_mod({a}, {b}, {integer});");
-    }
+/// A binary rule (rules.rs `binary`) as a function of its operands, `b_{op}`: constant or NaN
+/// operands take the point operation. Its name and text.
+/// `Mod` is not one: it calls `r_mod` with `integer` (see [`Gen::binary`]).
+fn binary(op: BinaryOp) -> (String, String) {
     let rule = match op {
         BinaryOp::Add => "r_add(a, b)",
         BinaryOp::Sub => "r_sub(a, b)",
@@ -857,25 +867,30 @@ fn binary(op: BinaryOp, dst: &str, a: &str, b: &str, integer: bool) -> String {
         BinaryOp::Mul => "(a.m * b.m)".to_string(),
         _ => format!("d_{}(a.m, b.m)", op.name()),
     };
-    format!(
-        "{{ let a = {a}; let b = {b}; if ((d_is_const(a) && d_is_const(b)) || is_nan_d(a.m) || is_nan_d(b.m)) {{ {dst} = dc({point}); }} else {{ {dst} = {rule}; }} }}"
-    )
+    let name = format!("b_{}", op.name());
+    let function = format!(
+        "fn {name}(a: D, b: D) -> D {{\n    if ((d_is_const(a) && d_is_const(b)) || is_nan_d(a.m) || is_nan_d(b.m)) {{\n        return dc({point});\n    }}\n    return {rule};\n}}\n"
+    );
+    (name, function)
 }
 
-/// A ternary rule (rules.rs `ternary`).
-fn ternary(op: TernaryOp, dst: &str, [a, b, c]: [String; 3]) -> String {
+/// A ternary rule (rules.rs `ternary`) as a function of its operands, `t_{op}`. Its name and
+/// text.
+fn ternary(op: TernaryOp) -> (String, String) {
     let rule = match op {
         TernaryOp::Clamp => "r_clamp(a, b, c)",
         TernaryOp::Mix => "r_mix(a, b, c)",
         TernaryOp::Smoothstep => "r_smoothstep(a, b, c)",
         TernaryOp::Select => "r_select(a, b, c)",
     };
-    let name = op.name();
-    format!(
-        "{{ let a = {a}; let b = {b}; let c = {c}; \
-         if ((d_is_const(a) && d_is_const(b) && d_is_const(c)) || is_nan_d(a.m) || is_nan_d(b.m) || is_nan_d(c.m)) \
-         {{ {dst} = dc(d_{name}(a.m, b.m, c.m)); }} else {{ {dst} = {rule}; }} }}"
-    )
+    let op = op.name();
+    let name = format!("t_{op}");
+    let function = format!(
+        "fn {name}(a: D, b: D, c: D) -> D {{\n    \
+         if ((d_is_const(a) && d_is_const(b) && d_is_const(c)) || is_nan_d(a.m) || is_nan_d(b.m) || is_nan_d(c.m)) {{\n        \
+         return dc(d_{op}(a.m, b.m, c.m));\n    }}\n    return {rule};\n}}\n"
+    );
+    (name, function)
 }
 
 #[cfg(test)]
@@ -906,6 +921,25 @@ mod tests {
         assert_eq!(needed(&lines, s(2)), [true; 5]);
         assert_eq!(needed(&lines, s(0)), [false, false, false, true, false]);
         assert_eq!(needed(&lines, s(7)), [false; 5]);
+    }
+
+    /// An instruction is one call of its rule's function, which is written once per operation
+    /// the tape uses (vec3 instructions call it per component).
+    #[test]
+    fn each_rule_function_is_written_once() {
+        let source = crate::diagnostic::SourceFile::new(
+            "t.ron",
+            r#"Graph(nodes: { "p": Position }, outputs: {
+                "a": Mul(Mul("p.x", "p.y"), Sin(Mul("p.z", 3.0))),
+                "c": Sin(Mul("p", "p")) })"#,
+        );
+        let graph = crate::check::check(source, &Default::default()).expect("checks");
+        let tape = crate::compile::compile(&graph, &Default::default()).expect("compiles");
+        let text = filtered_part(&tape, false).expect("covered");
+        assert_eq!(text.matches("fn b_mul(").count(), 1, "{text}");
+        assert_eq!(text.matches("fn u_sin(").count(), 1, "{text}");
+        // Its definition and at least the vec3 product's three components' calls.
+        assert!(text.matches("b_mul(").count() >= 4, "{text}");
     }
 
     /// Each output's exported function runs only its own rules.
