@@ -95,7 +95,7 @@ pub(crate) fn filtered_part(tape: &Tape, per_output: bool) -> Result<String, Gpu
     let mut g = Gen {
         tape,
         samplers: Vec::new(),
-        shapes: String::new(),
+        functions: String::new(),
         rules: HashSet::new(),
         fusions: crate::filter::fusions::fusions(tape, &integer),
         knots: 2,
@@ -118,7 +118,7 @@ pub(crate) fn filtered_part(tape: &Tape, per_output: bool) -> Result<String, Gpu
         source.push_str(&OCTAVE.replace("SAMPLE", &format!("smp{k}")));
         source.push('\n');
     }
-    source.push_str(&g.shapes);
+    source.push_str(&g.functions);
     super::filtered_periodic::shape_functions(
         &mut source,
         "pcsaw",
@@ -169,10 +169,10 @@ struct Gen<'t> {
     tape: &'t Tape,
     /// (table, period) per sampler function `smp{k}`.
     samplers: Vec<(u32, Option<[u64; 3]>)>,
-    /// The piecewise shapes' functions (`pwh`, `pwr`, `pwc`, `pwf`) and the rule functions
-    /// (`u_`, `b_`, `t_` and the op's name).
-    shapes: String,
-    /// The rule functions written.
+    /// The functions the body calls that depend on the tape: the piecewise shapes' (`pwh`,
+    /// `pwr`, `pwc`, `pwf`) and the rules' (`u_`, `b_`, `t_` and the operation's name).
+    functions: String,
+    /// The names of the rule functions written.
     rules: HashSet<String>,
     /// The pairs computed together (`filter/fusions.rs`): their side slots `f{k}`.
     fusions: Fusions,
@@ -344,7 +344,7 @@ impl Gen<'_> {
     /// A rule function (`unary`, `binary`, `ternary`), written once; its name.
     fn rule(&mut self, (name, function): (String, String)) -> String {
         if self.rules.insert(name.clone()) {
-            self.shapes.push_str(&function);
+            self.functions.push_str(&function);
         }
         name
     }
@@ -360,7 +360,7 @@ impl Gen<'_> {
     }
 
     fn shape(&mut self, name: &str, f: &Piecewise) {
-        let knots = shape_function(&mut self.shapes, name, f);
+        let knots = shape_function(&mut self.functions, name, f);
         self.knots = self.knots.max(knots);
     }
 
