@@ -349,16 +349,6 @@ impl Gen<'_> {
         name
     }
 
-    /// A binary rule's call on `a` and `b`: `Mod` by tape.rs's `binary`, with `integer` whether
-    /// `a` is integer-valued.
-    fn binary(&mut self, op: BinaryOp, a: &str, b: &str, integer: bool) -> String {
-        if op == BinaryOp::Mod {
-            return format!("r_mod({a}, {b}, {integer})");
-        }
-        let f = self.rule(binary(op));
-        format!("{f}({a}, {b})")
-    }
-
     fn shape(&mut self, name: &str, f: &Piecewise) {
         let knots = shape_function(&mut self.functions, name, f);
         self.knots = self.knots.max(knots);
@@ -432,12 +422,13 @@ impl Gen<'_> {
                 format!("v{dst} = array<D, 3>({f}(v{src}[0]), {f}(v{src}[1]), {f}(v{src}[2]));")
             }
             Instr::BinaryScalar { op, dst, a, b, .. } => {
-                let call = self.binary(op, &format!("{p}{a}"), &format!("{p}{b}"), integer[0]);
-                format!("{p}{dst} = {call};")
+                let f = self.rule(binary(op, integer[0]));
+                format!("{p}{dst} = {f}({p}{a}, {p}{b});")
             }
             Instr::BinaryVec3 { op, dst, a, b } => {
                 let [x, y, z] = [0, 1, 2].map(|i| {
-                    self.binary(op, &format!("v{a}[{i}]"), &format!("v{b}[{i}]"), integer[i])
+                    let f = self.rule(binary(op, integer[i]));
+                    format!("{f}(v{a}[{i}], v{b}[{i}])")
                 });
                 format!("v{dst} = array<D, 3>({x}, {y}, {z});")
             }
@@ -845,9 +836,10 @@ fn point_unary(op: UnaryOp, x: &str) -> String {
 }
 
 /// A binary rule (rules.rs `binary`) as a function of its operands, `b_{op}`: constant or NaN
-/// operands take the point operation. Its name and text.
-/// `Mod` is not one: it calls `r_mod` with `integer` (see [`Gen::binary`]).
-fn binary(op: BinaryOp) -> (String, String) {
+/// operands take the point operation. `Mod` (tape.rs's `binary`) is `b_mod_{integer}`, `r_mod`
+/// with `integer` whether `a` is integer-valued (it takes constants and NaN itself). Its name
+/// and text.
+fn binary(op: BinaryOp, integer: bool) -> (String, String) {
     let rule = match op {
         BinaryOp::Add => "r_add(a, b)",
         BinaryOp::Sub => "r_sub(a, b)",
@@ -858,8 +850,12 @@ fn binary(op: BinaryOp) -> (String, String) {
         BinaryOp::Step => "r_piecewise(shape_step(), r_sub(b, a))",
         BinaryOp::Pow => "r_pow(a, b)",
         BinaryOp::Atan2 => "r_atan2(a, b)",
-        // `r_mod` above.
-        BinaryOp::Mod => "a",
+        BinaryOp::Mod => {
+            let name = format!("b_mod_{integer}");
+            let function =
+                format!("fn {name}(a: D, b: D) -> D {{\n    return r_mod(a, b, {integer});\n}}\n");
+            return (name, function);
+        }
     };
     let point = match op {
         BinaryOp::Add => "(a.m + b.m)".to_string(),

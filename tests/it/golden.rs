@@ -268,8 +268,7 @@ fn every_seed_graph_matches_its_golden_values_and_picture() {
         }
         match common::Png::open(&picture_path) {
             Ok(expected) => {
-                let size = (expected.width as u32, expected.height as u32);
-                let differs = size != image.dimensions()
+                let differs = expected.dimensions() != image.dimensions()
                     || expected
                         .rgb8()
                         .iter()

@@ -55,8 +55,7 @@ fn assert_golden(name: &str, image: &RenderedImage) {
     }
     let want = common::Png::open(&path)
         .unwrap_or_else(|e| panic!("{e}; run with TEXGRAPH_BLESS=1 to create it"));
-    let size = (want.width as u32, want.height as u32);
-    assert_eq!(got.dimensions(), size, "{name}: size");
+    assert_eq!(got.dimensions(), want.dimensions(), "{name}: size");
     let diffs: Vec<i32> = got
         .as_raw()
         .iter()
