@@ -101,7 +101,17 @@ impl Octave {
 }
 
 /// [`Octave::add_scaled`]'s loop, lanes whose estimate does not hold left as they are.
-#[multiversion(targets("x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma", "x86_64+sse4.1"))]
+///
+/// This file's kernels: every clone in release builds, AVX2's alone in debug and test builds
+/// unless `--cfg texgraph_simd_all` (as `noise/batch/mod.rs`' `simd_targets!`).
+#[cfg_attr(
+    any(not(debug_assertions), texgraph_simd_all),
+    multiversion(targets("x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma", "x86_64+sse4.1"))
+)]
+#[cfg_attr(
+    all(debug_assertions, not(texgraph_simd_all)),
+    multiversion(targets("x86_64+avx2+fma"))
+)]
 fn add_scaled(sum: &mut Octave, amp: f64, other: &Octave) -> bool {
     let n = other.mean.len();
     let a2 = amp * amp;
@@ -140,7 +150,14 @@ pub(super) struct SubRun<'a> {
 /// eight faded values; the least-squares slope along each edge
 /// (`grad · e_k = (Σ_{s_k = +1} − Σ_{s_k = −1}) / 2` over the eight, through the fit); the
 /// variance the eight's spread plus the sub-boxes' fades, less the slope's.
-#[multiversion(targets("x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma", "x86_64+sse4.1"))]
+#[cfg_attr(
+    any(not(debug_assertions), texgraph_simd_all),
+    multiversion(targets("x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma", "x86_64+sse4.1"))
+)]
+#[cfg_attr(
+    all(debug_assertions, not(texgraph_simd_all)),
+    multiversion(targets("x86_64+avx2+fma"))
+)]
 pub(super) fn subsampled(run: &SubRun, values: &[f64], n: usize, out: &mut Octave) {
     let values = &values[..8 * n];
     let (means, [g0, g1, g2], vars, ok) = out.planes(n);
@@ -195,7 +212,14 @@ pub(super) struct CentreRun<'a> {
 /// gradient at their centres: the faded value; the gradient through the input's linear part,
 /// faded and damped; as variance what the fade takes less the slope's, plus the input's
 /// residual carried through the gradient.
-#[multiversion(targets("x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma", "x86_64+sse4.1"))]
+#[cfg_attr(
+    any(not(debug_assertions), texgraph_simd_all),
+    multiversion(targets("x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma", "x86_64+sse4.1"))
+)]
+#[cfg_attr(
+    all(debug_assertions, not(texgraph_simd_all)),
+    multiversion(targets("x86_64+avx2+fma"))
+)]
 pub(super) fn sampled(run: &CentreRun, value: &[f64], grad: [&[f64]; 3], out: &mut Octave) {
     let n = value.len();
     let (gx, gy, gz) = (&grad[0][..n], &grad[1][..n], &grad[2][..n]);
