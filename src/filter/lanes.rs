@@ -10,6 +10,26 @@
 use super::rules::{dot, residual, Dist};
 use multiversion::multiversion;
 
+/// The targets of this file's kernels: every clone in release builds, AVX2's alone in debug and
+/// test builds unless `--cfg texgraph_simd_all` (as `noise/batch/mod.rs`' `simd_targets!`).
+macro_rules! lane_targets {
+    ($item:item) => {
+        #[cfg_attr(
+            any(not(debug_assertions), texgraph_simd_all),
+            multiversion(targets(
+                "x86_64+avx512f+avx512vl+avx2+fma",
+                "x86_64+avx2+fma",
+                "x86_64+sse4.1"
+            ))
+        )]
+        #[cfg_attr(
+            all(debug_assertions, not(texgraph_simd_all)),
+            multiversion(targets("x86_64+avx2+fma"))
+        )]
+        $item
+    };
+}
+
 /// [`Octave::planes`]: mean, slope, variance and whether the estimate holds, one plane each.
 type Planes<'a> = (
     &'a mut [f64],
@@ -100,18 +120,8 @@ impl Octave {
     }
 }
 
+lane_targets! {
 /// [`Octave::add_scaled`]'s loop, lanes whose estimate does not hold left as they are.
-///
-/// This file's kernels: every clone in release builds, AVX2's alone in debug and test builds
-/// unless `--cfg texgraph_simd_all` (as `noise/batch/mod.rs`' `simd_targets!`).
-#[cfg_attr(
-    any(not(debug_assertions), texgraph_simd_all),
-    multiversion(targets("x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma", "x86_64+sse4.1"))
-)]
-#[cfg_attr(
-    all(debug_assertions, not(texgraph_simd_all)),
-    multiversion(targets("x86_64+avx2+fma"))
-)]
 fn add_scaled(sum: &mut Octave, amp: f64, other: &Octave) -> bool {
     let n = other.mean.len();
     let a2 = amp * amp;
@@ -130,6 +140,7 @@ fn add_scaled(sum: &mut Octave, amp: f64, other: &Octave) -> bool {
     }
     ok.iter().all(|&o| o)
 }
+}
 
 /// What the lanes of a sub-sampled run share (`noise.rs`'s `Sub` and the table's statistics).
 pub(super) struct SubRun<'a> {
@@ -144,20 +155,13 @@ pub(super) struct SubRun<'a> {
     pub quad: &'a [[f64; 3]; 3],
 }
 
+lane_targets! {
 /// The sub-sampled octave (`noise.rs`, "the octave over the footprint from its eight
 /// sub-boxes") at `n` lanes from the noise's values at their sub-box centres, sub-box `j` of
 /// lane `i` at `values[j * n + i]`, for an input without residual variance: the mean of the
 /// eight faded values; the least-squares slope along each edge
 /// (`grad · e_k = (Σ_{s_k = +1} − Σ_{s_k = −1}) / 2` over the eight, through the fit); the
 /// variance the eight's spread plus the sub-boxes' fades, less the slope's.
-#[cfg_attr(
-    any(not(debug_assertions), texgraph_simd_all),
-    multiversion(targets("x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma", "x86_64+sse4.1"))
-)]
-#[cfg_attr(
-    all(debug_assertions, not(texgraph_simd_all)),
-    multiversion(targets("x86_64+avx2+fma"))
-)]
 pub(super) fn subsampled(run: &SubRun, values: &[f64], n: usize, out: &mut Octave) {
     let values = &values[..8 * n];
     let (means, [g0, g1, g2], vars, ok) = out.planes(n);
@@ -190,6 +194,7 @@ pub(super) fn subsampled(run: &SubRun, values: &[f64], n: usize, out: &mut Octav
         ok[i] = g.iter().all(|c| c.is_finite()) & mean.is_finite();
     }
 }
+}
 
 /// What the lanes of a centre-sampled run share (the fade, the input's spread, the table's
 /// statistics).
@@ -208,18 +213,11 @@ pub(super) struct CentreRun<'a> {
     pub quad: &'a [[f64; 3]; 3],
 }
 
+lane_targets! {
 /// The centre-sampled octave (`noise.rs`'s `sampled`) at `n` lanes from the noise's value and
 /// gradient at their centres: the faded value; the gradient through the input's linear part,
 /// faded and damped; as variance what the fade takes less the slope's, plus the input's
 /// residual carried through the gradient.
-#[cfg_attr(
-    any(not(debug_assertions), texgraph_simd_all),
-    multiversion(targets("x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma", "x86_64+sse4.1"))
-)]
-#[cfg_attr(
-    all(debug_assertions, not(texgraph_simd_all)),
-    multiversion(targets("x86_64+avx2+fma"))
-)]
 pub(super) fn sampled(run: &CentreRun, value: &[f64], grad: [&[f64]; 3], out: &mut Octave) {
     let n = value.len();
     let (gx, gy, gz) = (&grad[0][..n], &grad[1][..n], &grad[2][..n]);
@@ -251,6 +249,7 @@ pub(super) fn sampled(run: &CentreRun, value: &[f64], grad: [&[f64]; 3], out: &m
         vars[i] = if var.is_finite() { var.max(0.0) } else { 0.0 };
         ok[i] = slope.iter().all(|c| c.is_finite());
     }
+}
 }
 
 /// `gᵀ Q g`.
