@@ -60,6 +60,16 @@ impl Dist {
         self.var == 0.0 && self.grad == [0.0; 3]
     }
 
+    /// Whether `self` and `other` are taken for the same value (a copy carried through
+    /// `min`, `max` or a select, so that `max(r, g) − r` is exactly 0 where `r` wins): equal
+    /// distributions with a linear part. Equal distributions without one are as often two
+    /// different values (the two axes' distances to a tile's edge over a box of whole tiles,
+    /// two fully faded octaves of one noise): those stay independent (`floor_tiles`' grout,
+    /// `min` of its three axes, was half its mean when they were taken for one value).
+    pub fn same_value(&self, other: &Dist) -> bool {
+        self == other && self.grad != [0.0; 3]
+    }
+
     /// `c · V`: exact.
     pub fn scale(self, c: f64) -> Dist {
         Dist {
@@ -686,7 +696,7 @@ impl Rules<'_> {
     }
 
     pub fn sub(&self, a: &Dist, b: &Dist) -> Dist {
-        if a == b {
+        if a.same_value(b) {
             // The same value (residuals are independent only between different values).
             return Dist::constant(0.0);
         }

@@ -572,6 +572,37 @@ fn checker_parity_is_filtered_on_the_lattice() {
     }
 }
 
+/// Two different values with equal distributions stay two values: the distances to a tile's
+/// edge along x and along y over a box of whole tiles have the same mean, no linear part and the
+/// same spread, and their minimum is the minimum of two independent values (1/6 for two
+/// uniforms on [0, 1/2]), not either one (1/4: `floor_tiles`' grout was half its mean so).
+/// A value and its copy through `max` are still one value (`max(r, g) − r` is 0 where `r` wins).
+#[test]
+fn equal_distributions_are_not_one_value() {
+    let t = tape(
+        r#"Graph(
+            nodes: {
+                "p": Position,
+                "tx": Abs(Sub(Fract(Mul(4.0, "p.x")), 0.5)),
+                "ty": Abs(Sub(Fract(Mul(4.0, "p.y")), 0.5)),
+                "r": Mul(0.3, "p.x"),
+            },
+            outputs: { "m": Min("tx", "ty"), "copy": Sub(Max("r", -10.0), "r") },
+        )"#,
+    );
+    let p = [3.648, -0.857, -1.957];
+    let footprint = Footprint::cube(0.5).unwrap();
+    let got = filtered(&t, p, &footprint);
+    let want = box_mean(&t, p, [0.5; 3], 30, &mut Rng(5));
+    assert!(
+        (got[0] - 1.0 / 6.0).abs() < 0.01 && (got[0] - want[0]).abs() < 0.01,
+        "min of the two axes' distances: filtered {}, supersampled {}, exact 1/6",
+        got[0],
+        want[0]
+    );
+    assert_eq!(got[1], 0.0, "max(r, -10) - r where r wins");
+}
+
 /// Promoted (wide) instructions take the same rules: the wood grain compiled for x = 1e6 (its
 /// noise promoted to f64) filters to its point value at a zero footprint and to the plain
 /// tape's filtered value at a small one.

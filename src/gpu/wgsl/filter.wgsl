@@ -143,8 +143,10 @@ fn d_is_const(d: D) -> bool {
     return d.v == 0.0lf && d.g.x == 0.0lf && d.g.y == 0.0lf && d.g.z == 0.0lf;
 }
 
+// rules.rs `Dist::same_value`: equal distributions with a linear part.
 fn d_same(a: D, b: D) -> bool {
-    return a.m == b.m && a.g.x == b.g.x && a.g.y == b.g.y && a.g.z == b.g.z && a.v == b.v;
+    let equal = a.m == b.m && a.g.x == b.g.x && a.g.y == b.g.y && a.g.z == b.g.z && a.v == b.v;
+    return equal && (a.g.x != 0.0lf || a.g.y != 0.0lf || a.g.z != 0.0lf);
 }
 
 fn d_position(p: vec3<f64>, axis: u32) -> D {
