@@ -1,5 +1,5 @@
-//! Debug and test builds compile the noise kernels' SIMD clone for the best instruction set of
-//! the machine that builds them, not every clone (`noise/batch/mod.rs`, `simd_targets!`): the
+//! Debug and test builds compile the SIMD kernels' clone for the best instruction set of the
+//! machine that builds them, not every clone (`simd_clones!`, the crate root): the
 //! clones were 55 % of the crate's machine code in the test binary, and a test run executes one
 //! of them. This script tells the crate whether that machine has AVX-512 VBMI
 //! (`cfg(texgraph_host_vbmi)`), the one clone the tests must then compile instead of AVX2's.

@@ -31,6 +31,30 @@
 #![deny(unsafe_code)]
 #![warn(clippy::undocumented_unsafe_blocks)]
 
+/// `$item` compiled per CPU with `multiversion`: for every target of `all` in release builds
+/// (and with `RUSTFLAGS="--cfg texgraph_simd_all"`); in debug and test builds for the one the
+/// building machine runs (`build.rs`), `vbmi` where it has AVX-512 VBMI, else `avx2` — a test
+/// run executes one clone, and the clones were 55 % of the crate's machine code in the test
+/// binary (issue 46: the test build's time). The noise kernels (`noise/batch/`,
+/// `simd_targets!`) and the filtered form's lane kernels (`filter/lanes.rs`) use it.
+macro_rules! simd_clones {
+    (all: [$($all:literal),+ $(,)?], vbmi: $vbmi:literal, avx2: $avx2:literal, $item:item) => {
+        #[cfg_attr(
+            any(not(debug_assertions), texgraph_simd_all),
+            multiversion::multiversion(targets($($all),+))
+        )]
+        #[cfg_attr(
+            all(debug_assertions, not(texgraph_simd_all), texgraph_host_vbmi),
+            multiversion::multiversion(targets($vbmi))
+        )]
+        #[cfg_attr(
+            all(debug_assertions, not(texgraph_simd_all), not(texgraph_host_vbmi)),
+            multiversion::multiversion(targets($avx2))
+        )]
+        $item
+    };
+}
+
 pub mod bake;
 pub mod check;
 /// The commands of the `texgraph` binary (its implementation, not a library API).

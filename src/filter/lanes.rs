@@ -8,25 +8,17 @@
 //! [`super::tape::Filtered::eval_point`] get the same bits.
 
 use super::rules::{dot, residual, Dist};
-use multiversion::multiversion;
 
-/// The targets of this file's kernels: every clone in release builds, AVX2's alone in debug and
-/// test builds unless `--cfg texgraph_simd_all` (as `noise/batch/mod.rs`' `simd_targets!`).
+/// The targets of this file's kernels: every clone in release builds, the building machine's
+/// alone in debug and test builds (`simd_clones!`, the crate root).
 macro_rules! lane_targets {
     ($item:item) => {
-        #[cfg_attr(
-            any(not(debug_assertions), texgraph_simd_all),
-            multiversion(targets(
-                "x86_64+avx512f+avx512vl+avx2+fma",
-                "x86_64+avx2+fma",
-                "x86_64+sse4.1"
-            ))
-        )]
-        #[cfg_attr(
-            all(debug_assertions, not(texgraph_simd_all)),
-            multiversion(targets("x86_64+avx2+fma"))
-        )]
-        $item
+        simd_clones! {
+            all: ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma", "x86_64+sse4.1"],
+            vbmi: "x86_64+avx512f+avx512vl+avx2+fma",
+            avx2: "x86_64+avx2+fma",
+            $item
+        }
     };
 }
 

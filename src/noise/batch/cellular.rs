@@ -1,7 +1,6 @@
 //! Cellular noise's lane kernel: the 27 nearest cells of every lane at once, coherent groups
 //! of lanes visiting the union of their neighbourhoods.
 
-use multiversion::multiversion;
 use multiversion::target::target_cfg_f;
 
 use super::*;

@@ -3,7 +3,6 @@
 //! and without level of detail per lane, the gradient, the fused fbm gradient, and a point's
 //! octaves as lanes.
 
-use multiversion::multiversion;
 use multiversion::target::target_cfg_f;
 
 use super::*;

@@ -61,31 +61,21 @@ use crate::real::Real;
 /// loads the table entries one by one, as it deems AVX2 gathers slow on generic x86-64), SSE4.1
 /// (`roundpd`), and the baseline (per-point loop).
 ///
-/// Debug and test builds compile one clone (and the baseline): the one the building machine
-/// runs, AVX-512 VBMI's or AVX2's (`build.rs`), unless built with
-/// `RUSTFLAGS="--cfg texgraph_simd_all"`. The clones were 55 % of the crate's machine code in
-/// the test binary, and a test run executes one of them (issue 46: the test build's time).
-/// Release builds (and benches) always compile every clone.
+/// Every clone in release builds, the building machine's alone in debug and test builds
+/// (`simd_clones!`, the crate root).
 macro_rules! simd_targets {
     ($item:item) => {
-        #[cfg_attr(
-            any(not(debug_assertions), texgraph_simd_all),
-            multiversion(targets(
+        simd_clones! {
+            all: [
                 "x86_64+avx512f+avx512bw+avx512vl+avx512vbmi+avx2+fma",
                 "x86_64+avx512f+avx512bw+avx512vl+avx2+fma",
                 "x86_64+avx2+fma",
                 "x86_64+sse4.1",
-            ))
-        )]
-        #[cfg_attr(
-            all(debug_assertions, not(texgraph_simd_all), texgraph_host_vbmi),
-            multiversion(targets("x86_64+avx512f+avx512bw+avx512vl+avx512vbmi+avx2+fma"))
-        )]
-        #[cfg_attr(
-            all(debug_assertions, not(texgraph_simd_all), not(texgraph_host_vbmi)),
-            multiversion(targets("x86_64+avx2+fma"))
-        )]
-        $item
+            ],
+            vbmi: "x86_64+avx512f+avx512bw+avx512vl+avx512vbmi+avx2+fma",
+            avx2: "x86_64+avx2+fma",
+            $item
+        }
     };
 }
 

@@ -1,6 +1,5 @@
 //! Simplex noise's lane kernel (the body-centred cubic lattice), plain and tiled.
 
-use multiversion::multiversion;
 use multiversion::target::target_cfg_f;
 
 use super::*;

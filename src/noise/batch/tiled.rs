@@ -1,7 +1,6 @@
 //! The lattice bases' tiled kernels: the points reduced into each octave's period, the
 //! corner hashes of the lanes in a period's last cell wrapped to cell 0.
 
-use multiversion::multiversion;
 use multiversion::target::target_cfg_f;
 
 use super::lattice::Lattice;
