@@ -57,6 +57,7 @@ fn benches(c: &mut Criterion) {
             cancel: None,
             device: Default::default(),
             filter: Default::default(),
+            replay: None,
         };
         group.bench_function(format!("marble_128/threads_{threads}"), |b| {
             b.iter(|| bake_into(&tape, &options, &mut Discard, &mut |_| {}).expect("bakes"))
@@ -73,6 +74,7 @@ fn benches(c: &mut Criterion) {
                 cancel: None,
                 device: Default::default(),
                 filter: Default::default(),
+                replay: None,
             };
             options.force = true;
             bake_files(&tape, &options, &mut |_| {}).expect("bakes")
@@ -121,6 +123,7 @@ fn texture_set(c: &mut Criterion, tape: &texgraph::Tape) {
         cancel: None,
         device: Default::default(),
         filter: Default::default(),
+        replay: None,
     };
     group.bench_function("volume_same_points", |b| {
         b.iter(|| bake_into(tape, &options, &mut Discard, &mut |_| {}).expect("bakes"))
@@ -151,6 +154,7 @@ fn threads(c: &mut Criterion, tape: &texgraph::Tape) {
                 cancel: None,
                 device: Default::default(),
                 filter: Default::default(),
+                replay: None,
             };
             group.bench_function(format!("{name}_256/threads_{threads}"), |b| {
                 b.iter(|| bake_files(tape, &options, &mut |_| {}).expect("bakes"))

@@ -1,7 +1,10 @@
 //! GPU benchmarks (issue 19): `gpu/marble_512` (the seed 003 marble with 8 octaves over a 512³
 //! grid, results kept on the GPU, and again read back), `gpu/marble_filtered_256` (its filtered
-//! form, issue 33, over a 256³ grid) and `gpu/bake_1024` (the command-line
-//! bake of a 1024³ raw file, end to end). Without an adapter they print why and measure
+//! form, issue 33, over a 256³ grid), `gpu/bake_1024` (the command-line
+//! bake of a 1024³ raw file, end to end) and `bake_vs_write` (issue 49: a `--device gpu` bake
+//! of 8-bit files end to end, `*/gpu`, against writing the same files from the same voxels in
+//! memory, `*/write`: the bake's floor; their ratio is the cost of evaluating on the device,
+//! packing and reading back, which the double-buffered read-back hides behind the writing). Without an adapter they print why and measure
 //! nothing. `TEXGRAPH_GPU_BENCH_SIZE=N` shrinks both grids to N³ (for a software adapter such
 //! as lavapipe, where 512³ takes minutes per sample); the benchmark names keep the full sizes
 //! only when the sizes are the full ones.
@@ -99,5 +102,64 @@ fn bench_gpu(c: &mut Criterion) {
     let _ = std::fs::remove_dir_all(&out);
 }
 
-criterion_group!(benches, bench_gpu);
+/// `bake_vs_write/{graph}_{format}_{n}/{gpu,write}`: the bake on the GPU, and the same files
+/// written from the volume it bakes (`BakeOptions::replay`), all cores both; 256³ (PNG slices
+/// and raw 8-bit; `TEXGRAPH_GPU_BENCH_SIZE` shrinks it), the marble and a single-octave noise.
+fn bench_bake_vs_write(c: &mut Criterion) {
+    if let Err(e) = texgraph::gpu::usable() {
+        eprintln!("SKIPPED bake_vs_write: {e}");
+        return;
+    }
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let n = size(256);
+    let grid = Grid::cube(n);
+    let mut group = c.benchmark_group("bake_vs_write");
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(10));
+    let out = std::env::temp_dir().join(format!("texgraph-bake-vs-write-{}", std::process::id()));
+    for (name, graph) in [
+        ("marble", "graphs/seed003_marble.ron"),
+        ("noise", "graphs/seed002_noise.ron"),
+    ] {
+        let tape = texgraph::load_tape(
+            &root.join(graph),
+            &texgraph::CheckOptions::default(),
+            &texgraph::CompileOptions::default(),
+        )
+        .expect("loads")
+        .1;
+        let gpu = texgraph::bake::BakeOptions {
+            grid,
+            device: texgraph::gpu::Device::Gpu,
+            ..Default::default()
+        };
+        let volume = std::sync::Arc::new(texgraph::bake::bake_volume(&tape, &gpu).expect("bakes"));
+        let write = texgraph::bake::BakeOptions {
+            replay: Some(volume),
+            ..Default::default()
+        };
+        for format in [texgraph::bake::Format::Png, texgraph::bake::Format::Raw] {
+            let label = format!("{name}_{format:?}_{n}").to_lowercase();
+            for (side, bake) in [("gpu", &gpu), ("write", &write)] {
+                let mut options = texgraph::bake::BakeFileOptions::new(name, &out);
+                options.bake = texgraph::bake::BakeOptions {
+                    grid,
+                    ..bake.clone()
+                };
+                options.format = format;
+                options.force = true;
+                group.bench_function(format!("{label}/{side}"), |b| {
+                    b.iter(|| {
+                        texgraph::bake::bake_files(&tape, &options, &mut |_| {}).expect("bakes")
+                    })
+                });
+            }
+        }
+    }
+    group.finish();
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+criterion_group!(benches, bench_gpu, bench_bake_vs_write);
 criterion_main!(benches);

@@ -63,6 +63,7 @@ pub mod cli;
 pub mod compile;
 pub(crate) mod derive;
 pub mod diagnostic;
+pub mod encoding;
 pub mod eval;
 pub mod filter;
 pub mod filter_report;

@@ -252,6 +252,7 @@ impl Graph {
             cancel: None,
             device: texgraph::gpu::Device::Cpu,
             filter,
+            replay: None,
         };
         let volume = run::interruptible(py, true, |cancel| {
             let options = BakeOptions {

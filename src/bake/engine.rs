@@ -1,9 +1,12 @@
 //! The bake engine: a tape evaluated over a [`Grid`] window by window, on the CPU or the GPU,
 //! streamed into a [`Sink`] (module documentation of [`crate::bake`] has the design).
 
+use super::error::BakeError;
+use super::window::{Sink, Window, WindowData, WindowOutput};
+use crate::encoding::{Encoding, Packing};
 use crate::eval::Workspace;
 use crate::graph::Type;
-use crate::grid::{Grid, Layout, Segment};
+use crate::grid::{Grid, Layout};
 use crate::real::Real;
 use crate::tape::Tape;
 use rayon::prelude::*;
@@ -36,6 +39,10 @@ pub struct BakeOptions {
     /// `Box`: each voxel the estimate of the graph's mean over its cell (filtered evaluation,
     /// `crate::filter`); `Point`: the value at its centre.
     pub filter: crate::filter::Filter,
+    /// Write these voxels instead of evaluating the tape: a volume baked before over the same
+    /// grid, with the tape's outputs. The files' writing alone, from memory (what benches
+    /// compare a bake's time with: `benches/gpu.rs`'s `bake_vs_write`).
+    pub replay: Option<Arc<Volume>>,
 }
 
 impl Default for BakeOptions {
@@ -47,39 +54,7 @@ impl Default for BakeOptions {
             cancel: None,
             device: crate::gpu::Device::Cpu,
             filter: crate::filter::Filter::Point,
-        }
-    }
-}
-
-#[derive(Debug, thiserror::Error)]
-pub enum BakeError {
-    #[error("{path}: {source}")]
-    Io {
-        path: String,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error("{path}: {message}")]
-    Encode { path: String, message: String },
-    #[error("{0}")]
-    Refused(String),
-    /// A destination texgraph will not write (see [`crate::output`]).
-    #[error(transparent)]
-    Output(#[from] crate::output::OutputError),
-    #[error("the bake was interrupted")]
-    Cancelled,
-}
-
-impl BakeError {
-    /// The CLI exit code: 130 for an interrupted bake, 2 for everything else (I/O, a refused
-    /// size, memory bound or destination).
-    pub fn exit_code(&self) -> u8 {
-        match self {
-            BakeError::Cancelled => 130,
-            BakeError::Io { .. }
-            | BakeError::Encode { .. }
-            | BakeError::Refused(_)
-            | BakeError::Output(_) => 2,
+            replay: None,
         }
     }
 }
@@ -162,6 +137,25 @@ impl ChannelStats {
         self.nan + self.pos_inf + self.neg_inf
     }
 
+    /// A GPU window's statistics of one channel (reduced on the device by `pack.wgsl`).
+    pub(crate) fn from_window(w: &crate::gpu::WindowStats) -> ChannelStats {
+        let mut stats = ChannelStats {
+            nan: w.nan,
+            pos_inf: w.pos_inf,
+            neg_inf: w.neg_inf,
+            below_zero: w.below,
+            above_one: w.above,
+            sum: w.sum,
+            finite: w.finite,
+            ..ChannelStats::default()
+        };
+        if w.finite > 0 {
+            stats.min = f64::from(w.min);
+            stats.max = f64::from(w.max);
+        }
+        stats
+    }
+
     /// How many values were finite (min, max and mean are over these).
     pub fn finite(&self) -> u64 {
         self.finite
@@ -192,115 +186,6 @@ impl OutputStats {
             .iter()
             .fold((0, 0), |(b, a), c| (b + c.below_zero, a + c.above_one))
     }
-}
-
-/// One window of evaluated segments, handed to a sink in file order.
-///
-/// Layout: segment-planar. Segment `s` of the window holds every channel of every output for
-/// its voxels: channel `c` (numbered across outputs) of its voxel `i` at
-/// `(s * channels + c) * segment_len + i`.
-pub struct Window<'a> {
-    pub grid: &'a Grid,
-    pub layout: &'a Layout,
-    /// Index of the window's first segment in the grid, and how many it holds.
-    pub first_segment: u64,
-    pub segments: usize,
-    /// Channels per voxel across all outputs, and the first channel of each output.
-    pub channels: usize,
-    pub outputs: &'a [WindowOutput],
-    data: &'a [f32],
-}
-
-/// Where an output's channels are in a window.
-#[derive(Clone, Debug)]
-pub struct WindowOutput {
-    pub name: String,
-    pub ty: Type,
-    pub first_channel: usize,
-}
-
-impl Window<'_> {
-    /// The window's segments, in file order, with their position in the window.
-    pub fn segments(&self) -> impl Iterator<Item = (usize, Segment)> + '_ {
-        (0..self.segments).map(|s| {
-            (
-                s,
-                self.layout
-                    .segment(self.grid, self.first_segment + s as u64),
-            )
-        })
-    }
-
-    /// The z slices the window holds whole, `(first, count)`, when it holds only whole slices.
-    pub fn whole_slices(&self) -> Option<(usize, usize)> {
-        let slice = self.layout.per_row as u64 * self.grid.size[1] as u64;
-        (self.first_segment.is_multiple_of(slice) && (self.segments as u64).is_multiple_of(slice))
-            .then(|| {
-                (
-                    (self.first_segment / slice) as usize,
-                    (self.segments as u64 / slice) as usize,
-                )
-            })
-    }
-
-    /// Appends the voxels of the window's segment `s` (of `segment` geometry) for output
-    /// `output` to `out`, channels interleaved.
-    pub fn push_interleaved(&self, output: usize, s: usize, segment: &Segment, out: &mut Vec<f32>) {
-        let start = out.len();
-        out.resize(
-            start + segment.len * self.outputs[output].ty.channels(),
-            0.0,
-        );
-        self.copy_interleaved(output, s, segment, &mut out[start..]);
-    }
-
-    /// Writes the voxels of the window's segment `s` (of `segment` geometry) for output
-    /// `output` into `out`, channels interleaved; `out` holds exactly `segment.len` voxels.
-    pub fn copy_interleaved(&self, output: usize, s: usize, segment: &Segment, out: &mut [f32]) {
-        let o = &self.outputs[output];
-        let width = o.ty.channels();
-        let len = self.layout.segment_len;
-        let base = s * self.channels * len;
-        assert_eq!(out.len(), segment.len * width, "a segment's voxels");
-        if width == 1 {
-            let start = base + o.first_channel * len;
-            out.copy_from_slice(&self.data[start..start + segment.len]);
-            return;
-        }
-        for c in 0..width {
-            let start = base + (o.first_channel + c) * len;
-            let channel = &self.data[start..start + segment.len];
-            for (t, v) in out[c..].iter_mut().step_by(width).zip(channel) {
-                *t = *v;
-            }
-        }
-    }
-
-    /// Every voxel of the window for output `output`, channels interleaved, in file order.
-    pub fn interleaved(&self, output: usize, out: &mut Vec<f32>) {
-        out.clear();
-        for (s, segment) in self.segments() {
-            self.push_interleaved(output, s, &segment, out);
-        }
-    }
-
-    /// Writes slice `k_local` of a window of whole slices (see [`Window::whole_slices`]) for
-    /// output `output` as interleaved channels, x fastest then y, into `out`.
-    pub fn slice_interleaved(&self, output: usize, k_local: usize, out: &mut Vec<f32>) {
-        out.clear();
-        let slice = self.layout.per_row * self.grid.size[1];
-        for s in k_local * slice..(k_local + 1) * slice {
-            let segment = self
-                .layout
-                .segment(self.grid, self.first_segment + s as u64);
-            self.push_interleaved(output, s, &segment, out);
-        }
-    }
-}
-
-/// Receives the windows of a bake, in file order.
-pub trait Sink: Send {
-    fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError>;
 }
 
 /// A whole baked grid in memory.
@@ -424,6 +309,9 @@ struct Plan<'a> {
     layout: Layout,
     channels: usize,
     outputs: Vec<WindowOutput>,
+    /// How a GPU bake's windows hold their channels (each in the type its sink stores);
+    /// `None` on the CPU (32-bit floats).
+    packing: Option<Packing>,
 }
 
 impl Plan<'_> {
@@ -441,16 +329,120 @@ impl Plan<'_> {
             segments: job.count,
             channels: self.channels,
             outputs: &self.outputs,
-            data: &job.buffer[..job.count * self.block()],
+            data: match &self.packing {
+                None => WindowData::F32(&job.buffer[..job.count * self.block()]),
+                Some(packing) => WindowData::Packed {
+                    bytes: &job.bytes[..packing.bytes(job.count)],
+                    packing,
+                },
+            },
         }
     }
 }
 
-/// An evaluated window on its way to the writer thread (and its buffer on its way back).
+/// An evaluated window on its way to the writer thread (and its buffers on their way back):
+/// 32-bit floats from the CPU, packed bytes from the GPU.
+#[derive(Default)]
 struct Job {
     first: u64,
     count: usize,
     buffer: Vec<f32>,
+    bytes: Vec<u8>,
+}
+
+/// What evaluates a bake's windows.
+enum Producer<'a, S: Real> {
+    Cpu {
+        tape: &'a Tape,
+        filtered: Option<crate::filter::Filtered<'a>>,
+        _lane: std::marker::PhantomData<S>,
+    },
+    /// Double-buffered: window i + 1 is queued on the device before window i is collected.
+    Gpu(crate::gpu::GpuBake),
+    /// Copies of a volume's voxels ([`BakeOptions::replay`]).
+    Replay(&'a Volume, std::marker::PhantomData<S>),
+}
+
+impl<S: Real> Producer<'_, S> {
+    /// Evaluates the window of `job.count` segments from `job.first` into `job`'s buffers
+    /// (`next`: the window after it, which the GPU starts before this one is copied out);
+    /// returns its channel statistics, in segment order.
+    fn produce(
+        &mut self,
+        plan: &Plan<'_>,
+        pool: &rayon::ThreadPool,
+        job: &mut Job,
+        next: Option<(u64, usize)>,
+    ) -> Result<Vec<Vec<ChannelStats>>, BakeError> {
+        let (first, count) = (job.first, job.count);
+        match self {
+            Producer::Cpu { tape, filtered, .. } => {
+                job.buffer
+                    .resize(plan.layout.per_window * plan.block(), 0.0);
+                let data = &mut job.buffer[..count * plan.block()];
+                Ok(evaluate_window::<S>(
+                    tape,
+                    filtered.as_ref(),
+                    plan,
+                    pool,
+                    first,
+                    data,
+                ))
+            }
+            Producer::Gpu(gpu) => {
+                let refused = |e: crate::gpu::GpuError| BakeError::Refused(e.to_string());
+                if gpu.queued() == 0 {
+                    gpu.submit(first, count).map_err(refused)?;
+                }
+                if let Some((next, count)) = next {
+                    gpu.submit(next, count).map_err(refused)?;
+                }
+                let stats = gpu.collect(&mut job.bytes).map_err(refused)?;
+                Ok(vec![stats.iter().map(ChannelStats::from_window).collect()])
+            }
+            Producer::Replay(volume, _) => {
+                job.buffer
+                    .resize(plan.layout.per_window * plan.block(), 0.0);
+                let data = &mut job.buffer[..count * plan.block()];
+                Ok(replay_window(volume, plan, pool, first, data))
+            }
+        }
+    }
+}
+
+/// [`evaluate_window`] from a volume in memory: its voxels copied into the window's layout.
+fn replay_window(
+    volume: &Volume,
+    plan: &Plan<'_>,
+    pool: &rayon::ThreadPool,
+    first: u64,
+    data: &mut [f32],
+) -> Vec<Vec<ChannelStats>> {
+    let (grid, layout) = (plan.grid, &plan.layout);
+    let [nx, ny, _] = grid.size;
+    pool.install(|| {
+        data.par_chunks_mut(plan.block())
+            .enumerate()
+            .map(|(s, target)| {
+                let segment = layout.segment(grid, first + s as u64);
+                let start = (segment.k * ny + segment.j) * nx + segment.i0;
+                let mut stats = vec![ChannelStats::default(); plan.channels];
+                for (o, output) in plan.outputs.iter().enumerate() {
+                    let width = output.ty.channels();
+                    let voxels = &volume.outputs[o].data[start * width..][..segment.len * width];
+                    for c in 0..width {
+                        let channel = output.first_channel + c;
+                        let row = &mut target[channel * layout.segment_len..][..segment.len];
+                        for (t, v) in row.iter_mut().zip(voxels[c..].iter().step_by(width)) {
+                            *t = *v;
+                            stats[channel].add(*v);
+                        }
+                    }
+                }
+                stats
+            })
+            .collect()
+    })
 }
 
 /// Bakes window by window, two windows in flight: while the pool evaluates window i + 1 into
@@ -474,9 +466,6 @@ fn bake_with<S: Real>(
     let double = S::NAME == "f64";
     let choice = super::device::choose(tape, options.device, options.filter, double)
         .map_err(BakeError::Refused)?;
-    let gpu = choice.evaluator.gpu();
-    let filtered =
-        (options.filter == crate::filter::Filter::Box).then(|| crate::filter::Filtered::new(tape));
     let mut stats: Vec<ChannelStats> = vec![ChannelStats::default(); channels];
     let Some(layout) = Layout::new(grid, channels, pool.current_num_threads()) else {
         return Ok(collect_stats(tape, &stats));
@@ -490,11 +479,13 @@ fn bake_with<S: Real>(
             first_channel: o.first_channel,
         })
         .collect();
+    let (mut producer, packing) = producer::<S>(tape, options, &choice, &*sink, &layout)?;
     let plan = &Plan {
         grid,
         layout,
         channels,
         outputs,
+        packing,
     };
     let cancelled = || {
         options
@@ -509,7 +500,7 @@ fn bake_with<S: Real>(
         let (jobs, to_write) = mpsc::sync_channel::<Job>(1);
         let (written, done) = mpsc::channel::<Result<Job, BakeError>>();
         scope.spawn(move || write_windows(plan, pool, sink, to_write, written));
-        let mut spare: Option<Vec<f32>> = None;
+        let mut spare: Option<Job> = None;
         // The segment after the window the writer holds.
         let mut in_flight: Option<u64> = None;
         let mut first = 0u64;
@@ -518,32 +509,29 @@ fn bake_with<S: Real>(
                 return Err(BakeError::Cancelled);
             }
             let count = (layout.total - first).min(layout.per_window as u64) as usize;
-            let mut buffer = spare
-                .take()
-                .unwrap_or_else(|| vec![0f32; layout.per_window * plan.block()]);
-            let data = &mut buffer[..count * plan.block()];
-            let segment_stats = match &gpu {
-                Some(gpu) => gpu_window(gpu, plan, pool, first, data)?,
-                None => evaluate_window::<S>(tape, filtered.as_ref(), plan, pool, first, data),
-            };
+            let mut job = spare.take().unwrap_or_default();
+            (job.first, job.count) = (first, count);
+            let after = first + count as u64;
+            let next = (after < layout.total).then(|| {
+                (
+                    after,
+                    (layout.total - after).min(layout.per_window as u64) as usize,
+                )
+            });
+            let segment_stats = producer.produce(plan, pool, &mut job, next)?;
             for part in &segment_stats {
                 for (total, part) in stats.iter_mut().zip(part) {
                     total.merge(part);
                 }
             }
             if let Some(end) = in_flight.take() {
-                spare = Some(wait_written(&done)?.buffer);
+                spare = Some(wait_written(&done)?);
                 progress(layout.voxels_before(grid, end));
                 if cancelled() {
                     return Err(BakeError::Cancelled);
                 }
             }
-            jobs.send(Job {
-                first,
-                count,
-                buffer,
-            })
-            .map_err(|_| writer_stopped())?;
+            jobs.send(job).map_err(|_| writer_stopped())?;
             first += count as u64;
             in_flight = Some(first);
         }
@@ -552,6 +540,60 @@ fn bake_with<S: Real>(
             progress(layout.voxels_before(grid, end));
         }
         Ok(collect_stats(tape, &stats))
+    })
+}
+
+/// What evaluates `options`' windows for `tape` on the device `choice` says: the CPU, a
+/// double-buffered GPU bake packing each output as `sink` stores it, or a replayed volume; and
+/// how the windows hold their channels (`None`: 32-bit floats).
+fn producer<'a, S: Real>(
+    tape: &'a Tape,
+    options: &'a BakeOptions,
+    choice: &super::device::Choice,
+    sink: &dyn Sink,
+    layout: &Layout,
+) -> Result<(Producer<'a, S>, Option<Packing>), BakeError> {
+    let grid = &options.grid;
+    Ok(match (&options.replay, choice.evaluator.gpu()) {
+        (Some(volume), _) => {
+            let fits =
+                volume.grid == *grid
+                    && volume.outputs.len() == tape.outputs.len()
+                    && volume.outputs.iter().zip(&tape.outputs).all(|(v, o)| {
+                        v.ty == o.ty && v.data.len() == voxels(grid) * o.ty.channels()
+                    });
+            if !fits {
+                return Err(BakeError::Refused(
+                    "internal: a replayed volume of another grid or other outputs".into(),
+                ));
+            }
+            (Producer::Replay(volume, std::marker::PhantomData), None)
+        }
+        (None, Some(gpu)) => {
+            // Each channel in the type its sink stores, packed on the device.
+            let encodings = tape
+                .outputs
+                .iter()
+                .enumerate()
+                .flat_map(|(index, o)| {
+                    let e = sink.stores(index).unwrap_or(Encoding::F32);
+                    std::iter::repeat_n(e, o.ty.channels())
+                })
+                .collect();
+            let packing = Packing::new(encodings, layout.segment_len);
+            let bake = crate::gpu::GpuBake::new(gpu.clone(), grid, layout, packing.clone())
+                .map_err(|e| BakeError::Refused(e.to_string()))?;
+            (Producer::<S>::Gpu(bake), Some(packing))
+        }
+        (None, None) => (
+            Producer::Cpu {
+                tape,
+                filtered: (options.filter == crate::filter::Filter::Box)
+                    .then(|| crate::filter::Filtered::new(tape)),
+                _lane: std::marker::PhantomData,
+            },
+            None,
+        ),
     })
 }
 
@@ -658,34 +700,11 @@ fn evaluate_window<S: Real>(
     })
 }
 
-/// [`evaluate_window`] on the GPU: the window made and read back by `gpu`, then each segment's
-/// channel statistics (in parallel, as the CPU path gathers them).
-fn gpu_window(
-    gpu: &crate::gpu::GpuEvaluator,
-    plan: &Plan<'_>,
-    pool: &rayon::ThreadPool,
-    first: u64,
-    data: &mut [f32],
-) -> Result<Vec<Vec<ChannelStats>>, BakeError> {
-    let (grid, layout, channels) = (plan.grid, &plan.layout, plan.channels);
-    gpu.bake_window(grid, layout, first, data)
-        .map_err(|e| BakeError::Refused(e.to_string()))?;
-    let seg_len = layout.segment_len;
-    Ok(pool.install(|| {
-        data.par_chunks(plan.block())
-            .enumerate()
-            .map(|(s, block)| {
-                let n = layout.segment(grid, first + s as u64).len;
-                let mut seg_stats = vec![ChannelStats::default(); channels];
-                for (c, stat) in seg_stats.iter_mut().enumerate() {
-                    for &v in &block[c * seg_len..c * seg_len + n] {
-                        stat.add(v);
-                    }
-                }
-                seg_stats
-            })
-            .collect()
-    }))
+/// The grid's voxel count as a length (0 when it does not fit one).
+fn voxels(grid: &Grid) -> usize {
+    grid.voxels()
+        .and_then(|v| usize::try_from(v).ok())
+        .unwrap_or(0)
 }
 
 /// Per output of `tape`, its channels' statistics out of `stats` (one per channel).

@@ -8,7 +8,8 @@
 //! or failed bake removes it (or, if the process is killed, leaves only that hidden name behind,
 //! which never looks finished).
 
-use super::engine::{bake_into, BakeError, OutputStats, Sink, Window};
+use super::engine::{bake_into, OutputStats};
+use super::error::BakeError;
 use super::ktx2::{self, Ktx2Description, Ktx2Format, Ktx2Sink};
 use super::settings::atlas_shape;
 use super::settings::human_bytes;
@@ -24,6 +25,8 @@ use super::settings::Format;
 use super::settings::RawSampleType;
 use super::settings::Transfer;
 use super::sinks::{Exr, PngAtlas, PngSlices, Raw, RawSamples};
+use super::window::{Sink, Window};
+use crate::encoding::Encoding;
 use crate::graph::Type;
 use crate::grid::Grid;
 use crate::output::{self, Expect};
@@ -143,6 +146,16 @@ impl Pending {
         }
     }
 
+    fn sink_ref(&self) -> &dyn Sink {
+        match self {
+            Pending::Exr { sink, .. } => sink,
+            Pending::Slices { sink, .. } => sink,
+            Pending::Atlas { sink, .. } => sink,
+            Pending::Raw { sink, .. } => sink,
+            Pending::Ktx2 { sink, .. } => sink,
+        }
+    }
+
     fn sink(&mut self) -> &mut dyn Sink {
         match self {
             Pending::Exr { sink, .. } => sink,
@@ -157,6 +170,10 @@ impl Pending {
 struct Fanout<'a>(&'a mut [Pending]);
 
 impl Sink for Fanout<'_> {
+    fn stores(&self, output: usize) -> Option<Encoding> {
+        self.0.iter().find_map(|p| p.sink_ref().stores(output))
+    }
+
     fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
         for pending in self.0.iter_mut() {
             pending.sink().window(window)?;
@@ -544,7 +561,6 @@ fn open_pending(
                     output: index,
                     ty: output.ty,
                     samples,
-                    scratch: Vec::new(),
                     bytes: Vec::new(),
                 };
                 Pending::Raw { sink, temp }

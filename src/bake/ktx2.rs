@@ -15,10 +15,11 @@
 //! corner; texgraph's axes are right-handed with y up, so `KTXorientation` is `ruo` (s to the
 //! right, t up, r out of the screen).
 
-use super::engine::{BakeError, Sink, Window};
+use super::error::BakeError;
 use super::settings::Ktx2SampleType;
 use super::settings::ZSTD_LEVELS;
-use super::sinks::encode_u8;
+use super::window::{Sink, Window};
+use crate::encoding::Encoding;
 use crate::graph::Type;
 use crate::grid::Grid;
 use std::io::{self, Seek, SeekFrom, Write};
@@ -581,7 +582,7 @@ pub(crate) struct Ktx2Sink {
     level: u32,
     output: usize,
     format: Ktx2Format,
-    scratch: Vec<f32>,
+    scratch: Vec<u8>,
     bytes: Vec<u8>,
 }
 
@@ -640,50 +641,48 @@ impl Ktx2Sink {
     }
 }
 
-/// Appends the texels of `values` (one or three channels per voxel, interleaved) to `out`.
-pub(crate) fn encode_texels(format: &Ktx2Format, values: &[f32], out: &mut Vec<u8>) {
-    let width = if format.channels == 4 { 3 } else { 1 };
-    for voxel in values.chunks_exact(width) {
-        match format.sample {
-            Ktx2SampleType::U8 => {
-                out.extend(voxel.iter().map(|&v| encode_u8(v, format.srgb)));
-                if format.channels == 4 {
-                    out.push(255);
-                }
-            }
-            Ktx2SampleType::F16 => {
-                for &v in voxel {
-                    out.extend(half::f16::from_f32(v).to_le_bytes());
-                }
-                if format.channels == 4 {
-                    out.extend(half::f16::ONE.to_le_bytes());
-                }
-            }
-            Ktx2SampleType::F32 => {
-                for &v in voxel {
-                    out.extend(v.to_le_bytes());
-                }
-                if format.channels == 4 {
-                    out.extend(1.0f32.to_le_bytes());
-                }
-            }
+impl Ktx2Sink {
+    /// The sample type of the texture's colour channels.
+    fn encoding(&self) -> Encoding {
+        match self.format.sample {
+            Ktx2SampleType::U8 => Encoding::U8 {
+                srgb: self.format.srgb,
+            },
+            Ktx2SampleType::F16 => Encoding::F16,
+            Ktx2SampleType::F32 => Encoding::F32,
         }
     }
 }
 
 impl Sink for Ktx2Sink {
+    fn stores(&self, output: usize) -> Option<Encoding> {
+        (output == self.output).then(|| self.encoding())
+    }
+
     fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
+        let encoding = self.encoding();
+        let size = encoding.bytes();
+        let mut opaque = [0u8; 4];
+        encoding.encode(1.0, &mut opaque[..size]);
+        let colour = if self.format.channels == 4 { 3 } else { 1 } * size;
         for (s, segment) in window.segments() {
             self.scratch.clear();
-            window.push_interleaved(self.output, s, &segment, &mut self.scratch);
-            self.bytes.clear();
-            encode_texels(&self.format, &self.scratch, &mut self.bytes);
-            self.writer
-                .write(&self.bytes)
-                .map_err(|source| BakeError::Io {
-                    path: self.path.display().to_string(),
-                    source,
-                })?;
+            window.push_encoded(self.output, s, &segment, encoding, &mut self.scratch);
+            // RGB colours are stored RGBA, alpha opaque.
+            let texels: &[u8] = if self.format.channels == 4 {
+                self.bytes.clear();
+                for colours in self.scratch.chunks_exact(colour) {
+                    self.bytes.extend_from_slice(colours);
+                    self.bytes.extend_from_slice(&opaque[..size]);
+                }
+                &self.bytes
+            } else {
+                &self.scratch
+            };
+            self.writer.write(texels).map_err(|source| BakeError::Io {
+                path: self.path.display().to_string(),
+                source,
+            })?;
         }
         Ok(())
     }

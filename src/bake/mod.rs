@@ -25,13 +25,14 @@
 //!
 //! The files, by layer (ARCHITECTURE.md has the whole crate's): `crate::grid` (the voxel grid and
 //! its layout) below everything; `device.rs` (which device evaluates a bake, one decision for
-//! every sink); `engine.rs` (options, errors, statistics, the window engine, the `Sink` trait); `settings.rs` (what the file writers share: `BakeFileOptions`, reports,
+//! every sink); `window.rs` (the `Window` sinks receive: 32-bit floats, or from a GPU bake each channel in its file's sample type; the `Sink` trait); `engine.rs` (options, errors, statistics, the window engine and what produces its windows); `settings.rs` (what the file writers share: `BakeFileOptions`, reports,
 //! mip grids); the writers `sinks.rs` (EXR, PNG, raw), `ktx2.rs`, `zarr.rs` (with `part.rs`) and
 //! `vdb_bake.rs` (with `vdb.rs`); `files.rs`, the dispatch, on top. This file only declares and
 //! re-exports; nothing in `bake/` refers to it.
 
 mod device;
 mod engine;
+mod error;
 mod files;
 mod ktx2;
 pub mod part;
@@ -39,16 +40,18 @@ mod settings;
 mod sinks;
 pub mod vdb;
 mod vdb_bake;
+mod window;
 pub mod zarr;
 
+pub use crate::encoding::{encode_u16, encode_u8, srgb_encode, Encoding, Packing};
 pub use crate::grid::{Grid, Layout, Region, Segment, SEGMENT_BYTES, SEGMENT_VOXELS, WINDOW_BYTES};
 pub use device::{choose as choose_device, Choice, Evaluator};
 pub(crate) use engine::collect_stats;
 pub use engine::{
-    bake_into, bake_volume, bake_volume_with_progress, capped_threads, BakeError, BakeOptions,
-    ChannelStats, OutputStats, Precision, Sink, Volume, VolumeOutput, Window, WindowOutput,
-    MAX_THREADS_PER_CORE,
+    bake_into, bake_volume, bake_volume_with_progress, capped_threads, BakeOptions, ChannelStats,
+    OutputStats, Precision, Volume, VolumeOutput, MAX_THREADS_PER_CORE,
 };
+pub use error::BakeError;
 pub use files::commit_files;
 pub use files::{bake_files, bake_mipmapped, planned_outputs, validate_grid};
 pub use settings::{
@@ -56,4 +59,5 @@ pub use settings::{
     BakedFile, ExrCompression, Format, Ktx2SampleType, RawSampleType, Transfer,
     DEFAULT_MAX_BAKE_BYTES, DEFAULT_MAX_HELD_BYTES, DEFAULT_ZSTD_LEVEL, ZSTD_LEVELS,
 };
-pub use sinks::{encode_u16, encode_u8, png_bytes, srgb_encode, write_exr_image};
+pub use sinks::{png_bytes, write_exr_image};
+pub use window::{Sink, Window, WindowOutput};

@@ -2,48 +2,14 @@
 //! per slice, or one atlas), raw (packed voxels). Each writes into a temporary file or folder;
 //! `files.rs` renames it into place when the bake completed.
 
-use super::engine::{BakeError, Sink, Window};
+use super::error::BakeError;
+use super::window::{Sink, Window};
+use crate::encoding::Encoding;
 use crate::graph::Type;
 use crate::grid::Grid;
 use rayon::prelude::*;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-
-/// The sRGB transfer function (IEC 61966-2-1): linear [0, 1] → encoded [0, 1].
-#[inline]
-pub fn srgb_encode(linear: f32) -> f32 {
-    if linear <= 0.003_130_8 {
-        12.92 * linear
-    } else {
-        1.055 * linear.powf(1.0 / 2.4) - 0.055
-    }
-}
-
-/// `x.round()` for `x` in [0, 2^24): half away from zero, without libm's `roundf` call (a
-/// truncating conversion and one compare; ~8 % of an 8-bit bake's time went to `roundf`).
-/// Exact: `x − trunc(x)` is computed without rounding for such `x` (Sterbenz), so the compare
-/// with 0.5 decides exactly as `round` does.
-#[inline]
-fn round_non_negative(x: f32) -> u32 {
-    let t = x as u32;
-    t + u32::from(x - t as f32 >= 0.5)
-}
-
-/// Clamp to [0, 1] (NaN → 0), apply the transfer if asked, scale to 0..=255 and round.
-#[inline]
-pub fn encode_u8(v: f32, srgb: bool) -> u8 {
-    let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
-    let v = if srgb { srgb_encode(v) } else { v };
-    round_non_negative(v * 255.0).min(255) as u8
-}
-
-/// As [`encode_u8`], to 0..=65535.
-#[inline]
-pub fn encode_u16(v: f32, srgb: bool) -> u16 {
-    let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
-    let v = if srgb { srgb_encode(v) } else { v };
-    round_non_negative(v * 65535.0).min(65535) as u16
-}
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> BakeError + '_ {
     move |source| BakeError::Io {
@@ -90,29 +56,57 @@ pub fn png_bytes(
     depth16: bool,
     srgb: bool,
 ) -> Result<Vec<u8>, String> {
+    let encoding = png_encoding(ty, depth16, srgb);
+    let mut encoded = vec![0u8; samples.len() * encoding.bytes()];
+    for (v, out) in samples
+        .iter()
+        .zip(encoded.chunks_exact_mut(encoding.bytes()))
+    {
+        encoding.encode(*v, out);
+    }
+    png_encoded_bytes(&mut encoded, width, height, ty, depth16, srgb)
+}
+
+/// Bytes of one PNG image of samples already in [`png_encoding`] (16-bit ones little-endian,
+/// swapped here to PNG's big-endian order).
+fn png_encoded_bytes(
+    encoded: &mut [u8],
+    width: usize,
+    height: usize,
+    ty: Type,
+    depth16: bool,
+    srgb: bool,
+) -> Result<Vec<u8>, String> {
     let mut bytes = Vec::new();
     {
         let encoder = png_encoder(&mut bytes, width, height, ty, depth16, srgb);
         let mut writer = encoder.write_header().map_err(|e| e.to_string())?;
+        to_png_order(encoded, depth16);
         writer
-            .write_image_data(&encode_samples(samples, ty, depth16, srgb))
+            .write_image_data(encoded)
             .map_err(|e| e.to_string())?;
         writer.finish().map_err(|e| e.to_string())?;
     }
     Ok(bytes)
 }
 
-/// Samples to PNG sample bytes (16-bit big-endian). The transfer applies to colours only;
-/// scalars are data, mapped linearly.
-fn encode_samples(samples: &[f32], ty: Type, depth16: bool, srgb: bool) -> Vec<u8> {
+/// The sample type a PNG of `ty` stores: 8 or 16 bits, the sRGB transfer for colours only
+/// (scalars are data, mapped linearly).
+fn png_encoding(ty: Type, depth16: bool, srgb: bool) -> Encoding {
     let srgb = srgb && ty == Type::Vec3;
     if depth16 {
-        samples
-            .iter()
-            .flat_map(|&v| encode_u16(v, srgb).to_be_bytes())
-            .collect()
+        Encoding::U16 { srgb }
     } else {
-        samples.iter().map(|&v| encode_u8(v, srgb)).collect()
+        Encoding::U8 { srgb }
+    }
+}
+
+/// 16-bit samples from little-endian (as windows hold them) to PNG's big-endian order.
+fn to_png_order(bytes: &mut [u8], depth16: bool) {
+    if depth16 {
+        for pair in bytes.chunks_exact_mut(2) {
+            pair.swap(0, 1);
+        }
     }
 }
 
@@ -145,7 +139,8 @@ impl PngSlices {
     /// Streams the window's segments into the slice files they belong to.
     fn stream(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
         let [nx, ny, _] = window.grid.size;
-        let mut samples = Vec::new();
+        let encoding = png_encoding(self.ty, self.depth16, self.srgb);
+        let mut bytes = Vec::new();
         for (s, segment) in window.segments() {
             if segment.starts_slice() {
                 let path = self.slice_path(segment.k);
@@ -174,9 +169,9 @@ impl PngSlices {
                     "internal: a PNG slice was continued before it was started".into(),
                 ));
             };
-            samples.clear();
-            window.push_interleaved(self.output, s, &segment, &mut samples);
-            let bytes = encode_samples(&samples, self.ty, self.depth16, self.srgb);
+            bytes.clear();
+            window.push_encoded(self.output, s, &segment, encoding, &mut bytes);
+            to_png_order(&mut bytes, self.depth16);
             open.writer.write_all(&bytes).map_err(io(&open.path))?;
             if segment.ends_slice(window.grid) {
                 if let Some(open) = self.open.take() {
@@ -193,22 +188,26 @@ impl PngSlices {
 }
 
 impl Sink for PngSlices {
+    fn stores(&self, output: usize) -> Option<Encoding> {
+        (output == self.output).then(|| png_encoding(self.ty, self.depth16, self.srgb))
+    }
+
     fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
         let [nx, ny, _] = window.grid.size;
         let Some((z_start, depth)) = window.whole_slices() else {
             return self.stream(window);
         };
         // Slices of a window are independent files: encode them in parallel.
+        let encoding = png_encoding(self.ty, self.depth16, self.srgb);
         (0..depth).into_par_iter().try_for_each(|k| {
             let mut samples = Vec::new();
-            window.slice_interleaved(self.output, k, &mut samples);
+            window.slice_encoded(self.output, k, encoding, &mut samples);
             let path = self.slice_path(z_start + k);
-            let bytes = png_bytes(&samples, nx, ny, self.ty, self.depth16, self.srgb).map_err(
-                |message| BakeError::Encode {
-                    path: path.display().to_string(),
-                    message,
-                },
-            )?;
+            let bytes = png_encoded_bytes(&mut samples, nx, ny, self.ty, self.depth16, self.srgb)
+                .map_err(|message| BakeError::Encode {
+                path: path.display().to_string(),
+                message,
+            })?;
             std::fs::write(&path, bytes).map_err(io(&path))
         })
     }
@@ -309,13 +308,16 @@ impl PngAtlas {
 }
 
 impl Sink for PngAtlas {
+    fn stores(&self, output: usize) -> Option<Encoding> {
+        (output == self.output).then(|| png_encoding(self.ty, self.depth16, self.srgb))
+    }
+
     fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
-        let mut samples = Vec::new();
+        let encoding = png_encoding(self.ty, self.depth16, self.srgb);
         for (s, segment) in window.segments() {
-            samples.clear();
-            window.push_interleaved(self.output, s, &segment, &mut samples);
-            self.pending
-                .extend(encode_samples(&samples, self.ty, self.depth16, self.srgb));
+            let start = self.pending.len();
+            window.push_encoded(self.output, s, &segment, encoding, &mut self.pending);
+            to_png_order(&mut self.pending[start..], self.depth16);
             if segment.ends_slice(window.grid) {
                 self.tiles_in_row += 1;
                 if self.tiles_in_row == self.columns {
@@ -345,62 +347,76 @@ pub(super) struct Raw {
     pub output: usize,
     pub ty: Type,
     pub samples: RawSamples,
-    /// The batch's samples, channels interleaved.
-    pub scratch: Vec<f32>,
     /// The batch's encoded bytes.
     pub bytes: Vec<u8>,
 }
 
 /// Most voxels a raw writer gathers and encodes at once (whole segments, which are at most
-/// [`crate::grid::SEGMENT_VOXELS`] ≤ this). It holds them twice, as f32 samples and as encoded bytes:
-/// at most 12 + 16 bytes a voxel, 7 MiB.
+/// [`crate::grid::SEGMENT_VOXELS`] ≤ this): at most 16 bytes a voxel, 4 MiB.
 const RAW_BATCH_VOXELS: usize = 1 << 18;
 /// Voxels per parallel encoding task.
 const RAW_TASK_VOXELS: usize = 1 << 14;
 
 impl RawSamples {
-    /// Encoded bytes of one voxel of `width` channels.
-    fn voxel_bytes(self, width: usize) -> usize {
+    /// The encoding of the samples (sRGB for colours only).
+    fn encoding(self, ty: Type) -> Encoding {
         match self {
-            RawSamples::U8 { alpha, .. } => width + usize::from(alpha),
-            RawSamples::F32 { alpha } => 4 * (width + usize::from(alpha)),
+            RawSamples::U8 { srgb, .. } => Encoding::U8 {
+                srgb: srgb && ty == Type::Vec3,
+            },
+            RawSamples::F32 { .. } => Encoding::F32,
         }
     }
 
-    /// Encodes whole voxels of `ty` (`samples`, interleaved) into `out`, exactly their size.
-    fn encode(self, ty: Type, samples: &[f32], out: &mut [u8]) {
-        let width = ty.channels();
-        let size = self.voxel_bytes(width);
-        for (voxel, out) in samples.chunks_exact(width).zip(out.chunks_exact_mut(size)) {
-            match self {
-                RawSamples::U8 { srgb, alpha } => {
-                    let srgb = srgb && ty == Type::Vec3;
-                    for (o, &v) in out.iter_mut().zip(voxel) {
-                        *o = encode_u8(v, srgb);
-                    }
-                    if alpha {
-                        out[width] = 255;
-                    }
-                }
-                RawSamples::F32 { alpha } => {
-                    for (o, v) in out.chunks_exact_mut(4).zip(voxel) {
-                        o.copy_from_slice(&v.to_le_bytes());
-                    }
-                    if alpha {
-                        out[4 * width..].copy_from_slice(&1.0f32.to_le_bytes());
-                    }
-                }
-            }
+    fn alpha(self) -> bool {
+        match self {
+            RawSamples::U8 { alpha, .. } | RawSamples::F32 { alpha } => alpha,
+        }
+    }
+
+    /// Encoded bytes of one voxel of `ty`, opaque alpha included.
+    fn voxel_bytes(self, ty: Type) -> usize {
+        (ty.channels() + usize::from(self.alpha())) * self.encoding(ty).bytes()
+    }
+
+    /// Segment `s` of `window` (output `output`, of `ty`) encoded into `out`, exactly its
+    /// voxels' size; the opaque alpha, when asked, after each voxel's channels.
+    fn encode(
+        self,
+        window: &Window<'_>,
+        (output, ty): (usize, Type),
+        (s, segment): (usize, &crate::grid::Segment),
+        out: &mut [u8],
+    ) {
+        let encoding = self.encoding(ty);
+        if !self.alpha() {
+            return window.copy_encoded(output, s, segment, encoding, out);
+        }
+        let size = encoding.bytes();
+        let colour = ty.channels() * size;
+        let mut samples = vec![0u8; segment.len * colour];
+        window.copy_encoded(output, s, segment, encoding, &mut samples);
+        let mut opaque = [0u8; 4];
+        encoding.encode(1.0, &mut opaque[..size]);
+        for (voxel, colours) in out
+            .chunks_exact_mut(colour + size)
+            .zip(samples.chunks_exact(colour))
+        {
+            voxel[..colour].copy_from_slice(colours);
+            voxel[colour..].copy_from_slice(&opaque[..size]);
         }
     }
 }
 
 impl Sink for Raw {
+    fn stores(&self, output: usize) -> Option<Encoding> {
+        (output == self.output).then(|| self.samples.encoding(self.ty))
+    }
+
     fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
         let (grid, layout) = (window.grid, window.layout);
         let (samples, ty, output) = (self.samples, self.ty, self.output);
-        let width = ty.channels();
-        let size = samples.voxel_bytes(width);
+        let size = samples.voxel_bytes(ty);
         // Tasks: runs of whole segments, about RAW_TASK_VOXELS voxels (or one segment); batches
         // of tasks, at most RAW_BATCH_VOXELS voxels.
         let per_task = (RAW_TASK_VOXELS / layout.segment_len).max(1);
@@ -408,34 +424,29 @@ impl Sink for Raw {
         let voxel = |s: usize| layout.voxels_before(grid, window.first_segment + s as u64) as usize;
         for batch in (0..window.segments).step_by(per_batch) {
             let batch_end = (batch + per_batch).min(window.segments);
-            let voxels = voxel(batch_end) - voxel(batch);
-            self.scratch.resize(voxels * width, 0.0);
-            self.bytes.resize(voxels * size, 0);
-            // Each task's segments and its share of the two buffers.
+            self.bytes
+                .resize((voxel(batch_end) - voxel(batch)) * size, 0);
+            // Each task's segments and its share of the buffer.
             let mut tasks = Vec::new();
-            let (mut scratch, mut bytes) = (&mut self.scratch[..], &mut self.bytes[..]);
+            let mut bytes = &mut self.bytes[..];
             for task in (batch..batch_end).step_by(per_task) {
                 let task_end = (task + per_task).min(batch_end);
                 let n = voxel(task_end) - voxel(task);
-                let (task_samples, rest) = std::mem::take(&mut scratch).split_at_mut(n * width);
-                scratch = rest;
                 let (task_bytes, rest) = std::mem::take(&mut bytes).split_at_mut(n * size);
                 bytes = rest;
-                tasks.push((task..task_end, task_samples, task_bytes));
+                tasks.push((task..task_end, task_bytes));
             }
             // Inside the bake's pool (sinks run there): gathered and encoded in parallel.
-            tasks
-                .into_par_iter()
-                .for_each(|(segments, task_samples, task_bytes)| {
-                    let mut at = 0;
-                    for s in segments {
-                        let segment = layout.segment(grid, window.first_segment + s as u64);
-                        let n = segment.len * width;
-                        window.copy_interleaved(output, s, &segment, &mut task_samples[at..at + n]);
-                        at += n;
-                    }
-                    samples.encode(ty, task_samples, task_bytes);
-                });
+            tasks.into_par_iter().for_each(|(segments, task_bytes)| {
+                let mut at = 0;
+                for s in segments {
+                    let segment = layout.segment(grid, window.first_segment + s as u64);
+                    let n = segment.len * size;
+                    let out = &mut task_bytes[at..at + n];
+                    samples.encode(window, (output, ty), (s, &segment), out);
+                    at += n;
+                }
+            });
             self.writer.write_all(&self.bytes).map_err(io(&self.path))?;
         }
         Ok(())
@@ -558,47 +569,5 @@ impl Exr {
                 write_layer!(channels)
             }
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn rounding_is_roundf_exactly() {
-        // Every 31st float in [0, 1], scaled as both encodings scale, and every half-way point
-        // and its neighbours.
-        let mut bits = 0u32;
-        while bits <= 1.0f32.to_bits() {
-            let v = f32::from_bits(bits);
-            for scale in [255.0f32, 65535.0] {
-                let x = v * scale;
-                assert_eq!(round_non_negative(x), x.round() as u32, "{x:?}");
-            }
-            bits += 31;
-        }
-        for k in 0..65536u32 {
-            let half = k as f32 + 0.5;
-            for x in [half, half.next_down(), half.next_up(), k as f32] {
-                assert_eq!(round_non_negative(x), x.round() as u32, "{x:?}");
-            }
-        }
-        assert_eq!(encode_u8(f32::NAN, true), 0);
-        assert_eq!(encode_u8(2.0, true), 255);
-        assert_eq!(encode_u16(1.0, false), 65535);
-    }
-
-    #[test]
-    fn srgb_transfer_hits_its_anchor_points() {
-        assert_eq!(encode_u8(0.0, true), 0);
-        assert_eq!(encode_u8(1.0, true), 255);
-        assert_eq!(encode_u8(0.5, false), 128);
-        // Linear 0.5 is sRGB 188 (0.7354).
-        assert_eq!(encode_u8(0.5, true), 188);
-        assert_eq!(encode_u8(f32::NAN, true), 0);
-        assert_eq!(encode_u8(7.0, false), 255);
-        assert_eq!(encode_u16(1.0, false), 65535);
-        assert!((srgb_encode(0.0031308) - 0.04045).abs() < 1e-4);
     }
 }

@@ -3,7 +3,7 @@
 //! into place. An OpenVDB file is written from whole grids, so the volume is held in memory:
 //! `voxels × channels × 4` bytes, checked against the memory bound before the bake.
 
-use super::engine::BakeError;
+use super::error::BakeError;
 use super::settings::{BakeFileOptions, BakeReport, BakedFile};
 use super::vdb::{write_vdb, VdbGrid, VdbGridKind, MAX_AXIS_VOXELS};
 use crate::graph::Type;

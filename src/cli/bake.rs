@@ -512,6 +512,7 @@ impl Batch<'_> {
             cancel: Some(self.cancel.clone()),
             device: choice.evaluator.device(),
             filter: args.filter(),
+            replay: None,
         };
         let mut options = file_options(args, file, &graph.params, bake);
         options.zarr.part = self.shard_part;

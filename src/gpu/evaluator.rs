@@ -291,6 +291,89 @@ impl GpuEvaluator {
         Ok(cell.get_or_init(|| made))
     }
 
+    /// The device and queue this evaluator runs on, and the largest storage binding.
+    pub(super) fn device(&self) -> (&wgpu::Device, &wgpu::Queue, u64, u32) {
+        let c = &self.context;
+        (&c.device, &c.queue, c.max_binding, c.max_groups)
+    }
+
+    /// The bake window's inputs (the grid's region and size) as a storage buffer.
+    pub(super) fn grid_inputs(&self, grid: &crate::grid::Grid) -> wgpu::Buffer {
+        let mut inputs = Vec::with_capacity(9);
+        inputs.extend_from_slice(&grid.region.min);
+        inputs.extend((0..3).map(|a| grid.region.max[a] - grid.region.min[a]));
+        inputs.extend(grid.size.iter().map(|&n| n as f64));
+        let bytes: Vec<u8> = inputs.iter().flat_map(|x| x.to_le_bytes()).collect();
+        self.context
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("inputs"),
+                contents: &bytes,
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+    }
+
+    /// Records the `bake` entry point over `count` segments from `first` of `grid` (laid out
+    /// by `layout`) into `encoder`, its results into `results` (segment-planar, as
+    /// [`GpuEvaluator::bake_window`]). `inputs`: [`GpuEvaluator::grid_inputs`].
+    pub(super) fn record_bake(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        (inputs, results): (&wgpu::Buffer, &wgpu::Buffer),
+        (grid, layout): (&crate::grid::Grid, &crate::grid::Layout),
+        first: u64,
+        count: usize,
+    ) -> Result<(), GpuError> {
+        let too_big = |v: u64| u32::try_from(v).is_err();
+        if too_big(first + count as u64) || too_big(grid.size[0] as u64) {
+            return Err(GpuError::Unsupported(
+                "a grid of more than 2^32 rows of segments".into(),
+            ));
+        }
+        let dispatch = Dispatch {
+            first_segment: first as u32,
+            segments: count as u32,
+            segment_len: layout.segment_len as u32,
+            per_row: layout.per_row as u32,
+            nx: grid.size[0] as u32,
+            ny: grid.size[1] as u32,
+            count: 0,
+            spacing: 0,
+        };
+        let size = (count * self.channels * layout.segment_len * 4) as u64;
+        let device = &self.context.device;
+        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("dispatch"),
+            contents: &dispatch.bytes(),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let entries = [
+            binding(0, &self.tables),
+            binding(1, inputs),
+            binding(2, &uniform),
+            wgpu::BindGroupEntry {
+                binding: 3,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: results,
+                    offset: 0,
+                    size: std::num::NonZeroU64::new(size),
+                }),
+            },
+        ];
+        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("texgraph"),
+            layout: &self.layout,
+            entries: &entries,
+        });
+        let pipeline = self.pipeline(true)?;
+        let (gx, gy) = groups((count * layout.segment_len) as u64, self.context.max_groups);
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &bind, &[]);
+        pass.dispatch_workgroups(gx, gy, 1);
+        Ok(())
+    }
+
     /// The adapter it runs on (`NVIDIA H100 80GB HBM3`, `llvmpipe (LLVM 15.0.7, 256 bits)`).
     pub fn adapter(&self) -> String {
         self.context.info.name.trim().to_string()
@@ -539,15 +622,13 @@ impl GpuEvaluator {
             layout: &self.layout,
             entries: &entries,
         });
-        let groups = threads.div_ceil(GROUP);
-        let max = u64::from(self.context.max_groups);
-        let (gx, gy) = (groups.min(max), groups.div_ceil(max));
+        let (gx, gy) = groups(threads, self.context.max_groups);
         let mut encoder = device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &bind, &[]);
-            pass.dispatch_workgroups(gx as u32, gy as u32, 1);
+            pass.dispatch_workgroups(gx, gy, 1);
         }
         let readback = read_back.then(|| {
             Buffers::take(
@@ -573,6 +654,14 @@ impl GpuEvaluator {
         };
         copy_back(device, readback, size, out)
     }
+}
+
+/// Workgroups of [`GROUP`] threads for `threads` threads, as (x, y) within `max` per
+/// dimension (`thread_index` in `bindings.wgsl` numbers them back).
+pub(super) fn groups(threads: u64, max: u32) -> (u32, u32) {
+    let groups = threads.div_ceil(GROUP);
+    let max = u64::from(max);
+    (groups.min(max) as u32, groups.div_ceil(max) as u32)
 }
 
 /// What follows a points dispatch's x, y and z planes.

@@ -7,16 +7,24 @@
 //! `wgsl/`), compiled once per tape by [`GpuEvaluator::new`]; `eval_batch` evaluates position
 //! buffers, `bake_window` a bake's windows with the positions made on the GPU.
 
+#[cfg(feature = "gpu")]
+mod bake;
 pub mod codegen;
+mod window_stats;
+pub use window_stats::WindowStats;
 mod error;
 #[cfg(feature = "gpu")]
 mod evaluator;
 pub mod filtered;
 mod filtered_periodic;
 #[cfg(feature = "gpu")]
+pub use bake::GpuBake;
+#[cfg(feature = "gpu")]
 pub use evaluator::GpuEvaluator;
 #[cfg(not(feature = "gpu"))]
 mod stub;
+#[cfg(not(feature = "gpu"))]
+pub use stub::GpuBake;
 pub(crate) mod widen;
 #[cfg(not(feature = "gpu"))]
 pub use stub::GpuEvaluator;

@@ -77,3 +77,34 @@ impl GpuEvaluator {
         match self.never {}
     }
 }
+
+/// Never constructed without the `gpu` feature.
+pub struct GpuBake {
+    never: std::convert::Infallible,
+}
+
+impl GpuBake {
+    pub fn new(
+        evaluator: std::sync::Arc<GpuEvaluator>,
+        _grid: &crate::grid::Grid,
+        _layout: &crate::grid::Layout,
+        _packing: crate::encoding::Packing,
+    ) -> Result<GpuBake, GpuError> {
+        match evaluator.never {}
+    }
+
+    pub fn queued(&self) -> usize {
+        match self.never {}
+    }
+
+    pub fn submit(&mut self, _first: u64, _count: usize) -> Result<(), GpuError> {
+        match self.never {}
+    }
+
+    pub fn collect(
+        &mut self,
+        _out: &mut Vec<u8>,
+    ) -> Result<Vec<super::window_stats::WindowStats>, GpuError> {
+        match self.never {}
+    }
+}

@@ -201,6 +201,21 @@ fn gpu_bakes_match_cpu_bakes() {
                 a.name
             );
         }
+        // The statistics the GPU reduces (`pack.wgsl`) are the CPU's over values this close
+        // (the clamp counts may differ where a value lies within 2e-5 of 0 or 1).
+        for (a, b) in cpu.stats.iter().zip(&gpu.stats) {
+            for (x, y) in a.channels.iter().zip(&b.channels) {
+                assert_eq!(
+                    (x.finite(), x.non_finite()),
+                    (y.finite(), y.non_finite()),
+                    "{name} {}: counts",
+                    a.name
+                );
+                for (p, q) in [(x.min, y.min), (x.max, y.max), (x.mean, y.mean)] {
+                    assert!((p - q).abs() <= 2e-5, "{name} {}: {p} against {q}", a.name);
+                }
+            }
+        }
     }
 }
 
@@ -473,4 +488,256 @@ fn white_and_cellular_values_are_the_cpu_bits() {
             .collect();
         assert!(differ.is_empty(), "{name}: {}", differ.join("; "));
     }
+}
+
+/// A graph whose outputs cross every edge the encodings have: below 0 and above 1, NaN, ±∞,
+/// past half's largest finite value and into its subnormals, colours for the sRGB transfer.
+const EDGES: &str = r#"Graph(
+    nodes: {
+        "p": Position,
+    },
+    outputs: {
+        "linear": "p.x",
+        "nan": Sqrt("p.x"),
+        "inf": Div(a: 1.0, b: Floor("p.x")),
+        "neg_inf": Log(Abs(Floor("p.y"))),
+        "huge": Mul(a: "p.x", b: 70000.0),
+        "tiny": Mul(a: "p.z", b: 0.00003),
+        "colour": Combine(x: "p.x", y: "p.y", z: "p.z"),
+    },
+)"#;
+
+/// The GPU packs each channel into the type its file stores (`pack.wgsl`) exactly as the CPU
+/// encodes the GPU's own 32-bit results (`texgraph::encoding`): bit for bit, but for the sRGB
+/// transfer (its `pow` may round otherwise on a GPU: at most one step of 255 or 65535) and
+/// NaN's payload; each channel's statistics are the CPU's over the same values. Over several
+/// windows (the double-buffered queue) of short segments (a row split in three, the last one
+/// short: padded words).
+#[test]
+fn gpu_packs_what_the_files_store() {
+    use texgraph::encoding::{Encoding, Packing};
+    if !common::gpu_available("gpu_packs_what_the_files_store") {
+        return;
+    }
+    let source = texgraph::diagnostic::SourceFile::new("edges.ron", EDGES);
+    let graph = texgraph::check::check(source, &CheckOptions::default()).expect("checks");
+    let tape = texgraph::compile::compile(&graph, &CompileOptions::default()).expect("compiles");
+    let gpu = texgraph::gpu::evaluator_for(&tape).expect("compiles on the GPU");
+    let grid = Grid {
+        size: [257, 3, 4],
+        region: Region {
+            min: [-1.5, -1.5, -1.5],
+            max: [1.5, 2.5, 1.5],
+        },
+    };
+    let layout = texgraph::bake::Layout {
+        segment_len: 100,
+        per_row: 3,
+        total: 3 * 3 * 4,
+        per_window: 7,
+    };
+    let channels = tape.channels();
+    let mut reference = vec![0f32; layout.total as usize * channels * 100];
+    gpu.bake_window(&grid, &layout, 0, &mut reference)
+        .expect("evaluates");
+    let all = [
+        Encoding::F32,
+        Encoding::U8 { srgb: false },
+        Encoding::U8 { srgb: true },
+        Encoding::U16 { srgb: false },
+        Encoding::U16 { srgb: true },
+        Encoding::F16,
+    ];
+    // Every encoding for every channel, and one packing that mixes them.
+    let mut packings: Vec<Vec<Encoding>> = all.iter().map(|&e| vec![e; channels]).collect();
+    packings.push((0..channels).map(|c| all[c % all.len()]).collect());
+    for encodings in packings {
+        let packing = Packing::new(encodings.clone(), layout.segment_len);
+        let mut bake = texgraph::gpu::GpuBake::new(gpu.clone(), &grid, &layout, packing.clone())
+            .expect("a GPU bake");
+        let mut bytes = Vec::new();
+        let mut first = 0u64;
+        let mut windows = Vec::new();
+        bake.submit(0, layout.per_window).expect("submits");
+        while first < layout.total {
+            let count = (layout.total - first).min(layout.per_window as u64) as usize;
+            let next = first + count as u64;
+            if next < layout.total {
+                let n = (layout.total - next).min(layout.per_window as u64) as usize;
+                bake.submit(next, n).expect("submits");
+            }
+            let stats = bake.collect(&mut bytes).expect("collects");
+            windows.push((first, count, bytes.clone(), stats));
+            first = next;
+        }
+        for (c, &encoding) in encodings.iter().enumerate() {
+            let size = encoding.bytes();
+            let mut values = Vec::new();
+            for (first, count, bytes, stats) in &windows {
+                let mut counts = [0u64; 6];
+                let (mut lo, mut hi, mut sum) = (f32::MAX, -f32::MAX, 0f64);
+                for s in 0..*count {
+                    let segment = layout.segment(&grid, first + s as u64);
+                    let at = ((*first as usize + s) * channels + c) * 100;
+                    let got = packing.channel(bytes, s, c, segment.len);
+                    for (i, &v) in reference[at..at + segment.len].iter().enumerate() {
+                        values.push(v);
+                        let mut want = [0u8; 4];
+                        encoding.encode(v, &mut want[..size]);
+                        let got = &got[i * size..(i + 1) * size];
+                        let same = match encoding {
+                            Encoding::U8 { srgb: true } => got[0].abs_diff(want[0]) <= 1,
+                            Encoding::U16 { srgb: true } => {
+                                let g = u16::from_le_bytes([got[0], got[1]]);
+                                g.abs_diff(u16::from_le_bytes([want[0], want[1]])) <= 1
+                            }
+                            Encoding::F16 if v.is_nan() => {
+                                half::f16::from_le_bytes([got[0], got[1]]).is_nan()
+                            }
+                            Encoding::F32 if v.is_nan() => {
+                                f32::from_le_bytes([got[0], got[1], got[2], got[3]]).is_nan()
+                            }
+                            _ => got == &want[..size],
+                        };
+                        assert!(same, "{encoding:?} of {v:e}: {got:?}, not {want:?}");
+                        if v.is_nan() {
+                            counts[0] += 1;
+                        } else if v.is_infinite() {
+                            counts[if v > 0.0 { 1 } else { 2 }] += 1;
+                        } else {
+                            counts[3] += 1;
+                            (lo, hi, sum) = (lo.min(v), hi.max(v), sum + v as f64);
+                        }
+                        counts[4] += u64::from(v < 0.0);
+                        counts[5] += u64::from(v > 1.0);
+                    }
+                }
+                let w = &stats[c];
+                let got = [w.nan, w.pos_inf, w.neg_inf, w.finite, w.below, w.above];
+                assert_eq!(got, counts, "channel {c}'s counts");
+                if counts[3] > 0 {
+                    assert_eq!((w.min, w.max), (lo, hi), "channel {c}'s min and max");
+                    assert!((w.sum - sum).abs() <= 1e-9 * sum.abs().max(1.0));
+                }
+            }
+            assert_eq!(values.len(), 257 * 3 * 4);
+        }
+    }
+}
+
+/// `bake --device gpu` writes the files `--device cpu` writes in every format whose samples
+/// the GPU packs (`pack.wgsl`): raw 8-bit with alpha, PNG slices of 8 bits and a 16-bit atlas,
+/// 8-bit and half-float KTX2; each sample within the GPU contract's 2e-5 after its encoding
+/// (one step of 8 bits, two of 16 bits, half's rounding).
+#[test]
+fn gpu_files_are_the_cpu_files() {
+    if !common::gpu_available("gpu_files_are_the_cpu_files") {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temporary folder");
+    let cases: [&[&str]; 5] = [
+        &["--format", "raw", "--raw-type", "u8", "--alpha"],
+        &["--format", "png"],
+        &["--format", "png", "--depth", "16", "--atlas"],
+        &["--format", "ktx2"],
+        &["--format", "ktx2", "--half"],
+    ];
+    for (n, flags) in cases.iter().enumerate() {
+        let bake = |device: &str| {
+            let out = dir.path().join(format!("{n}-{device}"));
+            std::fs::create_dir(&out).unwrap();
+            let run = std::process::Command::new(env!("CARGO_BIN_EXE_texgraph"))
+                .current_dir(common::crate_root())
+                .args(["bake", "graphs/seed004_marble.ron", "--size", "19,7,5"])
+                .args(*flags)
+                .args(["--device", device, "-q", "--out"])
+                .arg(&out)
+                .output()
+                .expect("runs");
+            let said = String::from_utf8_lossy(&run.stderr);
+            assert!(run.status.success(), "{flags:?} on the {device}: {said}");
+            out
+        };
+        let (cpu, gpu) = (bake("cpu"), bake("gpu"));
+        let files = files_under(&cpu);
+        assert_eq!(files, files_under(&gpu), "{flags:?}: the same files");
+        for file in files {
+            let name = file.to_string_lossy().to_string();
+            let (a, b) = (
+                std::fs::read(cpu.join(&file)).unwrap(),
+                std::fs::read(gpu.join(&file)).unwrap(),
+            );
+            // Each file's samples, and how far apart two may be (one step of 8 bits, two of
+            // 16, half's rounding of 2e-5 relative).
+            let (a, b, step): (Vec<f64>, Vec<f64>, f64) = if name.ends_with(".png") {
+                let (a, b) = (
+                    common::Png::decode(&a).unwrap(),
+                    common::Png::decode(&b).unwrap(),
+                );
+                let values = |p: &common::Png| p.samples.iter().map(|&v| f64::from(v)).collect();
+                (values(&a), values(&b), if a.bits == 16 { 2.0 } else { 1.0 })
+            } else if name.ends_with(".ktx2") {
+                // Uncompressed: the header and index alike, the texels at the end.
+                assert_eq!(a.len(), b.len(), "{name}");
+                let texels = 19 * 7 * 5 * if name.contains("colour") { 4 } else { 1 };
+                if flags.contains(&"--half") {
+                    let at = a.len() - 2 * texels;
+                    assert_eq!(a[..at], b[..at], "{name}: the header");
+                    let values = |v: &[u8]| {
+                        v.chunks(2)
+                            .map(|h| half::f16::from_le_bytes([h[0], h[1]]).to_f64())
+                            .collect()
+                    };
+                    (values(&a[at..]), values(&b[at..]), 1e-3)
+                } else {
+                    let at = a.len() - texels;
+                    assert_eq!(a[..at], b[..at], "{name}: the header");
+                    let values = |v: &[u8]| v.iter().map(|&x| f64::from(x)).collect();
+                    (values(&a[at..]), values(&b[at..]), 1.0)
+                }
+            } else if name.ends_with(".raw") {
+                let values = |v: &[u8]| v.iter().map(|&x| f64::from(x)).collect();
+                (values(&a), values(&b), 1.0)
+            } else {
+                continue;
+            };
+            assert_eq!(a.len(), b.len(), "{name}");
+            // Half floats relative to the value (beyond 1), integers in steps.
+            let relative = step < 1.0;
+            let worst = a
+                .iter()
+                .zip(&b)
+                .map(|(x, y)| {
+                    let steps = (x - y).abs() / step;
+                    if relative {
+                        steps / x.abs().max(1.0)
+                    } else {
+                        steps
+                    }
+                })
+                .fold(0.0, f64::max);
+            assert!(
+                worst <= 1.0,
+                "{flags:?} {name}: samples differ by {worst} steps"
+            );
+        }
+    }
+}
+
+/// The files under `dir`, as paths relative to it, sorted.
+fn files_under(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut found = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                found.push(path.strip_prefix(dir).unwrap().to_path_buf());
+            }
+        }
+    }
+    found.sort();
+    found
 }

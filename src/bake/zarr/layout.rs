@@ -4,9 +4,10 @@
 //! writes nothing.
 
 use super::store::AtomicStore;
-use crate::bake::engine::{BakeError, Precision};
+use crate::bake::engine::Precision;
+use crate::bake::error::BakeError;
 use crate::bake::settings::{BakeFileOptions, Transfer, ZarrCompression};
-use crate::bake::sinks::encode_u8;
+use crate::encoding::encode_u8;
 use crate::graph::Type;
 use crate::grid::Grid;
 use crate::tape::Tape;

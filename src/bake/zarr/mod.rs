@@ -38,7 +38,8 @@ pub use store::{store_path, AtomicStore};
 pub use verify::{verify_store, ArrayCheck};
 
 use crate::bake::device::Evaluator;
-use crate::bake::engine::{collect_stats, BakeError, ChannelStats};
+use crate::bake::engine::{collect_stats, ChannelStats};
+use crate::bake::error::BakeError;
 use crate::bake::settings::{BakeFileOptions, BakeReport, BakedFile, Transfer};
 use crate::graph::Type;
 use crate::tape::Tape;

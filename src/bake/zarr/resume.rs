@@ -3,7 +3,7 @@
 //! the tape's and the array metadata's fingerprints) by which a re-run or `texgraph verify`
 //! knows a complete shard.
 
-use crate::bake::engine::BakeError;
+use crate::bake::error::BakeError;
 use crate::bake::settings::BakeFileOptions;
 use crate::output;
 use std::path::Path;

@@ -1,7 +1,7 @@
 //! The zarr store on disk: where a graph's store goes ([`store_path`]) and [`AtomicStore`], the
 //! `zarrs` storage adapter whose every write is a temporary renamed into place.
 
-use crate::bake::engine::BakeError;
+use crate::bake::error::BakeError;
 use crate::bake::settings::BakeFileOptions;
 use crate::output;
 use std::path::{Path, PathBuf};

@@ -2,7 +2,7 @@
 //! manifest.
 
 use super::resume::{shard_state, ShardState};
-use crate::bake::engine::BakeError;
+use crate::bake::error::BakeError;
 use std::path::Path;
 
 /// What `texgraph verify` found in one array.
