@@ -1,5 +1,6 @@
 //! GPU benchmarks (issue 19): `gpu/marble_512` (the seed 003 marble with 8 octaves over a 512³
-//! grid, results kept on the GPU, and again read back), `gpu/marble_filtered_256` (its filtered
+//! grid, results kept on the GPU, read back as floats, and read back as a bake of 8-bit files
+//! does, `read_back_u8`), `gpu/marble_filtered_256` (its filtered
 //! form, issue 33, over a 256³ grid), `gpu/bake_1024` (the command-line
 //! bake of a 1024³ raw file, end to end) and `bake_vs_write` (issue 49: a `--device gpu` bake
 //! of 8-bit files end to end, `*/gpu`, against writing the same files from the same voxels in
@@ -56,6 +57,12 @@ fn bench_gpu(c: &mut Criterion) {
     });
     group.bench_function(format!("marble_{n}/read_back"), |b| {
         b.iter(|| gpu.eval_grid(&grid, false).expect("evaluates"))
+    });
+    // What a bake of 8-bit files reads back (issue 49): the same kernel, each value packed to
+    // 8 bits on the device with its statistics, windows of 4 Mi voxels double-buffered.
+    let layout = texgraph::bake::Layout::new(&grid, gpu.channels(), 32).expect("a layout");
+    group.bench_function(format!("marble_{n}/read_back_u8"), |b| {
+        b.iter(|| read_back_packed(&gpu, &grid, &layout))
     });
     // The filtered form (`--filter box`): each voxel the estimate of its cell's mean, on a
     // 256³ grid (the rules run in f64), results kept on the GPU.
@@ -159,6 +166,34 @@ fn bench_bake_vs_write(c: &mut Criterion) {
     }
     group.finish();
     let _ = std::fs::remove_dir_all(&out);
+}
+
+/// The whole grid through [`texgraph::gpu::GpuBake`] as 8-bit samples: one window queued
+/// ahead of the one copied out, as `bake_into` runs it.
+fn read_back_packed(
+    gpu: &std::sync::Arc<texgraph::gpu::GpuEvaluator>,
+    grid: &Grid,
+    layout: &texgraph::bake::Layout,
+) {
+    use texgraph::encoding::{Encoding, Packing};
+    let packing = Packing::new(
+        vec![Encoding::U8 { srgb: false }; gpu.channels()],
+        layout.segment_len,
+    );
+    let mut bake =
+        texgraph::gpu::GpuBake::new(gpu.clone(), grid, layout, packing).expect("a GPU bake");
+    let window = |first: u64| (layout.total - first).min(layout.per_window as u64) as usize;
+    let mut bytes = Vec::new();
+    bake.submit(0, window(0)).expect("submits");
+    let mut first = 0;
+    while first < layout.total {
+        let next = first + window(first) as u64;
+        if next < layout.total {
+            bake.submit(next, window(next)).expect("submits");
+        }
+        bake.collect(&mut bytes).expect("reads back");
+        first = next;
+    }
 }
 
 criterion_group!(benches, bench_gpu, bench_bake_vs_write);

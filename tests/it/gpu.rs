@@ -741,3 +741,83 @@ fn files_under(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
     found.sort();
     found
 }
+
+/// `--format zarr --device gpu`: each shard baked on the device as a grid of its own (its box)
+/// and packed there into the array's sample type, then scattered into the shard: the store the
+/// CPU writes, sample for sample (one step of 8 bits, half's rounding), edge shards clipped
+/// (19 × 7 × 11 voxels in shards of 8), and the same statistics' counts.
+#[test]
+fn gpu_zarr_stores_are_the_cpu_stores() {
+    use texgraph::bake::{bake_files, BakeFileOptions, Format, Ktx2SampleType};
+    if !common::gpu_available("gpu_zarr_stores_are_the_cpu_stores") {
+        return;
+    }
+    let path = common::crate_root().join("graphs/seed004_marble.ron");
+    let tape = texgraph::load_tape(&path, &CheckOptions::default(), &CompileOptions::default())
+        .expect("loads")
+        .1;
+    let grid = Grid {
+        size: [19, 7, 11],
+        region: Region {
+            min: [-0.5, -1.0, -0.75],
+            max: [1.5, 0.25, 0.5],
+        },
+    };
+    for sample in [Ktx2SampleType::U8, Ktx2SampleType::F16] {
+        let dir = tempfile::tempdir().unwrap();
+        let bake = |device: Device| {
+            let store = dir.path().join(format!("{device:?}.zarr"));
+            let mut options = BakeFileOptions::new("marble", &store);
+            options.bake.grid = grid;
+            options.bake.device = device;
+            options.format = Format::Zarr;
+            options.ktx2_type = sample;
+            options.zarr.chunk = 4;
+            options.zarr.shard = 8;
+            let report = bake_files(&tape, &options, &mut |_| {}).expect("bakes");
+            (store, report)
+        };
+        let ((cpu, cpu_report), (gpu, gpu_report)) = (bake(Device::Cpu), bake(Device::Gpu));
+        for (a, b) in cpu_report.stats.iter().zip(&gpu_report.stats) {
+            for (x, y) in a.channels.iter().zip(&b.channels) {
+                assert_eq!((x.finite(), x.non_finite()), (y.finite(), y.non_finite()));
+                assert!((x.mean - y.mean).abs() <= 2e-5, "{sample:?} {}", a.name);
+            }
+        }
+        for output in tape.outputs() {
+            let read = |store: &std::path::Path| {
+                let storage = std::sync::Arc::new(
+                    zarrs::filesystem::FilesystemStore::new(store).expect("a store"),
+                );
+                let array = zarrs::array::Array::open(storage, &format!("/{}", output.name))
+                    .expect("an array");
+                let ranges: Vec<std::ops::Range<u64>> =
+                    array.shape().iter().map(|&n| 0..n).collect();
+                match sample {
+                    Ktx2SampleType::U8 => array
+                        .retrieve_array_subset::<Vec<u8>>(&ranges)
+                        .expect("reads")
+                        .into_iter()
+                        .map(f64::from)
+                        .collect::<Vec<f64>>(),
+                    _ => array
+                        .retrieve_array_subset::<Vec<half::f16>>(&ranges)
+                        .expect("reads")
+                        .into_iter()
+                        .map(|h| h.to_f64())
+                        .collect(),
+                }
+            };
+            let (a, b) = (read(&cpu), read(&gpu));
+            let voxels = 19 * 7 * 11 * output.ty.channels();
+            assert!(a.len() == voxels && b.len() == voxels, "{}", output.name);
+            for (x, y) in a.iter().zip(&b) {
+                let close = match sample {
+                    Ktx2SampleType::U8 => (x - y).abs() <= 1.0,
+                    _ => (x - y).abs() <= 1e-3 * x.abs().max(1.0),
+                };
+                assert!(close, "{sample:?} {}: {x} against {y}", output.name);
+            }
+        }
+    }
+}

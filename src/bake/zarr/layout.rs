@@ -7,7 +7,7 @@ use super::store::AtomicStore;
 use crate::bake::engine::Precision;
 use crate::bake::error::BakeError;
 use crate::bake::settings::{BakeFileOptions, Transfer, ZarrCompression};
-use crate::encoding::encode_u8;
+use crate::encoding::Encoding;
 use crate::graph::Type;
 use crate::grid::Grid;
 use crate::tape::Tape;
@@ -52,24 +52,22 @@ impl ZarrSample {
         }
     }
 
-    /// Appends `values` in this type's native-endian bytes (the `bytes` codec's input).
-    pub(super) fn encode(self, values: &[f32], srgb: bool, out: &mut [u8]) {
+    /// How values are stored in this type (`srgb`: the array's colours are sRGB-encoded).
+    pub(super) fn encoding(self, srgb: bool) -> Encoding {
         match self {
-            ZarrSample::U8 => {
-                for (o, &v) in out.iter_mut().zip(values) {
-                    *o = encode_u8(v, srgb);
-                }
-            }
-            ZarrSample::F16 => {
-                for (o, &v) in out.chunks_exact_mut(2).zip(values) {
-                    o.copy_from_slice(&half::f16::from_f32(v).to_ne_bytes());
-                }
-            }
-            ZarrSample::F32 => {
-                for (o, &v) in out.chunks_exact_mut(4).zip(values) {
-                    o.copy_from_slice(&v.to_ne_bytes());
-                }
-            }
+            ZarrSample::U8 => Encoding::U8 { srgb },
+            ZarrSample::F16 => Encoding::F16,
+            ZarrSample::F32 => Encoding::F32,
+        }
+    }
+
+    /// Writes `values` in this type's little-endian bytes (the `bytes` codec's input, little
+    /// endian as zarrs' default) into `out`.
+    pub(super) fn encode(self, values: &[f32], srgb: bool, out: &mut [u8]) {
+        let encoding = self.encoding(srgb);
+        let size = encoding.bytes();
+        for (o, &v) in out.chunks_exact_mut(size).zip(values) {
+            encoding.encode(v, o);
         }
     }
 }

@@ -63,9 +63,12 @@ pub(super) fn eval_shard_buffers(
             vec![0u8; len as usize]
         })
         .collect();
-    let stats = match options.bake.precision {
-        Precision::F32 => eval_shard::<f32>(level, pool, k, &mut buffers)?,
-        Precision::F64 => eval_shard::<f64>(level, pool, k, &mut buffers)?,
+    let stats = match (&level.evaluator, options.bake.precision) {
+        (Evaluator::Gpu(gpu) | Evaluator::GpuFiltered(gpu), _) => {
+            eval_shard_gpu(level, gpu, k, &mut buffers)?
+        }
+        (Evaluator::Cpu, Precision::F32) => eval_shard::<f32>(level, pool, k, &mut buffers)?,
+        (Evaluator::Cpu, Precision::F64) => eval_shard::<f64>(level, pool, k, &mut buffers)?,
     };
     Ok((buffers, stats))
 }
@@ -228,7 +231,6 @@ impl ShardSlices<'_> {
         let channels = tape.channels();
         let width = self.xs.len();
         let mut stats = vec![ChannelStats::default(); channels];
-        let on_gpu = self.gpu_slice(kz)?;
         let SliceScratch {
             workspace,
             out,
@@ -242,21 +244,12 @@ impl ShardSlices<'_> {
         for (jy, j) in self.rows.clone().enumerate() {
             ys.clear();
             ys.resize(width, grid.centre(1, j as usize));
-            match (&on_gpu, &self.filtered) {
-                (Some(values), _) => {
-                    let n = self.rows.clone().count() * width;
-                    for c in 0..channels {
-                        let row = &values[c * n + jy * width..][..width];
-                        for (o, &v) in out[c * width..(c + 1) * width].iter_mut().zip(row) {
-                            *o = S::from_f64(f64::from(v));
-                        }
-                    }
-                }
-                (None, Some(f)) => {
+            match &self.filtered {
+                Some(f) => {
                     let footprint = std::slice::from_ref(&self.footprint);
                     f.eval_batch([&self.xs, ys, zs], footprint, out)
                 }
-                (None, None) => tape.eval_batch(workspace, &self.xs, ys, zs, out),
+                None => tape.eval_batch(workspace, &self.xs, ys, zs, out),
             }
             self.encode_row(out, jy, interleaved, &mut stats, &mut views);
         }
@@ -290,32 +283,79 @@ impl ShardSlices<'_> {
             sample.encode(interleaved, a.srgb, &mut view[row..row + width * c * b]);
         }
     }
+}
 
-    /// On the GPU (the level's evaluator): the slice's rows in one batch, planar; `None` on the
-    /// CPU. A GPU that fails mid-bake fails the bake, as in the window engine.
-    fn gpu_slice(&self, kz: u64) -> Result<Option<Vec<f32>>, BakeError> {
-        let grid = &self.level.options.bake.grid;
-        let (gpu, boxed) = match &self.level.evaluator {
-            Evaluator::Cpu => return Ok(None),
-            Evaluator::Gpu(g) => (g, false),
-            Evaluator::GpuFiltered(g) => (g, true),
-        };
-        let width = self.xs.len();
-        let n = self.rows.clone().count() * width;
-        let rows = self.rows.clone();
-        let px: Vec<f64> = rows.clone().flat_map(|_| self.xs.iter().copied()).collect();
-        let py: Vec<f64> = rows
-            .flat_map(|j| std::iter::repeat_n(grid.centre(1, j as usize), width))
-            .collect();
-        let pz = vec![grid.centre(2, kz as usize); n];
-        let mut out = vec![0f32; self.level.tape.channels() * n];
-        let done = if boxed {
-            let footprint = std::slice::from_ref(&self.footprint);
-            gpu.eval_batch_filtered([&px, &py, &pz], footprint, &mut out)
-        } else {
-            gpu.eval_batch(&px, &py, &pz, &mut out)
-        };
-        done.map_err(|e| BakeError::Refused(format!("the GPU, slice {kz}: {e}")))?;
-        Ok(Some(out))
+/// [`eval_shard`] on the GPU: the shard's box as a grid of its own (the same voxel centres, to
+/// the last bits of their f64 arithmetic) baked through [`crate::gpu::GpuBake`], each channel
+/// packed on the device into the array's sample type and read back so, its statistics reduced
+/// there; the windows' segments (rows of the box) scattered into the shard buffers.
+fn eval_shard_gpu(
+    level: &Level<'_>,
+    gpu: &std::sync::Arc<crate::gpu::GpuEvaluator>,
+    k: [u64; 3],
+    buffers: &mut [Vec<u8>],
+) -> Result<Vec<ChannelStats>, BakeError> {
+    let (options, sharding) = (&level.options, &level.sharding);
+    let grid = &options.bake.grid;
+    let ranges = sharding.shard_ranges(k);
+    let [_, sy, sx] = sharding.shard.map(|n| n as usize);
+    // The box, x y z: its first voxel and its size.
+    let start = [2, 1, 0].map(|a| ranges[a].start as usize);
+    let size = [2, 1, 0].map(|a| (ranges[a].end - ranges[a].start) as usize);
+    let spacing = grid.spacing();
+    let region = crate::grid::Region {
+        min: [0, 1, 2].map(|a| grid.region.min[a] + start[a] as f64 * spacing[a]),
+        max: [0, 1, 2].map(|a| grid.region.min[a] + (start[a] + size[a]) as f64 * spacing[a]),
+    };
+    let shard = crate::grid::Grid { size, region };
+    let channels = level.tape.channels();
+    let mut stats = vec![ChannelStats::default(); channels];
+    let Some(layout) = crate::grid::Layout::new(&shard, channels, 32) else {
+        return Ok(stats);
+    };
+    let sample = sample_type(options);
+    let mut encodings = vec![crate::encoding::Encoding::F32; channels];
+    for a in &level.arrays {
+        for ch in 0..a.ty.channels() {
+            encodings[a.first_channel + ch] = sample.encoding(a.srgb);
+        }
     }
+    let packing = crate::encoding::Packing::new(encodings, layout.segment_len);
+    let failed = |e: crate::gpu::GpuError| BakeError::Refused(format!("the GPU, shard {k:?}: {e}"));
+    let mut bake =
+        crate::gpu::GpuBake::new(gpu.clone(), &shard, &layout, packing.clone()).map_err(failed)?;
+    let window = |first: u64| (layout.total - first).min(layout.per_window as u64) as usize;
+    let b = sample.bytes() as usize;
+    let mut bytes = Vec::new();
+    bake.submit(0, window(0)).map_err(failed)?;
+    let mut first = 0;
+    while first < layout.total {
+        let count = window(first);
+        let next = first + count as u64;
+        if next < layout.total {
+            bake.submit(next, window(next)).map_err(failed)?;
+        }
+        for (total, part) in stats
+            .iter_mut()
+            .zip(bake.collect(&mut bytes).map_err(failed)?)
+        {
+            total.merge(&ChannelStats::from_window(&part));
+        }
+        for s in 0..count {
+            let segment = layout.segment(&shard, first + s as u64);
+            let voxel = (segment.k * sy + segment.j) * sx + segment.i0;
+            for (a, buffer) in level.arrays.iter().zip(buffers.iter_mut()) {
+                let c = a.ty.channels();
+                let row = &mut buffer[voxel * c * b..][..segment.len * c * b];
+                for ch in 0..c {
+                    let samples = packing.channel(&bytes, s, a.first_channel + ch, segment.len);
+                    for (o, v) in row[ch * b..].chunks_mut(c * b).zip(samples.chunks(b)) {
+                        o[..b].copy_from_slice(v);
+                    }
+                }
+            }
+        }
+        first = next;
+    }
+    Ok(stats)
 }
