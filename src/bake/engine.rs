@@ -473,10 +473,11 @@ fn bake_with<S: Real>(
     let choice = super::device::choose(tape, options.device, options.filter, double)
         .map_err(BakeError::Refused)?;
     let mut stats: Vec<ChannelStats> = vec![ChannelStats::default(); channels];
-    // A GPU window is one submission: windows as for [`GPU_WINDOW_THREADS`] threads (4 Mi
-    // voxels, within the window bound), not the pool's few.
-    let on_gpu = choice.evaluator.gpu().is_some() && options.replay.is_none();
-    let threads = if on_gpu {
+    // A card's window is one submission: windows as for [`GPU_WINDOW_THREADS`] threads (4 Mi
+    // voxels, within the window bound), not the pool's few. A software adapter runs on the
+    // pool's cores: its windows as the CPU's (progress and Ctrl-C as often).
+    let on_card = choice.evaluator.gpu().is_some_and(|g| !g.is_software());
+    let threads = if on_card && options.replay.is_none() {
         GPU_WINDOW_THREADS
     } else {
         pool.current_num_threads()

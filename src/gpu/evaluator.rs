@@ -379,6 +379,12 @@ impl GpuEvaluator {
         self.context.info.name.trim().to_string()
     }
 
+    /// Whether the adapter is a software driver (lavapipe): the "device" runs on the host's
+    /// own cores.
+    pub fn is_software(&self) -> bool {
+        self.context.info.device_type == wgpu::DeviceType::Cpu
+    }
+
     /// Output channels per point (as `Tape::channels`).
     pub fn channels(&self) -> usize {
         self.channels

@@ -44,6 +44,10 @@ impl GpuEvaluator {
         match self.never {}
     }
 
+    pub fn is_software(&self) -> bool {
+        match self.never {}
+    }
+
     pub fn eval_batch(
         &self,
         _x: &[f64],
