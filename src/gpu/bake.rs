@@ -7,7 +7,7 @@
 //! of one staging buffer, the device already runs window i + 1 into the other.
 
 use super::error::GpuError;
-use super::evaluator::GpuEvaluator;
+use super::evaluator::{binding as entry, GpuEvaluator};
 use super::window_stats::{WindowStats, STATS_BYTES};
 use crate::encoding::Packing;
 use crate::grid::{Grid, Layout};
@@ -40,16 +40,7 @@ fn make_packer(device: &wgpu::Device) -> Result<Packer, String> {
         label: Some("pack"),
         source: wgpu::ShaderSource::Wgsl(source.into()),
     });
-    let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    };
+    let entry = super::evaluator::layout_entry;
     let read = wgpu::BufferBindingType::Storage { read_only: true };
     let write = wgpu::BufferBindingType::Storage { read_only: false };
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -335,11 +326,4 @@ fn max_groups(packing: &Packing, segments: usize) -> u64 {
         .max()
         .unwrap_or(0);
     ((segments * widest) as u64).div_ceil(WORDS).max(1)
-}
-
-fn entry(index: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry {
-        binding: index,
-        resource: buffer.as_entire_binding(),
-    }
 }

@@ -209,16 +209,7 @@ impl GpuEvaluator {
             label: Some("texgraph tape"),
             source: wgpu::ShaderSource::Wgsl(shader.source.as_str().into()),
         });
-        let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
+        let entry = layout_entry;
         let read = wgpu::BufferBindingType::Storage { read_only: true };
         let entries = vec![
             entry(0, read),
@@ -341,6 +332,29 @@ impl GpuEvaluator {
             spacing: 0,
         };
         let size = (count * self.channels * layout.segment_len * 4) as u64;
+        let threads = (count * layout.segment_len) as u64;
+        let pipeline = self.pipeline(true)?;
+        self.record(
+            encoder,
+            pipeline,
+            (inputs, results, size),
+            dispatch,
+            threads,
+        );
+        Ok(())
+    }
+
+    /// Records one dispatch of `threads` threads of `pipeline` into `encoder`, with the noise
+    /// tables, `inputs`, `dispatch` as the uniform block and the first `size` bytes of
+    /// `results` bound.
+    fn record(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        pipeline: &wgpu::ComputePipeline,
+        (inputs, results, size): (&wgpu::Buffer, &wgpu::Buffer, u64),
+        dispatch: Dispatch,
+        threads: u64,
+    ) {
         let device = &self.context.device;
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("dispatch"),
@@ -365,13 +379,11 @@ impl GpuEvaluator {
             layout: &self.layout,
             entries: &entries,
         });
-        let pipeline = self.pipeline(true)?;
-        let (gx, gy) = groups((count * layout.segment_len) as u64, self.context.max_groups);
+        let (gx, gy) = groups(threads, self.context.max_groups);
         let mut pass = encoder.begin_compute_pass(&Default::default());
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, &bind, &[]);
         pass.dispatch_workgroups(gx, gy, 1);
-        Ok(())
     }
 
     /// The adapter it runs on (`NVIDIA H100 80GB HBM3`, `llvmpipe (LLVM 15.0.7, 256 bits)`).
@@ -596,11 +608,6 @@ impl GpuEvaluator {
             contents: &bytes(inputs),
             usage: wgpu::BufferUsages::STORAGE,
         });
-        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("dispatch"),
-            contents: &dispatch.bytes(),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
         let size = (out.len() * 4) as u64;
         let Buffers { results, readback } = &mut *buffers;
         let results = Buffers::take(
@@ -610,32 +617,14 @@ impl GpuEvaluator {
             size,
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
         );
-        let entries = vec![
-            binding(0, &self.tables),
-            binding(1, &inputs),
-            binding(2, &uniform),
-            wgpu::BindGroupEntry {
-                binding: 3,
-                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: results,
-                    offset: 0,
-                    size: std::num::NonZeroU64::new(size),
-                }),
-            },
-        ];
-        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("texgraph"),
-            layout: &self.layout,
-            entries: &entries,
-        });
-        let (gx, gy) = groups(threads, self.context.max_groups);
         let mut encoder = device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &bind, &[]);
-            pass.dispatch_workgroups(gx, gy, 1);
-        }
+        self.record(
+            &mut encoder,
+            pipeline,
+            (&inputs, results, size),
+            dispatch,
+            threads,
+        );
         let readback = read_back.then(|| {
             Buffers::take(
                 readback,
@@ -679,7 +668,24 @@ enum Extra<'a> {
     Footprints(&'a [f64]),
 }
 
-fn binding(index: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+/// A compute shader's buffer binding `binding` of type `ty`, in a bind group layout.
+pub(super) fn layout_entry(
+    binding: u32,
+    ty: wgpu::BufferBindingType,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+pub(super) fn binding(index: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
     wgpu::BindGroupEntry {
         binding: index,
         resource: buffer.as_entire_binding(),
@@ -708,7 +714,10 @@ fn copy_back(
         let view = slice
             .get_mapped_range()
             .map_err(|e| GpuError::Device(e.to_string()))?;
-        for (o, b) in out.iter_mut().zip(view.chunks_exact(4)) {
+        // One sequential copy out of the mapped range first: on a card it may be host-visible
+        // memory that is not cached, where reading four bytes at a time crawls.
+        let bytes = view.to_vec();
+        for (o, b) in out.iter_mut().zip(bytes.chunks_exact(4)) {
             *o = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
         }
     }
