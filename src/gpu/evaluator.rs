@@ -102,6 +102,32 @@ struct Dispatch {
 }
 
 impl Dispatch {
+    /// The block of a `bake` dispatch over `count` segments from `first` of `grid`; refused
+    /// past 32-bit segment indices or rows.
+    fn bake(
+        grid: &crate::grid::Grid,
+        layout: &crate::grid::Layout,
+        first: u64,
+        count: usize,
+    ) -> Result<Dispatch, GpuError> {
+        let too_big = |v: u64| u32::try_from(v).is_err();
+        if too_big(first + count as u64) || too_big(grid.size[0] as u64) {
+            return Err(GpuError::Unsupported(
+                "a grid of more than 2^32 rows of segments".into(),
+            ));
+        }
+        Ok(Dispatch {
+            first_segment: first as u32,
+            segments: count as u32,
+            segment_len: layout.segment_len as u32,
+            per_row: layout.per_row as u32,
+            nx: grid.size[0] as u32,
+            ny: grid.size[1] as u32,
+            count: 0,
+            spacing: 0,
+        })
+    }
+
     /// The block's bytes: the fields, then `one` (1.0 as f32 bits, see `entry.wgsl`) and
     /// padding to a multiple of 16 bytes.
     fn bytes(&self) -> Vec<u8> {
@@ -290,11 +316,10 @@ impl GpuEvaluator {
 
     /// The bake window's inputs (the grid's region and size) as a storage buffer.
     pub(super) fn grid_inputs(&self, grid: &crate::grid::Grid) -> wgpu::Buffer {
-        let mut inputs = Vec::with_capacity(9);
-        inputs.extend_from_slice(&grid.region.min);
-        inputs.extend((0..3).map(|a| grid.region.max[a] - grid.region.min[a]));
-        inputs.extend(grid.size.iter().map(|&n| n as f64));
-        let bytes: Vec<u8> = inputs.iter().flat_map(|x| x.to_le_bytes()).collect();
+        let bytes: Vec<u8> = grid_values(grid)
+            .iter()
+            .flat_map(|x| x.to_le_bytes())
+            .collect();
         self.context
             .device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -315,22 +340,7 @@ impl GpuEvaluator {
         first: u64,
         count: usize,
     ) -> Result<(), GpuError> {
-        let too_big = |v: u64| u32::try_from(v).is_err();
-        if too_big(first + count as u64) || too_big(grid.size[0] as u64) {
-            return Err(GpuError::Unsupported(
-                "a grid of more than 2^32 rows of segments".into(),
-            ));
-        }
-        let dispatch = Dispatch {
-            first_segment: first as u32,
-            segments: count as u32,
-            segment_len: layout.segment_len as u32,
-            per_row: layout.per_row as u32,
-            nx: grid.size[0] as u32,
-            ny: grid.size[1] as u32,
-            count: 0,
-            spacing: 0,
-        };
+        let dispatch = Dispatch::bake(grid, layout, first, count)?;
         let size = (count * self.channels * layout.segment_len * 4) as u64;
         let threads = (count * layout.segment_len) as u64;
         let pipeline = self.pipeline(true)?;
@@ -530,30 +540,13 @@ impl GpuEvaluator {
     ) -> Result<(), GpuError> {
         let block = self.channels * layout.segment_len;
         let segments = data.len() / block.max(1);
-        let too_big = |v: u64| u32::try_from(v).is_err();
-        if too_big(first + segments as u64) || too_big(grid.size[0] as u64) {
-            return Err(GpuError::Unsupported(
-                "a grid of more than 2^32 rows of segments".into(),
-            ));
-        }
+        Dispatch::bake(grid, layout, first, segments)?;
         // Segments per dispatch: the results fit one binding.
         let per = (self.context.max_binding / (4 * block as u64)).max(1) as usize;
-        let mut inputs = Vec::with_capacity(9);
-        inputs.extend_from_slice(&grid.region.min);
-        inputs.extend((0..3).map(|a| grid.region.max[a] - grid.region.min[a]));
-        inputs.extend(grid.size.iter().map(|&n| n as f64));
+        let inputs = grid_values(grid);
         for (k, chunk) in data.chunks_mut(per * block).enumerate() {
             let count = chunk.len() / block;
-            let dispatch = Dispatch {
-                first_segment: (first + (k * per) as u64) as u32,
-                segments: count as u32,
-                segment_len: layout.segment_len as u32,
-                per_row: layout.per_row as u32,
-                nx: grid.size[0] as u32,
-                ny: grid.size[1] as u32,
-                count: 0,
-                spacing: 0,
-            };
+            let dispatch = Dispatch::bake(grid, layout, first + (k * per) as u64, count)?;
             let threads = (count * layout.segment_len) as u64;
             self.run(
                 self.pipeline(true)?,
@@ -649,6 +642,15 @@ impl GpuEvaluator {
         };
         copy_back(device, readback, size, out)
     }
+}
+
+/// A bake's inputs (`centre` in `bindings.wgsl`): the grid's corner, extent and size.
+fn grid_values(grid: &crate::grid::Grid) -> Vec<f64> {
+    let mut values = Vec::with_capacity(9);
+    values.extend_from_slice(&grid.region.min);
+    values.extend((0..3).map(|a| grid.region.max[a] - grid.region.min[a]));
+    values.extend(grid.size.iter().map(|&n| n as f64));
+    values
 }
 
 /// Workgroups of [`GROUP`] threads for `threads` threads, as (x, y) within `max` per
