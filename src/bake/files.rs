@@ -457,6 +457,7 @@ fn held_bytes(tape: &Tape, options: &BakeFileOptions) -> u64 {
             let sample = if options.depth16 { 2 } else { 1 };
             match options.format {
                 Format::Raw | Format::Zarr => 0,
+                Format::Exr if options.half => voxels.saturating_mul(channels * 2),
                 Format::Exr | Format::Vdb => voxels.saturating_mul(channels * 4),
                 Format::Png if options.atlas => {
                     let (columns, _) = atlas_shape(nz);
@@ -511,7 +512,10 @@ fn open_pending(
                 sink: Exr {
                     output: index,
                     ty: output.ty,
+                    half: options.half,
                     data: Vec::new(),
+                    halves: Vec::new(),
+                    scratch: Vec::new(),
                 },
                 temp: temp_file(&options.out_dir, final_path)?,
             },
@@ -658,7 +662,6 @@ fn bake_into_files(
                         temp.path(),
                         file,
                         &grid,
-                        options.half,
                         options.exr_compression,
                         &attributes,
                     )?;

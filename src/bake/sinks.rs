@@ -454,17 +454,39 @@ impl Sink for Raw {
 }
 
 /// Collects the whole volume (the exr writer needs the complete image), then writes one EXR:
-/// slices stacked vertically, `ny · nz` rows, row `k · ny + j` holding voxel row (j, k).
+/// slices stacked vertically, `ny · nz` rows, row `k · ny + j` holding voxel row (j, k). A
+/// half-float EXR holds its samples as halves (half the memory; a GPU bake packs them so).
 pub(super) struct Exr {
     pub output: usize,
     pub ty: Type,
+    /// 16-bit half floats (`--half`) in `halves`, else 32-bit floats in `data`.
+    pub half: bool,
     pub data: Vec<f32>,
+    pub halves: Vec<half::f16>,
+    /// One segment's half floats as bytes, on their way into `halves`.
+    pub scratch: Vec<u8>,
 }
 
 impl Sink for Exr {
+    fn stores(&self, output: usize) -> Option<Encoding> {
+        (output == self.output).then_some(if self.half {
+            Encoding::F16
+        } else {
+            Encoding::F32
+        })
+    }
+
     fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
         for (s, segment) in window.segments() {
-            window.push_interleaved(self.output, s, &segment, &mut self.data);
+            if self.half {
+                self.scratch.clear();
+                window.push_encoded(self.output, s, &segment, Encoding::F16, &mut self.scratch);
+                let halves = self.scratch.chunks_exact(2);
+                self.halves
+                    .extend(halves.map(|b| half::f16::from_le_bytes([b[0], b[1]])));
+            } else {
+                window.push_interleaved(self.output, s, &segment, &mut self.data);
+            }
         }
         Ok(())
     }
@@ -487,21 +509,23 @@ pub fn write_exr_image(
     let exr = Exr {
         output: 0,
         ty,
+        half: false,
         data,
+        halves: Vec::new(),
+        scratch: Vec::new(),
     };
     let zip = super::settings::ExrCompression::Zip;
-    exr.write(path, file, &grid, false, zip, attributes)
+    exr.write(path, file, &grid, zip, attributes)
 }
 
 impl Exr {
-    /// Writes the EXR to `file` (32-bit float, or 16-bit half when `half`), with the grid in
+    /// Writes the EXR to `file` (32-bit float, or 16-bit half with `half`), with the grid in
     /// the header as custom attributes.
     pub fn write(
         &self,
         path: &Path,
         file: std::fs::File,
         grid: &Grid,
-        half: bool,
         compression: super::settings::ExrCompression,
         attributes: &[(&str, String)],
     ) -> Result<(), BakeError> {
@@ -520,7 +544,7 @@ impl Exr {
             message: e.to_string(),
         };
         let writer = std::io::BufWriter::new(file);
-        let data = &self.data;
+        let (data, halves) = (&self.data, &self.halves);
         let encoding = match compression {
             super::settings::ExrCompression::Zip => Encoding::SMALL_LOSSLESS,
             super::settings::ExrCompression::Piz => Encoding::SMALL_FAST_LOSSLESS,
@@ -537,7 +561,7 @@ impl Exr {
                     .map_err(encode)
             };
         }
-        match (self.ty, half) {
+        match (self.ty, self.half) {
             (Type::Vec3, false) => {
                 let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
                     let i = (p.y() * nx + p.x()) * 3;
@@ -548,11 +572,7 @@ impl Exr {
             (Type::Vec3, true) => {
                 let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
                     let i = (p.y() * nx + p.x()) * 3;
-                    (
-                        f16::from_f32(data[i]),
-                        f16::from_f32(data[i + 1]),
-                        f16::from_f32(data[i + 2]),
-                    )
+                    (halves[i], halves[i + 1], halves[i + 2])
                 });
                 write_layer!(channels)
             }
@@ -565,7 +585,7 @@ impl Exr {
             (Type::Scalar, true) => {
                 let channels = SpecificChannels::build()
                     .with_channel("Y")
-                    .with_pixel_fn(|p: Vec2<usize>| (f16::from_f32(data[p.y() * nx + p.x()]),));
+                    .with_pixel_fn(|p: Vec2<usize>| (halves[p.y() * nx + p.x()],));
                 write_layer!(channels)
             }
         }

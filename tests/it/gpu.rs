@@ -627,20 +627,21 @@ fn gpu_packs_what_the_files_store() {
 
 /// `bake --device gpu` writes the files `--device cpu` writes in every format whose samples
 /// the GPU packs (`pack.wgsl`): raw 8-bit with alpha, PNG slices of 8 bits and a 16-bit atlas,
-/// 8-bit and half-float KTX2; each sample within the GPU contract's 2e-5 after its encoding
-/// (one step of 8 bits, two of 16 bits, half's rounding).
+/// 8-bit and half-float KTX2, half-float EXR; each sample within the GPU contract's 2e-5
+/// after its encoding (one step of 8 bits, two of 16 bits, half's rounding).
 #[test]
 fn gpu_files_are_the_cpu_files() {
     if !common::gpu_available("gpu_files_are_the_cpu_files") {
         return;
     }
     let dir = tempfile::tempdir().expect("temporary folder");
-    let cases: [&[&str]; 5] = [
+    let cases: [&[&str]; 6] = [
         &["--format", "raw", "--raw-type", "u8", "--alpha"],
         &["--format", "png"],
         &["--format", "png", "--depth", "16", "--atlas"],
         &["--format", "ktx2"],
         &["--format", "ktx2", "--half"],
+        &["--format", "exr", "--half"],
     ];
     for (n, flags) in cases.iter().enumerate() {
         let bake = |device: &str| {
@@ -695,6 +696,23 @@ fn gpu_files_are_the_cpu_files() {
                     let values = |v: &[u8]| v.iter().map(|&x| f64::from(x)).collect();
                     (values(&a[at..]), values(&b[at..]), 1.0)
                 }
+            } else if name.ends_with(".exr") {
+                // The channels' halves as the exr crate reads them (the header's attributes
+                // come in a hash map's order, which differs from run to run).
+                let halves = |path: &std::path::Path| -> Vec<f64> {
+                    let image = exr::prelude::read_first_flat_layer_from_file(path).unwrap();
+                    let mut values = Vec::new();
+                    for channel in image.layer_data.channel_data.list {
+                        match channel.sample_data {
+                            exr::prelude::FlatSamples::F16(v) => {
+                                values.extend(v.iter().map(|h| h.to_f64()))
+                            }
+                            other => panic!("{name}: {other:?}, not halves"),
+                        }
+                    }
+                    values
+                };
+                (halves(&cpu.join(&file)), halves(&gpu.join(&file)), 1e-3)
             } else if name.ends_with(".raw") {
                 let values = |v: &[u8]| v.iter().map(|&x| f64::from(x)).collect();
                 (values(&a), values(&b), 1.0)
