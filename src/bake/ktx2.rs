@@ -582,7 +582,6 @@ pub(crate) struct Ktx2Sink {
     level: u32,
     output: usize,
     format: Ktx2Format,
-    scratch: Vec<u8>,
     bytes: Vec<u8>,
 }
 
@@ -609,7 +608,6 @@ impl Ktx2Sink {
             level,
             output,
             format,
-            scratch: Vec::new(),
             bytes: Vec::new(),
         })
     }
@@ -661,28 +659,21 @@ impl Sink for Ktx2Sink {
 
     fn window(&mut self, window: &Window<'_>) -> Result<(), BakeError> {
         let encoding = self.encoding();
-        let size = encoding.bytes();
-        let mut opaque = [0u8; 4];
-        encoding.encode(1.0, &mut opaque[..size]);
-        let colour = if self.format.channels == 4 { 3 } else { 1 } * size;
         for (s, segment) in window.segments() {
-            self.scratch.clear();
-            window.push_encoded(self.output, s, &segment, encoding, &mut self.scratch);
             // RGB colours are stored RGBA, alpha opaque.
-            let texels: &[u8] = if self.format.channels == 4 {
-                self.bytes.clear();
-                for colours in self.scratch.chunks_exact(colour) {
-                    self.bytes.extend_from_slice(colours);
-                    self.bytes.extend_from_slice(&opaque[..size]);
-                }
-                &self.bytes
+            let texel = self.format.channels as usize * encoding.bytes();
+            self.bytes.resize(segment.len * texel, 0);
+            if self.format.channels == 4 {
+                window.copy_encoded_opaque(self.output, s, &segment, encoding, &mut self.bytes);
             } else {
-                &self.scratch
-            };
-            self.writer.write(texels).map_err(|source| BakeError::Io {
-                path: self.path.display().to_string(),
-                source,
-            })?;
+                window.copy_encoded(self.output, s, &segment, encoding, &mut self.bytes);
+            }
+            self.writer
+                .write(&self.bytes)
+                .map_err(|source| BakeError::Io {
+                    path: self.path.display().to_string(),
+                    source,
+                })?;
         }
         Ok(())
     }

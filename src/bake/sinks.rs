@@ -389,21 +389,10 @@ impl RawSamples {
         out: &mut [u8],
     ) {
         let encoding = self.encoding(ty);
-        if !self.alpha() {
-            return window.copy_encoded(output, s, segment, encoding, out);
-        }
-        let size = encoding.bytes();
-        let colour = ty.channels() * size;
-        let mut samples = vec![0u8; segment.len * colour];
-        window.copy_encoded(output, s, segment, encoding, &mut samples);
-        let mut opaque = [0u8; 4];
-        encoding.encode(1.0, &mut opaque[..size]);
-        for (voxel, colours) in out
-            .chunks_exact_mut(colour + size)
-            .zip(samples.chunks_exact(colour))
-        {
-            voxel[..colour].copy_from_slice(colours);
-            voxel[colour..].copy_from_slice(&opaque[..size]);
+        if self.alpha() {
+            window.copy_encoded_opaque(output, s, segment, encoding, out);
+        } else {
+            window.copy_encoded(output, s, segment, encoding, out);
         }
     }
 }

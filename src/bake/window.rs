@@ -132,26 +132,40 @@ impl Window<'_> {
         encoding: Encoding,
         out: &mut [u8],
     ) {
+        let voxel = self.outputs[output].ty.channels() * encoding.bytes();
+        assert_eq!(out.len(), segment.len * voxel, "a segment's voxels");
+        self.copy_encoded_strided(output, s, segment, encoding, out, voxel);
+    }
+
+    /// [`Window::copy_encoded`] with voxel `i`'s channels at byte `i × voxel_bytes` of `out`
+    /// (at least the channels' bytes; bytes after them, an alpha's, are left as they are).
+    pub fn copy_encoded_strided(
+        &self,
+        output: usize,
+        s: usize,
+        segment: &Segment,
+        encoding: Encoding,
+        out: &mut [u8],
+        voxel_bytes: usize,
+    ) {
         let o = &self.outputs[output];
-        let width = o.ty.channels();
         let size = encoding.bytes();
-        let stride = width * size;
-        assert_eq!(out.len(), segment.len * stride, "a segment's voxels");
-        for c in 0..width {
+        assert!(voxel_bytes >= o.ty.channels() * size && out.len() >= segment.len * voxel_bytes);
+        for c in 0..o.ty.channels() {
             let channel = o.first_channel + c;
-            let targets = out[c * size..].chunks_mut(stride);
+            let out = &mut out[c * size..];
             match self.data {
                 WindowData::F32(data) => {
                     let start = (s * self.channels + channel) * self.layout.segment_len;
-                    for (t, &v) in targets.zip(&data[start..start + segment.len]) {
-                        encoding.encode(v, &mut t[..size]);
-                    }
+                    encoding.encode_run(&data[start..start + segment.len], out, voxel_bytes);
                 }
                 WindowData::Packed { bytes, packing } => {
                     let held = packing.encodings[channel];
                     let samples = packing.channel(bytes, s, channel, segment.len);
-                    if held == encoding {
-                        for (t, b) in targets.zip(samples.chunks(size)) {
+                    if held == encoding && voxel_bytes == size {
+                        out[..samples.len()].copy_from_slice(samples);
+                    } else if held == encoding {
+                        for (t, b) in out.chunks_mut(voxel_bytes).zip(samples.chunks(size)) {
                             t[..size].copy_from_slice(b);
                         }
                     } else {
@@ -160,13 +174,38 @@ impl Window<'_> {
                             Encoding::F32,
                             "internal: a channel packed for another sink"
                         );
-                        for (t, b) in targets.zip(samples.chunks(4)) {
+                        for (t, b) in out.chunks_mut(voxel_bytes).zip(samples.chunks(4)) {
                             let v = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
                             encoding.encode(v, &mut t[..size]);
                         }
                     }
                 }
             }
+        }
+    }
+
+    /// [`Window::copy_encoded`] with an opaque alpha (1 in `encoding`) after each voxel's
+    /// channels: RGBA from RGB, grey and alpha from grey.
+    pub fn copy_encoded_opaque(
+        &self,
+        output: usize,
+        s: usize,
+        segment: &Segment,
+        encoding: Encoding,
+        out: &mut [u8],
+    ) {
+        let size = encoding.bytes();
+        let colour = self.outputs[output].ty.channels() * size;
+        assert_eq!(
+            out.len(),
+            segment.len * (colour + size),
+            "a segment's voxels"
+        );
+        self.copy_encoded_strided(output, s, segment, encoding, out, colour + size);
+        let mut opaque = [0u8; 4];
+        encoding.encode(1.0, &mut opaque[..size]);
+        for voxel in out.chunks_exact_mut(colour + size) {
+            voxel[colour..].copy_from_slice(&opaque[..size]);
         }
     }
 

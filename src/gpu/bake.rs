@@ -298,6 +298,33 @@ impl GpuBake {
     }
 }
 
+impl GpuBake {
+    /// Every window of the grid, in order, each handed to `each` (its first segment, segment
+    /// count, packed bytes and channel statistics) while the next one runs on the device.
+    pub fn for_each_window(
+        &mut self,
+        mut each: impl FnMut(u64, usize, &[u8], Vec<WindowStats>),
+    ) -> Result<(), GpuError> {
+        let (total, per) = (self.layout.total, self.layout.per_window as u64);
+        let window = |first: u64| (total - first).min(per) as usize;
+        let mut bytes = Vec::new();
+        if self.queued.is_empty() && total > 0 {
+            self.submit(0, window(0))?;
+        }
+        let mut first = 0;
+        while first < total {
+            let next = first + window(first) as u64;
+            if next < total {
+                self.submit(next, window(next))?;
+            }
+            let stats = self.collect(&mut bytes)?;
+            each(first, window(first), &bytes, stats);
+            first = next;
+        }
+        Ok(())
+    }
+}
+
 impl Drop for GpuBake {
     /// Waits for windows still queued (an error stopped the bake), so that no mapping outlives
     /// its buffers.

@@ -105,6 +105,13 @@ impl GpuBake {
         match self.never {}
     }
 
+    pub fn for_each_window(
+        &mut self,
+        _each: impl FnMut(u64, usize, &[u8], Vec<super::window_stats::WindowStats>),
+    ) -> Result<(), GpuError> {
+        match self.never {}
+    }
+
     pub fn collect(
         &mut self,
         _out: &mut Vec<u8>,

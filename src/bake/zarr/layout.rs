@@ -65,10 +65,7 @@ impl ZarrSample {
     /// endian as zarrs' default) into `out`.
     pub(super) fn encode(self, values: &[f32], srgb: bool, out: &mut [u8]) {
         let encoding = self.encoding(srgb);
-        let size = encoding.bytes();
-        for (o, &v) in out.chunks_exact_mut(size).zip(values) {
-            encoding.encode(v, o);
-        }
+        encoding.encode_run(values, out, encoding.bytes());
     }
 }
 

@@ -9,6 +9,7 @@ use crate::bake::device::Evaluator;
 use crate::bake::engine::{ChannelStats, Precision};
 use crate::bake::error::BakeError;
 use crate::bake::settings::BakeFileOptions;
+use crate::bake::window::{Window, WindowData, WindowOutput};
 use crate::eval::Workspace;
 use crate::graph::Type;
 use crate::real::Real;
@@ -324,38 +325,41 @@ fn eval_shard_gpu(
     let failed = |e: crate::gpu::GpuError| BakeError::Refused(format!("the GPU, shard {k:?}: {e}"));
     let mut bake =
         crate::gpu::GpuBake::new(gpu.clone(), &shard, &layout, packing.clone()).map_err(failed)?;
-    let window = |first: u64| (layout.total - first).min(layout.per_window as u64) as usize;
     let b = sample.bytes() as usize;
-    let mut bytes = Vec::new();
-    bake.submit(0, window(0)).map_err(failed)?;
-    let mut first = 0;
-    while first < layout.total {
-        let count = window(first);
-        let next = first + count as u64;
-        if next < layout.total {
-            bake.submit(next, window(next)).map_err(failed)?;
+    let outputs: Vec<WindowOutput> = level
+        .arrays
+        .iter()
+        .map(|a| WindowOutput {
+            name: a.name.clone(),
+            ty: a.ty,
+            first_channel: a.first_channel,
+        })
+        .collect();
+    bake.for_each_window(|first, count, bytes, window_stats| {
+        for (total, part) in stats.iter_mut().zip(&window_stats) {
+            total.merge(&ChannelStats::from_window(part));
         }
-        for (total, part) in stats
-            .iter_mut()
-            .zip(bake.collect(&mut bytes).map_err(failed)?)
-        {
-            total.merge(&ChannelStats::from_window(&part));
-        }
-        for s in 0..count {
-            let segment = layout.segment(&shard, first + s as u64);
+        let window = Window {
+            grid: &shard,
+            layout: &layout,
+            first_segment: first,
+            segments: count,
+            channels,
+            outputs: &outputs,
+            data: WindowData::Packed {
+                bytes,
+                packing: &packing,
+            },
+        };
+        for (s, segment) in window.segments() {
             let voxel = (segment.k * sy + segment.j) * sx + segment.i0;
-            for (a, buffer) in level.arrays.iter().zip(buffers.iter_mut()) {
-                let c = a.ty.channels();
-                let row = &mut buffer[voxel * c * b..][..segment.len * c * b];
-                for ch in 0..c {
-                    let samples = packing.channel(&bytes, s, a.first_channel + ch, segment.len);
-                    for (o, v) in row[ch * b..].chunks_mut(c * b).zip(samples.chunks(b)) {
-                        o[..b].copy_from_slice(v);
-                    }
-                }
+            for (o, (a, buffer)) in level.arrays.iter().zip(buffers.iter_mut()).enumerate() {
+                let c = a.ty.channels() * b;
+                let row = &mut buffer[voxel * c..][..segment.len * c];
+                window.copy_encoded(o, s, &segment, sample.encoding(a.srgb), row);
             }
         }
-        first = next;
-    }
+    })
+    .map_err(failed)?;
     Ok(stats)
 }
