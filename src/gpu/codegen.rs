@@ -43,6 +43,9 @@ pub const TABLE_WORDS: usize = 1544;
 pub struct Shader {
     pub source: String,
     pub channels: usize,
+    /// The filtered form's data (`fdata`, binding 4: its chain shapes and samplers); empty
+    /// for the point form, which has no such binding.
+    pub data: Vec<f64>,
 }
 
 /// The WGSL of `tape`: the library (with the bases' f64 forms when the tape has promoted
@@ -73,6 +76,7 @@ pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
     Ok(Shader {
         source,
         channels: tape.channels(),
+        data: Vec::new(),
     })
 }
 

@@ -164,6 +164,8 @@ pub struct GpuEvaluator {
     bake: OnceLock<wgpu::ComputePipeline>,
     points: OnceLock<wgpu::ComputePipeline>,
     tables: wgpu::Buffer,
+    /// The filtered form's data (`Shader::data`, binding 4); `None` for the point form.
+    data: Option<wgpu::Buffer>,
     channels: usize,
     /// One evaluation at a time per evaluator, holding the results and read-back buffers of
     /// the last call for the next one. Made per call, a buffer of a window's size (up to the
@@ -237,12 +239,15 @@ impl GpuEvaluator {
         });
         let entry = layout_entry;
         let read = wgpu::BufferBindingType::Storage { read_only: true };
-        let entries = vec![
+        let mut entries = vec![
             entry(0, read),
             entry(1, read),
             entry(2, wgpu::BufferBindingType::Uniform),
             entry(3, wgpu::BufferBindingType::Storage { read_only: false }),
         ];
+        if !shader.data.is_empty() {
+            entries.push(entry(4, read));
+        }
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("texgraph"),
             entries: &entries,
@@ -265,6 +270,15 @@ impl GpuEvaluator {
                 .collect::<Vec<u8>>(),
             usage: wgpu::BufferUsages::STORAGE,
         });
+        let data = (!shader.data.is_empty()).then(|| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("filtered data"),
+                contents: &(shader.data.iter())
+                    .flat_map(|v| v.to_le_bytes())
+                    .collect::<Vec<u8>>(),
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+        });
         if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(GpuError::Shader(error.to_string()));
         }
@@ -276,6 +290,7 @@ impl GpuEvaluator {
             bake: OnceLock::new(),
             points: OnceLock::new(),
             tables,
+            data,
             channels: shader.channels,
             buffers: Mutex::new(Buffers::default()),
         })
@@ -371,7 +386,7 @@ impl GpuEvaluator {
             contents: &dispatch.bytes(),
             usage: wgpu::BufferUsages::UNIFORM,
         });
-        let entries = [
+        let mut entries = vec![
             binding(0, &self.tables),
             binding(1, inputs),
             binding(2, &uniform),
@@ -384,6 +399,9 @@ impl GpuEvaluator {
                 }),
             },
         ];
+        if let Some(data) = &self.data {
+            entries.push(binding(4, data));
+        }
         let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("texgraph"),
             layout: &self.layout,

@@ -19,7 +19,6 @@ use crate::filter::fusions::{Fusion, Fusions};
 use crate::filter::moments::Piecewise;
 use crate::filter::noise::Stats;
 use crate::filter::operands::Source;
-use crate::filter::periodic::Periodic;
 use crate::filter::ranges::Restricted;
 use crate::noise::{Basis, Style};
 use crate::ops::{BinaryOp, TernaryOp, UnaryOp};
@@ -61,7 +60,7 @@ pub fn unsupported(tape: &Tape) -> Option<String> {
 /// channels whose filtered mean is not finite, as `Filtered::point_fallback`), the bases' f64
 /// forms, `filtered_part` and the filtered entry points.
 pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
-    let filtered = filtered_part(tape, false)?;
+    let (filtered, data) = filtered_part(tape, false, None)?;
     let point = codegen::generate(tape)?;
     // The point shader without its entry points (the filtered ones replace them; its
     // bindings stay).
@@ -80,18 +79,26 @@ pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
     Ok(Shader {
         source,
         channels: point.channels,
+        data,
     })
 }
 
 /// What the filtered form adds to the point library, the bases' f64 forms and the tape's point
 /// function: the rules, one octave function per sampler, the shapes and `fn ftape(p) ->
 /// Channels` (reading the footprint `fp_set` stored), without bindings or entry points. The
-/// shader export (`shader/`) builds its `_filtered` functions on this.
-pub(crate) fn filtered_part(tape: &Tape, per_output: bool) -> Result<String, GpuError> {
+/// shader export (`shader/`) builds its `_filtered` functions on this. With `data_decl` the
+/// form's data `fdata` is a module-scope array so declared (`var<private>`, or `const` for MSL:
+/// `shader::array_decl`), else a storage binding; returned either way.
+pub(crate) fn filtered_part(
+    tape: &Tape,
+    per_output: bool,
+    data_decl: Option<&str>,
+) -> Result<(String, Vec<f64>), GpuError> {
     if let Some(why) = unsupported(tape) {
         return Err(GpuError::Unsupported(why));
     }
     let integer = crate::filter::integers::integer_operands(tape);
+    let mut data = Vec::new();
     let mut g = Gen {
         tape,
         samplers: Vec::new(),
@@ -100,7 +107,8 @@ pub(crate) fn filtered_part(tape: &Tape, per_output: bool) -> Result<String, Gpu
         fusions: crate::filter::fusions::fusions(tape, &integer),
         knots: 2,
         integer,
-        periodic: Vec::new(),
+        periodic: super::filtered_periodic::Shapes::new(&mut data),
+        data,
         in_range: crate::filter::ranges::restricted_shapes(tape),
     };
     let body = g.function(per_output);
@@ -119,18 +127,19 @@ pub(crate) fn filtered_part(tape: &Tape, per_output: bool) -> Result<String, Gpu
         source.push('\n');
     }
     source.push_str(&g.functions);
-    super::filtered_periodic::shape_functions(
-        &mut source,
-        "pcsaw",
-        &Periodic::sawtooth(),
-        PERIODIC,
-    );
-    for (k, shape) in g.periodic.iter().enumerate() {
-        super::filtered_periodic::shape_functions(&mut source, &format!("pc{k}"), shape, PERIODIC);
+    match data_decl {
+        Some(decl) => super::filtered_periodic::write_array(&mut source, decl, &g.data),
+        None => source.push_str(DATA_BINDING),
     }
+    source.push_str(PERIODIC);
     source.push_str(&body);
-    Ok(source)
+    Ok((source, g.data))
 }
+
+/// The filtered form's data on the GPU path: a storage buffer (`GpuEvaluator` binds
+/// `Shader::data`). A module-scope array instead made lavapipe's compile of the library's wood
+/// 7× slower (169 s against 24 s): its dynamically indexed private arrays are lowered to code.
+const DATA_BINDING: &str = "@group(0) @binding(4) var<storage, read> fdata: array<f64>;\n";
 
 /// A value of the filtered body: a tape slot, or a saved operand `f{k}` (`filter/fusions.rs`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -180,8 +189,10 @@ struct Gen<'t> {
     knots: usize,
     /// Per instruction: whether its operand `a` is integer-valued (`filter/integers.rs`).
     integer: Vec<[bool; 3]>,
-    /// The periodic chains' shapes, `pc{k}` (`filtered_periodic.rs`).
-    periodic: Vec<Periodic>,
+    /// The periodic chains' shapes (`filtered_periodic.rs`), blocks of `data`.
+    periodic: super::filtered_periodic::Shapes,
+    /// The filtered form's data, `fdata` in the WGSL.
+    data: Vec<f64>,
     /// Per instruction, a piecewise instruction's shapes over its input's interval
     /// (`filter/ranges.rs`), as the CPU's filtered form takes them.
     in_range: Vec<Option<Restricted>>,
@@ -304,9 +315,9 @@ impl Gen<'_> {
                 let calls: Vec<String> = parts
                     .iter()
                     .map(|p| {
-                        let k = self.periodic_shape(&p.shape);
+                        let at = self.periodic.offset(&p.shape, &mut self.data);
                         let scale = f64_literal(p.scale);
-                        format!("r_periodic_pc{k}(d_scale(f{}, {scale}))", p.saved)
+                        format!("r_periodic({at}u, d_scale(f{}, {scale}))", p.saved)
                     })
                     .collect();
                 let ks: Vec<u32> = parts.iter().map(|p| p.saved).collect();
@@ -330,15 +341,6 @@ impl Gen<'_> {
     fn plain(&mut self, index: usize, instr: &Instr) -> (String, SmallVec<[Var; 3]>) {
         let reads = instr.reads().into_iter().map(Var::Slot).collect();
         (self.instruction(index, instr), reads)
-    }
-
-    /// The index `k` of a periodic chain's shape `pc{k}` (one per distinct shape).
-    fn periodic_shape(&mut self, g: &Periodic) -> usize {
-        if let Some(k) = self.periodic.iter().position(|p| p == g) {
-            return k;
-        }
-        self.periodic.push(g.clone());
-        self.periodic.len() - 1
     }
 
     /// A rule function (`unary`, `binary`, `ternary`), written once; its name.
@@ -931,7 +933,7 @@ mod tests {
         );
         let graph = crate::check::check(source, &Default::default()).expect("checks");
         let tape = crate::compile::compile(&graph, &Default::default()).expect("compiles");
-        let text = filtered_part(&tape, false).expect("covered");
+        let text = filtered_part(&tape, false, None).expect("covered").0;
         assert_eq!(text.matches("fn b_mul(").count(), 1, "{text}");
         assert_eq!(text.matches("fn u_sin(").count(), 1, "{text}");
         // Its definition and at least the vec3 product's three components' calls.
@@ -949,7 +951,7 @@ mod tests {
         );
         let graph = crate::check::check(source, &Default::default()).expect("checks");
         let tape = crate::compile::compile(&graph, &Default::default()).expect("compiles");
-        let text = filtered_part(&tape, true).expect("covered");
+        let text = filtered_part(&tape, true, None).expect("covered").0;
         let body = |name: &str| {
             let start = text.find(&format!("fn {name}(")).expect("the function");
             let end = text[start..].find("\n}\n").expect("its end");

@@ -1,5 +1,6 @@
 //! The periodic chains (`filter/periodic.rs`: `g(fract X)` for a piecewise-cubic `g`) in the
-//! filtered WGSL: per chain shape, the functions `wgsl/filter_periodic.wgsl` integrates.
+//! filtered WGSL: every chain shape as a block of data (`pc_data`) that the one copy of
+//! `wgsl/filter_periodic.wgsl` reads by its offset.
 //!
 //! The GPU's exact method differs from the CPU's (shifted Bernoulli functions) and agrees with
 //! it to rounding. For `X = t + Σ w_k U_k` (widths descending), one width `w` at a time:
@@ -106,20 +107,76 @@ fn integral(c: &[f64], u0: f64, u1: f64) -> f64 {
     anti(u1) - anti(u0)
 }
 
-/// `u` in Horner form over literal coefficients.
-fn horner(c: &[f64]) -> String {
-    let mut text = f64_literal(*c.last().unwrap_or(&0.0));
-    for a in c.iter().rev().skip(1) {
-        text = format!("({text} * u + {})", f64_literal(*a));
-    }
-    text
+/// The coefficients stored per polynomial (`PC_COEFFS` in filter_periodic.wgsl): level 7, the
+/// third antiderivative of `g²` (degree 6), has degree 9.
+const COEFFS: usize = 10;
+
+/// The chain shapes of one filtered form as data: one block per distinct shape in the filtered
+/// form's data array `fdata` (the layout in filter_periodic.wgsl), the sawtooth's first
+/// (`PC_SAW`, offset 0: [`Shapes::new`] is called on an empty array).
+pub(super) struct Shapes {
+    shapes: Vec<(Periodic, u32)>,
 }
 
-/// The WGSL of chain shape `g` as `{name}`: `fn {name}(level, u)` (levels 0–3: `g` and its
-/// successive antiderivatives `H`; 4–7: the same for `g²`; 8: `g'`), its piece count, starts,
-/// ends and jumps, level 0's means, and the template's `per_moments_{name}` and
-/// `r_periodic_{name}`.
-pub(super) fn shape_functions(w: &mut String, name: &str, g: &Periodic, template: &str) {
+impl Shapes {
+    pub(super) fn new(data: &mut Vec<f64>) -> Shapes {
+        debug_assert!(data.is_empty(), "the sawtooth's block is at offset 0");
+        let mut shapes = Shapes { shapes: Vec::new() };
+        shapes.offset(&Periodic::sawtooth(), data);
+        shapes
+    }
+
+    /// The offset of `g`'s block in `data` (appended once per distinct shape).
+    pub(super) fn offset(&mut self, g: &Periodic, data: &mut Vec<f64>) -> u32 {
+        if let Some((_, at)) = self.shapes.iter().find(|(s, _)| s == g) {
+            return *at;
+        }
+        let at = data.len() as u32;
+        data.extend(block(g));
+        self.shapes.push((g.clone(), at));
+        at
+    }
+}
+
+/// `{decl} fdata: array<f64, N> = array<f64, N>(...);`, the filtered form's data as a
+/// module-scope array (the shader export's; the GPU path binds it as a storage buffer).
+pub(super) fn write_array(w: &mut String, decl: &str, data: &[f64]) {
+    let n = data.len().max(1);
+    let _ = write!(w, "{decl} fdata: array<f64, {n}> = array<f64, {n}>(");
+    for (i, &v) in data.iter().enumerate() {
+        if i % 8 == 0 {
+            w.push_str("\n    ");
+        }
+        let _ = write!(w, "{},", data_literal(v));
+    }
+    if data.is_empty() {
+        w.push_str("0.0lf");
+    }
+    w.push_str("\n);\n");
+}
+
+/// `v` as an f64 literal of a constant initialiser (no function calls): subnormals flushed to
+/// zero (below 2.3e-308, nothing a chain's moments can show), values past f64's range (a
+/// square or antiderivative of coefficients near 1e154, which the CPU's form cannot use either)
+/// as its largest finite value of that sign.
+fn data_literal(v: f64) -> String {
+    let v = if v.is_nan() {
+        0.0
+    } else if v.is_infinite() {
+        f64::MAX.copysign(v)
+    } else if v.abs() < f64::MIN_POSITIVE {
+        0.0
+    } else {
+        v
+    };
+    f64_literal(v)
+}
+
+/// Shape `g`'s block of `pc_data`: its piece count, the means of `g` and `g²`, per piece its
+/// start, end, jump, line slope and whether it is a line, then per level (0-3: `g` and its
+/// successive antiderivatives `H`; 4-7: the same for `g²`; 8: `g'`) per piece [`COEFFS`]
+/// ascending coefficients.
+fn block(g: &Periodic) -> Vec<f64> {
     let base = Pieces {
         starts: g.starts().to_vec(),
         polys: g.pieces().iter().map(|p| p.to_vec()).collect(),
@@ -137,71 +194,87 @@ pub(super) fn shape_functions(w: &mut String, name: &str, g: &Periodic, template
     levels.extend(square);
     levels.push(base.derivative());
     let m = base.polys.len();
-    let _ = writeln!(
-        w,
-        "fn {name}(level: u32, u: f64) -> f64 {{\n    var j = 0u;"
-    );
-    for (j, s) in base.starts.iter().enumerate().skip(1) {
-        let _ = writeln!(w, "    if (u >= {}) {{ j = {j}u; }}", f64_literal(*s));
-    }
-    let _ = writeln!(w, "    switch (level * {m}u + j) {{");
-    for (l, f) in levels.iter().enumerate() {
-        for (j, p) in f.polys.iter().enumerate() {
-            let _ = writeln!(
-                w,
-                "        case {}u: {{ return {}; }}",
-                l * m + j,
-                horner(p)
-            );
+    let mut out = vec![m as f64, levels[0].mean(), levels[4].mean()];
+    out.extend(&base.starts);
+    out.extend((0..m).map(|j| base.end(j)));
+    out.extend((0..m).map(|j| {
+        let prev = (j + m - 1) % m;
+        let at = if j == 0 { 1.0 } else { base.starts[j] };
+        eval(&base.polys[j], base.starts[j]) - eval(&base.polys[prev], at)
+    }));
+    // Per piece, its slope where it is a line: a support inside one line piece takes the
+    // exact line rule, as the CPU's (`moments::piecewise_early`).
+    let line = |p: &Vec<f64>| p.iter().skip(2).all(|&c| c == 0.0);
+    out.extend(base.polys.iter().map(|p| match line(p) {
+        true => p.get(1).copied().unwrap_or(0.0),
+        false => 0.0,
+    }));
+    out.extend(base.polys.iter().map(|p| if line(p) { 1.0 } else { 0.0 }));
+    for level in &levels {
+        for p in &level.polys {
+            debug_assert!(p.len() <= COEFFS, "degree {} in a chain shape", p.len());
+            out.extend((0..COEFFS).map(|i| p.get(i).copied().unwrap_or(0.0)));
         }
     }
-    let _ = writeln!(w, "        default: {{ return 0.0lf; }}\n    }}\n}}");
-    let _ = writeln!(w, "fn {name}_count() -> u32 {{ return {m}u; }}");
-    let list = |v: &[f64]| {
-        v.iter()
-            .map(|&x| f64_literal(x))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
-    let ends: Vec<f64> = (0..m).map(|j| base.end(j)).collect();
-    let jumps: Vec<f64> = (0..m)
-        .map(|j| {
-            let prev = (j + m - 1) % m;
-            let at = if j == 0 { 1.0 } else { base.starts[j] };
-            eval(&base.polys[j], base.starts[j]) - eval(&base.polys[prev], at)
-        })
-        .collect();
-    for (what, v) in [("start", &base.starts), ("end", &ends), ("jump", &jumps)] {
-        let _ = writeln!(
-            w,
-            "fn {name}_{what}(j: u32) -> f64 {{\n    var a = array<f64, {m}>({});\n    return a[j];\n}}",
-            list(v)
-        );
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::filter::moments::Piecewise;
+
+    /// The block's polynomials by the layout filter_periodic.wgsl reads, at level `level`.
+    fn eval_block(b: &[f64], level: usize, u: f64) -> f64 {
+        let m = b[0] as usize;
+        let j = (1..m).filter(|&i| u >= b[3 + i]).max().unwrap_or(0);
+        let base = 3 + 5 * m + (level * m + j) * COEFFS;
+        b[base..base + COEFFS]
+            .iter()
+            .rev()
+            .fold(0.0, |acc, &c| acc * u + c)
     }
-    // Per piece, its slope where it is a line (else NaN): a support inside one line piece
-    // takes the exact line rule, as the CPU's (`moments::piecewise_early`).
-    let lines: Vec<f64> = base
-        .polys
-        .iter()
-        .map(|p| {
-            if p.iter().skip(2).all(|&c| c == 0.0) {
-                p.get(1).copied().unwrap_or(0.0)
-            } else {
-                f64::NAN
-            }
-        })
-        .collect();
-    let _ = writeln!(
-        w,
-        "fn {name}_line(j: u32) -> f64 {{\n    var a = array<f64, {m}>({});\n    return a[j];\n}}",
-        list(&lines)
-    );
-    let _ = writeln!(
-        w,
-        "fn {name}_mean() -> vec2<f64> {{ return vec2<f64>({}, {}); }}",
-        f64_literal(levels[0].mean()),
-        f64_literal(levels[4].mean())
-    );
-    w.push_str(&template.replace("PC", name));
-    w.push('\n');
+
+    #[test]
+    fn a_block_holds_the_shape_and_its_antiderivatives() {
+        // A triangle wave: 2u up to 1/2, 2 - 2u after.
+        let h = Piecewise::new(vec![0.5], vec![[1.0, 2.0, 0.0, 0.0], [1.0, -2.0, 0.0, 0.0]]);
+        let tri = Periodic::sawtooth()
+            .then(&h)
+            .expect("a piecewise-linear shape");
+        let b = block(&tri);
+        let m = b[0] as usize;
+        assert_eq!(m, tri.pieces().len());
+        for &u in &[0.0, 0.1, 0.25, 0.5, 0.7, 0.99] {
+            let j = (0..m).filter(|&j| u >= tri.starts()[j]).max().unwrap_or(0);
+            let g = eval(&tri.pieces()[j], u);
+            assert!((g - h.eval(u)).abs() < 1e-12, "the shape at {u}");
+            assert!((eval_block(&b, 0, u) - g).abs() < 1e-12, "g({u})");
+            assert!((eval_block(&b, 4, u) - g * g).abs() < 1e-12, "g²({u})");
+        }
+        // H = ∫₀ᵘ (g − ḡ): zero at both ends of the period, its derivative g − ḡ.
+        let mean = b[1];
+        assert!(eval_block(&b, 1, 0.0).abs() < 1e-12 && eval_block(&b, 1, 1.0).abs() < 1e-12);
+        let (u, e) = (0.3, 1e-6);
+        let slope = (eval_block(&b, 1, u + e) - eval_block(&b, 1, u - e)) / (2.0 * e);
+        assert!((slope - (eval_block(&b, 0, u) - mean)).abs() < 1e-6);
+    }
+
+    #[test]
+    fn shapes_are_written_once_and_the_sawtooth_first() {
+        let mut data = Vec::new();
+        let mut shapes = Shapes::new(&mut data);
+        let saw = Periodic::sawtooth();
+        assert_eq!(shapes.offset(&saw, &mut data), 0);
+        let other = saw.affine(1.0, -2.0).expect("an affine shape");
+        let at = shapes.offset(&other, &mut data);
+        assert_eq!(at as usize, block(&saw).len());
+        let len = data.len();
+        assert_eq!(shapes.offset(&other, &mut data), at);
+        assert_eq!(data.len(), len);
+        let mut text = String::new();
+        write_array(&mut text, "var<private>", &data);
+        assert_eq!(text.matches("fdata").count(), 1);
+        assert_eq!(text.matches("lf,").count(), data.len());
+    }
 }

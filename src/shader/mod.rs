@@ -78,8 +78,8 @@ pub fn f32_wgsl(
     source.push_str(&crate::gpu::codegen::tape_part(tape, &exprs).replace("dispatch.one", "1.0"));
     if functions.iter().any(|f| f.filtered.is_some()) {
         source.push_str(crate::gpu::widen::library());
-        match crate::gpu::filtered::filtered_part(tape, true) {
-            Ok(part) => source.push_str(&part.replace("dispatch.one", FILTER_ONE)),
+        match crate::gpu::filtered::filtered_part(tape, true, Some(array_decl(lang))) {
+            Ok((part, _)) => source.push_str(&part.replace("dispatch.one", FILTER_ONE)),
             Err(e) => debug_assert!(false, "functions() checked the tape: {e}"),
         }
         let _ = writeln!(source, "var<private> {FILTER_ONE}: f32 = 1.0;");
@@ -197,16 +197,7 @@ fn table_arrays(tape: &Tape, lang: Lang) -> String {
             keys.extend_from_slice(&words[1536..1538]);
         }
     }
-    // A `const` array indexed at run time is copied into a local at every read by naga's
-    // SPIR-V writer (wgpu, Bevy), which LLVM-based drivers then inline by the hundred (lavapipe
-    // ran out of 24 GB); a private variable that nothing writes is read in place. HLSL gets
-    // `const` back after naga (`hlsl_table_initializer`); MSL keeps `const` (its private globals
-    // would become every function's parameters).
-    let decl = if lang == Lang::Msl {
-        "const"
-    } else {
-        "var<private>"
-    };
+    let decl = array_decl(lang);
     let mut s = String::new();
     for (name, words) in [
         ("perm", &perm),
@@ -247,6 +238,20 @@ fn table_arrays(tape: &Tape, lang: Lang) -> String {
     }
     s.push_str("\n);\n");
     s
+}
+
+/// How the export declares its module-scope data arrays (the noise tables, the periodic chains'
+/// shapes). A `const` array indexed at run time is copied into a local at every read by naga's
+/// SPIR-V writer (wgpu, Bevy), which LLVM-based drivers then inline by the hundred (lavapipe ran
+/// out of 24 GB); a private variable that nothing writes is read in place. HLSL gets `const`
+/// back after naga (`hlsl_table_initializer`); MSL keeps `const` (its private globals would
+/// become every function's parameters).
+fn array_decl(lang: Lang) -> &'static str {
+    if lang == Lang::Msl {
+        "const"
+    } else {
+        "var<private>"
+    }
 }
 
 /// The library's table accessors, in place, over [`table_arrays`]' arrays (`t / T_WORDS`: the
@@ -427,8 +432,8 @@ fn hlsl_table_initializer(text: &str) -> String {
                     let (name, args) = call.split_once('(')?;
                     let args = args.strip_suffix(");")?;
                     constructors.push(format!("Constructarray{name}"));
-                    // Only the tables are module-scope arrays: private variables in the WGSL
-                    // (see `table_arrays`) that nothing writes, `static const` again here.
+                    // Only the data arrays are module-scope arrays: private variables in the
+                    // WGSL (see `array_decl`) that nothing writes, `static const` again here.
                     let head = head
                         .strip_prefix("static const ")
                         .unwrap_or(&head["static ".len()..]);

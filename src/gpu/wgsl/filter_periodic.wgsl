@@ -1,13 +1,55 @@
-// filter_periodic.wgsl: the template of a periodic chain's rule (`filtered_periodic.rs` makes
-// one copy per chain shape, `PC` replaced by its functions' name): E[g(fract X)], E[g(fract X)²]
-// and the slope for X = t + S, exactly (the module docs of filtered_periodic.rs).
+// filter_periodic.wgsl: a periodic chain's rule (`filtered_periodic.rs`): E[g(fract X)],
+// E[g(fract X)²] and the slope for X = t + S, exactly (the module docs of filtered_periodic.rs).
+// One copy for every chain shape: a shape is a block of the filtered form's data `fdata` (a
+// storage buffer on the GPU path, a module-scope array in the shader export) named by its
+// offset `pc`:
+//
+//   pc + 0                     m, the piece count
+//   pc + 1, pc + 2             ∫₀¹ g and ∫₀¹ g²
+//   pc + 3 + j                 piece j's start (j < m), then its end (+ m), the jump of g at
+//                              its start (+ 2m), its slope where it is a line (+ 3m) and 1 there,
+//                              else 0 (+ 4m)
+//   pc + 3 + 5m + (L m + j) C  piece j's polynomial of level L, C = PC_COEFFS ascending
+//                              coefficients: levels 0-3 g and its antiderivatives H, 4-7 the
+//                              same for g², 8 g'
+//
+// The sawtooth g(u) = u (`fract`, `floor`, the lattice `mod`) is the block at PC_SAW.
 
-// F_L, G_L and the slope level at u: one loop over the three (one call site of `PC`).
-fn PC_three(level: u32, slope_level: u32, u: f64) -> vec3<f64> {
+const PC_COEFFS: u32 = 10u;
+const PC_SAW: u32 = 0u;
+
+fn pc_count(pc: u32) -> u32 {
+    return u32(fdata[pc]);
+}
+
+// Field `field` (0 start, 1 end, 2 jump, 3 line slope, 4 is a line) of piece j.
+fn pc_piece(pc: u32, field: u32, j: u32) -> f64 {
+    return fdata[pc + 3u + field * pc_count(pc) + j];
+}
+
+// The level-`level` function at u in [0, 1]: its piece by the starts, then Horner.
+fn pc_eval(pc: u32, level: u32, u: f64) -> f64 {
+    let m = pc_count(pc);
+    var j = 0u;
+    for (var i = 1u; i < m; i += 1u) {
+        if (u >= fdata[pc + 3u + i]) {
+            j = i;
+        }
+    }
+    let base = pc + 3u + 5u * m + (level * m + j) * PC_COEFFS;
+    var acc = fdata[base + PC_COEFFS - 1u];
+    for (var i = PC_COEFFS - 1u; i > 0u; i -= 1u) {
+        acc = acc * u + fdata[base + i - 1u];
+    }
+    return acc;
+}
+
+// F_L, G_L and the slope level at u: one loop over the three (one call site of `pc_eval`).
+fn pc_three(pc: u32, level: u32, slope_level: u32, u: f64) -> vec3<f64> {
     var out = vec3<f64>(0.0lf);
     var levels = vec3<u32>(level, level + 4u, slope_level);
     for (var i = 0u; i < 3u * u32(dispatch.one); i += 1u) {
-        out[i] = PC(levels[i], u);
+        out[i] = pc_eval(pc, levels[i], u);
     }
     return out;
 }
@@ -15,7 +57,7 @@ fn PC_three(level: u32, slope_level: u32, u: f64) -> vec3<f64> {
 // Over the rest's spread (at most two periods wide): (E[F_L], E[G_L], slope part), F_L and
 // G_L the level-L functions of g and g²; the slope part E[F_{L-1}] for L >= 1, else E[g'] plus
 // each jump times the density at it.
-fn per_local_PC(y: f64, sp: Sp, level: u32) -> vec3<f64> {
+fn per_local(pc: u32, y: f64, sp: Sp, level: u32) -> vec3<f64> {
     let w = sp.w;
     let h = (w.x + w.y + w.z) / 2.0lf;
     var slope_level = 8u;
@@ -23,7 +65,7 @@ fn per_local_PC(y: f64, sp: Sp, level: u32) -> vec3<f64> {
         slope_level = level - 1u;
     }
     if (h == 0.0lf) {
-        return PC_three(level, slope_level, y - floor(y));
+        return pc_three(pc, level, slope_level, y - floor(y));
     }
     var c: array<f64, 8>;
     for (var i = 0u; i < 8u; i += 1u) {
@@ -44,13 +86,13 @@ fn per_local_PC(y: f64, sp: Sp, level: u32) -> vec3<f64> {
     var acc = vec3<f64>(0.0lf);
     let lo = y - h;
     let hi = y + h;
-    let count = PC_count();
+    let count = pc_count(pc);
     for (var k = floor(lo); k <= floor(hi); k += 1.0lf) {
         let yk = y - k;
         for (var j = 0u; j < count; j += 1u) {
             // This piece's part of the support, in s = x - y.
-            let a = max(PC_start(j) - yk, -h);
-            let b = min(PC_end(j) - yk, h);
+            let a = max(pc_piece(pc, 0u, j) - yk, -h);
+            let b = min(pc_piece(pc, 1u, j) - yk, h);
             if (!(b > a)) {
                 continue;
             }
@@ -67,7 +109,7 @@ fn per_local_PC(y: f64, sp: Sp, level: u32) -> vec3<f64> {
                         let s = mid + half * GL_X[g];
                         let weight = GL_W[g] * half * sp_density(s, sp);
                         let u = yk + s;
-                        acc = acc + weight * PC_three(level, slope_level, u);
+                        acc = acc + weight * pc_three(pc, level, slope_level, u);
                     }
                     prev = end;
                 }
@@ -75,9 +117,9 @@ fn per_local_PC(y: f64, sp: Sp, level: u32) -> vec3<f64> {
         }
         if (level == 0u) {
             for (var j = 0u; j < count; j += 1u) {
-                let s = PC_start(j) - yk;
+                let s = pc_piece(pc, 0u, j) - yk;
                 if (s > -h && s < h) {
-                    acc.z = acc.z + PC_jump(j) * sp_density(s, sp);
+                    acc.z = acc.z + pc_piece(pc, 2u, j) * sp_density(s, sp);
                 }
             }
         }
@@ -86,11 +128,11 @@ fn per_local_PC(y: f64, sp: Sp, level: u32) -> vec3<f64> {
 }
 
 // Mean, variance and slope of g(fract X), X = t + S (periodic.rs `Periodic::moments`).
-fn per_moments_PC(t: f64, sp: Sp) -> Mo {
+fn per_moments(pc: u32, t: f64, sp: Sp) -> Mo {
     if (!is_finite_d(t)) {
         return Mo(nan_d(), nan_d(), nan_d());
     }
-    let means = PC_mean();
+    let means = vec2<f64>(fdata[pc + 1u], fdata[pc + 2u]);
     if (sp.unbounded) {
         return Mo(means.x, max(means.y - means.x * means.x, 0.0lf), 0.0lf);
     }
@@ -100,11 +142,12 @@ fn per_moments_PC(t: f64, sp: Sp) -> Mo {
     let h = (w.x + w.y + w.z) / 2.0lf;
     let k0 = floor(x - h);
     if (floor(x + h) == k0) {
-        for (var j = 0u; j < PC_count(); j += 1u) {
-            let b = PC_line(j);
-            if (PC_start(j) <= x - h - k0 && x + h - k0 < PC_end(j) && !is_nan_d(b)) {
+        for (var j = 0u; j < pc_count(pc); j += 1u) {
+            let b = pc_piece(pc, 3u, j);
+            let line = pc_piece(pc, 4u, j) != 0.0lf;
+            if (pc_piece(pc, 0u, j) <= x - h - k0 && x + h - k0 < pc_piece(pc, 1u, j) && line) {
                 let s2 = (w.x * w.x + w.y * w.y + w.z * w.z) / 12.0lf;
-                return Mo(PC(0u, x - k0), b * b * s2, b);
+                return Mo(pc_eval(pc, 0u, x - k0), b * b * s2, b);
             }
         }
     }
@@ -138,7 +181,7 @@ fn per_moments_PC(t: f64, sp: Sp) -> Mo {
                 sign = -sign;
             }
         }
-        acc = acc + sign * per_local_PC(y, rs, levels);
+        acc = acc + sign * per_local(pc, y, rs, levels);
     }
     if (levels == 0u) {
         return Mo(acc.x, max(acc.y - acc.x * acc.x, 0.0lf), acc.z);
@@ -149,9 +192,9 @@ fn per_moments_PC(t: f64, sp: Sp) -> Mo {
 }
 
 // rules.rs `Rules::periodic`.
-fn r_periodic_PC(d: D) -> D {
+fn r_periodic(pc: u32, d: D) -> D {
     if (d_is_const(d)) {
-        return dc(PC(0u, d.m - floor(d.m)));
+        return dc(pc_eval(pc, 0u, d.m - floor(d.m)));
     }
-    return f_out(d, per_moments_PC(d.m, f_spread(d)));
+    return f_out(d, per_moments(pc, d.m, f_spread(d)));
 }
