@@ -602,6 +602,38 @@ pub(super) fn sample_call(
     point: &str,
     kernel: Kernel,
 ) -> String {
+    let offset = table as usize * TABLE_WORDS;
+    let mut args = format!("{offset}u, {point}");
+    if let Some(period) = period {
+        let [x, y, z] = period.map(|p| f64_literal(period_axis(p)));
+        let _ = write!(args, ", vec3<f64>({x}, {y}, {z})");
+    }
+    if let Basis::Cellular(c) = key.basis {
+        let (metric, value) = cellular_codes(&c);
+        // The jitter is a multiple of 1/256 (`Cellular::new`): the same in f32 and f64.
+        let jitter = match kernel {
+            Kernel::Wide | Kernel::WideGradient => f64_literal(c.jitter()),
+            Kernel::Value | Kernel::Gradient => f32_literal(c.jitter() as f32),
+        };
+        let _ = write!(args, ", {metric}u, {value}u, {jitter}");
+    }
+    format!("{}({args})", sample_function(key, period.is_some(), kernel))
+}
+
+/// A period's axis as the kernels take it: periods beyond 2^52 are no periods for f64
+/// coordinates (noise/period.rs), 0 = none.
+pub(super) fn period_axis(p: u64) -> f64 {
+    if p == 0 || p > 1 << 52 {
+        0.0
+    } else {
+        p as f64
+    }
+}
+
+/// The library function [`sample_call`] calls: the basis, `_sample` or `_grad`, `_periodic`
+/// when tiled, `_d` in f64. Its arguments: the table's offset, the point, the period when
+/// tiled, a cellular basis' metric and value codes and jitter.
+pub(super) fn sample_function(key: &TableKey, periodic: bool, kernel: Kernel) -> String {
     let name = match key.basis {
         Basis::Perlin => "perlin",
         Basis::Gradient => "gradient",
@@ -615,41 +647,12 @@ pub(super) fn sample_call(
         Kernel::Gradient | Kernel::WideGradient => "grad",
         Kernel::Value | Kernel::Wide => "sample",
     };
-    let offset = table as usize * TABLE_WORDS;
-    let mut args = format!("{offset}u, {point}");
-    let mut suffix = "";
-    if let Some(period) = period {
-        suffix = "_periodic";
-        // Periods beyond 2^52 are no periods for f64 coordinates (noise/period.rs): 0 = none.
-        let axis = |p: u64| {
-            if p == 0 || p > 1 << 52 {
-                "0.0lf".to_string()
-            } else {
-                f64_literal(p as f64)
-            }
-        };
-        let _ = write!(
-            args,
-            ", vec3<f64>({}, {}, {})",
-            axis(period[0]),
-            axis(period[1]),
-            axis(period[2])
-        );
-    }
-    if let Basis::Cellular(c) = key.basis {
-        let (metric, value) = cellular_codes(&c);
-        // The jitter is a multiple of 1/256 (`Cellular::new`): the same in f32 and f64.
-        let jitter = match kernel {
-            Kernel::Wide | Kernel::WideGradient => f64_literal(c.jitter()),
-            Kernel::Value | Kernel::Gradient => f32_literal(c.jitter() as f32),
-        };
-        let _ = write!(args, ", {metric}u, {value}u, {jitter}");
-    }
+    let suffix = if periodic { "_periodic" } else { "" };
     let wide = match kernel {
         Kernel::Wide | Kernel::WideGradient => "_d",
         Kernel::Value | Kernel::Gradient => "",
     };
-    format!("{name}_{kind}{suffix}{wide}({args})")
+    format!("{name}_{kind}{suffix}{wide}")
 }
 
 /// Which form of a basis a call uses.

@@ -102,6 +102,7 @@ pub(crate) fn filtered_part(
     let mut g = Gen {
         tape,
         samplers: Vec::new(),
+        kernels: Vec::new(),
         functions: String::new(),
         rules: HashSet::new(),
         fusions: crate::filter::fusions::fusions(tape, &integer),
@@ -116,14 +117,9 @@ pub(crate) fn filtered_part(
         .replace("PW_KNOTS", &g.knots.to_string())
         .replace("PW_PIECES", &(g.knots + 1).to_string())
         .replace("PW_BREAKS", &(g.knots + 8).to_string());
-    for (k, &(table, period)) in g.samplers.iter().enumerate() {
-        let key = &tape.tables[table as usize].0;
-        let call = codegen::sample_call(table, key, period, "x", Kernel::WideGradient);
-        let _ = writeln!(
-            source,
-            "fn smp{k}(x: vec3<f64>) -> vec4<f64> {{\n    return {call};\n}}"
-        );
-        source.push_str(&OCTAVE.replace("SAMPLE", &format!("smp{k}")));
+    for (name, wrapper) in &g.kernels {
+        source.push_str(wrapper);
+        source.push_str(&OCTAVE.replace("SAMPLE", name));
         source.push('\n');
     }
     source.push_str(&g.functions);
@@ -140,6 +136,17 @@ pub(crate) fn filtered_part(
 /// `Shader::data`). A module-scope array instead made lavapipe's compile of the library's wood
 /// 7× slower (169 s against 24 s): its dynamically indexed private arrays are lowered to code.
 const DATA_BINDING: &str = "@group(0) @binding(4) var<storage, read> fdata: array<f64>;\n";
+
+/// What a sampler samples: a table, tiled by a period or not.
+type SamplerKey = (u32, Option<[u64; 3]>);
+
+/// A noise sampler of the filtered form: the kernel it calls (its copy of
+/// `filter_octave.wgsl` is `n_octave_KERNEL`, ...) and its record's offset in the data.
+#[derive(Clone, Debug)]
+struct Sampler {
+    kernel: String,
+    at: u32,
+}
 
 /// A value of the filtered body: a tape slot, or a saved operand `f{k}` (`filter/fusions.rs`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -176,8 +183,13 @@ fn needed(lines: &[Line], output: Var) -> Vec<bool> {
 
 struct Gen<'t> {
     tape: &'t Tape,
-    /// (table, period) per sampler function `smp{k}`.
-    samplers: Vec<(u32, Option<[u64; 3]>)>,
+    /// Per (table, period) sampled, its sampler: its kernel's name and the offset of its record
+    /// in `data` (the table's offset, the period, a cellular basis' codes and jitter, the
+    /// table's statistics: `smp_stats` in filter.wgsl).
+    samplers: Vec<(SamplerKey, Sampler)>,
+    /// Per noise kernel sampled, its name and its wrapper `smp_NAME(s, x)`, which calls it with
+    /// sampler `s`'s record: each gets one copy of `filter_octave.wgsl`.
+    kernels: Vec<(String, String)>,
     /// The functions the body calls that depend on the tape: the piecewise shapes' (`pwh`,
     /// `pwr`, `pwc`, `pwf`) and the rules' (`u_`, `b_`, `t_` and the operation's name).
     functions: String,
@@ -218,7 +230,6 @@ impl Gen<'_> {
             let f = crate::filter::rules::spline_shape(curve.as_ref(), 0);
             self.shape(&format!("pwc{k}"), &f);
         }
-        let prelude = self.prelude();
         let lines: Vec<Line> = (t.instrs.iter().enumerate())
             .map(|(index, instr)| self.fused(index, instr))
             .collect();
@@ -226,7 +237,7 @@ impl Gen<'_> {
         if !per_output {
             let all: Vec<usize> = (0..t.outputs.len()).collect();
             let texts = lines.iter().map(|l| &l.text);
-            ftape(&mut w, "ftape", &prelude, texts, t, &all);
+            ftape(&mut w, "ftape", &self.prelude(None), texts, t, &all);
             return w;
         }
         for (k, o) in t.outputs.iter().enumerate() {
@@ -235,41 +246,52 @@ impl Gen<'_> {
                 _ => Operand::vec3(o.slot),
             };
             let keep = needed(&lines, Var::Slot(out));
-            let kept = lines
-                .iter()
-                .zip(keep)
+            let kept: Vec<&Line> = (lines.iter().zip(keep))
                 .filter(|(_, k)| *k)
-                .map(|(l, _)| &l.text);
-            ftape(&mut w, &format!("ftape_o{k}"), &prelude, kept, t, &[k]);
+                .map(|(l, _)| l)
+                .collect();
+            let mut used = HashSet::from([Var::Slot(out)]);
+            for (reads, write) in kept.iter().flat_map(|l| &l.effects) {
+                used.extend(reads.iter().copied());
+                used.insert(*write);
+            }
+            let prelude = self.prelude(Some(&used));
+            let texts = kept.iter().map(|l| &l.text);
+            ftape(&mut w, &format!("ftape_o{k}"), &prelude, texts, t, &[k]);
         }
         w
     }
 
     /// The body's slot variables (zero-initialised, as WGSL makes them: `dc(0.0)`) and the
-    /// tape's constants in them.
-    fn prelude(&self) -> String {
+    /// tape's constants in them; with `used`, only the variables its lines read or write (an
+    /// output's own function: most of the tape's constants belong to other outputs).
+    fn prelude(&self, used: Option<&HashSet<Var>>) -> String {
         let t = self.tape;
+        let wanted = |v: Var| used.is_none_or(|u| u.contains(&v));
+        let lane = |k: usize| Var::Slot(Operand::scalar(Prec::Lane, k as u32));
+        let wide = |k: usize| Var::Slot(Operand::scalar(Prec::Wide, k as u32));
+        let vec3 = |k: usize| Var::Slot(Operand::vec3(k as u32));
         let mut w = String::new();
-        for k in 0..t.scalar_slots {
+        for k in (0..t.scalar_slots).filter(|&k| wanted(lane(k))) {
             let _ = writeln!(w, "    var s{k}: D;");
         }
-        for k in 0..t.vec3_slots {
+        for k in (0..t.vec3_slots).filter(|&k| wanted(vec3(k))) {
             let _ = writeln!(w, "    var v{k}: array<D, 3>;");
         }
-        for k in 0..t.wide_slots {
+        for k in (0..t.wide_slots).filter(|&k| wanted(wide(k))) {
             let _ = writeln!(w, "    var d{k}: D;");
         }
-        for &(slot, v) in &t.scalar_constants {
+        for &(slot, v) in (t.scalar_constants.iter()).filter(|c| wanted(lane(c.0 as usize))) {
             let _ = writeln!(w, "    s{slot} = dc({});", f64_literal(v));
         }
-        for &(slot, v) in &t.wide_constants {
+        for &(slot, v) in (t.wide_constants.iter()).filter(|c| wanted(wide(c.0 as usize))) {
             let _ = writeln!(w, "    d{slot} = dc({});", f64_literal(v));
         }
-        for &(slot, v) in &t.vec3_constants {
+        for &(slot, v) in (t.vec3_constants.iter()).filter(|c| wanted(vec3(c.0 as usize))) {
             let [x, y, z] = v.map(f64_literal);
             let _ = writeln!(w, "    v{slot} = array<D, 3>(dc({x}), dc({y}), dc({z}));");
         }
-        for k in 0..self.fusions.saved {
+        for k in (0..self.fusions.saved).filter(|&k| wanted(Var::Saved(k as u32))) {
             let _ = writeln!(w, "    var f{k}: D;");
         }
         w
@@ -372,12 +394,44 @@ impl Gen<'_> {
         name
     }
 
-    fn sampler(&mut self, table: u32, period: Option<[u64; 3]>) -> usize {
-        if let Some(k) = self.samplers.iter().position(|s| *s == (table, period)) {
-            return k;
+    /// The sampler of `table` tiled by `period`: its record appended to the data and its
+    /// kernel's wrapper written on first use.
+    fn sampler(&mut self, table: u32, period: Option<[u64; 3]>) -> Sampler {
+        if let Some((_, s)) = self.samplers.iter().find(|(k, _)| *k == (table, period)) {
+            return s.clone();
         }
-        self.samplers.push((table, period));
-        self.samplers.len() - 1
+        let key = &self.tape.tables[table as usize].0;
+        let name = codegen::sample_function(key, period.is_some(), Kernel::WideGradient);
+        let at = self.data.len() as u32;
+        let axes = period.unwrap_or_default().map(codegen::period_axis);
+        let (metric, value, jitter) = match key.basis {
+            Basis::Cellular(c) => {
+                let (metric, value) = codegen::cellular_codes(&c);
+                (metric, value, c.jitter())
+            }
+            _ => (0, 0, 0.0),
+        };
+        let offset = (table as usize * codegen::TABLE_WORDS) as f64;
+        self.data.extend([offset, axes[0], axes[1], axes[2]]);
+        self.data.extend([metric as f64, value as f64, jitter]);
+        let st = crate::filter::noise::cached_stats(*key, &self.tape.tables[table as usize].1);
+        self.data.extend([st.mean, st.var, st.kappa2, st.grad_sq]);
+        if !self.kernels.iter().any(|(n, _)| *n == name) {
+            let mut args = String::from("u32(fdata[s]), x");
+            if period.is_some() {
+                args.push_str(", vec3<f64>(fdata[s + 1u], fdata[s + 2u], fdata[s + 3u])");
+            }
+            if matches!(key.basis, Basis::Cellular(_)) {
+                args.push_str(", u32(fdata[s + 4u]), u32(fdata[s + 5u]), fdata[s + 6u]");
+            }
+            let wrapper = format!(
+                "fn smp_{name}(s: u32, x: vec3<f64>) -> vec4<f64> {{\n    return {name}({args});\n}}\n"
+            );
+            self.kernels.push((name.clone(), wrapper));
+        }
+        let sampler = Sampler { kernel: name, at };
+        self.samplers.push(((table, period), sampler.clone()));
+        sampler
     }
 
     fn stats(&self, table: u32) -> String {
@@ -539,28 +593,26 @@ impl Gen<'_> {
     /// every other basis by the fade.
     fn noise(&mut self, dst: &str, src: u32, table: u32, integer: [bool; 3]) -> String {
         let period = self.tape.tables[table as usize].0.period;
-        let k = self.sampler(table, period);
-        let st = self.stats(table);
+        let Sampler { kernel: k, at } = self.sampler(table, period);
         match self.tape.tables[table as usize].1.basis() {
             Basis::White => {
                 let [x, y, z] = integer;
-                format!("{dst} = n_white_smp{k}({st}, v{src}, vec3<bool>({x}, {y}, {z}));")
+                format!("{dst} = n_white_{k}(v{src}, vec3<bool>({x}, {y}, {z}), {at}u);")
             }
-            Basis::Cellular(_) => format!("{dst} = n_cellular_smp{k}({st}, v{src});"),
-            _ => format!("{dst} = n_octave_smp{k}({st}, v{src});"),
+            Basis::Cellular(_) => format!("{dst} = n_cellular_{k}(v{src}, {at}u);"),
+            _ => format!("{dst} = n_octave_{k}(v{src}, {at}u);"),
         }
     }
 
     /// noise.rs `noise_gradient`: the gradient at the centre faded like the value.
     fn noise_gradient(&mut self, dst: u32, src: u32, table: u32) -> String {
         let period = self.tape.tables[table as usize].0.period;
-        let k = self.sampler(table, period);
-        let st = self.stats(table);
-        format!("v{dst} = n_gradient_smp{k}({st}, v{src}, 1.0lf);")
+        let Sampler { kernel: k, at } = self.sampler(table, period);
+        format!("v{dst} = n_gradient_{k}(v{src}, 1.0lf, {at}u);")
     }
 
     /// Each octave's sampler of a fractal sum over `table` (its own period when tiled).
-    fn octave_samplers(&mut self, table: u32, octaves: u32) -> Vec<usize> {
+    fn octave_samplers(&mut self, table: u32, octaves: u32) -> Vec<Sampler> {
         let schedule = &self.tape.octaves[octaves as usize];
         let base = self.tape.tables[table as usize].0.period;
         let periods: Vec<Option<[u64; 3]>> = (0..schedule.frequencies.len())
@@ -589,9 +641,9 @@ impl Gen<'_> {
         let mut w = String::from("{\n");
         if style == Style::Fbm {
             w.push_str("        var sum = array<D, 3>(dc(0.0lf), dc(0.0lf), dc(0.0lf));\n");
-            octave_loop(&mut w, &samplers, schedule, |smp, f, a| {
+            octave_loop(&mut w, &samplers, schedule, |k, s, f, a| {
                 format!(
-                    "        let g = n_gradient_{smp}({st}, d3_scale(v{src}, {f}), {a} * {f});\n        \
+                    "        let g = n_gradient_{k}(d3_scale(v{src}, {f}), {a} * {f}, {s});\n        \
                      for (var i = 0u; i < 3u; i += 1u) {{ sum[i] = r_add(sum[i], g[i]); }}\n"
                 )
             });
@@ -605,9 +657,9 @@ impl Gen<'_> {
             "        var g = gshaper_start_d();\n        \
              let c = vec3<f64>(v{src}[0].m, v{src}[1].m, v{src}[2].m);"
         );
-        octave_loop(&mut w, &samplers, schedule, |smp, f, a| {
+        octave_loop(&mut w, &samplers, schedule, |k, s, f, a| {
             format!(
-                "        let n = {smp}(c * {f});\n        \
+                "        let n = smp_{k}({s}, c * {f});\n        \
                  g = gshaper_add_f64_d(g, {code}u, n.w, n.xyz, {a}, {f}, {offset}, {sharpness});\n"
             )
         });
@@ -626,7 +678,10 @@ impl Gen<'_> {
     }
 
     /// noise.rs `fractal_lanes` and `shape` for one lane: every octave on the scaled input,
-    /// shaped by the style's rules, summed; then the bias.
+    /// shaped by the style's rules, summed; then the bias. A call of the fractal function of
+    /// its kernel and style kind (written once: `n_fractal_KERNEL_STYLE`), which runs the
+    /// octaves of its schedule's record in the data: the octave count, a ridged style's offset
+    /// and sharpness, the bias, then per octave its frequency, amplitude and sampler.
     fn fractal(
         &mut self,
         dst: &str,
@@ -637,22 +692,51 @@ impl Gen<'_> {
         bias: f64,
     ) -> String {
         let samplers = self.octave_samplers(table, octaves);
+        let Some(kernel) = samplers.first().map(|s| s.kernel.clone()) else {
+            return format!("{dst} = dc({});", f64_literal(bias));
+        };
+        debug_assert!(samplers.iter().all(|s| s.kernel == kernel));
         let schedule = &self.tape.octaves[octaves as usize];
-        let st = self.stats(table);
-        let mut w =
-            String::from("{\n        var sum = dc(0.0lf);\n        var weight = dc(1.0lf);\n");
-        octave_loop(&mut w, &samplers, schedule, |smp, f, a| {
-            let mut body =
-                format!("        let n = n_octave_{smp}({st}, d3_scale(v{src}, {f}));\n");
-            let shaped = shaped(&mut body, style);
-            let _ = writeln!(body, "        sum = r_add(sum, d_scale({shaped}, {a}));");
-            body
-        });
-        if bias != 0.0 {
-            let _ = writeln!(w, "        sum = r_add(sum, dc({}));", f64_literal(bias));
+        let at = self.data.len() as u32;
+        let (offset, sharpness, kind) = match style {
+            Style::Fbm => (0.0, 0.0, "fbm"),
+            Style::Turbulence => (0.0, 0.0, "turbulence"),
+            Style::Billow => (0.0, 0.0, "billow"),
+            Style::Ridged { offset, sharpness } => (offset, sharpness, "ridged"),
+        };
+        self.data
+            .extend([samplers.len() as f64, offset, sharpness, bias]);
+        for (k, s) in samplers.iter().enumerate() {
+            let (f, a) = (schedule.frequencies[k], schedule.amplitudes[k]);
+            self.data.extend([f, a, s.at as f64]);
         }
-        let _ = write!(w, "        {dst} = sum;\n        _ = weight;\n    }}");
-        w
+        let name = format!("n_fractal_{kernel}_{kind}");
+        let mut body = String::new();
+        let shaped = shaped(&mut body, style);
+        let function = format!(
+            "fn {name}(p: array<D, 3>, at: u32) -> D {{
+    var sum = dc(0.0lf);
+    var weight = dc(1.0lf);
+    let offset = fdata[at + 1u];
+    let sharpness = fdata[at + 2u];
+    for (var k = 0u; k < u32(fdata[at]); k += 1u) {{
+        let o = at + 4u + 3u * k;
+        let n = n_octave_{kernel}(d3_scale(p, fdata[o]), u32(fdata[o + 2u]));
+{body}        sum = r_add(sum, d_scale({shaped}, fdata[o + 1u]));
+    }}
+    let bias = fdata[at + 3u];
+    if (bias != 0.0lf) {{
+        sum = r_add(sum, dc(bias));
+    }}
+    _ = weight;
+    _ = offset;
+    _ = sharpness;
+    return sum;
+}}
+"
+        );
+        self.rule((name.clone(), function));
+        format!("{dst} = {name}(v{src}, {at}u);")
     }
 }
 
@@ -707,61 +791,53 @@ fn ftape<'a>(
     );
 }
 
-/// The octaves of a fractal sum, each the statements `body(sampler, frequency, amplitude)`
-/// makes from the names of its sampler function (`smp{k}`) and its frequency and amplitude
-/// expressions. With one sampler, a loop over arrays the driver cannot unroll
-/// (`dispatch.one`), so the octave's rules and noise kernel are compiled once, not once per
-/// octave; a tiled sum's octaves (a sampler per period) one block each.
+/// The octaves of a fractal sum: a loop the driver cannot unroll (`dispatch.one`) over arrays
+/// of the octaves' frequencies, amplitudes and samplers, its body the statements `body(kernel,
+/// sampler, frequency, amplitude)` makes from their expressions: one copy of the octave rule
+/// and its noise kernel per fractal, not per octave. Every octave of a sum samples one table
+/// with one kernel (a tiled sum's octaves differ only in their periods, run-time values).
 fn octave_loop(
     w: &mut String,
-    samplers: &[usize],
+    samplers: &[Sampler],
     schedule: &crate::noise::Octaves,
-    body: impl Fn(&str, &str, &str) -> String,
+    body: impl Fn(&str, &str, &str, &str) -> String,
 ) {
-    let shared = samplers.windows(2).all(|p| p[0] == p[1]);
-    if let (true, Some(&smp)) = (shared, samplers.first()) {
-        let list = |v: &[f64]| v.iter().map(|&x| f64_literal(x)).collect::<Vec<_>>();
-        let n = samplers.len();
-        let _ = writeln!(
-            w,
-            "        var freqs = array<f64, {n}>({});\n        \
-             var amps = array<f64, {n}>({});\n        \
-             for (var k = 0u; k < {n}u * u32(dispatch.one); k += 1u) {{",
-            list(&schedule.frequencies).join(", "),
-            list(&schedule.amplitudes).join(", ")
-        );
-        w.push_str(&body(&format!("smp{smp}"), "freqs[k]", "amps[k]"));
-        w.push_str("        }\n");
+    let Some(first) = samplers.first() else {
         return;
-    }
-    for (k, smp) in samplers.iter().enumerate() {
-        let (f, a) = (schedule.frequencies[k], schedule.amplitudes[k]);
-        w.push_str("        {\n");
-        w.push_str(&body(
-            &format!("smp{smp}"),
-            &f64_literal(f),
-            &f64_literal(a),
-        ));
-        w.push_str("        }\n");
-    }
+    };
+    debug_assert!(samplers.iter().all(|s| s.kernel == first.kernel));
+    let list = |v: &[f64]| v.iter().map(|&x| f64_literal(x)).collect::<Vec<_>>();
+    let at: Vec<String> = samplers.iter().map(|s| format!("{}u", s.at)).collect();
+    let n = samplers.len();
+    let _ = writeln!(
+        w,
+        "        var freqs = array<f64, {n}>({});\n        \
+         var amps = array<f64, {n}>({});\n        \
+         var smps = array<u32, {n}>({});\n        \
+         for (var k = 0u; k < {n}u * u32(dispatch.one); k += 1u) {{",
+        list(&schedule.frequencies).join(", "),
+        list(&schedule.amplitudes).join(", "),
+        at.join(", ")
+    );
+    w.push_str(&body(&first.kernel, "smps[k]", "freqs[k]", "amps[k]"));
+    w.push_str("        }\n");
 }
 
-/// An octave `n` shaped by the fractal's style (noise.rs `shape`; ridged updates `weight`):
-/// the statements before, and the shaped value's expression.
+/// An octave `n` shaped by the fractal's style (noise.rs `shape`; ridged updates `weight` and
+/// reads its `offset` and `sharpness`): the statements before, and the shaped value's
+/// expression.
 fn shaped(w: &mut String, style: Style) -> String {
     match style {
         Style::Fbm => "n".to_string(),
         Style::Turbulence => "ru_abs(n)".to_string(),
         Style::Billow => "r_sub(d_scale(ru_abs(n), 2.0lf), dc(1.0lf))".to_string(),
-        Style::Ridged { offset, sharpness } => {
+        Style::Ridged { .. } => {
             let _ = writeln!(
                 w,
-                "        var ridge = r_sub(dc({}), ru_abs(n));\n        \
-                 ridge = rb_pow(rb_max(ridge, dc(0.0lf)), dc({}));\n        \
+                "        var ridge = r_sub(dc(offset), ru_abs(n));\n        \
+                 ridge = rb_pow(rb_max(ridge, dc(0.0lf)), dc(sharpness));\n        \
                  let signal = r_mul(ridge, weight);\n        \
-                 weight = rb_min(rb_max(d_scale(signal, 2.0lf), dc(0.0lf)), dc(1.0lf));",
-                f64_literal(offset),
-                f64_literal(sharpness)
+                 weight = rb_min(rb_max(d_scale(signal, 2.0lf), dc(0.0lf)), dc(1.0lf));"
             );
             "signal".to_string()
         }

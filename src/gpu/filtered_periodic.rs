@@ -107,9 +107,9 @@ fn integral(c: &[f64], u0: f64, u1: f64) -> f64 {
     anti(u1) - anti(u0)
 }
 
-/// The coefficients stored per polynomial (`PC_COEFFS` in filter_periodic.wgsl): level 7, the
-/// third antiderivative of `g²` (degree 6), has degree 9.
-const COEFFS: usize = 10;
+/// The coefficients stored per polynomial of each level (`pc_len` in filter_periodic.wgsl):
+/// `g` (a cubic) and its three antiderivatives, `g²` and its three, `g'`.
+const LEVEL_COEFFS: [usize; 9] = [4, 5, 6, 7, 7, 8, 9, 10, 3];
 
 /// The chain shapes of one filtered form as data: one block per distinct shape in the filtered
 /// form's data array `fdata` (the layout in filter_periodic.wgsl), the sawtooth's first
@@ -174,8 +174,8 @@ fn data_literal(v: f64) -> String {
 
 /// Shape `g`'s block of `pc_data`: its piece count, the means of `g` and `g²`, per piece its
 /// start, end, jump, line slope and whether it is a line, then per level (0-3: `g` and its
-/// successive antiderivatives `H`; 4-7: the same for `g²`; 8: `g'`) per piece [`COEFFS`]
-/// ascending coefficients.
+/// successive antiderivatives `H`; 4-7: the same for `g²`; 8: `g'`) per piece its
+/// [`LEVEL_COEFFS`] ascending coefficients.
 fn block(g: &Periodic) -> Vec<f64> {
     let base = Pieces {
         starts: g.starts().to_vec(),
@@ -210,10 +210,10 @@ fn block(g: &Periodic) -> Vec<f64> {
         false => 0.0,
     }));
     out.extend(base.polys.iter().map(|p| if line(p) { 1.0 } else { 0.0 }));
-    for level in &levels {
+    for (level, len) in levels.iter().zip(LEVEL_COEFFS) {
         for p in &level.polys {
-            debug_assert!(p.len() <= COEFFS, "degree {} in a chain shape", p.len());
-            out.extend((0..COEFFS).map(|i| p.get(i).copied().unwrap_or(0.0)));
+            debug_assert!(p.len() <= len, "degree {} in a chain shape", p.len());
+            out.extend((0..len).map(|i| p.get(i).copied().unwrap_or(0.0)));
         }
     }
     out
@@ -228,11 +228,39 @@ mod tests {
     fn eval_block(b: &[f64], level: usize, u: f64) -> f64 {
         let m = b[0] as usize;
         let j = (1..m).filter(|&i| u >= b[3 + i]).max().unwrap_or(0);
-        let base = 3 + 5 * m + (level * m + j) * COEFFS;
-        b[base..base + COEFFS]
+        let (len, pre) = (pc_len(level), pc_pre(level));
+        let base = 3 + 5 * m + pre * m + j * len;
+        b[base..base + len]
             .iter()
             .rev()
             .fold(0.0, |acc, &c| acc * u + c)
+    }
+
+    /// filter_periodic.wgsl's `pc_len` and `pc_pre`, as written there.
+    fn pc_len(level: usize) -> usize {
+        match level {
+            0..4 => 4 + level,
+            4..8 => 3 + level,
+            _ => 3,
+        }
+    }
+
+    fn pc_pre(level: usize) -> usize {
+        if level <= 4 {
+            return 4 * level + level * (level - level.min(1)) / 2;
+        }
+        let l = level - 4;
+        22 + 3 * l + l * (level + 3) / 2
+    }
+
+    #[test]
+    fn the_shaders_lengths_and_prefixes_are_the_levels() {
+        let mut pre = 0;
+        for (level, &len) in LEVEL_COEFFS.iter().enumerate() {
+            assert_eq!(pc_len(level), len, "level {level}");
+            assert_eq!(pc_pre(level), pre, "level {level}");
+            pre += len;
+        }
     }
 
     #[test]
@@ -275,6 +303,7 @@ mod tests {
         let mut text = String::new();
         write_array(&mut text, "var<private>", &data);
         assert_eq!(text.matches("fdata").count(), 1);
-        assert_eq!(text.matches("lf,").count(), data.len());
+        // A literal and its comma per value, and the two in the array types.
+        assert_eq!(text.matches(',').count(), data.len() + 2);
     }
 }

@@ -39,6 +39,12 @@ struct St {
     grad_sq: f64,
 }
 
+// The statistics of sampler `s`'s table, from its record in the filtered form's data
+// (`filtered.rs` `Gen::sampler`: table offset, period, cellular codes and jitter, statistics).
+fn smp_stats(s: u32) -> St {
+    return St(fdata[s + 7u], fdata[s + 8u], fdata[s + 9u], fdata[s + 10u]);
+}
+
 // A piecewise cubic (moments.rs `Piecewise`): knots k[0..n], pieces p[0..=n] as coefficients
 // in u = x - anchor (anchor k[i-1] for piece i >= 1, k[0] for piece 0, 0 without knots).
 // `PW_KNOTS` is the most knots of the tape's shapes (`filtered.rs` writes it in: the arrays

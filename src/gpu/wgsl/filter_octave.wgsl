@@ -1,10 +1,13 @@
 // filter_octave.wgsl: the template of one noise octave over the footprint; `filtered.rs`
-// makes one copy per sampler with `SAMPLE` replaced by its function (WGSL has no function
-// values).
+// makes one copy per noise kernel the tape samples (`SAMPLE`: its function's name, WGSL having
+// no function values). Which table, period, cellular parameters and statistics a call samples
+// with are run-time values: the sampler `s`, a record of the filtered form's data (`filtered.rs`
+// `Gen::sampler`) that `smp_SAMPLE(s, x)` and `smp_stats(s)` read.
 
-// One octave (or noise sample) of `p` by the sampler `SAMPLE` (noise.rs `octave_lanes` for
-// one lane). `filtered.rs` makes one copy per sampler, `SAMPLE` replaced by its function.
-fn n_octave_SAMPLE(st: St, p: array<D, 3>) -> D {
+// One octave (or noise sample) of `p` by the sampler `s` (noise.rs `octave_lanes` for one
+// lane).
+fn n_octave_SAMPLE(p: array<D, 3>, s: u32) -> D {
+    let st = smp_stats(s);
     let fade = n_fade(st, p);
     let alpha = fade.x;
     if (alpha < 1e-3lf) { // noise.rs FADED
@@ -20,56 +23,57 @@ fn n_octave_SAMPLE(st: St, p: array<D, 3>) -> D {
         e = n_edges(p);
         count = 8u;
     }
-    var s: array<vec4<f64>, 8>;
+    var v: array<vec4<f64>, 8>;
     for (var j = 0u; j < count * u32(dispatch.one); j += 1u) {
         var x = vec3<f64>(p[0].m, p[1].m, p[2].m);
         if (band) {
             x = n_sub_centre(p, e, j);
         }
-        s[j] = SAMPLE(x);
+        v[j] = smp_SAMPLE(s, x);
     }
     if (alpha == 1.0lf && d_is_const(p[0]) && d_is_const(p[1]) && d_is_const(p[2])) {
-        return dc(s[0].w);
+        return dc(v[0].w);
     }
     if (band) {
-        let sub = n_subsampled(st, p, e, s);
+        let sub = n_subsampled(st, p, e, v);
         if (sub.ok) {
             return sub.d;
         }
     }
-    return n_sampled(st, p, fade, s[0].w, s[0].xyz);
+    return n_sampled(st, p, fade, v[0].w, v[0].xyz);
 }
 
 // noise.rs `noise_gradient`: the gradient of the noise at the centre, times `scale`, faded like
 // the value; what the fade takes (`(1 − α²)` of a component's mean square) as residual variance.
-fn n_gradient_SAMPLE(st: St, p: array<D, 3>, scale: f64) -> array<D, 3> {
-    let s = SAMPLE(vec3<f64>(p[0].m, p[1].m, p[2].m));
+fn n_gradient_SAMPLE(p: array<D, 3>, scale: f64, s: u32) -> array<D, 3> {
+    let st = smp_stats(s);
+    let g = smp_SAMPLE(s, vec3<f64>(p[0].m, p[1].m, p[2].m));
     let alpha = n_fade(st, p).x;
     let v = (1.0lf - alpha * alpha) * st.grad_sq * scale * scale;
     let var_ = select(0.0lf, v, is_finite_d(v));
     let z = vec3<f64>(0.0lf);
     return array<D, 3>(
-        D(alpha * s.x * scale, z, var_),
-        D(alpha * s.y * scale, z, var_),
-        D(alpha * s.z * scale, z, var_),
+        D(alpha * g.x * scale, z, var_),
+        D(alpha * g.y * scale, z, var_),
+        D(alpha * g.z * scale, z, var_),
     );
 }
 
 // noise.rs `cellular`: cellular noise over a footprint within a cell in noise space, from its
 // eight sub-boxes; the fade (`n_octave_SAMPLE`) for a larger one or a non-finite centre.
-fn n_cellular_SAMPLE(st: St, p: array<D, 3>) -> D {
+fn n_cellular_SAMPLE(p: array<D, 3>, s: u32) -> D {
     let e = n_edges(p);
     let longest = max(v_dot(e[0], e[0]), max(v_dot(e[1], e[1]), v_dot(e[2], e[2])));
     let small = longest <= 1.0lf;
     let centre = vec3<f64>(p[0].m, p[1].m, p[2].m);
     if (!small || !is_finite_d(centre.x) || !is_finite_d(centre.y) || !is_finite_d(centre.z)) {
-        return n_octave_SAMPLE(st, p);
+        return n_octave_SAMPLE(p, s);
     }
-    var s: array<vec4<f64>, 8>;
+    var v: array<vec4<f64>, 8>;
     var mean = 0.0lf;
     for (var j = 0u; j < 8u; j += 1u) {
-        s[j] = SAMPLE(n_sub_centre(p, e, j));
-        mean = mean + s[j].w;
+        v[j] = smp_SAMPLE(s, n_sub_centre(p, e, j));
+        mean = mean + v[j].w;
     }
     mean = mean / 8.0lf;
     var g_mean = vec3<f64>(0.0lf);
@@ -77,32 +81,32 @@ fn n_cellular_SAMPLE(st: St, p: array<D, 3>) -> D {
     var carried = 0.0lf;
     var between = 0.0lf;
     for (var j = 0u; j < 8u; j += 1u) {
-        let g = vec3<f64>(finite_or_zero(s[j].x), finite_or_zero(s[j].y), finite_or_zero(s[j].z));
+        let g = vec3<f64>(finite_or_zero(v[j].x), finite_or_zero(v[j].y), finite_or_zero(v[j].z));
         g_mean = g_mean + g / 8.0lf;
         let slope = g.x * p[0].g + g.y * p[1].g + g.z * p[2].g;
         within = within + f_linvar(slope) / 4.0lf / 8.0lf;
         carried = carried + (g.x * g.x * p[0].v + g.y * g.y * p[1].v + g.z * g.z * p[2].v) / 8.0lf;
     }
     for (var j = 0u; j < 8u; j += 1u) {
-        between = between + (s[j].w - mean) * (s[j].w - mean);
+        between = between + (v[j].w - mean) * (v[j].w - mean);
     }
     between = between / 8.0lf;
     let slope = g_mean.x * p[0].g + g_mean.y * p[1].g + g_mean.z * p[2].g;
-    let v = f_residual(between + within, f_linvar(slope)) + carried;
+    let r = f_residual(between + within, f_linvar(slope)) + carried;
     if (!is_finite_d(mean)) {
-        return n_octave_SAMPLE(st, p);
+        return n_octave_SAMPLE(p, s);
     }
-    return D(mean, slope, select(0.0lf, v, is_finite_d(v)));
+    return D(mean, slope, select(0.0lf, r, is_finite_d(r)));
 }
 
 // noise.rs `white`: white noise over the footprint as the exact mixture of the cells the input
 // reaches (at most 64), the axes independent; the fade for a wider box or a non-finite input.
-fn n_white_SAMPLE(st: St, p: array<D, 3>, integer: vec3<bool>) -> D {
+fn n_white_SAMPLE(p: array<D, 3>, integer: vec3<bool>, s: u32) -> D {
     let ax = w_axis(p[0], integer.x);
     let ay = w_axis(p[1], integer.y);
     let az = w_axis(p[2], integer.z);
     if (!ax.ok || !ay.ok || !az.ok || ax.count * ay.count * az.count > 64u) {
-        return n_octave_SAMPLE(st, p);
+        return n_octave_SAMPLE(p, s);
     }
     var mean = 0.0lf;
     var square = 0.0lf;
@@ -114,7 +118,7 @@ fn n_white_SAMPLE(st: St, p: array<D, 3>, integer: vec3<bool>) -> D {
             for (var k = 0u; k < az.count; k += 1u) {
                 let z = w_prob(az, k);
                 let centre = vec3<f64>(ax.first + f64(i), ay.first + f64(j), az.first + f64(k));
-                let w = SAMPLE(centre + vec3<f64>(0.5lf)).w;
+                let w = smp_SAMPLE(s, centre + vec3<f64>(0.5lf)).w;
                 mean = mean + x.x * y.x * z.x * w;
                 square = square + x.x * y.x * z.x * w * w;
                 slope = slope + vec3<f64>(x.y * y.x * z.x, x.x * y.y * z.x, x.x * y.x * z.y) * w;
@@ -123,7 +127,7 @@ fn n_white_SAMPLE(st: St, p: array<D, 3>, integer: vec3<bool>) -> D {
     }
     let grad = slope.x * p[0].g + slope.y * p[1].g + slope.z * p[2].g;
     if (!is_finite_d(mean)) {
-        return n_octave_SAMPLE(st, p);
+        return n_octave_SAMPLE(p, s);
     }
     return D(mean, grad, f_residual(square - mean * mean, f_linvar(grad)));
 }

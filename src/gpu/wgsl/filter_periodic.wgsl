@@ -9,14 +9,34 @@
 //   pc + 3 + j                 piece j's start (j < m), then its end (+ m), the jump of g at
 //                              its start (+ 2m), its slope where it is a line (+ 3m) and 1 there,
 //                              else 0 (+ 4m)
-//   pc + 3 + 5m + (L m + j) C  piece j's polynomial of level L, C = PC_COEFFS ascending
-//                              coefficients: levels 0-3 g and its antiderivatives H, 4-7 the
-//                              same for g², 8 g'
+//   pc + 3 + 5m + pc_pre(L) m + j pc_len(L)
+//                              piece j's polynomial of level L, its pc_len(L) ascending
+//                              coefficients: levels 0-3 g and its antiderivatives H (4 to 7
+//                              coefficients), 4-7 the same for g² (7 to 10), 8 g' (3)
 //
 // The sawtooth g(u) = u (`fract`, `floor`, the lattice `mod`) is the block at PC_SAW.
 
-const PC_COEFFS: u32 = 10u;
 const PC_SAW: u32 = 0u;
+
+// The coefficients of a level-`level` polynomial (`filtered_periodic.rs` `LEVEL_COEFFS`).
+fn pc_len(level: u32) -> u32 {
+    if (level < 4u) {
+        return 4u + level;
+    }
+    if (level < 8u) {
+        return 3u + level;
+    }
+    return 3u;
+}
+
+// The coefficients of the levels before `level`, per piece.
+fn pc_pre(level: u32) -> u32 {
+    if (level <= 4u) {
+        return 4u * level + level * (level - min(level, 1u)) / 2u;
+    }
+    let l = level - 4u;
+    return 22u + 3u * l + l * (level + 3u) / 2u;
+}
 
 fn pc_count(pc: u32) -> u32 {
     return u32(fdata[pc]);
@@ -36,9 +56,10 @@ fn pc_eval(pc: u32, level: u32, u: f64) -> f64 {
             j = i;
         }
     }
-    let base = pc + 3u + 5u * m + (level * m + j) * PC_COEFFS;
-    var acc = fdata[base + PC_COEFFS - 1u];
-    for (var i = PC_COEFFS - 1u; i > 0u; i -= 1u) {
+    let len = pc_len(level);
+    let base = pc + 3u + 5u * m + pc_pre(level) * m + j * len;
+    var acc = fdata[base + len - 1u];
+    for (var i = len - 1u; i > 0u; i -= 1u) {
         acc = acc * u + fdata[base + i - 1u];
     }
     return acc;
