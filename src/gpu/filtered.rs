@@ -24,7 +24,7 @@ use crate::noise::{Basis, Style};
 use crate::ops::{BinaryOp, TernaryOp, UnaryOp};
 use crate::tape::{Instr, Operand, Prec, Tape};
 use smallvec::{smallvec, SmallVec};
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::fmt::Write;
 
 const FILTER: &str = include_str!("wgsl/filter.wgsl");
@@ -110,6 +110,7 @@ pub(crate) fn filtered_part(
         integer,
         periodic: super::filtered_periodic::Shapes::new(&mut data),
         data,
+        names: Gen::constant_names(tape),
         in_range: crate::filter::ranges::restricted_shapes(tape),
     };
     let body = g.function(per_output);
@@ -125,7 +126,10 @@ pub(crate) fn filtered_part(
     source.push_str(&g.functions);
     match data_decl {
         Some(decl) => super::filtered_periodic::write_array(&mut source, decl, &g.data),
-        None => source.push_str(DATA_BINDING),
+        None => {
+            let n = g.data.len().max(1);
+            let _ = writeln!(source, "{DATA_BINDING}{n}>;");
+        }
     }
     source.push_str(PERIODIC);
     source.push_str(&body);
@@ -135,7 +139,14 @@ pub(crate) fn filtered_part(
 /// The filtered form's data on the GPU path: a storage buffer (`GpuEvaluator` binds
 /// `Shader::data`). A module-scope array instead made lavapipe's compile of the library's wood
 /// 7× slower (169 s against 24 s): its dynamically indexed private arrays are lowered to code.
-const DATA_BINDING: &str = "@group(0) @binding(4) var<storage, read> fdata: array<f64>;\n";
+const DATA_BINDING: &str = "@group(0) @binding(4) var<storage, read> fdata: array<f64, ";
+
+/// An instruction's WGSL: the value it writes (bound by `let`), or statements that assign it
+/// to its name, declared by a `var` before them.
+enum Stmt {
+    Let(String),
+    Block(String),
+}
 
 /// What a sampler samples: a table, tiled by a period or not.
 type SamplerKey = (u32, Option<[u64; 3]>);
@@ -171,9 +182,10 @@ fn needed(lines: &[Line], output: Var) -> Vec<bool> {
     let mut live: HashSet<Var> = HashSet::from([output]);
     let mut keep = vec![false; lines.len()];
     for (line, keep) in lines.iter().zip(&mut keep).rev() {
-        for (reads, write) in line.effects.iter().rev() {
-            if live.remove(write) {
-                *keep = true;
+        *keep = line.effects.iter().any(|(_, write)| live.contains(write));
+        if *keep {
+            for (reads, write) in line.effects.iter().rev() {
+                live.remove(write);
                 live.extend(reads.iter().copied());
             }
         }
@@ -205,6 +217,10 @@ struct Gen<'t> {
     periodic: super::filtered_periodic::Shapes,
     /// The filtered form's data, `fdata` in the WGSL.
     data: Vec<f64>,
+    /// Per slot, the name of the value it holds at the point of the body being written: every
+    /// value is named once (`i{index}` for instruction `index`'s, the constants' by their
+    /// slots), so the body is `let`s, not stores and loads of slot variables.
+    names: HashMap<Operand, String>,
     /// Per instruction, a piecewise instruction's shapes over its input's interval
     /// (`filter/ranges.rs`), as the CPU's filtered form takes them.
     in_range: Vec<Option<Restricted>>,
@@ -234,17 +250,34 @@ impl Gen<'_> {
             .map(|(index, instr)| self.fused(index, instr))
             .collect();
         let mut w = String::new();
+        let out = |o: &crate::tape::TapeOutput| match o.ty.channels() {
+            1 => Operand::scalar(Prec::Lane, o.slot),
+            _ => Operand::vec3(o.slot),
+        };
+        // Each output channel's mean, from its slot's value after the last line.
+        let means = |g: &Self, outputs: &[usize]| -> Vec<(usize, String)> {
+            let mut means = Vec::new();
+            for o in outputs.iter().map(|&k| &t.outputs[k]) {
+                let value = g.read(out(o));
+                for c in 0..o.ty.channels() {
+                    let mean = match o.ty.channels() {
+                        1 => format!("{value}.m"),
+                        _ => format!("{value}[{c}].m"),
+                    };
+                    means.push((o.first_channel + c, mean));
+                }
+            }
+            means
+        };
         if !per_output {
             let all: Vec<usize> = (0..t.outputs.len()).collect();
             let texts = lines.iter().map(|l| &l.text);
-            ftape(&mut w, "ftape", &self.prelude(None), texts, t, &all);
+            let means = means(self, &all);
+            ftape(&mut w, "ftape", &self.prelude(None), texts, t, &means);
             return w;
         }
         for (k, o) in t.outputs.iter().enumerate() {
-            let out = match o.ty.channels() {
-                1 => Operand::scalar(Prec::Lane, o.slot),
-                _ => Operand::vec3(o.slot),
-            };
+            let out = out(o);
             let keep = needed(&lines, Var::Slot(out));
             let kept: Vec<&Line> = (lines.iter().zip(keep))
                 .filter(|(_, k)| *k)
@@ -257,44 +290,73 @@ impl Gen<'_> {
             }
             let prelude = self.prelude(Some(&used));
             let texts = kept.iter().map(|l| &l.text);
-            ftape(&mut w, &format!("ftape_o{k}"), &prelude, texts, t, &[k]);
+            let means = means(self, &[k]);
+            ftape(&mut w, &format!("ftape_o{k}"), &prelude, texts, t, &means);
         }
         w
     }
 
-    /// The body's slot variables (zero-initialised, as WGSL makes them: `dc(0.0)`) and the
-    /// tape's constants in them; with `used`, only the variables its lines read or write (an
-    /// output's own function: most of the tape's constants belong to other outputs).
+    /// The tape's constants, one `let` each (`s`, `d` or `v` and the slot: their names until
+    /// an instruction writes the slot); with `used`, only those its lines read (an output's own
+    /// function: most of the tape's constants belong to other outputs).
     fn prelude(&self, used: Option<&HashSet<Var>>) -> String {
         let t = self.tape;
-        let wanted = |v: Var| used.is_none_or(|u| u.contains(&v));
-        let lane = |k: usize| Var::Slot(Operand::scalar(Prec::Lane, k as u32));
-        let wide = |k: usize| Var::Slot(Operand::scalar(Prec::Wide, k as u32));
-        let vec3 = |k: usize| Var::Slot(Operand::vec3(k as u32));
+        let wanted = |o: Operand| used.is_none_or(|u| u.contains(&Var::Slot(o)));
         let mut w = String::new();
-        for k in (0..t.scalar_slots).filter(|&k| wanted(lane(k))) {
-            let _ = writeln!(w, "    var s{k}: D;");
+        for &(slot, v) in &t.scalar_constants {
+            if wanted(Operand::scalar(Prec::Lane, slot)) {
+                let _ = writeln!(w, "    let s{slot} = dc({});", f64_literal(v));
+            }
         }
-        for k in (0..t.vec3_slots).filter(|&k| wanted(vec3(k))) {
-            let _ = writeln!(w, "    var v{k}: array<D, 3>;");
+        for &(slot, v) in &t.wide_constants {
+            if wanted(Operand::scalar(Prec::Wide, slot)) {
+                let _ = writeln!(w, "    let d{slot} = dc({});", f64_literal(v));
+            }
         }
-        for k in (0..t.wide_slots).filter(|&k| wanted(wide(k))) {
-            let _ = writeln!(w, "    var d{k}: D;");
-        }
-        for &(slot, v) in (t.scalar_constants.iter()).filter(|c| wanted(lane(c.0 as usize))) {
-            let _ = writeln!(w, "    s{slot} = dc({});", f64_literal(v));
-        }
-        for &(slot, v) in (t.wide_constants.iter()).filter(|c| wanted(wide(c.0 as usize))) {
-            let _ = writeln!(w, "    d{slot} = dc({});", f64_literal(v));
-        }
-        for &(slot, v) in (t.vec3_constants.iter()).filter(|c| wanted(vec3(c.0 as usize))) {
-            let [x, y, z] = v.map(f64_literal);
-            let _ = writeln!(w, "    v{slot} = array<D, 3>(dc({x}), dc({y}), dc({z}));");
-        }
-        for k in (0..self.fusions.saved).filter(|&k| wanted(Var::Saved(k as u32))) {
-            let _ = writeln!(w, "    var f{k}: D;");
+        for &(slot, v) in &t.vec3_constants {
+            if wanted(Operand::vec3(slot)) {
+                let [x, y, z] = v.map(f64_literal);
+                let _ = writeln!(
+                    w,
+                    "    let v{slot} = array<D, 3>(dc({x}), dc({y}), dc({z}));"
+                );
+            }
         }
         w
+    }
+
+    /// The names of the constants' slots before any instruction writes them.
+    fn constant_names(t: &Tape) -> HashMap<Operand, String> {
+        let scalars = t
+            .scalar_constants
+            .iter()
+            .map(|&(slot, _)| (Operand::scalar(Prec::Lane, slot), format!("s{slot}")));
+        let wides = t
+            .wide_constants
+            .iter()
+            .map(|&(slot, _)| (Operand::scalar(Prec::Wide, slot), format!("d{slot}")));
+        let vec3s =
+            (t.vec3_constants.iter()).map(|&(slot, _)| (Operand::vec3(slot), format!("v{slot}")));
+        scalars.chain(wides).chain(vec3s).collect()
+    }
+
+    /// The name of the value slot `o` holds at this point of the body (a slot nothing wrote
+    /// holds zero, as the CPU's workspace does).
+    fn read(&self, o: Operand) -> String {
+        match (self.names.get(&o), o.file.prec()) {
+            (Some(name), _) => name.clone(),
+            (None, Some(_)) => "dc(0.0lf)".to_string(),
+            (None, None) => "array<D, 3>(dc(0.0lf), dc(0.0lf), dc(0.0lf))".to_string(),
+        }
+    }
+
+    /// A scalar operand's value in precision `prec`, and a vec3 operand's.
+    fn s(&self, prec: Prec, slot: u32) -> String {
+        self.read(Operand::scalar(prec, slot))
+    }
+
+    fn v(&self, slot: u32) -> String {
+        self.read(Operand::vec3(slot))
     }
 
     /// Instruction `index` as `Filtered::run` takes it: its operands saved for a later fused
@@ -305,13 +367,10 @@ impl Gen<'_> {
         let mut line = Line::default();
         for &(source, k) in &self.fusions.save[index] {
             let (from, read) = match source {
-                Source::Scalar(prec, s) => (
-                    format!("{}{s}", prec.file().prefix()),
-                    Operand::scalar(prec, s),
-                ),
-                Source::Vec3(s, c) => (format!("v{s}[{c}]"), Operand::vec3(s)),
+                Source::Scalar(prec, s) => (self.s(prec, s), Operand::scalar(prec, s)),
+                Source::Vec3(s, c) => (format!("{}[{c}]", self.v(s)), Operand::vec3(s)),
             };
-            let _ = write!(line.text, "f{k} = {from}; ");
+            let _ = write!(line.text, "let f{k} = {from}; ");
             line.effects
                 .push((smallvec![Var::Slot(read)], Var::Saved(k)));
         }
@@ -319,21 +378,23 @@ impl Gen<'_> {
             return line;
         }
         let written = instr.writes();
-        let dst = written.file.prec().map(|_| written.to_string());
+        let scalar = written.file.prec().is_some();
+        // The value's name: one per instruction, so every name is bound once (a `let`).
+        let name = format!("i{index}");
         let saved =
             |k: &[u32]| -> SmallVec<[Var; 3]> { k.iter().map(|&k| Var::Saved(k)).collect() };
-        let (text, reads) = match (self.fusions.fused[index].clone(), dst) {
-            (Some(Fusion::AbsSin { saved: k, cos }), Some(dst)) => {
-                (format!("{dst} = r_abs_sin(f{k}, {cos});"), saved(&[k]))
+        let (stmt, reads) = match (self.fusions.fused[index].clone(), scalar) {
+            (Some(Fusion::AbsSin { saved: k, cos }), true) => {
+                (Stmt::Let(format!("r_abs_sin(f{k}, {cos})")), saved(&[k]))
             }
-            (Some(Fusion::Folded { saved: k, shape }), Some(dst)) => {
+            (Some(Fusion::Folded { saved: k, shape }), true) => {
                 self.shape(&format!("pwf{index}"), &shape);
                 (
-                    format!("{dst} = r_piecewise(pwf{index}(), f{k});"),
+                    Stmt::Let(format!("r_piecewise(pwf{index}(), f{k})")),
                     saved(&[k]),
                 )
             }
-            (Some(Fusion::Periodic { parts }), dst) => {
+            (Some(Fusion::Periodic { parts }), _) => {
                 let calls: Vec<String> = parts
                     .iter()
                     .map(|p| {
@@ -343,26 +404,34 @@ impl Gen<'_> {
                     })
                     .collect();
                 let ks: Vec<u32> = parts.iter().map(|p| p.saved).collect();
-                match (calls.as_slice(), dst) {
-                    ([one], Some(dst)) => (format!("{dst} = {one};"), saved(&ks)),
-                    ([x, y, z], None) => (
-                        format!("{written} = array<D, 3>({x}, {y}, {z});"),
-                        saved(&ks),
-                    ),
-                    _ => self.plain(index, instr),
+                match (calls.as_slice(), scalar) {
+                    ([one], true) => (Stmt::Let(one.clone()), saved(&ks)),
+                    ([x, y, z], false) => {
+                        (Stmt::Let(format!("array<D, 3>({x}, {y}, {z})")), saved(&ks))
+                    }
+                    _ => self.plain(index, instr, &name),
                 }
             }
-            _ => self.plain(index, instr),
+            _ => self.plain(index, instr, &name),
         };
-        line.text.push_str(&text);
+        match stmt {
+            Stmt::Let(value) => {
+                let _ = write!(line.text, "let {name} = {value};");
+            }
+            Stmt::Block(block) => {
+                let ty = if scalar { "D" } else { "array<D, 3>" };
+                let _ = write!(line.text, "var {name}: {ty};\n    {block}");
+            }
+        }
+        self.names.insert(written, name);
         line.effects.push((reads, Var::Slot(written)));
         line
     }
 
     /// An instruction's own rule, and the slots it reads.
-    fn plain(&mut self, index: usize, instr: &Instr) -> (String, SmallVec<[Var; 3]>) {
+    fn plain(&mut self, index: usize, instr: &Instr, name: &str) -> (Stmt, SmallVec<[Var; 3]>) {
         let reads = instr.reads().into_iter().map(Var::Slot).collect();
-        (self.instruction(index, instr), reads)
+        (self.instruction(index, instr, name), reads)
     }
 
     /// A rule function (`unary`, `binary`, `ternary`), written once; its name.
@@ -451,164 +520,160 @@ impl Gen<'_> {
         )
     }
 
-    fn instruction(&mut self, index: usize, instr: &Instr) -> String {
+    /// Instruction `index`'s own rule: the value it writes, or statements that assign it to
+    /// `dst` (declared before them).
+    fn instruction(&mut self, index: usize, instr: &Instr, dst: &str) -> Stmt {
         let integer = self.integer[index];
-        // A scalar slot in the instruction's precision (`s` lane type, `d` promoted; both D
-        // here, every filtered value being f64).
-        let p = instr.prec().file().prefix();
+        // A scalar operand in the instruction's precision (both D here, every filtered value
+        // being f64).
+        let prec = instr.prec();
+        let arr = |[x, y, z]: [String; 3]| Stmt::Let(format!("array<D, 3>({x}, {y}, {z})"));
         match *instr {
-            Instr::Position { dst } => format!(
-                "v{dst} = array<D, 3>(d_position(p, 0u), d_position(p, 1u), d_position(p, 2u));"
+            Instr::Position { .. } => Stmt::Let(
+                "array<D, 3>(d_position(p, 0u), d_position(p, 1u), d_position(p, 2u))".into(),
             ),
-            Instr::Splat { dst, src, .. } => {
-                format!("v{dst} = array<D, 3>({p}{src}, {p}{src}, {p}{src});")
+            Instr::Splat { src, .. } => arr([0, 1, 2].map(|_| self.s(prec, src))),
+            Instr::Combine { x, y, z, .. } => arr([x, y, z].map(|c| self.s(prec, c))),
+            Instr::Component { src, axis, .. } => {
+                Stmt::Let(format!("{}[{}]", self.v(src), axis % 3))
             }
-            Instr::Combine { dst, x, y, z, .. } => {
-                format!("v{dst} = array<D, 3>({p}{x}, {p}{y}, {p}{z});")
-            }
-            Instr::Component { dst, src, axis, .. } => {
-                format!("{p}{dst} = v{src}[{}];", axis % 3)
-            }
-            Instr::UnaryScalar { op, dst, src, .. } => {
+            Instr::UnaryScalar { op, src, .. } => {
+                let x = self.s(prec, src);
                 let f = self.rule(unary(op));
-                format!("{p}{dst} = {f}({p}{src});")
+                Stmt::Let(format!("{f}({x})"))
             }
-            Instr::UnaryVec3 { op, dst, src } => {
+            Instr::UnaryVec3 { op, src, .. } => {
+                let x = self.v(src);
                 let f = self.rule(unary(op));
-                format!("v{dst} = array<D, 3>({f}(v{src}[0]), {f}(v{src}[1]), {f}(v{src}[2]));")
+                arr([0, 1, 2].map(|i| format!("{f}({x}[{i}])")))
             }
-            Instr::BinaryScalar { op, dst, a, b, .. } => {
+            Instr::BinaryScalar { op, a, b, .. } => {
+                let (a, b) = (self.s(prec, a), self.s(prec, b));
                 let f = self.rule(binary(op, integer[0]));
-                format!("{p}{dst} = {f}({p}{a}, {p}{b});")
+                Stmt::Let(format!("{f}({a}, {b})"))
             }
-            Instr::BinaryVec3 { op, dst, a, b } => {
-                let [x, y, z] = [0, 1, 2].map(|i| {
+            Instr::BinaryVec3 { op, a, b, .. } => {
+                let (a, b) = (self.v(a), self.v(b));
+                arr([0, 1, 2].map(|i| {
                     let f = self.rule(binary(op, integer[i]));
-                    format!("{f}(v{a}[{i}], v{b}[{i}])")
-                });
-                format!("v{dst} = array<D, 3>({x}, {y}, {z});")
+                    format!("{f}({a}[{i}], {b}[{i}])")
+                }))
             }
-            Instr::TernaryScalar {
-                op, dst, a, b, c, ..
-            } => {
+            Instr::TernaryScalar { op, a, b, c, .. } => {
+                let [a, b, c] = [a, b, c].map(|x| self.s(prec, x));
                 let f = self.rule(ternary(op));
-                format!("{p}{dst} = {f}({p}{a}, {p}{b}, {p}{c});")
+                Stmt::Let(format!("{f}({a}, {b}, {c})"))
             }
-            Instr::TernaryVec3 { op, dst, a, b, c } => {
+            Instr::TernaryVec3 { op, a, b, c, .. } => {
+                let [a, b, c] = [a, b, c].map(|x| self.v(x));
                 let f = self.rule(ternary(op));
-                let [x, y, z] = [0, 1, 2].map(|i| format!("{f}(v{a}[{i}], v{b}[{i}], v{c}[{i}])"));
-                format!("v{dst} = array<D, 3>({x}, {y}, {z});")
+                arr([0, 1, 2].map(|i| format!("{f}({a}[{i}], {b}[{i}], {c}[{i}])")))
             }
-            Instr::Dot { dst, a, b, .. } => format!("{p}{dst} = r_dot(v{a}, v{b});"),
-            Instr::Length { dst, src, .. } => format!("{p}{dst} = r_length(v{src});"),
-            Instr::Cross { dst, a, b } => format!("v{dst} = r_cross(v{a}, v{b});"),
-            Instr::Normalize { dst, src } => format!("v{dst} = r_normalize(v{src});"),
-            Instr::RotateConst { dst, src, matrix } => {
+            Instr::Dot { a, b, .. } => Stmt::Let(format!("r_dot({}, {})", self.v(a), self.v(b))),
+            Instr::Length { src, .. } => Stmt::Let(format!("r_length({})", self.v(src))),
+            Instr::Cross { a, b, .. } => {
+                Stmt::Let(format!("r_cross({}, {})", self.v(a), self.v(b)))
+            }
+            Instr::Normalize { src, .. } => Stmt::Let(format!("r_normalize({})", self.v(src))),
+            Instr::RotateConst { src, matrix, .. } => {
                 let m = self.tape.matrices[matrix as usize];
                 let [r0, r1, r2] = m.map(vec3_literal);
-                format!("v{dst} = r_rotate({r0}, {r1}, {r2}, v{src});")
+                Stmt::Let(format!("r_rotate({r0}, {r1}, {r2}, {})", self.v(src)))
             }
             Instr::RotateVarying {
-                dst,
-                src,
-                degrees,
-                axis,
-                ..
-            } => format!(
-                "v{dst} = r_rotate_varying({}, v{src}, {p}{degrees});",
-                vec3_literal(self.tape.axes[axis as usize])
-            ),
-            Instr::Noise {
-                dst, src, table, ..
-            } => self.noise(&format!("{p}{dst}"), src, table, integer),
+                src, degrees, axis, ..
+            } => Stmt::Let(format!(
+                "r_rotate_varying({}, {}, {})",
+                vec3_literal(self.tape.axes[axis as usize]),
+                self.v(src),
+                self.s(prec, degrees)
+            )),
+            Instr::Noise { src, table, .. } => Stmt::Let(self.noise(src, table, integer)),
             Instr::Fractal {
-                dst,
                 src,
                 table,
                 octaves,
                 style,
                 bias,
                 ..
-            } => self.fractal(&format!("{p}{dst}"), src, table, octaves, style, bias),
+            } => Stmt::Let(self.fractal(src, table, octaves, style, bias)),
             // A point (no spread) takes the function itself, as on the CPU.
-            Instr::Hermite { dst, src, spline } if self.in_range[index].is_some() => {
+            Instr::Hermite { src, spline, .. } if self.in_range[index].is_some() => {
                 let name = self.in_range_shapes(index);
-                format!(
-                    "if (fp_n == 0u || !(f_total(s{src}) > 0.0lf)) {{ s{dst} = r_piecewise(pwh{spline}(), s{src}); }} \
-                     else {{ s{dst} = r_piecewise({name}0(), s{src}); }}"
-                )
+                let x = self.s(Prec::Lane, src);
+                Stmt::Block(format!(
+                    "if (fp_n == 0u || !(f_total({x}) > 0.0lf)) {{ {dst} = r_piecewise(pwh{spline}(), {x}); }} \
+                     else {{ {dst} = r_piecewise({name}0(), {x}); }}"
+                ))
             }
-            Instr::Curve { dst, src, curve } if self.in_range[index].is_some() => {
+            Instr::Curve { src, curve, .. } if self.in_range[index].is_some() => {
                 let name = self.in_range_shapes(index);
-                format!(
-                    "if (fp_n == 0u || !(f_total(s{src}) > 0.0lf)) {{ s{dst} = r_piecewise(pwc{curve}(), s{src}); }} \
-                     else {{ s{dst} = r_piecewise({name}0(), s{src}); }}"
-                )
+                let x = self.s(Prec::Lane, src);
+                Stmt::Block(format!(
+                    "if (fp_n == 0u || !(f_total({x}) > 0.0lf)) {{ {dst} = r_piecewise(pwc{curve}(), {x}); }} \
+                     else {{ {dst} = r_piecewise({name}0(), {x}); }}"
+                ))
             }
-            Instr::Ramp { dst, src, ramp } if self.in_range[index].is_some() => {
+            Instr::Ramp { src, ramp, .. } if self.in_range[index].is_some() => {
                 let name = self.in_range_shapes(index);
+                let x = self.s(Prec::Lane, src);
                 let channels = |f: &dyn Fn(usize) -> String| {
-                    format!(
-                        "array<D, 3>(r_piecewise({}(), s{src}), r_piecewise({}(), s{src}), \
-                         r_piecewise({}(), s{src}))",
-                        f(0),
-                        f(1),
-                        f(2)
-                    )
+                    let [a, b, c] = [0, 1, 2].map(|c| format!("r_piecewise({}(), {x})", f(c)));
+                    format!("array<D, 3>({a}, {b}, {c})")
                 };
-                format!(
-                    "if (fp_n == 0u || !(f_total(s{src}) > 0.0lf)) {{ v{dst} = {}; }} else {{ v{dst} = {}; }}",
+                Stmt::Block(format!(
+                    "if (fp_n == 0u || !(f_total({x}) > 0.0lf)) {{ {dst} = {}; }} else {{ {dst} = {}; }}",
                     channels(&|c| format!("pwr{ramp}_{c}")),
                     channels(&|c| format!("{name}{c}"))
-                )
+                ))
             }
-            Instr::Hermite { dst, src, spline } => {
-                format!("s{dst} = r_piecewise(pwh{spline}(), s{src});")
+            Instr::Hermite { src, spline, .. } => Stmt::Let(format!(
+                "r_piecewise(pwh{spline}(), {})",
+                self.s(Prec::Lane, src)
+            )),
+            Instr::Ramp { src, ramp, .. } => {
+                let x = self.s(Prec::Lane, src);
+                arr([0, 1, 2].map(|c| format!("r_piecewise(pwr{ramp}_{c}(), {x})")))
             }
-            Instr::Ramp { dst, src, ramp } => format!(
-                "v{dst} = array<D, 3>(r_piecewise(pwr{ramp}_0(), s{src}), \
-                 r_piecewise(pwr{ramp}_1(), s{src}), r_piecewise(pwr{ramp}_2(), s{src}));"
-            ),
-            Instr::Curve { dst, src, curve } => {
-                format!("s{dst} = r_piecewise(pwc{curve}(), s{src});")
-            }
-            Instr::Widen { dst, src } => format!("d{dst} = s{src};"),
-            Instr::Narrow { dst, src } => format!("s{dst} = d{src};"),
-            Instr::NoiseGradient {
-                dst, src, table, ..
-            } => self.noise_gradient(dst, src, table),
+            Instr::Curve { src, curve, .. } => Stmt::Let(format!(
+                "r_piecewise(pwc{curve}(), {})",
+                self.s(Prec::Lane, src)
+            )),
+            Instr::Widen { src, .. } => Stmt::Let(self.s(Prec::Lane, src)),
+            Instr::Narrow { src, .. } => Stmt::Let(self.s(Prec::Wide, src)),
+            Instr::NoiseGradient { src, table, .. } => Stmt::Let(self.noise_gradient(src, table)),
             Instr::FractalGradient {
-                dst,
                 src,
                 table,
                 octaves,
                 style,
                 ..
-            } => self.fractal_gradient(dst, src, table, octaves, style),
+            } => Stmt::Block(self.fractal_gradient(dst, src, table, octaves, style)),
         }
     }
 
     /// A noise sample (tape.rs `noise_chunk`): white and cellular noise by their own rules
     /// (`integer`: which input components are integer-valued, for white noise's lattice),
     /// every other basis by the fade.
-    fn noise(&mut self, dst: &str, src: u32, table: u32, integer: [bool; 3]) -> String {
+    fn noise(&mut self, src: u32, table: u32, integer: [bool; 3]) -> String {
         let period = self.tape.tables[table as usize].0.period;
         let Sampler { kernel: k, at } = self.sampler(table, period);
+        let p = self.v(src);
         match self.tape.tables[table as usize].1.basis() {
             Basis::White => {
                 let [x, y, z] = integer;
-                format!("{dst} = n_white_{k}(v{src}, vec3<bool>({x}, {y}, {z}), {at}u);")
+                format!("n_white_{k}({p}, vec3<bool>({x}, {y}, {z}), {at}u)")
             }
-            Basis::Cellular(_) => format!("{dst} = n_cellular_{k}(v{src}, {at}u);"),
-            _ => format!("{dst} = n_octave_{k}(v{src}, {at}u);"),
+            Basis::Cellular(_) => format!("n_cellular_{k}({p}, {at}u)"),
+            _ => format!("n_octave_{k}({p}, {at}u)"),
         }
     }
 
     /// noise.rs `noise_gradient`: the gradient at the centre faded like the value.
-    fn noise_gradient(&mut self, dst: u32, src: u32, table: u32) -> String {
+    fn noise_gradient(&mut self, src: u32, table: u32) -> String {
         let period = self.tape.tables[table as usize].0.period;
         let Sampler { kernel: k, at } = self.sampler(table, period);
-        format!("v{dst} = n_gradient_{k}(v{src}, 1.0lf, {at}u);")
+        format!("n_gradient_{k}({}, 1.0lf, {at}u)", self.v(src))
     }
 
     /// Each octave's sampler of a fractal sum over `table` (its own period when tiled).
@@ -629,7 +694,7 @@ impl Gen<'_> {
     /// shaper in f64) faded by its coarsest octave's fade.
     fn fractal_gradient(
         &mut self,
-        dst: u32,
+        dst: &str,
         src: u32,
         table: u32,
         octaves: u32,
@@ -638,16 +703,17 @@ impl Gen<'_> {
         let samplers = self.octave_samplers(table, octaves);
         let schedule = &self.tape.octaves[octaves as usize];
         let st = self.stats(table);
+        let p = self.v(src);
         let mut w = String::from("{\n");
         if style == Style::Fbm {
             w.push_str("        var sum = array<D, 3>(dc(0.0lf), dc(0.0lf), dc(0.0lf));\n");
             octave_loop(&mut w, &samplers, schedule, |k, s, f, a| {
                 format!(
-                    "        let g = n_gradient_{k}(d3_scale(v{src}, {f}), {a} * {f}, {s});\n        \
+                    "        let g = n_gradient_{k}(d3_scale({p}, {f}), {a} * {f}, {s});\n        \
                      for (var i = 0u; i < 3u; i += 1u) {{ sum[i] = r_add(sum[i], g[i]); }}\n"
                 )
             });
-            let _ = write!(w, "        v{dst} = sum;\n    }}");
+            let _ = write!(w, "        {dst} = sum;\n    }}");
             return w;
         }
         let (code, offset, sharpness) = codegen::style_code(style);
@@ -655,7 +721,7 @@ impl Gen<'_> {
         let _ = writeln!(
             w,
             "        var g = gshaper_start_d();\n        \
-             let c = vec3<f64>(v{src}[0].m, v{src}[1].m, v{src}[2].m);"
+             let c = vec3<f64>({p}[0].m, {p}[1].m, {p}[2].m);"
         );
         octave_loop(&mut w, &samplers, schedule, |k, s, f, a| {
             format!(
@@ -664,14 +730,14 @@ impl Gen<'_> {
             )
         });
         let alpha = match schedule.frequencies.first() {
-            Some(&f) => format!("n_fade({st}, d3_scale(v{src}, {})).x", f64_literal(f)),
+            Some(&f) => format!("n_fade({st}, d3_scale({p}, {})).x", f64_literal(f)),
             None => "1.0lf".to_string(),
         };
         let _ = write!(
             w,
             "        let point = gshaper_gradient_d(g);\n        \
              let alpha = {alpha};\n        \
-             v{dst} = array<D, 3>(dc(alpha * point.x), dc(alpha * point.y), dc(alpha * point.z));\n    \
+             {dst} = array<D, 3>(dc(alpha * point.x), dc(alpha * point.y), dc(alpha * point.z));\n    \
              }}"
         );
         w
@@ -682,18 +748,10 @@ impl Gen<'_> {
     /// its kernel and style kind (written once: `n_fractal_KERNEL_STYLE`), which runs the
     /// octaves of its schedule's record in the data: the octave count, a ridged style's offset
     /// and sharpness, the bias, then per octave its frequency, amplitude and sampler.
-    fn fractal(
-        &mut self,
-        dst: &str,
-        src: u32,
-        table: u32,
-        octaves: u32,
-        style: Style,
-        bias: f64,
-    ) -> String {
+    fn fractal(&mut self, src: u32, table: u32, octaves: u32, style: Style, bias: f64) -> String {
         let samplers = self.octave_samplers(table, octaves);
         let Some(kernel) = samplers.first().map(|s| s.kernel.clone()) else {
-            return format!("{dst} = dc({});", f64_literal(bias));
+            return format!("dc({})", f64_literal(bias));
         };
         debug_assert!(samplers.iter().all(|s| s.kernel == kernel));
         let schedule = &self.tape.octaves[octaves as usize];
@@ -736,7 +794,7 @@ impl Gen<'_> {
 "
         );
         self.rule((name.clone(), function));
-        format!("{dst} = {name}(v{src}, {at}u);")
+        format!("{name}({}, {at}u)", self.v(src))
     }
 }
 
@@ -750,7 +808,7 @@ fn ftape<'a>(
     prelude: &str,
     lines: impl Iterator<Item = &'a String>,
     t: &Tape,
-    outputs: &[usize],
+    means: &[(usize, String)],
 ) {
     let _ = writeln!(w, "fn {name}(p: vec3<f64>) -> Channels {{\n{prelude}");
     for line in lines {
@@ -767,20 +825,12 @@ fn ftape<'a>(
         "    var r: Channels;\n    var m: f64;\n    var bad: array<bool, {channels}>;\n    \
          var any_bad = false;"
     );
-    for o in outputs.iter().map(|&k| &t.outputs[k]) {
-        for c in 0..o.ty.channels() {
-            let mean = if o.ty.channels() == 1 {
-                format!("s{}.m", o.slot)
-            } else {
-                format!("v{}[{c}].m", o.slot)
-            };
-            let ch = o.first_channel + c;
-            let _ = writeln!(
-                w,
-                "    m = {mean};\n    r.c[{ch}] = f32(m);\n    bad[{ch}] = !is_finite_d(m);\n    \
-                 any_bad = any_bad || bad[{ch}];"
-            );
-        }
+    for (ch, mean) in means {
+        let _ = writeln!(
+            w,
+            "    m = {mean};\n    r.c[{ch}] = f32(m);\n    bad[{ch}] = !is_finite_d(m);\n    \
+             any_bad = any_bad || bad[{ch}];"
+        );
     }
     let _ = writeln!(
         w,
@@ -1034,13 +1084,7 @@ mod tests {
             text[start..start + end].to_string()
         };
         let (a, n) = (body("ftape_o0"), body("ftape_o1"));
-        assert!(
-            a.contains("r_abs_sin") && !a.contains("n_octave_smp"),
-            "{a}"
-        );
-        assert!(
-            n.contains("n_octave_smp") && !n.contains("r_abs_sin"),
-            "{n}"
-        );
+        assert!(a.contains("r_abs_sin") && !a.contains("n_octave_"), "{a}");
+        assert!(n.contains("n_octave_") && !n.contains("r_abs_sin"), "{n}");
     }
 }

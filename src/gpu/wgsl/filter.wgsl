@@ -1186,7 +1186,7 @@ fn r_fract(d: D) -> D {
     if (d_is_const(d)) {
         return dc(d_fract(d.m));
     }
-    return f_out(d, per_moments(PC_SAW, d.m, f_spread(d)));
+    return f_out(d, per_moments(pc_shape(PC_SAW), d.m, f_spread(d)));
 }
 
 // floor d = d - fract d, its variance by Cov(d, fract d) ≈ slope · Var d.
@@ -1194,7 +1194,7 @@ fn r_floor(d: D) -> D {
     if (d_is_const(d)) {
         return dc(floor(d.m));
     }
-    let m = per_moments(PC_SAW, d.m, f_spread(d));
+    let m = per_moments(pc_shape(PC_SAW), d.m, f_spread(d));
     let t = f_total(d);
     return f_out(d, Mo(d.m - m.mean, max(t + m.variance - 2.0lf * m.slope * t, 0.0lf), 1.0lf - m.slope));
 }
@@ -1232,8 +1232,8 @@ fn r_lattice_mod(k: D, p: f64) -> D {
         let r = max(k.v - 1.0lf / 12.0lf, 0.0lf);
         let u = sp_new(widths, r);
         let scaled = sp_new(widths / p, r / (p * p));
-        let whole = per_moments(PC_SAW, (mu + 0.5lf) / p, scaled);
-        let unit = per_moments(PC_SAW, mu + 0.5lf, u);
+        let whole = per_moments(pc_shape(PC_SAW), (mu + 0.5lf) / p, scaled);
+        let unit = per_moments(pc_shape(PC_SAW), mu + 0.5lf, u);
         mean = p * whole.mean - unit.mean;
         let square = (p - 1.0lf) * (2.0lf * p - 1.0lf) / 6.0lf;
         variance = max(square - mean * mean, 0.0lf);

@@ -2,7 +2,7 @@
 // E[g(fract X)²] and the slope for X = t + S, exactly (the module docs of filtered_periodic.rs).
 // One copy for every chain shape: a shape is a block of the filtered form's data `fdata` (a
 // storage buffer on the GPU path, a module-scope array in the shader export) named by its
-// offset `pc`:
+// offset (`Pc`: the offset and the piece count m):
 //
 //   pc + 0                     m, the piece count
 //   pc + 1, pc + 2             ∫₀¹ g and ∫₀¹ g²
@@ -38,26 +38,32 @@ fn pc_pre(level: u32) -> u32 {
     return 22u + 3u * l + l * (level + 3u) / 2u;
 }
 
-fn pc_count(pc: u32) -> u32 {
-    return u32(fdata[pc]);
+// A shape: its block's offset and its piece count (read once per rule).
+struct Pc {
+    at: u32,
+    m: u32,
+}
+
+fn pc_shape(at: u32) -> Pc {
+    return Pc(at, u32(fdata[at]));
 }
 
 // Field `field` (0 start, 1 end, 2 jump, 3 line slope, 4 is a line) of piece j.
-fn pc_piece(pc: u32, field: u32, j: u32) -> f64 {
-    return fdata[pc + 3u + field * pc_count(pc) + j];
+fn pc_piece(pc: Pc, field: u32, j: u32) -> f64 {
+    return fdata[pc.at + 3u + field * pc.m + j];
 }
 
 // The level-`level` function at u in [0, 1]: its piece by the starts, then Horner.
-fn pc_eval(pc: u32, level: u32, u: f64) -> f64 {
-    let m = pc_count(pc);
+fn pc_eval(pc: Pc, level: u32, u: f64) -> f64 {
+    let m = pc.m;
     var j = 0u;
     for (var i = 1u; i < m; i += 1u) {
-        if (u >= fdata[pc + 3u + i]) {
+        if (u >= fdata[pc.at + 3u + i]) {
             j = i;
         }
     }
     let len = pc_len(level);
-    let base = pc + 3u + 5u * m + pc_pre(level) * m + j * len;
+    let base = pc.at + 3u + 5u * m + pc_pre(level) * m + j * len;
     var acc = fdata[base + len - 1u];
     for (var i = len - 1u; i > 0u; i -= 1u) {
         acc = acc * u + fdata[base + i - 1u];
@@ -66,7 +72,7 @@ fn pc_eval(pc: u32, level: u32, u: f64) -> f64 {
 }
 
 // F_L, G_L and the slope level at u: one loop over the three (one call site of `pc_eval`).
-fn pc_three(pc: u32, level: u32, slope_level: u32, u: f64) -> vec3<f64> {
+fn pc_three(pc: Pc, level: u32, slope_level: u32, u: f64) -> vec3<f64> {
     var out = vec3<f64>(0.0lf);
     var levels = vec3<u32>(level, level + 4u, slope_level);
     for (var i = 0u; i < 3u * u32(dispatch.one); i += 1u) {
@@ -78,7 +84,7 @@ fn pc_three(pc: u32, level: u32, slope_level: u32, u: f64) -> vec3<f64> {
 // Over the rest's spread (at most two periods wide): (E[F_L], E[G_L], slope part), F_L and
 // G_L the level-L functions of g and g²; the slope part E[F_{L-1}] for L >= 1, else E[g'] plus
 // each jump times the density at it.
-fn per_local(pc: u32, y: f64, sp: Sp, level: u32) -> vec3<f64> {
+fn per_local(pc: Pc, y: f64, sp: Sp, level: u32) -> vec3<f64> {
     let w = sp.w;
     let h = (w.x + w.y + w.z) / 2.0lf;
     var slope_level = 8u;
@@ -107,7 +113,7 @@ fn per_local(pc: u32, y: f64, sp: Sp, level: u32) -> vec3<f64> {
     var acc = vec3<f64>(0.0lf);
     let lo = y - h;
     let hi = y + h;
-    let count = pc_count(pc);
+    let count = pc.m;
     for (var k = floor(lo); k <= floor(hi); k += 1.0lf) {
         let yk = y - k;
         for (var j = 0u; j < count; j += 1u) {
@@ -149,11 +155,11 @@ fn per_local(pc: u32, y: f64, sp: Sp, level: u32) -> vec3<f64> {
 }
 
 // Mean, variance and slope of g(fract X), X = t + S (periodic.rs `Periodic::moments`).
-fn per_moments(pc: u32, t: f64, sp: Sp) -> Mo {
+fn per_moments(pc: Pc, t: f64, sp: Sp) -> Mo {
     if (!is_finite_d(t)) {
         return Mo(nan_d(), nan_d(), nan_d());
     }
-    let means = vec2<f64>(fdata[pc + 1u], fdata[pc + 2u]);
+    let means = vec2<f64>(fdata[pc.at + 1u], fdata[pc.at + 2u]);
     if (sp.unbounded) {
         return Mo(means.x, max(means.y - means.x * means.x, 0.0lf), 0.0lf);
     }
@@ -163,7 +169,7 @@ fn per_moments(pc: u32, t: f64, sp: Sp) -> Mo {
     let h = (w.x + w.y + w.z) / 2.0lf;
     let k0 = floor(x - h);
     if (floor(x + h) == k0) {
-        for (var j = 0u; j < pc_count(pc); j += 1u) {
+        for (var j = 0u; j < pc.m; j += 1u) {
             let b = pc_piece(pc, 3u, j);
             let line = pc_piece(pc, 4u, j) != 0.0lf;
             if (pc_piece(pc, 0u, j) <= x - h - k0 && x + h - k0 < pc_piece(pc, 1u, j) && line) {
@@ -213,7 +219,8 @@ fn per_moments(pc: u32, t: f64, sp: Sp) -> Mo {
 }
 
 // rules.rs `Rules::periodic`.
-fn r_periodic(pc: u32, d: D) -> D {
+fn r_periodic(at: u32, d: D) -> D {
+    let pc = pc_shape(at);
     if (d_is_const(d)) {
         return dc(pc_eval(pc, 0u, d.m - floor(d.m)));
     }
