@@ -17,7 +17,6 @@ use super::codegen::{self, f64_literal, Kernel, Shader};
 use super::error::GpuError;
 use crate::filter::fusions::{Fusion, Fusions};
 use crate::filter::moments::Piecewise;
-use crate::filter::noise::Stats;
 use crate::filter::operands::Source;
 use crate::filter::ranges::Restricted;
 use crate::noise::{Basis, Style};
@@ -503,23 +502,6 @@ impl Gen<'_> {
         sampler
     }
 
-    fn stats(&self, table: u32) -> String {
-        let (key, t) = &self.tape.tables[table as usize];
-        let Stats {
-            mean,
-            var,
-            kappa2,
-            grad_sq,
-        } = crate::filter::noise::cached_stats(*key, t);
-        format!(
-            "St({}, {}, {}, {})",
-            f64_literal(mean),
-            f64_literal(var),
-            f64_literal(kappa2),
-            f64_literal(grad_sq)
-        )
-    }
-
     /// Instruction `index`'s own rule: the value it writes, or statements that assign it to
     /// `dst` (declared before them).
     fn instruction(&mut self, index: usize, instr: &Instr, dst: &str) -> Stmt {
@@ -702,7 +684,6 @@ impl Gen<'_> {
     ) -> String {
         let samplers = self.octave_samplers(table, octaves);
         let schedule = &self.tape.octaves[octaves as usize];
-        let st = self.stats(table);
         let p = self.v(src);
         let mut w = String::from("{\n");
         if style == Style::Fbm {
@@ -729,9 +710,14 @@ impl Gen<'_> {
                  g = gshaper_add_f64_d(g, {code}u, n.w, n.xyz, {a}, {f}, {offset}, {sharpness});\n"
             )
         });
-        let alpha = match schedule.frequencies.first() {
-            Some(&f) => format!("n_fade({st}, d3_scale({p}, {})).x", f64_literal(f)),
-            None => "1.0lf".to_string(),
+        // The table's statistics from the coarsest octave's sampler record.
+        let alpha = match (schedule.frequencies.first(), samplers.first()) {
+            (Some(&f), Some(first)) => format!(
+                "n_fade(smp_stats({}u), d3_scale({p}, {})).x",
+                first.at,
+                f64_literal(f)
+            ),
+            _ => "1.0lf".to_string(),
         };
         let _ = write!(
             w,
