@@ -44,6 +44,17 @@ pub struct Loaded {
     pub outputs: Tape,
     /// The overrides that applied (those naming a param the file still has).
     pub overrides: Vec<(String, f64)>,
+    /// The file's text as read and checked.
+    pub text: String,
+}
+
+impl Loaded {
+    /// Whether the file no longer holds the text that was checked: a newer save landed while
+    /// this generation worked, and its watcher event is on its way. What the generation reads
+    /// of the file after `load` (the preview scene reads the graph again) may be the newer text.
+    pub fn superseded(&self) -> bool {
+        std::fs::read_to_string(&self.path).ok().as_deref() != Some(self.text.as_str())
+    }
 }
 
 /// Why a graph could not be loaded: the `graph` message's diagnostics, and the files it read.
@@ -69,6 +80,7 @@ pub fn load(
         .map(|(name, v)| (name.clone(), *v))
         .collect();
     let kinds = writeback::node_kinds(&source.text);
+    let text = source.text.to_string();
     let checked = crate::check::check(
         source,
         &CheckOptions {
@@ -94,6 +106,7 @@ pub fn load(
         kinds,
         outputs,
         overrides,
+        text,
     })
 }
 

@@ -32,18 +32,30 @@ fn instruction_forms(line: &str, wide: bool) -> Vec<String> {
     let Some(op) = words.next() else {
         return Vec::new();
     };
+    // A slot, or a component of one (`v10.x`).
     let slot = |w: &str| {
+        let w = w.split('.').next().unwrap_or(w);
         w.len() > 1
             && w[1..].chars().all(|c| c.is_ascii_digit())
             && w.starts_with(['s', 'v', 'd', 'w'])
     };
+    // A component of a vec3 slot (`s4 = v1.x`): one form whatever the slot.
+    let op = match op.split_once('.') {
+        Some((v, c)) if v.len() > 1 && v[1..].chars().all(|c| c.is_ascii_digit()) => {
+            format!("component {c}")
+        }
+        _ => op.to_string(),
+    };
+    let op = op.as_str();
     let mut forms = vec![op.to_string()];
     if wide {
         forms.push(format!("{op} wide"));
     }
     for word in words.map(|w| w.trim_end_matches(',')).filter(|w| !slot(w)) {
         let variant = match word.split_once('=') {
-            Some((key, value)) if value.parse::<f64>().is_ok() => key,
+            // A setting's number, tuple or slot is not a variant; a varying one (a slot) is.
+            Some((key, value)) if slot(value) => &format!("{key}=slot"),
+            Some((key, value)) if value.parse::<f64>().is_ok() || value.starts_with('(') => key,
             Some(_) => word,
             None if word.chars().all(|c| c.is_ascii_alphabetic()) => word,
             None => continue,
@@ -80,24 +92,65 @@ fn tape_forms(path: &std::path::Path) -> (usize, BTreeSet<String>) {
 pub fn covering(graphs: &[std::path::PathBuf]) -> Vec<std::path::PathBuf> {
     let forms: Vec<(usize, BTreeSet<String>)> = graphs.iter().map(|p| tape_forms(p)).collect();
     let mut missing: BTreeSet<String> = forms.iter().flat_map(|(_, f)| f.clone()).collect();
-    let mut chosen = Vec::new();
+    let mut chosen: Vec<usize> = Vec::new();
     while !missing.is_empty() {
+        // The most new forms per instruction (a graph's instructions: what a driver compiles).
         let (best, _) = forms
             .iter()
             .enumerate()
             .map(|(i, (len, f))| {
                 (
                     i,
-                    (f.intersection(&missing).count(), std::cmp::Reverse(*len)),
+                    f.intersection(&missing).count() as f64 / (*len).max(1) as f64,
                 )
             })
-            .max_by_key(|(_, key)| *key)
+            .max_by(|a, b| a.1.total_cmp(&b.1))
             .expect("a graph");
         missing.retain(|form| !forms[best].1.contains(form));
-        chosen.push(graphs[best].clone());
+        chosen.push(best);
     }
+    // Then without the graphs the others cover, the longest first.
+    chosen.sort_by_key(|&i| std::cmp::Reverse(forms[i].0));
+    let mut k = 0;
+    while k < chosen.len() {
+        let others: BTreeSet<&String> = chosen
+            .iter()
+            .filter(|&&j| j != chosen[k])
+            .flat_map(|&j| &forms[j].1)
+            .collect();
+        if forms[chosen[k]].1.iter().all(|f| others.contains(f)) {
+            chosen.remove(k);
+        } else {
+            k += 1;
+        }
+    }
+    let mut chosen: Vec<std::path::PathBuf> =
+        chosen.into_iter().map(|i| graphs[i].clone()).collect();
     chosen.sort();
     chosen
+}
+
+/// The covering set uses every form some graph uses, and each of its graphs adds a form the
+/// others lack.
+#[test]
+fn the_covering_set_has_every_form_and_no_spare_graph() {
+    let graphs = graph_files();
+    let all: BTreeSet<String> = graphs.iter().flat_map(|p| tape_forms(p).1).collect();
+    let set = covering(&graphs);
+    let forms: Vec<BTreeSet<String>> = set.iter().map(|p| tape_forms(p).1).collect();
+    let union: BTreeSet<String> = forms.iter().flatten().cloned().collect();
+    assert_eq!(union, all, "the covering set misses forms");
+    for (k, path) in set.iter().enumerate() {
+        let others: BTreeSet<&String> = forms
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != k)
+            .flat_map(|(_, f)| f)
+            .collect();
+        let own: Vec<&String> = forms[k].iter().filter(|f| !others.contains(f)).collect();
+        assert!(!own.is_empty(), "{} adds no form", path.display());
+        eprintln!("{}: {own:?}", path.display());
+    }
 }
 
 /// Every graph of `graphs/` and `graphs/library/` with [`full`], else [`covering`] them.

@@ -133,13 +133,10 @@ fn compare(
 /// and billow sums are in [`RULES`]). lavapipe takes seconds to minutes to
 /// compile a filtered shader, so `cargo test` compares these; `TEXGRAPH_FULL=1` compares every covered graph (each passed when the form
 /// landed; `seed002_noise`, `seed000_wood`, `warped_wood` and `seed004_turbulence` were in
-/// this list until the test loop was cut to five minutes, issue 46).
-const COMPARED: [&str; 4] = [
-    "seed003_marble.ron",
-    "seed004_checker3d.ron",
-    "tiling_marble.ron",
-    "cells.ron",
-];
+/// this list until the test loop was cut to five minutes, issue 46; `seed004_checker3d`, whose
+/// lattice rules `shader::exported_filtered_matches_the_cpu` runs through the same generator,
+/// until the second cut).
+const COMPARED: [&str; 3] = ["seed003_marble.ron", "tiling_marble.ron", "cells.ron"];
 
 /// The covered graphs of `graphs/` (those in [`COMPARED`], or all with `TEXGRAPH_FULL=1`): the GPU's estimates are the CPU's.
 #[test]

@@ -21,7 +21,9 @@ const SIDE: usize = 64;
 /// simplex, Perlin, Value and white noise, a fractal with its octave fade, tiling, sines (the
 /// exported sin and cos are written out: SwiftShader's are off by 1e-4), a vec3 colour output
 /// and a graph of several outputs, chosen among the graphs SwiftShader compiles in a few
-/// seconds (every graph: 300 s).
+/// seconds (every graph: 300 s). The seed 003 marble (8 s) left the set when the test loop was
+/// cut to five minutes (issue 46): its forms are the others', and
+/// [`the_webgl2_page_shades_a_sphere_with_an_export`] draws it.
 const WEBGL_SET: &[&str] = &[
     "cells",
     "tiling_marble",
@@ -29,16 +31,18 @@ const WEBGL_SET: &[&str] = &[
     "seed002_noise",
     "seed002_sine",
     "seed002_smooth_noise",
-    "seed003_marble",
     "seed004_checker3d",
     "seed004_wood_grain",
 ];
 
 /// The graphs whose `_filtered` forms `cargo test` runs in the browser (`TEXGRAPH_FULL=1`:
-/// every graph): noise through a ramp, a periodic chain. SwiftShader inlines every call, so a
-/// filtered shader compiles slowly: 4 s for these, 33 s for `cells`, 554 s for the seed 003
-/// marble's (docs/shaders.md).
-const WEBGL_FILTERED_SET: &[&str] = &["seed002_noise", "seed004_stripes"];
+/// every graph): a periodic chain (its shapes' data in a constant array). SwiftShader inlines
+/// every call, so a filtered shader compiles slowly: 11 s for this one, 12 s for the seed 002
+/// noise, 33 s for `cells`, 554 s for the seed 003 marble's (docs/shaders.md). Noise through
+/// a ramp left the set when the test loop was cut to five minutes (issue 46): its values are
+/// held to the CPU's in GLSL by `shader::exported_glsl_filtered_matches_the_cpu`, and
+/// [`the_webgl2_page_shades_a_sphere_with_an_export`] draws it in the browser.
+const WEBGL_FILTERED_SET: &[&str] = &["seed004_stripes"];
 
 /// The page's script: compiles `fragment` with a full-screen triangle, uploads the points
 /// (`arguments[1]`: f32 bit patterns, 4 or 12 per point) as an RGBA32F texture of `side`
