@@ -29,9 +29,20 @@ pub(super) fn context() -> Result<Arc<Context>, GpuError> {
         .map_err(GpuError::NoAdapter)
 }
 
+/// wgpu's instance flags in every build: its release defaults. wgpu's own default follows
+/// *its* build, and in debug and test builds turns on `DEBUG`, which has naga write every
+/// statement's source line into the SPIR-V (`Span::location` scans the source from its start
+/// each time: quadratic in a shader's length) and the driver read them: 16 % of the GPU
+/// tests' time on lavapipe before any compiling (issue 46). `WGPU_DEBUG=1`,
+/// `WGPU_VALIDATION=1` (`with_env`) turn them on where wanted.
+pub(super) fn instance_flags() -> wgpu::InstanceFlags {
+    wgpu::InstanceFlags::VALIDATION_INDIRECT_CALL
+}
+
 fn open() -> Result<Context, String> {
     let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle();
     descriptor.backends = wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12;
+    descriptor.flags = instance_flags();
     let descriptor = descriptor.with_env();
     let backends = descriptor.backends;
     let instance = wgpu::Instance::new(descriptor);

@@ -138,6 +138,7 @@ pub fn adapters() -> Vec<Adapter> {
     {
         let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle();
         descriptor.backends = wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12;
+        descriptor.flags = evaluator::instance_flags();
         let descriptor = descriptor.with_env();
         let backends = descriptor.backends;
         let instance = wgpu::Instance::new(descriptor);
