@@ -621,3 +621,29 @@ pub fn report(loaded: &Loaded) -> Result<Value, String> {
     let text = crate::report::table_text(&rows);
     Ok(json!({"type": "report", "text": text, "rows": rows}))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A generation whose file another save changed after it was read is superseded: the
+    /// worker stops it as cancelled instead of publishing what it read the second time.
+    #[test]
+    fn a_save_after_the_load_supersedes_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("g.ron");
+        let text = |k: f64| {
+            format!(
+                "Graph(nodes: {{ \"p\": Position }}, outputs: {{ \"v\": Mul(\"p.x\", {k:.1}) }})"
+            )
+        };
+        std::fs::write(&path, text(2.0)).unwrap();
+        let loaded = load(&path, &Settings::default(), &mut Vec::new())
+            .unwrap_or_else(|f| panic!("{}", f.text));
+        assert!(!loaded.superseded(), "the file still holds what was read");
+        std::fs::write(&path, text(3.0)).unwrap();
+        assert!(loaded.superseded(), "a newer save");
+        std::fs::remove_file(&path).unwrap();
+        assert!(loaded.superseded(), "the file is gone");
+    }
+}
