@@ -32,8 +32,9 @@ pub(super) fn context() -> Result<Arc<Context>, GpuError> {
 /// wgpu's instance flags in every build: its release defaults. wgpu's own default follows
 /// *its* build, and in debug and test builds turns on `DEBUG`, which has naga write every
 /// statement's source line into the SPIR-V (`Span::location` scans the source from its start
-/// each time: quadratic in a shader's length) and the driver read them: 16 % of the GPU
-/// tests' time on lavapipe before any compiling (issue 46). `WGPU_DEBUG=1`,
+/// each time: quadratic in a shader's length) and the driver read them: 2.4 s of the
+/// covering graphs' GPU contract test's 13.3 s on lavapipe with a warm Mesa cache (issue 46;
+/// docs/gpu.md). `WGPU_DEBUG=1`,
 /// `WGPU_VALIDATION=1` (`with_env`) turn them on where wanted.
 pub(super) fn instance_flags() -> wgpu::InstanceFlags {
     wgpu::InstanceFlags::VALIDATION_INDIRECT_CALL
