@@ -44,17 +44,6 @@ pub struct Loaded {
     pub outputs: Tape,
     /// The overrides that applied (those naming a param the file still has).
     pub overrides: Vec<(String, f64)>,
-    /// The file's text as read and checked.
-    pub text: String,
-}
-
-impl Loaded {
-    /// Whether the file no longer holds the text that was checked: a newer save landed while
-    /// this generation worked, and its watcher event is on its way. What the generation reads
-    /// of the file after `load` (the preview scene reads the graph again) may be the newer text.
-    pub fn superseded(&self) -> bool {
-        std::fs::read_to_string(&self.path).ok().as_deref() != Some(self.text.as_str())
-    }
 }
 
 /// Why a graph could not be loaded: the `graph` message's diagnostics, and the files it read.
@@ -80,7 +69,6 @@ pub fn load(
         .map(|(name, v)| (name.clone(), *v))
         .collect();
     let kinds = writeback::node_kinds(&source.text);
-    let text = source.text.to_string();
     let checked = crate::check::check(
         source,
         &CheckOptions {
@@ -106,7 +94,6 @@ pub fn load(
         kinds,
         outputs,
         overrides,
-        text,
     })
 }
 
@@ -547,10 +534,12 @@ pub fn number_json(v: f64) -> Value {
     }
 }
 
-/// The default preview scene of the graph file `graph` (docs/scenes.md) with the page's object,
+/// The default preview scene of the graph `loaded` (docs/scenes.md) with the page's object,
 /// space, params and output; `probe`: the output is a named node, not one of the graph's outputs.
+/// The scene takes the graph as `load` read and checked it, not the file again: a save in
+/// between would make the preview another text's than the graph the page shows.
 pub fn preview_scene(
-    graph: &Path,
+    loaded: &Loaded,
     settings: &Settings,
     output: Option<&str>,
     probe: bool,
@@ -571,9 +560,14 @@ pub fn preview_scene(
         output: output.map(str::to_string),
         bump: None,
     };
-    let mut desc = defaults.scene_desc(graph);
+    let mut desc = defaults.scene_desc(&loaded.path);
     desc.probe_nodes = probe;
-    render::Scene::from_desc_tracking(&desc, Path::new(""), files)
+    let checked = render::Checked {
+        path: &loaded.path,
+        overrides: &loaded.overrides,
+        graph: &loaded.graph,
+    };
+    render::Scene::from_desc_tracking(&desc, Path::new(""), checked, files)
 }
 
 /// Renders the preview at `width` pixels across (the scene's aspect kept, square for a graph's
@@ -626,24 +620,35 @@ pub fn report(loaded: &Loaded) -> Result<Value, String> {
 mod tests {
     use super::*;
 
-    /// A generation whose file another save changed after it was read is superseded: the
-    /// worker stops it as cancelled instead of publishing what it read the second time.
+    /// The preview scene is the graph `load` checked, not the file read again: a save in
+    /// between (here one without the output the page chose, as a generation can see when the
+    /// next save lands) leaves it the checked graph's; a removed file too.
     #[test]
-    fn a_save_after_the_load_supersedes_it() {
+    fn the_preview_scene_is_the_loaded_graph_not_a_later_save() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("g.ron");
-        let text = |k: f64| {
-            format!(
-                "Graph(nodes: {{ \"p\": Position }}, outputs: {{ \"v\": Mul(\"p.x\", {k:.1}) }})"
-            )
+        std::fs::write(
+            &path,
+            "Graph(nodes: { \"p\": Position }, outputs: { \"v\": Mul(\"p.x\", 2.0) })",
+        )
+        .unwrap();
+        let settings = Settings::default();
+        let loaded =
+            load(&path, &settings, &mut Vec::new()).unwrap_or_else(|f| panic!("{}", f.text));
+        let scene = |loaded: &Loaded| {
+            let mut files = Vec::new();
+            preview_scene(loaded, &settings, Some("v"), false, &mut files)
+                .map(|_| files)
+                .map_err(|e| e.to_string())
         };
-        std::fs::write(&path, text(2.0)).unwrap();
-        let loaded = load(&path, &Settings::default(), &mut Vec::new())
-            .unwrap_or_else(|f| panic!("{}", f.text));
-        assert!(!loaded.superseded(), "the file still holds what was read");
-        std::fs::write(&path, text(3.0)).unwrap();
-        assert!(loaded.superseded(), "a newer save");
+        let files = scene(&loaded).expect("the scene of the file as read");
+        assert!(
+            files.contains(&path),
+            "the graph file is watched: {files:?}"
+        );
+        std::fs::write(&path, "Graph(nodes: {}, outputs: { \"w\": 1.0 })").unwrap();
+        scene(&loaded).expect("a later save without output v");
         std::fs::remove_file(&path).unwrap();
-        assert!(loaded.superseded(), "the file is gone");
+        scene(&loaded).expect("the file removed");
     }
 }

@@ -228,14 +228,8 @@ impl Worker {
                 let mut view = settings.clone();
                 view.params = loaded.overrides.iter().cloned().collect();
                 let scene =
-                    session::preview_scene(&path, &view, output.as_deref(), probe, &mut files);
+                    session::preview_scene(&loaded, &view, output.as_deref(), probe, &mut files);
                 self.watch(files);
-                // The scene read the file again: a save between the two reads makes it (or
-                // its failure: the new text lacks the output the old one chose) the newer
-                // text's. That generation is on its way; this one is superseded, not broken.
-                if loaded.superseded() {
-                    return Err(Stop::Cancelled);
-                }
                 scene.map_err(|e| self.render_failed(generation, e))?
             }
         };

@@ -41,9 +41,7 @@ fn instruction_forms(line: &str, wide: bool) -> Vec<String> {
     };
     // A component of a vec3 slot (`s4 = v1.x`): one form whatever the slot.
     let op = match op.split_once('.') {
-        Some((v, c)) if v.len() > 1 && v[1..].chars().all(|c| c.is_ascii_digit()) => {
-            format!("component {c}")
-        }
+        Some((_, c)) if slot(op) => format!("component {c}"),
         _ => op.to_string(),
     };
     let op = op.as_str();
@@ -53,7 +51,7 @@ fn instruction_forms(line: &str, wide: bool) -> Vec<String> {
     }
     for word in words.map(|w| w.trim_end_matches(',')).filter(|w| !slot(w)) {
         let variant = match word.split_once('=') {
-            // A setting's number, tuple or slot is not a variant; a varying one (a slot) is.
+            // A setting's number or tuple is not a variant; a varying setting (any slot) is one.
             Some((key, value)) if slot(value) => &format!("{key}=slot"),
             Some((key, value)) if value.parse::<f64>().is_ok() || value.starts_with('(') => key,
             Some(_) => word,

@@ -51,7 +51,8 @@ use crate::diagnostic::SourceFile;
 use crate::source::read_source;
 use crate::syntax;
 use diagnostics::{ron_diagnostic, Located};
-use resolve::resolve;
+pub(crate) use resolve::Checked;
+use resolve::{resolve, resolve_with};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -139,13 +140,15 @@ impl Scene {
     }
 
     /// [`Scene::from_desc`], adding every file it read (graphs, their imports, meshes) to
-    /// `files`, also when it fails (what to watch for a fix).
+    /// `files`, also when it fails (what to watch for a fix), and taking the graph `checked`
+    /// where a texture names its file with its overrides instead of reading the file again.
     pub(crate) fn from_desc_tracking(
         desc: &SceneDesc,
         base: &Path,
+        checked: Checked,
         files: &mut Vec<PathBuf>,
     ) -> Result<Scene, RenderError> {
-        resolve(desc, base, None, files)
+        resolve_with(desc, base, checked, files)
     }
 
     /// Resolves a scene description built in code; relative paths are relative to `base`.

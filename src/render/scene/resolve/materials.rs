@@ -2,7 +2,7 @@
 //! texture channels bind (each checked once per set of overrides), the outputs they read, and,
 //! once everything checks, the compiled textures, the materials and their evaluation groups.
 
-use super::{finite, transform_of, vec3, Binding, Chosen, Resolver};
+use super::{finite, join_normalised, transform_of, vec3, Binding, Chosen, Resolver};
 use crate::check::CheckOptions;
 use crate::compile::{compile, CompileOptions};
 use crate::diagnostic::{Diagnostic, DiagnosticClass as C, Diagnostics};
@@ -321,7 +321,15 @@ impl<'a> Resolver<'a> {
         let at = first.at(&[Key::Field("graph")]);
         let overrides: Vec<(String, f64)> =
             first.set.iter().map(|(k, v)| (k.clone(), *v)).collect();
-        let result = load_graph(&path, &CheckOptions { overrides });
+        let result = match self.checked {
+            Some(c)
+                if join_normalised(Path::new(""), &c.path.to_string_lossy()) == path
+                    && c.overrides.iter().cloned().collect::<BTreeMap<_, _>>() == *first.set =>
+            {
+                Ok(c.graph.clone())
+            }
+            _ => load_graph(&path, &CheckOptions { overrides }),
+        };
         // The files the graph imports are watched too (`watch` re-renders when one changes),
         // also those a failed check got to (a broken imported file is where the fix will go).
         let imported: Vec<std::path::PathBuf> = match &result {

@@ -35,6 +35,28 @@ pub(super) fn resolve(
     Resolver::new(desc, base, located, files).run()
 }
 
+/// [`resolve`] with a graph file already read and checked: a texture of that file with the
+/// same overrides takes it instead of reading the file again.
+pub(super) fn resolve_with(
+    desc: &SceneDesc,
+    base: &Path,
+    checked: Checked,
+    files: &mut Vec<PathBuf>,
+) -> Result<Scene, RenderError> {
+    let mut resolver = Resolver::new(desc, base, None, files);
+    resolver.checked = Some(checked);
+    resolver.run()
+}
+
+/// A graph file as read and checked with `overrides` (the `serve` worker's: what it shows of
+/// the graph and what it previews come from the one read of the file).
+#[derive(Clone, Copy)]
+pub struct Checked<'a> {
+    pub path: &'a Path,
+    pub overrides: &'a [(String, f64)],
+    pub graph: &'a CheckedGraph,
+}
+
 /// What the phases of resolving a scene share: the description, where its paths start, the
 /// problems found so far, the files read, and what each phase found for the later ones.
 struct Resolver<'a> {
@@ -59,6 +81,8 @@ struct Resolver<'a> {
     chosen: Vec<Option<Chosen>>,
     /// Meshes loaded so far, by `obj:PATH:FIT` or `teapot:RESOLUTION:FIT`.
     meshes: Vec<(String, Arc<Mesh>)>,
+    /// A graph already checked, taken for the key it matches ([`resolve_with`]).
+    checked: Option<Checked<'a>>,
 }
 
 /// The key a compiled texture is shared by.
@@ -140,6 +164,7 @@ impl<'a> Resolver<'a> {
             outputs: Vec::new(),
             chosen: Vec::new(),
             meshes: Vec::new(),
+            checked: None,
         }
     }
 
