@@ -70,7 +70,7 @@ pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
         source.push_str(super::widen::library());
         source.push('\n');
     }
-    source.push_str(&tape_part(tape, &ConstantExprs::default()));
+    source.push_str(&tape_part(tape, &ConstantExprs::default(), "dispatch.one"));
     source.push_str(BINDINGS);
     source.push_str(ENTRY_POINTS);
     Ok(Shader {
@@ -82,9 +82,10 @@ pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
 
 /// The tape's own part of its shader, without the library, bindings or entry points: its
 /// spline functions, `CHANNELS`, `struct Channels` and `fn tape(p, h)`, reading the noise
-/// tables through `tables` and its constants times `dispatch.one`. The shader export
-/// (`shader/`) builds its f32 source on this.
-pub(crate) fn tape_part(tape: &Tape, constants: &ConstantExprs) -> String {
+/// tables through `tables` and its constants times `one`, the WGSL of a 1.0 (the GPU path's
+/// `dispatch.one`, which the driver cannot fold; the shader export's literal). The shader
+/// export (`shader/`) builds its source on this.
+pub(crate) fn tape_part(tape: &Tape, constants: &ConstantExprs, one: &str) -> String {
     let mut source = String::new();
     for (k, ramp) in tape.ramps.iter().enumerate() {
         spline_function(&mut source, &format!("ramp{k}"), ramp);
@@ -99,7 +100,7 @@ pub(crate) fn tape_part(tape: &Tape, constants: &ConstantExprs) -> String {
         "struct Channels {{\n    c: array<f32, {}>,\n}}\n",
         channels.max(1)
     );
-    source.push_str(&tape_function(tape, constants));
+    source.push_str(&tape_function(tape, constants, one));
     source
 }
 
@@ -113,7 +114,7 @@ pub(crate) struct ConstantExprs {
 }
 
 /// `fn tape(p: vec3<f64>) -> Channels`: the instructions in order over local slot variables.
-fn tape_function(tape: &Tape, constants: &ConstantExprs) -> String {
+fn tape_function(tape: &Tape, constants: &ConstantExprs, one: &str) -> String {
     let mut body = String::new();
     let w = &mut body;
     let _ = writeln!(w, "fn tape(p: vec3<f64>, h: f64) -> Channels {{");
@@ -126,9 +127,10 @@ fn tape_function(tape: &Tape, constants: &ConstantExprs) -> String {
     for k in 0..tape.wide_slots {
         let _ = writeln!(w, "    var d{k}: f64 = 0.0lf;");
     }
-    // Constants times `dispatch.one` (1.0 at run time, see `entry.wgsl`): exactly the constant
-    // (NaN, infinities and signed zeros included), and opaque to the driver's folding.
-    let _ = writeln!(w, "    let one = dispatch.one;");
+    // Constants times `one` (the GPU path's `dispatch.one`, 1.0 at run time, see `entry.wgsl`):
+    // exactly the constant (NaN, infinities and signed zeros included), and opaque to the
+    // driver's folding.
+    let _ = writeln!(w, "    let one = {one};");
     let _ = writeln!(w, "    let one_d = f64(one);");
     for &(slot, value) in &tape.scalar_constants {
         match constants.scalar.get(&slot) {

@@ -827,7 +827,7 @@ fn ftape<'a>(
     );
 }
 
-/// The octaves of a fractal sum: a loop the driver cannot unroll (`dispatch.one`) over arrays
+/// The octaves of a fractal sum: a loop the driver cannot unroll (`filter_one()`) over arrays
 /// of the octaves' frequencies, amplitudes and samplers, its body the statements `body(kernel,
 /// sampler, frequency, amplitude)` makes from their expressions: one copy of the octave rule
 /// and its noise kernel per fractal, not per octave. Every octave of a sum samples one table
@@ -850,7 +850,7 @@ fn octave_loop(
         "        var freqs = array<f64, {n}>({});\n        \
          var amps = array<f64, {n}>({});\n        \
          var smps = array<u32, {n}>({});\n        \
-         for (var k = 0u; k < {n}u * u32(dispatch.one); k += 1u) {{",
+         for (var k = 0u; k < {n}u * u32(filter_one()); k += 1u) {{",
         list(&schedule.frequencies).join(", "),
         list(&schedule.amplitudes).join(", "),
         at.join(", ")

@@ -15,9 +15,13 @@
 //! is removed from the module (WGSL, HLSL, MSL) or cut from the text (GLSL, whose writer needs
 //! one).
 
+#[cfg(feature = "shader")]
+mod functions;
+#[cfg(feature = "shader")]
 mod narrow;
 mod options;
 pub mod uniforms;
+mod words;
 
 use options::KEEP;
 pub use options::{
@@ -50,60 +54,60 @@ pub fn functions(tape: &Tape, filtered: bool) -> Result<Vec<ExportedFunction>, S
     Ok(all)
 }
 
-/// The all-f32 WGSL module of `tape` before naga: library, tables, the tape's function, the
-/// exported `functions` ([`functions`]) and the stub entry point (see the module comment).
-pub fn f32_wgsl(
+/// The export's WGSL module before naga: the GPU path's library and the tape's parts (the noise
+/// tables as module-scope arrays read by [`TABLE_READERS`], the constants times a literal 1.0,
+/// the filtered form's loops bounded by [`FILTER_ONE`]), the f32 forms of `narrow.rs` when the
+/// target has no f64 (every target today), the uniform block, the exported `functions`
+/// ([`functions`]) and the stub entry point. Functions written for the export are named
+/// `NAME__export` ([`EXPORT_FORM`]) and take `NAME`'s place on naga's IR (`translate`), which also narrows the
+/// module to f32 and prefixes its names: no pass rewrites this text.
+pub fn export_source(
     tape: &Tape,
     functions: &[ExportedFunction],
     uniforms: Option<&UniformPlan>,
     lang: Lang,
 ) -> String {
     let mut source = String::new();
-    for (file, text) in crate::gpu::codegen::LIBRARY {
-        if file == "common.wgsl" {
-            let binding = "@group(0) @binding(0) var<storage, read> tables: array<u32>;";
-            debug_assert!(text.contains(binding));
-            source.push_str(&text.replace(binding, ""));
-        } else {
-            source.push_str(text);
-        }
+    for (_, text) in crate::gpu::codegen::LIBRARY {
+        source.push_str(text);
         source.push('\n');
     }
-    let missing = narrow::replace_functions(&mut source, TABLE_READERS);
-    debug_assert!(missing.is_empty(), "the library has no {missing:?}");
+    source.push_str(TABLE_READERS);
     source.push_str(&table_arrays(tape, lang));
     let exprs = uniforms.map(|u| u.exprs.clone()).unwrap_or_default();
     // The GPU path's constants are multiplied by `dispatch.one`, a 1.0 the driver cannot fold
     // into them; the point forms take the literal.
-    source.push_str(&crate::gpu::codegen::tape_part(tape, &exprs).replace("dispatch.one", "1.0"));
+    source.push_str(&crate::gpu::codegen::tape_part(tape, &exprs, "1.0"));
     if functions.iter().any(|f| f.filtered.is_some()) {
         source.push_str(crate::gpu::widen::library());
         match crate::gpu::filtered::filtered_part(tape, true, Some(array_decl(lang))) {
-            Ok((part, _)) => source.push_str(&part.replace("dispatch.one", FILTER_ONE)),
+            Ok((part, _)) => source.push_str(&part),
             Err(e) => debug_assert!(false, "functions() checked the tape: {e}"),
         }
-        let _ = writeln!(source, "var<private> {FILTER_ONE}: f32 = 1.0;");
+        let _ = writeln!(
+            source,
+            "var<private> {FILTER_ONE}: f32 = 1.0;\nfn filter_one() -> f32 {{\n    return {FILTER_ONE};\n}}"
+        );
     }
-    let narrowed = narrow::narrow(&source);
-    let names = narrow::module_names(&narrowed);
-    let mut out = narrow::prefix(&narrowed, &names);
+    #[cfg(feature = "shader")]
+    source.push_str(narrow::F32_FORMS);
     if let Some(plan) = uniforms {
         // Every param a field, in the graph's order (those that stay constants too, so the
         // layout follows from the graph file alone): std140-compatible, field i at byte 4 i.
-        let _ = writeln!(out, "struct TexgraphParams {{");
+        let _ = writeln!(source, "struct {} {{", uniforms::STRUCT);
         for p in &plan.params {
-            let _ = writeln!(out, "    {}: f32,", p.field);
+            let _ = writeln!(source, "    {}: f32,", p.field);
         }
         if plan.params.is_empty() {
-            let _ = writeln!(out, "    unused: f32,");
+            let _ = writeln!(source, "    unused: f32,");
         }
         let _ = writeln!(
-            out,
-            "}}\n@group(0) @binding(0) var<uniform> {}: TexgraphParams;\n",
-            uniforms::INSTANCE
+            source,
+            "}}\n@group(0) @binding(0) var<uniform> {}: {};\n",
+            uniforms::INSTANCE,
+            uniforms::STRUCT
         );
     }
-    let p = narrow::PREFIX;
     for (k, (f, o)) in functions.iter().zip(&tape.outputs).enumerate() {
         let c = o.first_channel;
         let (ty, value) = if f.channels == 1 {
@@ -114,46 +118,68 @@ pub fn f32_wgsl(
                 format!("vec3<f32>(r.c[{c}], r.c[{}], r.c[{}])", c + 1, c + 2),
             )
         };
+        // The GPU path's tape takes positions in f64; narrowed, in f32.
         let _ = writeln!(
-            out,
-            "fn {}(p: vec3<f32>) -> {ty} {{\n    let r = {p}tape(p, 0.0);\n    return {value};\n}}\n",
+            source,
+            "fn {}(p: vec3<f32>) -> {ty} {{\n    let r = tape(vec3<f64>(p), 0.0);\n    return {value};\n}}\n",
             f.name
         );
         let _ = writeln!(
-            out,
-            "fn {}(p: vec3<f32>, spacing: f32) -> {ty} {{\n    let r = {p}tape(p, spacing);\n    return {value};\n}}\n",
+            source,
+            "fn {}(p: vec3<f32>, spacing: f32) -> {ty} {{\n    let r = tape(vec3<f64>(p), f64(spacing));\n    return {value};\n}}\n",
             f.lod
         );
         if let Some(filtered) = &f.filtered {
             let _ = writeln!(
-                out,
+                source,
                 "fn {filtered}(p: vec3<f32>, footprint: mat3x3<f32>) -> {ty} {{\n    \
-                 {p}{FILTER_ONE} = select(1.0, f32(bitcast<u32>(p.y) & 255u), bitcast<u32>(p.x) == 0x7fc0bad1u);\n    \
-                 {p}fp_set(footprint[0], footprint[1], footprint[2]);\n    \
-                 let r = {p}ftape_o{k}(p);\n    return {value};\n}}\n"
+                 {FILTER_ONE} = select(1.0, f32(bitcast<u32>(p.y) & 255u), bitcast<u32>(p.x) == 0x7fc0bad1u);\n    \
+                 fp_set(vec3<f64>(footprint[0]), vec3<f64>(footprint[1]), vec3<f64>(footprint[2]));\n    \
+                 let r = ftape_o{k}(vec3<f64>(p));\n    return {value};\n}}\n"
             );
         }
     }
     let _ = writeln!(
-        out,
+        source,
         "@fragment\nfn {KEEP}(@builtin(position) at: vec4<f32>) -> @location(0) vec4<f32> {{\n    var a = 0.0;"
     );
     for f in functions {
         let pick = if f.channels == 1 { "" } else { ".x" };
         let _ = writeln!(
-            out,
+            source,
             "    a = a + {}(at.xyz){pick} + {}(at.xyz, at.w){pick};",
             f.name, f.lod
         );
         if let Some(filtered) = &f.filtered {
             let _ = writeln!(
-                out,
+                source,
                 "    a = a + {filtered}(at.xyz, mat3x3<f32>(at.www, at.xyz, at.zyx)){pick};"
             );
         }
     }
-    let _ = writeln!(out, "    return vec4<f32>(a);\n}}");
-    out
+    let _ = writeln!(source, "    return vec4<f32>(a);\n}}");
+    source
+}
+
+/// The suffix of a function the export writes for itself: `fn NAME__export(…)` takes the place
+/// of the library's `NAME` on naga's IR (`functions::replace`).
+pub const EXPORT_FORM: &str = "__export";
+
+/// The prefix of every module-scope name of the library and the tape function in the export.
+pub const PREFIX: &str = "tg_";
+
+/// The names [`export_source`] gives that keep their name in the export (the rest get the
+/// `tg_` prefix): the exported functions, the stub entry point's and the uniform block's.
+fn kept_names(functions: &[ExportedFunction]) -> std::collections::HashSet<String> {
+    let mut keep: std::collections::HashSet<String> = functions
+        .iter()
+        .flat_map(ExportedFunction::names)
+        .cloned()
+        .collect();
+    keep.insert(KEEP.to_string());
+    keep.insert(uniforms::STRUCT.to_string());
+    keep.insert(uniforms::INSTANCE.to_string());
+    keep
 }
 
 /// The filtered form's loops (a noise octave's samples, the Gauss–Legendre nodes, a periodic
@@ -162,8 +188,9 @@ pub fn f32_wgsl(
 /// (the inlined noise kernel) instead of unrolling it (lavapipe unrolled the literal 1.0 and
 /// ran out of 24 GB on the first graph). An exported shader has no binding of its own, so each
 /// `_filtered` function sets this private variable from its point: 1.0, unless `p.x` is one
-/// particular NaN (then up to 255: wasted work on a NaN result). No compiler can fold that.
-const FILTER_ONE: &str = "filter_one";
+/// particular NaN (then up to 255: wasted work on a NaN result), and `fn filter_one()`, which
+/// the loops call (the GPU path's reads `dispatch.one`), returns it. No compiler can fold that.
+const FILTER_ONE: &str = "filter_one_value";
 
 /// The noise tables as constant arrays, one per section, holding only what each table's basis
 /// reads (the GPU path's buffer gives every table all 1544 words): the permutations packed four
@@ -256,39 +283,23 @@ fn array_decl(lang: Lang) -> &'static str {
 
 /// The library's table accessors, in place, over [`table_arrays`]' arrays (`t / T_WORDS`: the
 /// table's index).
-const TABLE_READERS: &[(&str, &str)] = &[
-    (
-        "perm_at",
-        "fn perm_at(t: u32, i: u32) -> u32 {
+const TABLE_READERS: &str = "
+fn perm_at__export(t: u32, i: u32) -> u32 {
     let k = tables_base[t / T_WORDS].x * 4u + (i & 255u);
     return (tables_perm[k >> 2u] >> (8u * (k & 3u))) & 255u;
 }
-",
-    ),
-    (
-        "grad_at",
-        "fn grad_at(t: u32, h: u32) -> vec3<f32> {
+fn grad_at__export(t: u32, h: u32) -> vec3<f32> {
     let b = tables_base[t / T_WORDS].y + 3u * (h & 255u);
     return vec3<f32>(bitcast<f32>(tables_grads[b]), bitcast<f32>(tables_grads[b + 1u]), bitcast<f32>(tables_grads[b + 2u]));
 }
-",
-    ),
-    (
-        "value_at",
-        "fn value_at(t: u32, h: u32) -> f32 {
+fn value_at__export(t: u32, h: u32) -> f32 {
     return bitcast<f32>(tables_values[tables_base[t / T_WORDS].z + (h & 255u)]);
 }
-",
-    ),
-    (
-        "hash_key",
-        "fn hash_key(t: u32) -> vec2<u32> {
+fn hash_key__export(t: u32) -> vec2<u32> {
     let b = tables_base[t / T_WORDS].w;
     return vec2<u32>(tables_keys[b], tables_keys[b + 1u]);
 }
-",
-    ),
-];
+";
 
 /// `tape` as a shader in `options.lang` (see the module comment).
 pub fn export(
@@ -298,8 +309,9 @@ pub fn export(
 ) -> Result<Exported, ShaderError> {
     check_version(options)?;
     let functions = functions(tape, options.filtered && !filtered_ignores(uniforms))?;
-    let wgsl = f32_wgsl(tape, &functions, uniforms, options.lang);
-    let mut source = tidy(&translate(&wgsl, options)?, options.lang, &functions);
+    let wgsl = export_source(tape, &functions, uniforms, options.lang);
+    let written = translate(&wgsl, options, &kept_names(&functions))?;
+    let mut source = tidy(&written, options.lang, &functions);
     source = plain_parameters(&source, &functions);
     if options.lang == Lang::Hlsl {
         source = hlsl_table_initializer(&source);
@@ -328,7 +340,7 @@ fn tidy(text: &str, lang: Lang, functions: &[ExportedFunction]) -> String {
         .filter(|n| n.ends_with(|c: char| c.is_ascii_digit()))
         .map(|n| (format!("{n}_"), n.clone()))
         .collect();
-    narrow::rename_words(text, |word| {
+    words::rename_words(text, |word| {
         if let Some(name) = exported.get(word) {
             return Some(name.clone());
         }
@@ -344,7 +356,7 @@ fn tidy(text: &str, lang: Lang, functions: &[ExportedFunction]) -> String {
                     .strip_prefix("type_")
                     .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit())) =>
             {
-                Some(format!("{}{word}", narrow::PREFIX))
+                Some(format!("{PREFIX}{word}"))
             }
             _ => None,
         }
@@ -376,7 +388,11 @@ mod translate;
 use translate::translate;
 
 #[cfg(not(feature = "shader"))]
-fn translate(_: &str, _: &ShaderOptions) -> Result<String, ShaderError> {
+fn translate(
+    _: &str,
+    _: &ShaderOptions,
+    _: &std::collections::HashSet<String>,
+) -> Result<String, ShaderError> {
     Err(ShaderError::NotBuilt)
 }
 
@@ -465,7 +481,7 @@ fn hlsl_table_initializer(text: &str) -> String {
 }
 
 /// MSL has no module-scope private variables: naga passes each (the filtered form's footprint
-/// state, `fp_*`, and `filter_one`) down as a `thread T&` parameter of every function that
+/// state, `fp_*`, and `filter_one_value`) down as a `thread T&` parameter of every function that
 /// uses one, the exported `_filtered` functions included. There they become locals
 /// (zero-initialized; the function sets them before any read), so each keeps the contract's
 /// signature `(p, footprint)`.
@@ -539,7 +555,7 @@ fn plain_parameters(text: &str, functions: &[ExportedFunction]) -> String {
         depth += line.matches('{').count();
         depth = depth.saturating_sub(line.matches('}').count());
         if inside {
-            out.push_str(&narrow::rename_words(line, |w| {
+            out.push_str(&words::rename_words(line, |w| {
                 let (base, n) = w.rsplit_once('_')?;
                 let numbered = !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit());
                 let ours = matches!(base, "p" | "spacing" | "footprint");

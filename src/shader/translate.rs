@@ -1,16 +1,33 @@
-//! The all-f32 WGSL module through naga: parse, validate without f64, compact to what the
-//! exported functions reach, write the language, and take the stub entry point out.
+//! The export's WGSL module (`export_source`) through naga: parse, made all-f32 and given the
+//! export's own functions on the IR (`narrow.rs`, `functions.rs`), compacted to what the
+//! exported functions reach, prefixed, validated without f64, written in the language, and the
+//! stub entry point taken out.
 
 use super::options::{Lang, ShaderError, ShaderOptions, KEEP};
 use naga::valid::{Capabilities, ValidationFlags, Validator};
+use std::collections::HashSet;
 
-/// `wgsl` (the module `f32_wgsl` builds) written in `options.lang`, without its stub entry point.
-pub(super) fn translate(wgsl: &str, options: &ShaderOptions) -> Result<String, ShaderError> {
+/// `wgsl` (the module `export_source` builds) written in `options.lang`, without its stub entry
+/// point; the names in `keep` are not prefixed.
+pub(super) fn translate(
+    wgsl: &str,
+    options: &ShaderOptions,
+    keep: &HashSet<String>,
+) -> Result<String, ShaderError> {
     let internal = |what: &str, e: String| ShaderError::Internal(format!("{what}: {e}"));
     let mut module = naga::front::wgsl::parse_str(wgsl)
-        .map_err(|e| internal("parsing the f32 WGSL", e.emit_to_string(wgsl)))?;
-    validate(&module, wgsl)?;
+        .map_err(|e| internal("parsing the export's WGSL", e.emit_to_string(wgsl)))?;
+    let wide = super::narrow::narrow(&mut module).map_err(|e| internal("narrowing to f32", e))?;
+    super::functions::replace(&mut module, super::EXPORT_FORM)
+        .map_err(|e| internal("the export's functions", e))?;
+    // Compacted before validation: the f64 forms the export replaced are gone, and then the
+    // constants only they read (such as f64's largest finite value), with their literals past
+    // f32's range.
     naga::compact::compact(&mut module, naga::compact::KeepUnused::No);
+    super::narrow::settle_constants(&mut module, &wide)
+        .map_err(|e| internal("narrowing to f32", e))?;
+    naga::compact::compact(&mut module, naga::compact::KeepUnused::No);
+    super::functions::prefix(&mut module, keep);
     if matches!(options.lang, Lang::Glsl | Lang::GlslEs) {
         let info = validate(&module, wgsl)?;
         return glsl(&module, &info, options);
@@ -107,7 +124,7 @@ fn glsl(
 /// output's declaration, and the `#version` line unless `keep_version`.
 fn strip_glsl_entry(text: &str, keep_version: bool) -> String {
     let mut text = text.to_string();
-    if let Some(main) = super::narrow::block_range(&text, "void main(") {
+    if let Some(main) = super::words::block_range(&text, "void main(") {
         text.replace_range(main, "");
     }
     text.lines()

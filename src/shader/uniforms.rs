@@ -18,6 +18,9 @@ use crate::gpu::codegen::ConstantExprs;
 use crate::tape::Tape;
 use std::path::Path;
 
+/// The uniform block's struct in the export's WGSL (GLSL's block is `TexgraphParamsBlock`).
+pub const STRUCT: &str = "TexgraphParams";
+
 /// The uniform block's instance name in every language.
 pub const INSTANCE: &str = "texgraph_params";
 

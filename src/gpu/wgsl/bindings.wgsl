@@ -27,6 +27,13 @@ struct Dispatch {
 }
 @group(0) @binding(2) var<uniform> dispatch: Dispatch;
 
+// The filtered form's loops run `n * filter_one()` times: a bound the driver cannot know, so it
+// keeps one copy of each loop's body instead of unrolling it (the shader export defines its
+// own `filter_one`, `shader::FILTER_ONE`).
+fn filter_one() -> f32 {
+    return dispatch.one;
+}
+
 // bake: the window layout of `bake::Window` (segment-planar: channel c of voxel i of segment s
 // at (s * CHANNELS + c) * segment_len + i); points: channel-planar, c * count + i.
 @group(0) @binding(3) var<storage, read_write> results: array<f32>;

@@ -328,11 +328,11 @@ fn pw_eval(f: Pw, x: f64) -> f64 {
     return horner4(f.p[j], x - pw_anchor(f, j));
 }
 
-// The Gauss-Legendre node count, 5, as a value the driver cannot know (`dispatch.one` is 1.0 at
+// The Gauss-Legendre node count, 5, as a value the driver cannot know (`filter_one()` is 1.0 at
 // run time, bindings.wgsl): a loop it cannot unroll, so each rule's integrand is compiled once,
 // not once per node (lavapipe took minutes and gigabytes on the unrolled periodic chains).
 fn gl_nodes() -> u32 {
-    return 5u * u32(dispatch.one);
+    return 5u * u32(filter_one());
 }
 
 const GL_X: array<f64, 5> = array<f64, 5>(-0.906179845938664lf, -0.5384693101056831lf, 0.0lf, 0.5384693101056831lf, 0.906179845938664lf);

@@ -14,7 +14,7 @@ fn n_octave_SAMPLE(p: array<D, 3>, s: u32) -> D {
         return D(st.mean, vec3<f64>(0.0lf), st.var_);
     }
     // The points to sample: the centre, or in the band the eight sub-box centres. One call
-    // site of the sampler in a loop the driver cannot unroll (`dispatch.one`): each call site
+    // site of the sampler in a loop the driver cannot unroll (`filter_one()`): each call site
     // inlines the whole f64 noise kernel.
     let band = alpha >= 0.01lf && alpha <= 0.99lf;
     var e: array<vec3<f64>, 3>;
@@ -24,7 +24,7 @@ fn n_octave_SAMPLE(p: array<D, 3>, s: u32) -> D {
         count = 8u;
     }
     var v: array<vec4<f64>, 8>;
-    for (var j = 0u; j < count * u32(dispatch.one); j += 1u) {
+    for (var j = 0u; j < count * u32(filter_one()); j += 1u) {
         var x = vec3<f64>(p[0].m, p[1].m, p[2].m);
         if (band) {
             x = n_sub_centre(p, e, j);

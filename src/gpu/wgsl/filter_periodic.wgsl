@@ -75,7 +75,7 @@ fn pc_eval(pc: Pc, level: u32, u: f64) -> f64 {
 fn pc_three(pc: Pc, level: u32, slope_level: u32, u: f64) -> vec3<f64> {
     var out = vec3<f64>(0.0lf);
     var levels = vec3<u32>(level, level + 4u, slope_level);
-    for (var i = 0u; i < 3u * u32(dispatch.one); i += 1u) {
+    for (var i = 0u; i < 3u * u32(filter_one()); i += 1u) {
         out[i] = pc_eval(pc, levels[i], u);
     }
     return out;

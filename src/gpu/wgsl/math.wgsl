@@ -11,6 +11,17 @@ const TWO_PI_64: f64 = 6.283185307179586lf;
 const ONE_BELOW_F32: f32 = 0.99999994;
 const ONE_BELOW_F64: f64 = 0.9999999999999999lf;
 
+// `ldexp` through one function per width, so that the shader export puts its stepwise f32 form
+// in their place (`shader/narrow.rs`: the languages leave `ldexp` past f32's exponent range
+// to the driver).
+fn s_ldexp(x: f32, e: i32) -> f32 {
+    return ldexp(x, e);
+}
+
+fn d_ldexp(x: f64, e: i32) -> f64 {
+    return ldexp(x, e);
+}
+
 fn is_nan_d(x: f64) -> bool {
     return !(x == x) || (x != x);
 }
@@ -156,7 +167,7 @@ fn s_pow(x: f32, y: f32) -> f32 {
     if (l > 128.0lf) { m = inf_f32(); } else if (l < -150.0lf) { m = 0.0; } else {
         // 2^l = 2^k 2^r with k whole: exp2 of a small r keeps its relative error small.
         let k = floor(l);
-        m = ldexp(exp2(f32(l - k)), i32(k));
+        m = s_ldexp(exp2(f32(l - k)), i32(k));
     }
     if (x < 0.0 && odd) { return -m; }
     return m;
@@ -210,9 +221,9 @@ fn d_rem(a: f64, b: f64) -> f64 {
             let bits = bitcast<u32>(f32(ratio));
             j = j + i32((bits >> 23u) & 255u) - 127 - 20;
         }
-        let d = ldexp(ms, e + j);
-        let dh = ldexp(msh, e + j);
-        let dl = ldexp(msl, e + j);
+        let d = d_ldexp(ms, e + j);
+        let dh = d_ldexp(msh, e + j);
+        let dl = d_ldexp(msl, e + j);
         let q = d_trunc((r / d) * (1.0lf + 1e-12lf));
         let t = r - dh * q;
         var rr = t - dl * q;
@@ -361,7 +372,7 @@ fn d_exp(x: f64) -> f64 {
     t = 1.0lf + r * t;
     // 2^k in two steps (k may be beyond the normal exponent range for subnormal results).
     let k1 = i32(floor(k * 0.5lf));
-    return ldexp(ldexp(t, k1), i32(k) - k1);
+    return d_ldexp(d_ldexp(t, k1), i32(k) - k1);
 }
 fn d_log2_parts(x: f64) -> vec2<f64> {
     var m = x;
@@ -383,7 +394,7 @@ fn d_log2_parts(x: f64) -> vec2<f64> {
 fn d_ln_finite(x: f64) -> f64 {
     let me = d_log2_parts(x);
     let e1 = f64(floor(log2(f32(me.x))));
-    var m = ldexp(me.x, -i32(e1));
+    var m = d_ldexp(me.x, -i32(e1));
     var e = me.y + e1;
     if (m > 1.4142135623730951lf) { m = m * 0.5lf; e = e + 1.0lf; }
     if (m < 0.7071067811865476lf) { m = m * 2.0lf; e = e - 1.0lf; }

@@ -1,0 +1,225 @@
+//! The export's module made for its target on naga's IR, after parsing: the functions an export
+//! writes for itself (`fn NAME__export`: the f32 forms and the table readers, appended to the source under a
+//! suffixed name) take the place of the library's `NAME`, and every module-scope name but the
+//! exported ones gets the `tg_` prefix so that nothing collides with the user's shader.
+
+use super::PREFIX;
+use naga::{Block, Expression, Function, Handle, Module, Statement};
+use std::collections::HashSet;
+
+/// Each function named `NAME{suffix}` replaces `NAME`: its body and signature go to `NAME`'s
+/// handle, so every call of `NAME` calls it; the replacement's own entry is left unused, for
+/// compaction. The functions are then put back in an order where each follows the functions
+/// it calls (naga's validator and writers need it; a replacement may call functions defined
+/// after the one it replaces). The names of replacements without a function to replace are
+/// an error.
+pub fn replace(module: &mut Module, suffix: &str) -> Result<(), String> {
+    let handles: std::collections::HashMap<String, Handle<Function>> = module
+        .functions
+        .iter()
+        .filter_map(|(h, f)| Some((f.name.clone()?, h)))
+        .collect();
+    let mut replaced = false;
+    for (name, &with) in &handles {
+        let Some(base) = name.strip_suffix(suffix) else {
+            continue;
+        };
+        let Some(&target) = handles.get(base) else {
+            return Err(format!(
+                "`{name}` replaces `{base}`, which the module lacks"
+            ));
+        };
+        let mut f = module.functions[with].clone();
+        f.name = Some(base.to_string());
+        module.functions[target] = f;
+        replaced = true;
+    }
+    if replaced {
+        order_by_calls(module);
+    }
+    Ok(())
+}
+
+/// Renames every named function, constant, global variable and type of `module` to
+/// [`PREFIX`]`name`, but for those in `keep` (the exported functions, the stub entry point's,
+/// the uniform block's struct and instance). Struct members keep their names.
+pub fn prefix(module: &mut Module, keep: &HashSet<String>) {
+    let rename = |name: &mut Option<String>| {
+        if let Some(n) = name.as_mut().filter(|n| !keep.contains(n.as_str())) {
+            n.insert_str(0, PREFIX);
+        }
+    };
+    for (_, f) in module.functions.iter_mut() {
+        rename(&mut f.name);
+    }
+    for (_, c) in module.constants.iter_mut() {
+        rename(&mut c.name);
+    }
+    for (_, g) in module.global_variables.iter_mut() {
+        rename(&mut g.name);
+    }
+    let named: Vec<_> = module
+        .types
+        .iter()
+        .filter(|(_, t)| t.name.is_some())
+        .map(|(h, t)| (h, t.clone()))
+        .collect();
+    for (h, mut t) in named {
+        rename(&mut t.name);
+        if t.name != module.types[h].name {
+            // In place: a prefixed name is new to the arena, so the handle stays.
+            module.types.replace(h, t);
+        }
+    }
+}
+
+/// Reorders `module.functions` so that every function comes after the functions it calls
+/// (depth first, in the old order otherwise), and points every call at the new handles.
+fn order_by_calls(module: &mut Module) {
+    let n = module.functions.len();
+    let callees: Vec<Vec<usize>> = module
+        .functions
+        .iter()
+        .map(|(_, f)| {
+            let mut calls = Vec::new();
+            each_call(&f.body, &mut |h| calls.push(h.index()));
+            calls
+        })
+        .collect();
+    let (mut order, mut state) = (Vec::with_capacity(n), vec![0u8; n]);
+    for root in 0..n {
+        if state[root] != 0 {
+            continue;
+        }
+        // Iterative depth-first post-order: (function, index of its next callee). WGSL has
+        // no recursion, so there are no cycles.
+        state[root] = 1;
+        let mut stack = vec![(root, 0usize)];
+        while let Some(top) = stack.last_mut() {
+            let (f, next) = *top;
+            if let Some(&callee) = callees[f].get(next) {
+                top.1 += 1;
+                if state[callee] == 0 {
+                    state[callee] = 1;
+                    stack.push((callee, 0));
+                }
+            } else {
+                order.push(f);
+                stack.pop();
+            }
+        }
+    }
+    let old: Vec<_> = module.functions.drain().map(|(_, f, s)| (f, s)).collect();
+    let mut old: Vec<Option<(Function, naga::Span)>> = old.into_iter().map(Some).collect();
+    let mut new_handle = vec![None; n];
+    for i in order {
+        let (f, span) = old[i].take().expect("each function once");
+        new_handle[i] = Some(module.functions.append(f, span));
+    }
+    let map = |h: Handle<Function>| new_handle[h.index()].expect("every function placed");
+    let entries = module.entry_points.iter_mut().map(|e| &mut e.function);
+    for f in module.functions.iter_mut().map(|(_, f)| f).chain(entries) {
+        for (_, e) in f.expressions.iter_mut() {
+            if let Expression::CallResult(h) = e {
+                *h = map(*h);
+            }
+        }
+        each_call_mut(&mut f.body, &mut |h| *h = map(*h));
+    }
+}
+
+/// Calls `each` with the function of every call in `block`, nested blocks included.
+fn each_call(block: &Block, each: &mut impl FnMut(Handle<Function>)) {
+    for s in block.iter() {
+        match s {
+            Statement::Call { function, .. } => each(*function),
+            Statement::Block(b) => each_call(b, each),
+            Statement::If { accept, reject, .. } => {
+                each_call(accept, each);
+                each_call(reject, each);
+            }
+            Statement::Switch { cases, .. } => cases.iter().for_each(|c| each_call(&c.body, each)),
+            Statement::Loop {
+                body, continuing, ..
+            } => {
+                each_call(body, each);
+                each_call(continuing, each);
+            }
+            _ => {}
+        }
+    }
+}
+
+/// [`each_call`], able to change the function called.
+fn each_call_mut(block: &mut Block, each: &mut impl FnMut(&mut Handle<Function>)) {
+    for s in block.iter_mut() {
+        match s {
+            Statement::Call { function, .. } => each(function),
+            Statement::Block(b) => each_call_mut(b, each),
+            Statement::If { accept, reject, .. } => {
+                each_call_mut(accept, each);
+                each_call_mut(reject, each);
+            }
+            Statement::Switch { cases, .. } => cases
+                .iter_mut()
+                .for_each(|c| each_call_mut(&mut c.body, each)),
+            Statement::Loop {
+                body, continuing, ..
+            } => {
+                each_call_mut(body, each);
+                each_call_mut(continuing, each);
+            }
+            _ => {}
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use naga::valid::{Capabilities, ValidationFlags, Validator};
+
+    #[test]
+    fn a_replacement_takes_the_place_and_the_order_follows_the_calls() {
+        // `f`'s replacement calls `h`, which the front end places after `f` and `g`.
+        let mut module = naga::front::wgsl::parse_str(
+            "fn f() -> f32 { return 1.0; }
+             fn g() -> f32 { return f() + 1.0; }
+             fn h() -> f32 { return 2.0 * g_unused(); }
+             fn g_unused() -> f32 { return 3.0; }
+             fn f__export() -> f32 { return h(); }
+             struct S { cell: f32 }
+             @fragment fn keep() -> @location(0) vec4<f32> {
+                 let s = S(g());
+                 return vec4<f32>(s.cell);
+             }",
+        )
+        .unwrap();
+        replace(&mut module, "__export").unwrap();
+        naga::compact::compact(&mut module, naga::compact::KeepUnused::No);
+        prefix(&mut module, &HashSet::from(["g".to_string()]));
+        let info = Validator::new(ValidationFlags::all(), Capabilities::empty())
+            .validate(&module)
+            .expect("callees before callers");
+        let names: Vec<_> = module
+            .functions
+            .iter()
+            .filter_map(|(_, f)| f.name.clone())
+            .collect();
+        // The replacement's own entry is gone with compaction; `f` now calls `h`.
+        assert_eq!(names, ["tg_g_unused", "tg_h", "tg_f", "g"]);
+        let text =
+            naga::back::wgsl::write_string(&module, &info, naga::back::wgsl::WriterFlags::empty())
+                .unwrap();
+        assert!(text.contains("struct tg_S {\n    cell: f32"), "{text}");
+        assert!(!text.contains("return 1f"), "{text}");
+    }
+
+    #[test]
+    fn a_replacement_of_nothing_is_an_error() {
+        let mut module =
+            naga::front::wgsl::parse_str("fn lonely__export() -> f32 { return 1.0; }").unwrap();
+        let e = replace(&mut module, "__export").unwrap_err();
+        assert!(e.contains("`lonely`"), "{e}");
+    }
+}
