@@ -744,7 +744,10 @@ fn spline_function<const N: usize>(w: &mut String, name: &str, spline: &Spline<N
         } else {
             0.0
         };
-        let (a, b) = (value(&values[i]), value(&values[i + 1]));
+        let a = value(&values[i]);
+        // b − a as the literal the GPU's f64 subtraction gives (naga folds no f64 vectors, and
+        // the export narrows it: one rounding instead of two).
+        let step = value(&std::array::from_fn(|c| values[i + 1][c] - values[i][c]));
         let (k, inv) = (f64_literal(knots[i]), f64_literal(inverse));
         let _ = writeln!(w, "    if (c >= {k}) {{");
         let _ = writeln!(w, "        var u = (c - {k}) * {inv};");
@@ -753,18 +756,18 @@ fn spline_function<const N: usize>(w: &mut String, name: &str, spline: &Spline<N
             (_, SplineInterpolation::Constant) if slope => writeln!(w, "        return {zero};"),
             (_, SplineInterpolation::Constant) => writeln!(w, "        return {a};"),
             (true, SplineInterpolation::Linear) => {
-                writeln!(w, "        return ({b} - {a}) * {inv};")
+                writeln!(w, "        return {step} * {inv};")
             }
             (true, SplineInterpolation::Smooth) => writeln!(
                 w,
-                "        return 6.0lf * u * (1.0lf - u) * ({b} - {a}) * {inv};"
+                "        return 6.0lf * u * (1.0lf - u) * {step} * {inv};"
             ),
             (false, SplineInterpolation::Linear) => {
-                writeln!(w, "        return {a} + u * ({b} - {a});")
+                writeln!(w, "        return {a} + u * {step};")
             }
             (false, SplineInterpolation::Smooth) => writeln!(
                 w,
-                "        u = u * u * (3.0lf - 2.0lf * u);\n        return {a} + u * ({b} - {a});"
+                "        u = u * u * (3.0lf - 2.0lf * u);\n        return {a} + u * {step};"
             ),
         };
         let _ = writeln!(w, "    }}");

@@ -3,7 +3,7 @@
 //! suffixed name) take the place of the library's `NAME`, and every module-scope name but the
 //! exported ones gets the `tg_` prefix so that nothing collides with the user's shader.
 
-use super::PREFIX;
+use super::options::PREFIX;
 use naga::{Block, Expression, Function, Handle, Module, Statement};
 use std::collections::HashSet;
 

@@ -6,14 +6,16 @@
 //!
 //! How: the GPU path's WGSL for the tape (`gpu::codegen`: the library in `gpu/wgsl/` and the
 //! tape's straight-line function; `gpu::filtered`: the filtered form's rules and one
-//! `ftape_oK` per output, with only the instructions that output reads) made all-f32
-//! (`narrow.rs`; naga's MSL and GLSL ES have no f64), the noise tables a module-scope constant array instead of a storage buffer, every name
-//! of the library prefixed `tg_`, the exported functions appended, and one stub entry point
-//! that calls them all. naga parses and validates that (without the f64 capability: the proof
-//! that nothing of f64 is left), compacts it (only what the entry point reaches stays: the
-//! library functions the requested outputs use), and writes the language; the stub entry point
-//! is removed from the module (WGSL, HLSL, MSL) or cut from the text (GLSL, whose writer needs
-//! one).
+//! `ftape_oK` per output, with only the instructions that output reads) as the GPU path has it,
+//! with the noise tables as module-scope arrays instead of a storage buffer, the functions the
+//! export writes for itself (`NAME__export`), the exported functions and one stub entry point
+//! that calls them all ([`export_source`]). naga parses that once; on its IR (`translate.rs`)
+//! the module is made all-f32 (`narrow.rs`; naga's MSL and GLSL ES have no f64), each
+//! `NAME__export` takes `NAME`'s place (`functions.rs`), only what the entry point reaches
+//! stays (compaction: the library functions the requested outputs use), every other name gets
+//! the `tg_` prefix, the validator proves without the f64 capability that nothing of f64 is
+//! left, and naga writes the language; the stub entry point is removed from the module (WGSL,
+//! HLSL, MSL) or cut from the text (GLSL, whose writer needs one).
 
 #[cfg(feature = "shader")]
 mod functions;
@@ -23,10 +25,10 @@ mod options;
 pub mod uniforms;
 mod words;
 
-use options::KEEP;
 pub use options::{
     function_name, identifier, Exported, ExportedFunction, Lang, ShaderError, ShaderOptions,
 };
+use options::{KEEP, PREFIX};
 
 use crate::tape::Tape;
 use std::fmt::Write;
@@ -56,10 +58,10 @@ pub fn functions(tape: &Tape, filtered: bool) -> Result<Vec<ExportedFunction>, S
 
 /// The export's WGSL module before naga: the GPU path's library and the tape's parts (the noise
 /// tables as module-scope arrays read by [`TABLE_READERS`], the constants times a literal 1.0,
-/// the filtered form's loops bounded by [`FILTER_ONE`]), the f32 forms of `narrow.rs` when the
-/// target has no f64 (every target today), the uniform block, the exported `functions`
-/// ([`functions`]) and the stub entry point. Functions written for the export are named
-/// `NAME__export` ([`EXPORT_FORM`]) and take `NAME`'s place on naga's IR (`translate`), which also narrows the
+/// the filtered form's loops bounded by [`FILTER_ONE`]), the f32 forms of `narrow.rs` (every
+/// target is f32 today), the uniform block, the exported `functions` ([`functions`]) and the
+/// stub entry point. Functions written for the export are named `NAME__export`
+/// (`options::EXPORT_FORM`) and take `NAME`'s place on naga's IR (`translate`), which also narrows the
 /// module to f32 and prefixes its names: no pass rewrites this text.
 pub fn export_source(
     tape: &Tape,
@@ -118,55 +120,50 @@ pub fn export_source(
                 format!("vec3<f32>(r.c[{c}], r.c[{}], r.c[{}])", c + 1, c + 2),
             )
         };
-        // The GPU path's tape takes positions in f64; narrowed, in f32.
+        // Written in the GPU path's f64 like the tape they call: narrowed, the parameters are
+        // the contract's f32 (`p: vec3<f32>`, `spacing: f32`, `footprint: mat3x3<f32>`).
         let _ = writeln!(
             source,
-            "fn {}(p: vec3<f32>) -> {ty} {{\n    let r = tape(vec3<f64>(p), 0.0);\n    return {value};\n}}\n",
+            "fn {}(p: vec3<f64>) -> {ty} {{\n    let r = tape(p, 0.0);\n    return {value};\n}}\n",
             f.name
         );
         let _ = writeln!(
             source,
-            "fn {}(p: vec3<f32>, spacing: f32) -> {ty} {{\n    let r = tape(vec3<f64>(p), f64(spacing));\n    return {value};\n}}\n",
+            "fn {}(p: vec3<f64>, spacing: f64) -> {ty} {{\n    let r = tape(p, spacing);\n    return {value};\n}}\n",
             f.lod
         );
         if let Some(filtered) = &f.filtered {
             let _ = writeln!(
                 source,
-                "fn {filtered}(p: vec3<f32>, footprint: mat3x3<f32>) -> {ty} {{\n    \
-                 {FILTER_ONE} = select(1.0, f32(bitcast<u32>(p.y) & 255u), bitcast<u32>(p.x) == 0x7fc0bad1u);\n    \
-                 fp_set(vec3<f64>(footprint[0]), vec3<f64>(footprint[1]), vec3<f64>(footprint[2]));\n    \
-                 let r = ftape_o{k}(vec3<f64>(p));\n    return {value};\n}}\n"
+                "fn {filtered}(p: vec3<f64>, footprint: mat3x3<f64>) -> {ty} {{\n    \
+                 {FILTER_ONE} = select(1.0, f32(bitcast<u32>(f32(p.y)) & 255u), bitcast<u32>(f32(p.x)) == 0x7fc0bad1u);\n    \
+                 fp_set(footprint[0], footprint[1], footprint[2]);\n    \
+                 let r = ftape_o{k}(p);\n    return {value};\n}}\n"
             );
         }
     }
     let _ = writeln!(
         source,
-        "@fragment\nfn {KEEP}(@builtin(position) at: vec4<f32>) -> @location(0) vec4<f32> {{\n    var a = 0.0;"
+        "@fragment\nfn {KEEP}(@builtin(position) at: vec4<f32>) -> @location(0) vec4<f32> {{\n    \
+         let p = vec3<f64>(at.xyz);\n    let w = vec3<f64>(at.www);\n    var a = 0.0;"
     );
     for f in functions {
         let pick = if f.channels == 1 { "" } else { ".x" };
         let _ = writeln!(
             source,
-            "    a = a + {}(at.xyz){pick} + {}(at.xyz, at.w){pick};",
+            "    a = a + {}(p){pick} + {}(p, f64(at.w)){pick};",
             f.name, f.lod
         );
         if let Some(filtered) = &f.filtered {
             let _ = writeln!(
                 source,
-                "    a = a + {filtered}(at.xyz, mat3x3<f32>(at.www, at.xyz, at.zyx)){pick};"
+                "    a = a + {filtered}(p, mat3x3<f64>(w, p, p.zyx)){pick};"
             );
         }
     }
     let _ = writeln!(source, "    return vec4<f32>(a);\n}}");
     source
 }
-
-/// The suffix of a function the export writes for itself: `fn NAME__export(…)` takes the place
-/// of the library's `NAME` on naga's IR (`functions::replace`).
-pub const EXPORT_FORM: &str = "__export";
-
-/// The prefix of every module-scope name of the library and the tape function in the export.
-pub const PREFIX: &str = "tg_";
 
 /// The names [`export_source`] gives that keep their name in the export (the rest get the
 /// `tg_` prefix): the exported functions, the stub entry point's and the uniform block's.

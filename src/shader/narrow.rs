@@ -5,10 +5,10 @@
 //!
 //! The generator writes the module once, in the GPU path's precision (the filtered rules and
 //! the bases' twins in f64); the export parses it with the f32 forms appended under names
-//! ending in `__export` (`shader::EXPORT_FORM`), and this pass, not a rewrite of the text, makes it all-f32. naga has
-//! no such pass of its own; it is small because only scalar widths change (the same ops exist
-//! at both widths), and the validator, run afterwards without the f64 capability, proves that
-//! nothing of f64 is left.
+//! ending in `__export` (`options::EXPORT_FORM`), and this pass, not a rewrite of the text,
+//! makes it all-f32. naga has no such pass of its own; it is small because only scalar widths
+//! change (the same ops exist at both widths), and the validator, run afterwards without the
+//! f64 capability, proves that nothing of f64 is left.
 
 use naga::{Expression, Handle, Literal, Module, Scalar, ScalarKind, Type, TypeInner};
 use std::collections::{HashMap, HashSet};
@@ -42,7 +42,7 @@ fn d_ln_finite__export(x: f32) -> f32 { return log(x); }
 fn d_div__export(a: f32, b: f32) -> f32 { return s_div(a, b); }
 // x 2^e for any e: three steps of at most 2^127 each (a single `ldexp` past f32's exponent
 // range is left to the driver by the languages).
-fn ldexp_f32(x: f32, e: i32) -> f32 {
+fn d_ldexp__export(x: f32, e: i32) -> f32 {
     var y = x;
     var k = clamp(e, -450, 450);
     for (var i = 0; i < 3; i = i + 1) {
@@ -52,8 +52,7 @@ fn ldexp_f32(x: f32, e: i32) -> f32 {
     }
     return y;
 }
-fn s_ldexp__export(x: f32, e: i32) -> f32 { return ldexp_f32(x, e); }
-fn d_ldexp__export(x: f32, e: i32) -> f32 { return ldexp_f32(x, e); }
+fn s_ldexp__export(x: f32, e: i32) -> f32 { return d_ldexp(x, e); }
 // The driver's own sin and cos may be as coarse as 2^-11 (the precision Vulkan and WebGL
 // allow; SwiftShader's, under Chromium's WebGL, are off by 1e-4): `sin_cos_f32` instead.
 fn sin_cos_f32(x: f32) -> vec2<f32> {

@@ -124,3 +124,11 @@ pub fn identifier(name: &str) -> String {
 
 /// The name of the stub entry point that keeps the exported functions through compaction.
 pub(super) const KEEP: &str = "tg_keep";
+
+/// The suffix of a function the export writes for itself: `fn NAME__export(…)` takes the place
+/// of the library's `NAME` on naga's IR (`functions::replace`).
+#[cfg_attr(not(feature = "shader"), allow(dead_code))]
+pub(super) const EXPORT_FORM: &str = "__export";
+
+/// The prefix of every module-scope name of the library and the tape function in the export.
+pub(super) const PREFIX: &str = "tg_";

@@ -18,7 +18,7 @@ pub(super) fn translate(
     let mut module = naga::front::wgsl::parse_str(wgsl)
         .map_err(|e| internal("parsing the export's WGSL", e.emit_to_string(wgsl)))?;
     let wide = super::narrow::narrow(&mut module).map_err(|e| internal("narrowing to f32", e))?;
-    super::functions::replace(&mut module, super::EXPORT_FORM)
+    super::functions::replace(&mut module, super::options::EXPORT_FORM)
         .map_err(|e| internal("the export's functions", e))?;
     // Compacted before validation: the f64 forms the export replaced are gone, and then the
     // constants only they read (such as f64's largest finite value), with their literals past
