@@ -1,7 +1,8 @@
 //! The export's module made for its target on naga's IR, after parsing: the functions an export
-//! writes for itself (`fn NAME__export`: the f32 forms and the table readers, appended to the source under a
-//! suffixed name) take the place of the library's `NAME`, and every module-scope name but the
-//! exported ones gets the `tg_` prefix so that nothing collides with the user's shader.
+//! writes for itself (`fn NAME__export`: the f32 forms and the table readers, appended to the
+//! source under a suffixed name) take the place of the library's `NAME`, and every module-scope
+//! name but the exported ones gets the `tg_` prefix so that nothing collides with the user's
+//! shader.
 
 use super::options::PREFIX;
 use naga::{Block, Expression, Function, Handle, Module, Statement};

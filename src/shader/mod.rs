@@ -61,8 +61,8 @@ pub fn functions(tape: &Tape, filtered: bool) -> Result<Vec<ExportedFunction>, S
 /// the filtered form's loops bounded by [`FILTER_ONE`]), the f32 forms of `narrow.rs` (every
 /// target is f32 today), the uniform block, the exported `functions` ([`functions`]) and the
 /// stub entry point. Functions written for the export are named `NAME__export`
-/// (`options::EXPORT_FORM`) and take `NAME`'s place on naga's IR (`translate`), which also narrows the
-/// module to f32 and prefixes its names: no pass rewrites this text.
+/// (`options::EXPORT_FORM`) and take `NAME`'s place on naga's IR (`translate`), which also
+/// narrows the module to f32 and prefixes its names: no pass rewrites this text.
 pub fn export_source(
     tape: &Tape,
     functions: &[ExportedFunction],

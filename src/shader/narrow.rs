@@ -248,13 +248,8 @@ fn narrow_types(module: &mut Module) -> Result<Vec<Handle<Type>>, String> {
                 base: base(b),
                 size,
             },
-            TypeInner::Array {
-                base: b,
-                size,
-                stride,
-            } if base(b) != b => {
+            TypeInner::Array { base: b, size, .. } if base(b) != b => {
                 layouter.update(module.to_ctx()).map_err(layout_error)?;
-                let _ = stride;
                 TypeInner::Array {
                     base: base(b),
                     size,
