@@ -52,7 +52,6 @@ fn d_ldexp__export(x: f32, e: i32) -> f32 {
     }
     return y;
 }
-fn s_ldexp__export(x: f32, e: i32) -> f32 { return d_ldexp(x, e); }
 // The driver's own sin and cos may be as coarse as 2^-11 (the precision Vulkan and WebGL
 // allow; SwiftShader's, under Chromium's WebGL, are off by 1e-4): `sin_cos_f32` instead.
 fn sin_cos_f32(x: f32) -> vec2<f32> {
