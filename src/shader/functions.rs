@@ -20,8 +20,15 @@ pub fn replace(module: &mut Module, suffix: &str) -> Result<(), String> {
         .iter()
         .filter_map(|(h, f)| Some((f.name.clone()?, h)))
         .collect();
+    // In name order, so that the first missing function is always the same one.
+    let mut replacements: Vec<(&String, Handle<Function>)> = handles
+        .iter()
+        .filter(|(name, _)| name.ends_with(suffix))
+        .map(|(name, &h)| (name, h))
+        .collect();
+    replacements.sort();
     let mut replaced = false;
-    for (name, &with) in &handles {
+    for (name, with) in replacements {
         let Some(base) = name.strip_suffix(suffix) else {
             continue;
         };
