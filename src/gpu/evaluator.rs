@@ -36,18 +36,24 @@ pub(super) fn context() -> Result<Arc<Context>, GpuError> {
 /// covering graphs' GPU contract test's 13.3 s on lavapipe with a warm Mesa cache (issue 46;
 /// docs/gpu.md). `WGPU_DEBUG=1`,
 /// `WGPU_VALIDATION=1` (`with_env`) turn them on where wanted.
-pub(super) fn instance_flags() -> wgpu::InstanceFlags {
+fn instance_flags() -> wgpu::InstanceFlags {
     wgpu::InstanceFlags::VALIDATION_INDIRECT_CALL
 }
 
-fn open() -> Result<Context, String> {
+/// Every adapter of the Vulkan, Metal and DX12 backends (the environment's `WGPU_*` settings
+/// applied), with the [`instance_flags`]: what `open` picks from and `gpu::adapters` lists.
+pub(super) fn enumerate_adapters() -> Vec<wgpu::Adapter> {
     let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle();
     descriptor.backends = wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12;
     descriptor.flags = instance_flags();
     let descriptor = descriptor.with_env();
     let backends = descriptor.backends;
     let instance = wgpu::Instance::new(descriptor);
-    let adapters = pollster::block_on(instance.enumerate_adapters(backends));
+    pollster::block_on(instance.enumerate_adapters(backends))
+}
+
+fn open() -> Result<Context, String> {
+    let adapters = enumerate_adapters();
     if adapters.is_empty() {
         return Err(
             "no graphics adapter found (no Vulkan, Metal or DX12 driver; on Debian, \

@@ -136,13 +136,7 @@ pub const BUILT_WITH_GPU: bool = cfg!(feature = "gpu");
 pub fn adapters() -> Vec<Adapter> {
     #[cfg(feature = "gpu")]
     {
-        let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle();
-        descriptor.backends = wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12;
-        descriptor.flags = evaluator::instance_flags();
-        let descriptor = descriptor.with_env();
-        let backends = descriptor.backends;
-        let instance = wgpu::Instance::new(descriptor);
-        pollster::block_on(instance.enumerate_adapters(backends))
+        evaluator::enumerate_adapters()
             .iter()
             .map(|adapter| describe(&adapter.get_info()))
             .collect()

@@ -48,6 +48,51 @@ pub fn replace(module: &mut Module, suffix: &str) -> Result<(), String> {
     Ok(())
 }
 
+/// Points every call of the function `from` at the function `to`, which must have the same
+/// signature in `module` (after narrowing, `s_ldexp` and `d_ldexp` are one function): `from`
+/// is left unused, for compaction, and the functions ordered again by their calls.
+pub fn redirect(module: &mut Module, from: &str, to: &str) -> Result<(), String> {
+    let find = |name: &str| {
+        module
+            .functions
+            .iter()
+            .find(|(_, f)| f.name.as_deref() == Some(name))
+            .map(|(h, _)| h)
+    };
+    let (Some(from), Some(to)) = (find(from), find(to)) else {
+        return Ok(());
+    };
+    let signature = |f: &Function| {
+        let arguments: Vec<_> = f.arguments.iter().map(|a| a.ty).collect();
+        (arguments, f.result.as_ref().map(|r| r.ty))
+    };
+    if signature(&module.functions[from]) != signature(&module.functions[to]) {
+        let name = |h: Handle<Function>| module.functions[h].name.clone().unwrap_or_default();
+        return Err(format!(
+            "`{}` and `{}` differ in their signatures",
+            name(from),
+            name(to)
+        ));
+    }
+    let entries = module.entry_points.iter_mut().map(|e| &mut e.function);
+    for f in module.functions.iter_mut().map(|(_, f)| f).chain(entries) {
+        for (_, e) in f.expressions.iter_mut() {
+            if let Expression::CallResult(h) = e {
+                if *h == from {
+                    *h = to;
+                }
+            }
+        }
+        each_call_mut(&mut f.body, &mut |h| {
+            if *h == from {
+                *h = to;
+            }
+        });
+    }
+    order_by_calls(module);
+    Ok(())
+}
+
 /// Renames every named function, constant, global variable and type of `module` to
 /// [`PREFIX`]`name`, but for those in `keep` (the exported functions, the stub entry point's,
 /// the uniform block's struct and instance). Struct members keep their names.
@@ -221,6 +266,31 @@ mod tests {
                 .unwrap();
         assert!(text.contains("struct tg_S {\n    cell: f32"), "{text}");
         assert!(!text.contains("return 1f"), "{text}");
+    }
+
+    #[test]
+    fn a_redirected_function_is_called_no_more() {
+        let mut module = naga::front::wgsl::parse_str(
+            "fn a(x: f32) -> f32 { return x * 2.0; }
+             fn b(x: f32) -> f32 { return x + x; }
+             fn c(x: i32) -> f32 { return f32(x); }
+             @fragment fn keep() -> @location(0) vec4<f32> { return vec4<f32>(a(1.0)); }",
+        )
+        .unwrap();
+        assert!(redirect(&mut module, "a", "c")
+            .unwrap_err()
+            .contains("signatures"));
+        redirect(&mut module, "a", "b").unwrap();
+        naga::compact::compact(&mut module, naga::compact::KeepUnused::No);
+        let names: Vec<_> = module
+            .functions
+            .iter()
+            .filter_map(|(_, f)| f.name.clone())
+            .collect();
+        assert_eq!(names, ["b"]);
+        Validator::new(ValidationFlags::all(), Capabilities::empty())
+            .validate(&module)
+            .expect("valid");
     }
 
     #[test]

@@ -16,6 +16,10 @@ use std::collections::{HashMap, HashSet};
 /// The module's f64 constants by name, with their values where they are literals.
 pub type Wide = HashMap<String, Option<f64>>;
 
+/// Functions that are one function once narrowed: calls of the first call the second
+/// (`functions::redirect`), so the export carries one stepwise `ldexp`.
+pub const SAME_IN_F32: &[(&str, &str)] = &[("s_ldexp", "d_ldexp")];
+
 /// The f32 forms of the functions whose narrowed f64 form would be wrong or poor in f32: the
 /// cell words of the hash (`c − floor(c / 2³²) · 2³²` rounds every negative cell's low word in
 /// f32: white and cellular noise would hash the wrong cells), the NaN and infinity tests and the

@@ -20,6 +20,10 @@ pub(super) fn translate(
     let wide = super::narrow::narrow(&mut module).map_err(|e| internal("narrowing to f32", e))?;
     super::functions::replace(&mut module, super::options::EXPORT_FORM)
         .map_err(|e| internal("the export's functions", e))?;
+    for (from, to) in super::narrow::SAME_IN_F32 {
+        super::functions::redirect(&mut module, from, to)
+            .map_err(|e| internal("the export's functions", e))?;
+    }
     // Compacted before validation: the f64 forms the export replaced are gone, and then the
     // constants only they read (such as f64's largest finite value), with their literals past
     // f32's range.

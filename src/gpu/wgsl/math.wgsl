@@ -11,9 +11,13 @@ const TWO_PI_64: f64 = 6.283185307179586lf;
 const ONE_BELOW_F32: f32 = 0.99999994;
 const ONE_BELOW_F64: f64 = 0.9999999999999999lf;
 
-// `ldexp` through one function, so that the shader export puts its stepwise f32 form in its
-// place (`shader/narrow.rs`: the languages leave `ldexp` past f32's exponent range to the
-// driver). The f32 callers scale in f64 (exact) and round once, as f32's `ldexp` would.
+// `ldexp` through one function per width, so that the shader export puts its stepwise f32 form
+// in their place (`shader/narrow.rs`: the languages leave `ldexp` past f32's exponent range to
+// the driver; narrowed, both are that one function).
+fn s_ldexp(x: f32, e: i32) -> f32 {
+    return ldexp(x, e);
+}
+
 fn d_ldexp(x: f64, e: i32) -> f64 {
     return ldexp(x, e);
 }
@@ -163,7 +167,7 @@ fn s_pow(x: f32, y: f32) -> f32 {
     if (l > 128.0lf) { m = inf_f32(); } else if (l < -150.0lf) { m = 0.0; } else {
         // 2^l = 2^k 2^r with k whole: exp2 of a small r keeps its relative error small.
         let k = floor(l);
-        m = f32(d_ldexp(f64(exp2(f32(l - k))), i32(k)));
+        m = s_ldexp(exp2(f32(l - k)), i32(k));
     }
     if (x < 0.0 && odd) { return -m; }
     return m;
