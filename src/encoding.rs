@@ -107,6 +107,7 @@ impl Encoding {
     }
 
     /// The code `pack.wgsl` knows this encoding by (`ENC_*` there), and its sRGB flag.
+    #[cfg_attr(not(feature = "gpu"), allow(dead_code))]
     pub(crate) fn gpu_code(self) -> (u32, u32) {
         match self {
             Encoding::F32 => (0, 0),

@@ -83,6 +83,7 @@ pub(crate) mod points;
 pub mod precision;
 pub mod real;
 pub mod report;
+#[cfg(feature = "serve")]
 pub mod serve;
 pub mod shader;
 pub mod source;

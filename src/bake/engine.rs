@@ -356,7 +356,9 @@ struct Job {
     bytes: Vec<u8>,
 }
 
-/// What evaluates a bake's windows.
+/// What evaluates a bake's windows. (Without the `gpu` feature `GpuBake` is an empty stand-in,
+/// and the CPU variant the large one; one producer lives per bake.)
+#[cfg_attr(not(feature = "gpu"), allow(clippy::large_enum_variant))]
 enum Producer<'a, S: Real> {
     Cpu {
         tape: &'a Tape,

@@ -49,7 +49,11 @@ impl BakeFileOptions {
                     }
             }
             Format::Ktx2 => u64::from(self.ktx2_format(ty).texel_bytes()),
+            #[cfg(feature = "zarr")]
             Format::Zarr => channels * super::zarr::sample_type(self).bytes(),
+            // Refused before anything is planned (`planned_outputs`): float32, the largest.
+            #[cfg(not(feature = "zarr"))]
+            Format::Zarr => channels * 4,
             Format::Vdb => channels * 4,
         }
     }
@@ -60,12 +64,23 @@ impl BakeFileOptions {
     }
 }
 
+/// Why a build without the `zarr` feature bakes no zarr store.
+#[cfg(not(feature = "zarr"))]
+fn no_zarr() -> BakeError {
+    BakeError::Refused(
+        "--format zarr: this texgraph was built without its `zarr` feature (build with the default features, or `--features zarr`)".into(),
+    )
+}
+
 /// The final path of each output's file (or slice folder), in output order. Each is a direct
 /// child of the output folder: a name that would leave it is refused (the checker already
 /// refuses such output names; this is the second line of defence).
 pub fn planned_outputs(tape: &Tape, options: &BakeFileOptions) -> Result<Vec<PathBuf>, BakeError> {
     if options.format == Format::Zarr {
+        #[cfg(feature = "zarr")]
         return Ok(vec![super::zarr::store_path(options)?]);
+        #[cfg(not(feature = "zarr"))]
+        return Err(no_zarr());
     }
     if options.format == Format::Vdb {
         let name = format!("{}.vdb", options.stem);
@@ -228,8 +243,13 @@ pub fn bake_files(
     if options.format == Format::Zarr {
         // A store is written in place, shard by shard, each shard atomically (zarr.rs).
         validate_grid(&options.bake.grid)?;
-        super::zarr::preflight(tape, options)?;
-        return super::zarr::bake_zarr(tape, options, progress);
+        #[cfg(feature = "zarr")]
+        {
+            super::zarr::preflight(tape, options)?;
+            return super::zarr::bake_zarr(tape, options, progress);
+        }
+        #[cfg(not(feature = "zarr"))]
+        return Err(no_zarr());
     }
     if options.format == Format::Vdb {
         let (finals, _) = preflight(tape, options)?;
@@ -271,12 +291,15 @@ pub fn bake_mipmapped(
         Format::Vdb => Err(BakeError::Refused(
             "--mips applies to --format ktx2, zarr, png, exr and raw; an OpenVDB grid has no mip levels".into(),
         )),
+        #[cfg(feature = "zarr")]
         Format::Zarr => {
             super::zarr::preflight(&tapes[0], &options)?;
             Ok(vec![super::zarr::bake_zarr_levels(
                 &refs, &options, progress,
             )?])
         }
+        #[cfg(not(feature = "zarr"))]
+        Format::Zarr => Err(no_zarr()),
         Format::Png | Format::Exr | Format::Raw => {
             let level_options: Vec<BakeFileOptions> = (0..options.levels)
                 .map(|level| {

@@ -41,6 +41,7 @@ mod sinks;
 pub mod vdb;
 mod vdb_bake;
 mod window;
+#[cfg(feature = "zarr")]
 pub mod zarr;
 
 pub use crate::encoding::{encode_u16, encode_u8, srgb_encode, Encoding, Packing};
@@ -56,8 +57,9 @@ pub use files::commit_files;
 pub use files::{bake_files, bake_mipmapped, planned_outputs, validate_grid};
 pub use settings::{
     human_bytes, mip_grid, mip_level_count, mip_spacing, mips_note, BakeFileOptions, BakeReport,
-    BakedFile, ExrCompression, Format, Ktx2SampleType, RawSampleType, Transfer,
-    DEFAULT_MAX_BAKE_BYTES, DEFAULT_MAX_HELD_BYTES, DEFAULT_ZSTD_LEVEL, ZSTD_LEVELS,
+    BakedFile, ExrCompression, Format, Ktx2SampleType, RawSampleType, Transfer, ZarrCompression,
+    ZarrSettings, DEFAULT_CHUNK, DEFAULT_MAX_BAKE_BYTES, DEFAULT_MAX_HELD_BYTES, DEFAULT_SHARD,
+    DEFAULT_ZSTD_LEVEL, ZSTD_LEVELS,
 };
 pub use sinks::{png_bytes, write_exr_image};
 pub use window::{Sink, Window, WindowOutput};

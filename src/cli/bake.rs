@@ -37,7 +37,7 @@ pub struct BakeArgs {
     shard: Option<u64>,
     /// Zarr: chunk compression [default: zstd, level from --zstd=LEVEL, default 3].
     #[arg(long, value_enum, value_name = "METHOD")]
-    compression: Option<crate::bake::zarr::ZarrCompression>,
+    compression: Option<crate::bake::ZarrCompression>,
     /// Bake only part I of N (from 1): of a zarr store's shards (one graph file), or of the
     /// sorted list of graph files (several). `auto` reads a Kubernetes Indexed Job's
     /// JOB_COMPLETION_INDEX (with --parts N) or a Slurm job array's SLURM_ARRAY_TASK_ID and
@@ -256,8 +256,7 @@ pub fn bake_option_misuse(args: &BakeArgs) -> Vec<String> {
         "--zstd",
         format == Format::Ktx2
             || (format == Format::Zarr
-                && args.compression.unwrap_or_default()
-                    == crate::bake::zarr::ZarrCompression::Zstd),
+                && args.compression.unwrap_or_default() == crate::bake::ZarrCompression::Zstd),
         "--format ktx2 and --format zarr with --compression zstd",
     );
     for (given, option) in [
@@ -677,8 +676,8 @@ fn file_options(
         (false, false) => crate::bake::Ktx2SampleType::U8,
     };
     options.zstd = args.zstd;
-    options.zarr.chunk = args.chunk.unwrap_or(crate::bake::zarr::DEFAULT_CHUNK);
-    options.zarr.shard = args.shard.unwrap_or(crate::bake::zarr::DEFAULT_SHARD);
+    options.zarr.chunk = args.chunk.unwrap_or(crate::bake::DEFAULT_CHUNK);
+    options.zarr.shard = args.shard.unwrap_or(crate::bake::DEFAULT_SHARD);
     options.zarr.compression = args.compression.unwrap_or_default();
     options.transfer = args.transfer.unwrap_or_default();
     options.graph_path = file.display().to_string();

@@ -2,8 +2,10 @@
 
 use super::*;
 use clap::Args;
+#[cfg(feature = "serve")]
 use std::path::PathBuf;
 
+#[cfg(feature = "serve")]
 #[derive(Args)]
 pub struct ServeArgs {
     /// A graph file, a scene file, or a folder of graph files.
@@ -30,7 +32,27 @@ pub struct ServeArgs {
     thumb_size: u32,
 }
 
+/// Without the `serve` feature: whatever follows `serve` is taken, and refused.
+#[cfg(not(feature = "serve"))]
+#[derive(Args)]
+pub struct ServeArgs {
+    #[arg(
+        trailing_var_arg = true,
+        allow_hyphen_values = true,
+        value_name = "ARGS"
+    )]
+    _args: Vec<String>,
+}
+
+/// Without the `serve` feature: refused (exit code 2).
+#[cfg(not(feature = "serve"))]
+pub fn serve(_: ServeArgs) -> Result<(), Failure> {
+    eprintln!("error: texgraph serve: this texgraph was built without its `serve` feature (build with the default features, or `--features serve`)");
+    Err(Failure::Usage)
+}
+
 /// Serves the page until interrupted.
+#[cfg(feature = "serve")]
 pub fn serve(args: ServeArgs) -> Result<(), Failure> {
     let server = crate::serve::start(crate::serve::ServeOptions {
         input: args.file,
@@ -59,6 +81,7 @@ pub fn serve(args: ServeArgs) -> Result<(), Failure> {
 }
 
 /// Opens `url` with the desktop's opener (best effort: a failure is a warning).
+#[cfg(feature = "serve")]
 fn open_browser(url: &str) {
     let opener = if cfg!(target_os = "macos") {
         "open"

@@ -1,6 +1,7 @@
 //! `texgraph verify`: checks a zarr store a bake (or the parts of a split bake) wrote.
 
 use super::*;
+#[cfg(feature = "zarr")]
 use crate::bake::zarr::{verify_store, ShardState};
 use clap::Args;
 use std::path::PathBuf;
@@ -12,8 +13,16 @@ pub struct VerifyArgs {
     stores: Vec<PathBuf>,
 }
 
+/// Without the `zarr` feature: refused (exit code 2).
+#[cfg(not(feature = "zarr"))]
+pub fn verify(_: VerifyArgs) -> Result<(), Failure> {
+    eprintln!("error: texgraph verify: this texgraph was built without its `zarr` feature (build with the default features, or `--features zarr`)");
+    Err(Failure::Usage)
+}
+
 /// Exit code 0 when every shard of every store is complete, 1 when any is missing, corrupt or
 /// stale (each listed), 2 when a path is not a texgraph zarr store.
+#[cfg(feature = "zarr")]
 pub fn verify(args: VerifyArgs) -> Result<(), Failure> {
     let mut worst: Option<Failure> = None;
     for store in &args.stores {

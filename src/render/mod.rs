@@ -83,6 +83,7 @@ pub mod timing;
 pub mod watch;
 
 pub use error::{RenderError, MAX_PIXELS, MAX_SAMPLES, MAX_SIDE};
+#[cfg(feature = "serve")]
 pub(crate) use scene::Checked;
 pub use scene::{
     load_scene, BumpDesc, ChannelDesc, CompiledTexture, HeightDesc, HeightTexture, LightDesc,

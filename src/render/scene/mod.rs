@@ -142,6 +142,7 @@ impl Scene {
     /// [`Scene::from_desc`], adding every file it read (graphs, their imports, meshes) to
     /// `files`, also when it fails (what to watch for a fix), and taking the graph `checked`
     /// where a texture names its file with its overrides instead of reading the file again.
+    #[cfg_attr(not(feature = "serve"), allow(dead_code))]
     pub(crate) fn from_desc_tracking(
         desc: &SceneDesc,
         base: &Path,

@@ -37,6 +37,7 @@ pub(super) fn resolve(
 
 /// [`resolve`] with a graph file already read and checked: a texture of that file with the
 /// same overrides takes it instead of reading the file again.
+#[cfg_attr(not(feature = "serve"), allow(dead_code))]
 pub(super) fn resolve_with(
     desc: &SceneDesc,
     base: &Path,
