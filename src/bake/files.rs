@@ -67,9 +67,7 @@ impl BakeFileOptions {
 /// Why a build without the `zarr` feature bakes no zarr store.
 #[cfg(not(feature = "zarr"))]
 fn no_zarr() -> BakeError {
-    BakeError::Refused(
-        "--format zarr: this texgraph was built without its `zarr` feature (build with the default features, or `--features zarr`)".into(),
-    )
+    BakeError::Refused(crate::without_feature("--format zarr", "zarr"))
 }
 
 /// The final path of each output's file (or slice folder), in output order. Each is a direct

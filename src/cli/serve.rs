@@ -47,7 +47,10 @@ pub struct ServeArgs {
 /// Without the `serve` feature: refused (exit code 2).
 #[cfg(not(feature = "serve"))]
 pub fn serve(_: ServeArgs) -> Result<(), Failure> {
-    eprintln!("error: texgraph serve: this texgraph was built without its `serve` feature (build with the default features, or `--features serve`)");
+    eprintln!(
+        "error: {}",
+        crate::without_feature("texgraph serve", "serve")
+    );
     Err(Failure::Usage)
 }
 

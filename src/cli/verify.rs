@@ -16,7 +16,10 @@ pub struct VerifyArgs {
 /// Without the `zarr` feature: refused (exit code 2).
 #[cfg(not(feature = "zarr"))]
 pub fn verify(_: VerifyArgs) -> Result<(), Failure> {
-    eprintln!("error: texgraph verify: this texgraph was built without its `zarr` feature (build with the default features, or `--features zarr`)");
+    eprintln!(
+        "error: {}",
+        crate::without_feature("texgraph verify", "zarr")
+    );
     Err(Failure::Usage)
 }
 
