@@ -401,6 +401,13 @@ impl miette::SourceCode for WindowedSource<'_> {
     }
 }
 
+/// What a command or option says in a build without the cargo feature it needs (`zarr`,
+/// `serve`): `what` (the command or option) and how to get it.
+#[cfg(not(all(feature = "zarr", feature = "serve")))]
+pub(crate) fn without_feature(what: &str, feature: &str) -> String {
+    format!("{what}: this texgraph was built without its `{feature}` feature (build with the default features, or `--features {feature}`)")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -55,13 +55,6 @@ macro_rules! simd_clones {
     };
 }
 
-/// What a command or option says in a build without the cargo feature it needs (`zarr`,
-/// `serve`): `what` (the command or option) and how to get it.
-#[cfg(not(all(feature = "zarr", feature = "serve")))]
-pub(crate) fn without_feature(what: &str, feature: &str) -> String {
-    format!("{what}: this texgraph was built without its `{feature}` feature (build with the default features, or `--features {feature}`)")
-}
-
 pub mod bake;
 pub mod check;
 /// The commands of the `texgraph` binary (its implementation, not a library API).

@@ -67,7 +67,7 @@ impl BakeFileOptions {
 /// Why a build without the `zarr` feature bakes no zarr store.
 #[cfg(not(feature = "zarr"))]
 fn no_zarr() -> BakeError {
-    BakeError::Refused(crate::without_feature("--format zarr", "zarr"))
+    BakeError::Refused(crate::diagnostic::without_feature("--format zarr", "zarr"))
 }
 
 /// The final path of each output's file (or slice folder), in output order. Each is a direct

@@ -49,7 +49,7 @@ pub struct ServeArgs {
 pub fn serve(_: ServeArgs) -> Result<(), Failure> {
     eprintln!(
         "error: {}",
-        crate::without_feature("texgraph serve", "serve")
+        crate::diagnostic::without_feature("texgraph serve", "serve")
     );
     Err(Failure::Usage)
 }

@@ -18,7 +18,7 @@ pub struct VerifyArgs {
 pub fn verify(_: VerifyArgs) -> Result<(), Failure> {
     eprintln!(
         "error: {}",
-        crate::without_feature("texgraph verify", "zarr")
+        crate::diagnostic::without_feature("texgraph verify", "zarr")
     );
     Err(Failure::Usage)
 }
