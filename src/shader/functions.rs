@@ -74,21 +74,7 @@ pub fn redirect(module: &mut Module, from: &str, to: &str) -> Result<(), String>
             name(to)
         ));
     }
-    let entries = module.entry_points.iter_mut().map(|e| &mut e.function);
-    for f in module.functions.iter_mut().map(|(_, f)| f).chain(entries) {
-        for (_, e) in f.expressions.iter_mut() {
-            if let Expression::CallResult(h) = e {
-                if *h == from {
-                    *h = to;
-                }
-            }
-        }
-        each_call_mut(&mut f.body, &mut |h| {
-            if *h == from {
-                *h = to;
-            }
-        });
-    }
+    map_calls(module, |h| if h == from { to } else { h });
     order_by_calls(module);
     Ok(())
 }
@@ -169,7 +155,13 @@ fn order_by_calls(module: &mut Module) {
         let (f, span) = old[i].take().expect("each function once");
         new_handle[i] = Some(module.functions.append(f, span));
     }
-    let map = |h: Handle<Function>| new_handle[h.index()].expect("every function placed");
+    map_calls(module, |h| {
+        new_handle[h.index()].expect("every function placed")
+    });
+}
+
+/// Points every call in `module` (its functions' and entry points') at `map(callee)`.
+fn map_calls(module: &mut Module, map: impl Fn(Handle<Function>) -> Handle<Function>) {
     let entries = module.entry_points.iter_mut().map(|e| &mut e.function);
     for f in module.functions.iter_mut().map(|(_, f)| f).chain(entries) {
         for (_, e) in f.expressions.iter_mut() {
