@@ -194,15 +194,14 @@ pub(super) struct CentreRun<'a> {
     pub alpha: f64,
     /// `(1 − α) μ`.
     pub base: f64,
-    /// `(1 − α²) σ²`.
-    pub faded: f64,
+    /// The residual variance (`noise.rs`' `Fade::rest`).
+    pub rest: f64,
     /// The input's linear parts: `jac[i]` component `i`'s slope in the position.
     pub jac: [[f64; 3]; 3],
     /// The input's residual variance per component.
     pub spread: [f64; 3],
     /// The slope's damping (`Footprint::damp_matrix`), if any.
     pub damp: Option<&'a [[f64; 3]; 3]>,
-    pub quad: &'a [[f64; 3]; 3],
 }
 
 lane_targets! {
@@ -234,8 +233,7 @@ pub(super) fn sampled(run: &CentreRun, value: &[f64], grad: [&[f64]; 3], out: &m
         };
         let carried =
             g[0] * g[0] * run.spread[0] + g[1] * g[1] * run.spread[1] + g[2] * g[2] * run.spread[2];
-        let within = residual(run.faded, quadratic(run.quad, &slope).max(0.0));
-        let var = within + a2 * carried;
+        let var = run.rest + a2 * carried;
         means[i] = run.alpha * value[i] + run.base;
         (g0[i], g1[i], g2[i]) = (slope[0], slope[1], slope[2]);
         vars[i] = if var.is_finite() { var.max(0.0) } else { 0.0 };

@@ -2,8 +2,9 @@
 //! a footprint.
 //!
 //! The mean of a noise over a region is estimated as its value at the centre faded towards the
-//! basis' global mean, `α n(m) + (1 − α) μ`, and the variance it loses, `(1 − α²) σ²`, becomes
-//! residual variance (so a downstream `Sin`, `Step` or ramp greys out). `α` is the regression
+//! basis' global mean, `α n(m) + (1 − α) μ`, and the variance it loses, `(1 − α²) σ²`, less
+//! what the linear part explains on average, becomes residual variance (so a downstream `Sin`,
+//! `Step` or ramp greys out). `α` is the regression
 //! coefficient of the region's mean on the centre value: for a box of length `L` along a unit
 //! direction, `1 − L² G / (24 σ²)` to second order (`G` the mean squared directional derivative,
 //! by a Taylor expansion of the box mean and `E[n ∂²n] = −E[(∂n)²]` for a stationary noise),
@@ -264,29 +265,15 @@ fn unsampled(s: &Sampler, p: &[Dist; 3], alpha: f64) -> Option<Dist> {
 }
 
 /// One sampled octave over the footprint from the noise's value and gradient at the centre.
-fn sampled(
-    rules: &Rules,
-    stats: &Stats,
-    p: &[Dist; 3],
-    fade: &Fade,
-    value: f64,
-    g: [f64; 3],
-) -> Dist {
+fn sampled(stats: &Stats, p: &[Dist; 3], fade: &Fade, value: f64, g: [f64; 3]) -> Dist {
     let alpha = fade.alpha;
     let g = g.map(|c| if c.is_finite() { c } else { 0.0 });
     let grad = std::array::from_fn(|j| alpha * (0..3).map(|i| g[i] * p[i].grad[j]).sum::<f64>());
     let grad = super::rules::apply(&fade.damp, grad);
     let carried: f64 = (0..3).map(|i| g[i] * g[i] * p[i].var).sum();
-    // The noise's variance within the footprint is what its fade takes from the box mean,
-    // (1 − α²) σ² (the law of total variance, the box mean's variance being α² σ²); the linear
-    // part explains some of it, the rest is residual. Both to second order in the footprint
-    // equal Σ_k G L_k² / 12, so the linear part is not added on top (which doubled the
-    // variance of small footprints and brightened turbulence by 12 % at a cell's size).
-    let within = super::rules::residual(
-        (1.0 - alpha * alpha) * stats.var,
-        rules.footprint.linear_var(grad),
-    );
-    let var = within + alpha * alpha * carried;
+    // The residual is what the fade takes beyond the linear part's expectation (`Fade::rest`),
+    // not beyond this lane's linear part.
+    let var = fade.rest + alpha * alpha * carried;
     Dist {
         mean: alpha * value + (1.0 - alpha) * stats.mean,
         grad,
@@ -379,12 +366,23 @@ impl Samples {
     }
 }
 
-/// A lane's fade: `α`, the damping of its slope (`Footprint::damp_matrix` of the `β`s), and
-/// in the sub-sampled band what [`subsampled`] needs.
+/// A lane's fade: `α`, the damping of its slope (`Footprint::damp_matrix` of the `β`s), the
+/// centre rule's residual variance, and in the sub-sampled band what [`subsampled`] needs.
 #[derive(Clone, Copy)]
 struct Fade {
     alpha: f64,
     damp: Option<[[f64; 3]; 3]>,
+    /// The centre rule's residual: the noise's variance within the footprint is what the fade
+    /// takes from the box mean, `(1 − α²) σ²` (the law of total variance, the box mean's
+    /// variance being `α² σ²`); the linear part explains some of it, on average its
+    /// expectation over the noise's gradients, `α² E|g|² Σ_i linear_var(D J_i)` (`D` the
+    /// damping, `J_i` the input's linear parts, the gradient's components independent with
+    /// the table's `grad_sq` each); the rest, the curvature's share, is residual. Taking out
+    /// the lane's own linear part instead (as before) left a lane near the noise's extremum, its
+    /// gradient small, the whole `(1 − α²) σ²`: examples/band_rules.rs measures the error of
+    /// the total variance over a cube of 1/4 cell at 0.0098 σ² against 0.0317 σ² so (the
+    /// variance's own spread 0.064 σ²), 0.0585 against 0.116 σ² at 1/2 cell.
+    rest: f64,
     sub: Option<Sub>,
 }
 
@@ -403,9 +401,21 @@ impl Fade {
     fn new(rules: &Rules, stats: &Stats, q: &[Dist; 3]) -> Fade {
         let (alpha, beta) = fade(rules, stats, q);
         let band = (SUB_BAND.0..=SUB_BAND.1).contains(&alpha);
+        let damp = rules.footprint.damp_matrix(beta);
+        let expected: f64 = q
+            .iter()
+            .map(|c| {
+                let d = super::rules::apply(&damp, c.grad);
+                rules.footprint.linear_var(d)
+            })
+            .sum::<f64>()
+            * alpha
+            * alpha
+            * stats.grad_sq;
         Fade {
             alpha,
-            damp: rules.footprint.damp_matrix(beta),
+            damp,
+            rest: super::rules::residual((1.0 - alpha * alpha) * stats.var, expected),
             sub: band.then(|| Sub::new(rules, stats, q)),
         }
     }
@@ -413,20 +423,14 @@ impl Fade {
 
 impl Fade {
     /// What a centre-sampled run of input `q`'s lanes shares (`lanes::sampled`).
-    fn centre_run<'a>(
-        &'a self,
-        stats: &Stats,
-        q: &[Dist; 3],
-        quad: &'a [[f64; 3]; 3],
-    ) -> super::lanes::CentreRun<'a> {
+    fn centre_run<'a>(&'a self, stats: &Stats, q: &[Dist; 3]) -> super::lanes::CentreRun<'a> {
         super::lanes::CentreRun {
             alpha: self.alpha,
             base: (1.0 - self.alpha) * stats.mean,
-            faded: (1.0 - self.alpha * self.alpha) * stats.var,
+            rest: self.rest,
             jac: q.map(|c| c.grad),
             spread: q.map(|c| c.var),
             damp: self.damp.as_ref(),
-            quad,
         }
     }
 }
@@ -642,9 +646,7 @@ fn octave_lanes(
                     &samples.value[r.clone()],
                     Some(grads),
                 )
-                .unwrap_or_else(|| {
-                    degenerate(&rules, s, &p[lane], fade, samples, Kind::SubGrads, r.start)
-                });
+                .unwrap_or_else(|| degenerate(s, &p[lane], fade, samples, Kind::SubGrads, r.start));
             }
             continue;
         }
@@ -652,7 +654,7 @@ fn octave_lanes(
         for (k, &lane) in run_lanes.iter().enumerate() {
             out[lane] = octave
                 .get(k)
-                .unwrap_or_else(|| fallback(&rules, s, &p[lane], fade, samples, run, k));
+                .unwrap_or_else(|| fallback(s, &p[lane], fade, samples, run, k));
         }
     }
 }
@@ -678,7 +680,7 @@ fn run_kernel(
         }
         (Kind::SubValues, _, _) => octave.none(n),
         _ => {
-            let shared = fade.centre_run(stats, q, quad);
+            let shared = fade.centre_run(stats, q);
             let r = run.at..run.at + n;
             let grad = [0, 1, 2].map(|i| &samples.grad[i][r.clone()]);
             super::lanes::sampled(&shared, &samples.value[r.clone()], grad, octave);
@@ -690,7 +692,6 @@ fn run_kernel(
 /// covariance for a non-finite slope; for a degenerate footprint or a non-finite sub-box
 /// mean, the centre rule at the first sub-box centre.
 fn fallback(
-    rules: &Rules,
     s: &Sampler,
     q: &[Dist; 3],
     fade: &Fade,
@@ -702,9 +703,9 @@ fn fallback(
         Kind::Centre => {
             let i = run.at + k;
             let g = [0, 1, 2].map(|c| samples.grad[c][i]);
-            sampled(rules, &s.stats, q, fade, samples.value[i], g)
+            sampled(&s.stats, q, fade, samples.value[i], g)
         }
-        kind => degenerate(rules, s, q, fade, samples, kind, run.at + k),
+        kind => degenerate(s, q, fade, samples, kind, run.at + k),
     }
 }
 
@@ -712,7 +713,6 @@ fn fallback(
 /// mean): the first sub-box centre stands for the centre (they agree along any zero edge; a
 /// degenerate box has no volume to split). `first`: that centre's index in its batch.
 fn degenerate(
-    rules: &Rules,
     s: &Sampler,
     q: &[Dist; 3],
     fade: &Fade,
@@ -728,7 +728,7 @@ fn degenerate(
     let (value, g) = s
         .table
         .sample_value_grad::<f64>([c[0][first], c[1][first], c[2][first]]);
-    sampled(rules, &s.stats, q, fade, value, g)
+    sampled(&s.stats, q, fade, value, g)
 }
 
 /// At most this many cells per axis, and in all, for [`white`]'s mixture: a wider box takes
@@ -1091,7 +1091,7 @@ fn shared_octave(
     run_kernel(&rules, s, &q0, &fade, &run, n, samples, octave);
     if !sum.add_scaled(amp, octave) {
         for lane in (0..n).filter(|&lane| !octave.holds(lane)) {
-            let d = fallback(&rules, s, &q0, &fade, samples, &run, lane);
+            let d = fallback(s, &q0, &fade, samples, &run, lane);
             sum.add(lane, amp, &d);
         }
     }
@@ -1199,17 +1199,15 @@ mod tests {
                 var: spread[i],
             });
             let (alpha, beta) = fade(&rules, &stats, &q);
-            let f = Fade {
-                alpha,
-                damp: fp.damp_matrix(beta),
-                sub: Some(Sub::new(&rules, &stats, &q)),
-            };
+            let mut f = Fade::new(&rules, &stats, &q);
+            assert_eq!((f.alpha, f.damp), (alpha, fp.damp_matrix(beta)));
+            f.sub = Some(Sub::new(&rules, &stats, &q));
             let n = 13;
             let value: Vec<f64> = (0..8 * n).map(|_| next(-1.0, 1.0)).collect();
             let grad: [Vec<f64>; 3] =
                 std::array::from_fn(|_| (0..n).map(|_| next(-3.0, 3.0)).collect());
             let mut out = super::super::lanes::Octave::default();
-            let centre = f.centre_run(&stats, &q, fp.quad());
+            let centre = f.centre_run(&stats, &q);
             super::super::lanes::sampled(
                 &centre,
                 &value[..n],
@@ -1218,7 +1216,6 @@ mod tests {
             );
             for i in 0..n {
                 let want = sampled(
-                    &rules,
                     &stats,
                     &q,
                     &f,

@@ -886,7 +886,14 @@ fn n_sampled(st: St, p: array<D, 3>, fade: vec4<f64>, value: f64, gin: vec3<f64>
     var grad = alpha * (g.x * p[0].g + g.y * p[1].g + g.z * p[2].g);
     grad = n_damp(fade.yzw, grad);
     let carried = g.x * g.x * p[0].v + g.y * g.y * p[1].v + g.z * g.z * p[2].v;
-    let within = f_residual((1.0lf - alpha * alpha) * st.var_, f_linvar(grad));
+    // noise.rs `Fade::rest`: what the fade takes beyond the linear part's expectation over the
+    // noise's gradients (one call site of `n_damp` in a loop the driver cannot unroll).
+    var expected = 0.0lf;
+    var q = p;
+    for (var i = 0u; i < 3u * u32(filter_one()); i += 1u) {
+        expected += f_linvar(n_damp(fade.yzw, q[i].g));
+    }
+    let within = f_residual((1.0lf - alpha * alpha) * st.var_, alpha * alpha * st.grad_sq * expected);
     let v = within + alpha * alpha * carried;
     return D(alpha * value + (1.0lf - alpha) * st.mean, grad, select(0.0lf, max(v, 0.0lf), is_finite_d(v)));
 }
