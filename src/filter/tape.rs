@@ -62,14 +62,6 @@ impl Slots {
             Prec::Wide => &mut self.wides,
         }
     }
-
-    /// Element `i` of the scalar file of precision `prec`.
-    fn get(&self, prec: Prec, i: usize) -> Dist {
-        match prec {
-            Prec::Lane => self.scalars[i],
-            Prec::Wide => self.wides[i],
-        }
-    }
 }
 
 /// Lanes per chunk of a batch: the instruction loop runs over this many lanes at a time, so
@@ -397,6 +389,10 @@ impl<'t> Filtered<'t> {
             if f.skip[index] {
                 continue;
             }
+            if fusion.is_none() && self.in_range[index].is_none() {
+                self.step(lanes, instr, *integer, points, s, 0..w);
+                continue;
+            }
             for lane in 0..w {
                 let rules = lanes.rules(lane);
                 let fused = fusion.as_ref().and_then(|f| self.fused(&rules, f, s, lane));
@@ -411,10 +407,7 @@ impl<'t> Filtered<'t> {
                         Some(shapes) if spread(&rules, instr, s, lane) => {
                             in_range(&rules, instr, shapes, s, lane)
                         }
-                        _ => {
-                            let point = points.map(|c| c[lane]);
-                            self.step(&rules, instr, *integer, point, s, lane)
-                        }
+                        _ => self.step(lanes, instr, *integer, points, s, lane..lane + 1),
                     },
                 }
             }
@@ -488,43 +481,40 @@ impl<'t> Filtered<'t> {
         }
     }
 
-    /// One instruction on the slots.
-    /// `integer`: whether the operand `a` is integer-valued (per component).
+    /// One instruction on lanes `range` of the slots: one match per chunk, the lanes looped in
+    /// each arm (the same arithmetic per lane as one lane at a time). `integer`: whether the
+    /// operand `a` is integer-valued (per component). The vector instructions are
+    /// [`Filtered::step_vec3`]'s.
+    #[allow(clippy::too_many_arguments)]
     fn step(
         &self,
-        rules: &Rules,
+        lanes: Lanes,
         instr: &Instr,
         integer: [bool; 3],
-        point: [f64; 3],
+        points: [&[f64]; 3],
         s: &mut Slots,
-        lane: usize,
+        range: std::ops::Range<usize>,
     ) {
         let sh = &self.shapes;
         let w = s.width;
-        let at = move |x: u32| x as usize * w + lane;
+        let at = move |x: u32, lane: usize| x as usize * w + lane;
         match *instr {
-            Instr::Position { dst } => {
-                s.vec3s[at(dst)] = std::array::from_fn(|i| Dist::position(point, i));
-            }
-            Instr::Splat { prec, dst, src } => s.vec3s[at(dst)] = [s.get(prec, at(src)); 3],
-            Instr::Combine { prec, dst, x, y, z } => {
-                s.vec3s[at(dst)] = [x, y, z].map(|c| s.get(prec, at(c)));
-            }
             Instr::Component {
                 prec,
                 dst,
                 src,
                 axis,
             } => {
-                let v = s.vec3s[at(src)][axis as usize % 3];
-                s.file(prec)[at(dst)] = v;
+                for lane in range {
+                    let v = s.vec3s[at(src, lane)][axis as usize % 3];
+                    s.file(prec)[at(dst, lane)] = v;
+                }
             }
             Instr::UnaryScalar { prec, op, dst, src } => {
-                let v = rules.unary(sh, op, &s.get(prec, at(src)));
-                s.file(prec)[at(dst)] = v;
-            }
-            Instr::UnaryVec3 { op, dst, src } => {
-                s.vec3s[at(dst)] = s.vec3s[at(src)].map(|c| rules.unary(sh, op, &c));
+                let file = s.file(prec);
+                for lane in range {
+                    file[at(dst, lane)] = lanes.rules(lane).unary(sh, op, &file[at(src, lane)]);
+                }
             }
             Instr::BinaryScalar {
                 prec,
@@ -533,13 +523,12 @@ impl<'t> Filtered<'t> {
                 a,
                 b,
             } => {
-                let (a, b) = (s.get(prec, at(a)), s.get(prec, at(b)));
-                s.file(prec)[at(dst)] = binary(rules, sh, op, &a, &b, integer[0]);
-            }
-            Instr::BinaryVec3 { op, dst, a, b } => {
-                let (a, b) = (s.vec3s[at(a)], s.vec3s[at(b)]);
-                s.vec3s[at(dst)] =
-                    std::array::from_fn(|i| binary(rules, sh, op, &a[i], &b[i], integer[i]));
+                let file = s.file(prec);
+                for lane in range {
+                    let (a, b) = (&file[at(a, lane)], &file[at(b, lane)]);
+                    let v = binary(&lanes.rules(lane), sh, op, a, b, integer[0]);
+                    file[at(dst, lane)] = v;
+                }
             }
             Instr::TernaryScalar {
                 prec,
@@ -549,75 +538,140 @@ impl<'t> Filtered<'t> {
                 b,
                 c,
             } => {
-                let [a, b, c] = [a, b, c].map(|x| s.get(prec, at(x)));
-                s.file(prec)[at(dst)] = rules.ternary(sh, op, &a, &b, &c);
-            }
-            Instr::TernaryVec3 { op, dst, a, b, c } => {
-                let [a, b, c] = [a, b, c].map(|x| s.vec3s[at(x)]);
-                s.vec3s[at(dst)] =
-                    std::array::from_fn(|i| rules.ternary(sh, op, &a[i], &b[i], &c[i]));
+                let file = s.file(prec);
+                for lane in range {
+                    let [a, b, c] = [a, b, c].map(|x| file[at(x, lane)]);
+                    file[at(dst, lane)] = lanes.rules(lane).ternary(sh, op, &a, &b, &c);
+                }
             }
             Instr::Dot { prec, dst, a, b } => {
-                let v = dot(rules, &s.vec3s[at(a)], &s.vec3s[at(b)]);
-                s.file(prec)[at(dst)] = v;
+                for lane in range {
+                    let v = dot(
+                        &lanes.rules(lane),
+                        &s.vec3s[at(a, lane)],
+                        &s.vec3s[at(b, lane)],
+                    );
+                    s.file(prec)[at(dst, lane)] = v;
+                }
             }
             Instr::Length { prec, dst, src } => {
-                let v = length(rules, sh, &s.vec3s[at(src)]);
-                s.file(prec)[at(dst)] = v;
-            }
-            Instr::Cross { dst, a, b } => {
-                let (a, b) = (s.vec3s[at(a)], s.vec3s[at(b)]);
-                let term = |i: usize, j: usize| {
-                    rules.sub(&rules.mul(&a[i], &b[j]), &rules.mul(&a[j], &b[i]))
-                };
-                s.vec3s[at(dst)] = [term(1, 2), term(2, 0), term(0, 1)];
-            }
-            Instr::Normalize { dst, src } => {
-                let v = s.vec3s[at(src)];
-                let l = length(rules, sh, &v);
-                let mut n = v.map(|c| rules.binary(sh, ops::BinaryOp::Div, &c, &l));
-                // A length whose spread reaches 0 (a vector through the origin within the
-                // footprint) has no finite reciprocal mean: the direction of the mean vector
-                // instead, as the point evaluation takes it (0 for the zero vector).
-                if n.iter().any(|c| !c.mean.is_finite()) && v.iter().all(|c| c.mean.is_finite()) {
-                    n = ops::normalize(v.map(|c| c.mean)).map(Dist::constant);
+                for lane in range {
+                    let v = length(&lanes.rules(lane), sh, &s.vec3s[at(src, lane)]);
+                    s.file(prec)[at(dst, lane)] = v;
                 }
-                s.vec3s[at(dst)] = n;
             }
-            Instr::RotateConst { dst, src, matrix } => {
-                let m = &self.tape.matrices[matrix as usize];
-                s.vec3s[at(dst)] = rotate(rules, m, &s.vec3s[at(src)]);
-            }
-            Instr::RotateVarying {
-                prec,
-                dst,
-                src,
-                degrees,
-                axis,
-            } => {
-                let axis = self.tape.axes[axis as usize];
-                let v = s.vec3s[at(src)];
-                s.vec3s[at(dst)] = rotate_varying(rules, axis, &v, &s.get(prec, at(degrees)));
-            }
-            // Run per chunk by `run` (`noise_chunk`), never per lane.
-            Instr::Noise { .. }
-            | Instr::Fractal { .. }
-            | Instr::NoiseGradient { .. }
-            | Instr::FractalGradient { .. } => {}
             Instr::Hermite { dst, src, spline } => {
                 let f = &self.hermites[spline as usize];
-                s.scalars[at(dst)] = rules.piecewise(f, &s.scalars[at(src)]);
-            }
-            Instr::Ramp { dst, src, ramp } => {
-                let t = s.scalars[at(src)];
-                s.vec3s[at(dst)] = rules.piecewise3(&self.ramps[ramp as usize], &t);
+                for lane in range {
+                    let v = lanes.rules(lane).piecewise(f, &s.scalars[at(src, lane)]);
+                    s.scalars[at(dst, lane)] = v;
+                }
             }
             Instr::Curve { dst, src, curve } => {
                 let f = &self.curves[curve as usize];
-                s.scalars[at(dst)] = rules.piecewise(f, &s.scalars[at(src)]);
+                for lane in range {
+                    let v = lanes.rules(lane).piecewise(f, &s.scalars[at(src, lane)]);
+                    s.scalars[at(dst, lane)] = v;
+                }
             }
-            Instr::Widen { dst, src } => s.wides[at(dst)] = s.scalars[at(src)],
-            Instr::Narrow { dst, src } => s.scalars[at(dst)] = s.wides[at(src)],
+            Instr::Widen { dst, src } => {
+                for lane in range {
+                    s.wides[at(dst, lane)] = s.scalars[at(src, lane)];
+                }
+            }
+            Instr::Narrow { dst, src } => {
+                for lane in range {
+                    s.scalars[at(dst, lane)] = s.wides[at(src, lane)];
+                }
+            }
+            _ => self.step_vec3(lanes, instr, integer, points, s, range),
+        }
+    }
+
+    /// [`Filtered::step`] for the instructions whose result is a vector.
+    #[allow(clippy::too_many_arguments)]
+    fn step_vec3(
+        &self,
+        lanes: Lanes,
+        instr: &Instr,
+        integer: [bool; 3],
+        points: [&[f64]; 3],
+        s: &mut Slots,
+        range: std::ops::Range<usize>,
+    ) {
+        let sh = &self.shapes;
+        let w = s.width;
+        let at = move |x: u32, lane: usize| x as usize * w + lane;
+        for lane in range {
+            let rules = lanes.rules(lane);
+            let at = |x: u32| at(x, lane);
+            let v = &mut s.vec3s;
+            match *instr {
+                Instr::Position { dst } => {
+                    let point = points.map(|c| c[lane]);
+                    v[at(dst)] = std::array::from_fn(|i| Dist::position(point, i));
+                }
+                Instr::Splat { prec, dst, src } => {
+                    let c = match prec {
+                        Prec::Lane => s.scalars[at(src)],
+                        Prec::Wide => s.wides[at(src)],
+                    };
+                    v[at(dst)] = [c; 3];
+                }
+                Instr::Combine { prec, dst, x, y, z } => {
+                    let file = match prec {
+                        Prec::Lane => &s.scalars,
+                        Prec::Wide => &s.wides,
+                    };
+                    v[at(dst)] = [x, y, z].map(|c| file[at(c)]);
+                }
+                Instr::UnaryVec3 { op, dst, src } => {
+                    v[at(dst)] = v[at(src)].map(|c| rules.unary(sh, op, &c));
+                }
+                Instr::BinaryVec3 { op, dst, a, b } => {
+                    let (a, b) = (v[at(a)], v[at(b)]);
+                    v[at(dst)] =
+                        std::array::from_fn(|i| binary(&rules, sh, op, &a[i], &b[i], integer[i]));
+                }
+                Instr::TernaryVec3 { op, dst, a, b, c } => {
+                    let [a, b, c] = [a, b, c].map(|x| v[at(x)]);
+                    v[at(dst)] =
+                        std::array::from_fn(|i| rules.ternary(sh, op, &a[i], &b[i], &c[i]));
+                }
+                Instr::Cross { dst, a, b } => {
+                    let (a, b) = (v[at(a)], v[at(b)]);
+                    let term = |i: usize, j: usize| {
+                        rules.sub(&rules.mul(&a[i], &b[j]), &rules.mul(&a[j], &b[i]))
+                    };
+                    v[at(dst)] = [term(1, 2), term(2, 0), term(0, 1)];
+                }
+                Instr::Normalize { dst, src } => v[at(dst)] = normalize(&rules, sh, &v[at(src)]),
+                Instr::RotateConst { dst, src, matrix } => {
+                    let m = &self.tape.matrices[matrix as usize];
+                    v[at(dst)] = rotate(&rules, m, &v[at(src)]);
+                }
+                Instr::RotateVarying {
+                    prec,
+                    dst,
+                    src,
+                    degrees,
+                    axis,
+                } => {
+                    let axis = self.tape.axes[axis as usize];
+                    let degrees = match prec {
+                        Prec::Lane => s.scalars[at(degrees)],
+                        Prec::Wide => s.wides[at(degrees)],
+                    };
+                    v[at(dst)] = rotate_varying(&rules, axis, &v[at(src)], &degrees);
+                }
+                Instr::Ramp { dst, src, ramp } => {
+                    let t = s.scalars[at(src)];
+                    v[at(dst)] = rules.piecewise3(&self.ramps[ramp as usize], &t);
+                }
+                // Run per chunk by `run` (`noise_chunk`), never per lane; the scalar
+                // instructions are `step`'s.
+                _ => {}
+            }
         }
     }
 
@@ -792,6 +846,18 @@ fn binary(
         return rules.lattice_mod(a, b.mean);
     }
     rules.binary(sh, op, a, b)
+}
+
+/// A vector divided by its length; where the length's spread reaches 0 (a vector through the
+/// origin within the footprint) and the reciprocal mean is not finite, the direction of the
+/// mean vector instead, as the point evaluation takes it (0 for the zero vector).
+fn normalize(rules: &Rules, sh: &Shapes, v: &[Dist; 3]) -> [Dist; 3] {
+    let l = length(rules, sh, v);
+    let n = v.map(|c| rules.binary(sh, ops::BinaryOp::Div, &c, &l));
+    if n.iter().any(|c| !c.mean.is_finite()) && v.iter().all(|c| c.mean.is_finite()) {
+        return ops::normalize(v.map(|c| c.mean)).map(Dist::constant);
+    }
+    n
 }
 
 fn dot(rules: &Rules, a: &[Dist; 3], b: &[Dist; 3]) -> Dist {
