@@ -549,11 +549,18 @@ impl Rules<'_> {
             return Dist::constant(value);
         }
         let widths = self.footprint.widths(d.grad);
-        // E[sin(μ + Σ a_k U_k)] = sin μ · Π sinc(a_k / 2); a Gaussian residual: e^(−σ²/2).
-        let attenuation: f64 =
-            widths.iter().map(|&a| sinc(a / 2.0)).product::<f64>() * (-d.var / 2.0).exp();
-        let double: f64 = widths.iter().map(|&a| sinc(a)).product::<f64>() * (-2.0 * d.var).exp();
-        let c2 = (2.0 * d.mean).cos();
+        // E[sin(μ + Σ a_k U_k)] = sin μ · Π sinc(a_k / 2); a Gaussian residual: e^(−σ²/2),
+        // and e^(−2σ²) its fourth power (one `exp`, none without a residual).
+        let gauss = if d.var == 0.0 {
+            1.0
+        } else {
+            (-d.var / 2.0).exp()
+        };
+        let gauss2 = gauss * gauss;
+        let attenuation: f64 = widths.iter().map(|&a| sinc(a / 2.0)).product::<f64>() * gauss;
+        let double: f64 = widths.iter().map(|&a| sinc(a)).product::<f64>() * (gauss2 * gauss2);
+        // cos 2μ from μ's sine and cosine.
+        let c2 = (c - s) * (c + s);
         // sin² = (1 − cos 2x) / 2, cos² = (1 + cos 2x) / 2.
         let square = if cos {
             0.5 * (1.0 + c2 * double)
