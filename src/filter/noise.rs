@@ -380,7 +380,7 @@ struct Fade {
     /// the table's `grad_sq` each); the rest, the curvature's share, is residual. Taking out
     /// the lane's own linear part instead (as before) left a lane near the noise's extremum, its
     /// gradient small, the whole `(1 − α²) σ²`: examples/band_rules.rs measures the error of
-    /// the total variance over a cube of 1/4 cell at 0.0098 σ² against 0.0317 σ² so (the
+    /// the total variance over a cube of 1/4 cell at 0.0098 σ² against 0.0317 σ² before (the
     /// variance's own spread 0.064 σ²), 0.0585 against 0.116 σ² at 1/2 cell.
     rest: f64,
     sub: Option<Sub>,

@@ -484,7 +484,8 @@ impl<'t> Filtered<'t> {
     /// One instruction on lanes `range` of the slots: one match per chunk, the lanes looped in
     /// each arm (the same arithmetic per lane as one lane at a time). `integer`: whether the
     /// operand `a` is integer-valued (per component). The vector instructions are
-    /// [`Filtered::step_vec3`]'s.
+    /// [`Filtered::step_vec3`]'s (a match per lane there: they are few in a tape, each three
+    /// rules' work).
     #[allow(clippy::too_many_arguments)]
     fn step(
         &self,
