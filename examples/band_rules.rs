@@ -14,7 +14,7 @@
 //! fade-weighted sub-boxes) are measured unfitted beside them.
 //!
 //! ```sh
-//! cargo run --release --example band_rules [-- BASIS]   # perlin (default), simplex, value
+//! cargo run --release --example band_rules [-- BASIS]   # perlin (default), simplex, value, value-smooth
 //! ```
 
 use texgraph::filter::noise::stats;
@@ -184,7 +184,8 @@ fn rms(e: impl Iterator<Item = f64>) -> f64 {
 fn main() {
     let basis = match std::env::args().nth(1).as_deref() {
         Some("simplex") => Basis::Simplex,
-        Some("value") => Basis::Value(texgraph::noise::Interpolation::Smooth),
+        Some("value") => Basis::Value(texgraph::noise::Interpolation::Linear),
+        Some("value-smooth") => Basis::Value(texgraph::noise::Interpolation::Smooth),
         _ => Basis::Perlin,
     };
     let table = NoiseTable::new(basis, 0);

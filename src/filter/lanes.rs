@@ -188,6 +188,40 @@ pub(super) fn subsampled(run: &SubRun, values: &[f64], n: usize, out: &mut Octav
 }
 }
 
+lane_targets! {
+/// The octave from its values at the six face centres (`noise.rs`' `FACES_FROM`) at `n`
+/// lanes, face `j` of lane `i` at `values[j * n + i]` (`+E_k / 2` for `j = k`, `−E_k / 2` for
+/// `j = k + 3`), for an input without residual variance: their mean (a rule of degree 3); the
+/// slope along each edge the difference across it (`grad · e_k = v_k − v_{k+3}`, through the
+/// fit); as variance their spread (a linear function's variance over the box exactly), less
+/// the slope's. No fade: at the fades that take it the box is within a quarter of a cell.
+pub(super) fn faces(run: &SubRun, values: &[f64], n: usize, out: &mut Octave) {
+    let values = &values[..6 * n];
+    let (means, [g0, g1, g2], vars, ok) = out.planes(n);
+    for i in 0..n {
+        let mut v = [0.0; 6];
+        let mut total = 0.0;
+        for (j, v) in v.iter_mut().enumerate() {
+            let x = values[j * n + i];
+            *v = if x.is_finite() { x } else { 0.0 };
+            total += *v;
+        }
+        let mean = total / 6.0;
+        let du: [f64; 3] = std::array::from_fn(|k| v[k] - v[k + 3]);
+        let g: [f64; 3] = std::array::from_fn(|r| dot(&run.fit[r], &du));
+        let mut spread = 0.0;
+        for x in &v {
+            spread += (x - mean) * (x - mean);
+        }
+        let linear = quadratic(run.quad, &g).max(0.0);
+        means[i] = mean;
+        (g0[i], g1[i], g2[i]) = (g[0], g[1], g[2]);
+        vars[i] = residual(spread / 6.0, linear);
+        ok[i] = g.iter().all(|c| c.is_finite()) & mean.is_finite();
+    }
+}
+}
+
 /// What the lanes of a centre-sampled run share (the fade, the input's spread, the table's
 /// statistics).
 pub(super) struct CentreRun<'a> {

@@ -32,6 +32,11 @@ pub struct Stats {
     pub kappa2: f64,
     /// Mean square of one gradient component (`NoiseGradient`'s variance).
     pub grad_sq: f64,
+    /// Whether small boxes take the six face centres (`FACES_FROM`): a basis smooth across its
+    /// cells. Trilinear value noise, whose kinks on the lattice planes the faces straddle,
+    /// keeps the eight sub-boxes (examples/band_rules.rs: 0.0098 against 0.0084 σ at a
+    /// quarter of a cell).
+    pub faces: bool,
 }
 
 /// Measures a table's statistics at 1024 seeded points (a fixed sequence: the same numbers on
@@ -72,6 +77,10 @@ pub fn stats(table: &NoiseTable) -> Stats {
         mean,
         var,
         kappa2: if var > 0.0 { g / var } else { 0.0 },
+        faces: !matches!(
+            table.basis(),
+            crate::noise::Basis::Value(crate::noise::Interpolation::Linear)
+        ),
         grad_sq: if grad2.is_finite() {
             grad2 / count
         } else {
@@ -173,6 +182,25 @@ fn sub_offsets(e: &[[f64; 3]; 3]) -> [[f64; 3]; 8] {
             let s = |k: usize| if j >> k & 1 == 1 { 0.25 } else { -0.25 };
             (0..3).map(|k| s(k) * e[k][i]).sum::<f64>()
         })
+    })
+}
+
+/// Fades from which a sub-sampled octave of an input without residual variance takes the six
+/// face centres `m ± E_k / 2` instead of the eight sub-box centres (`lanes::faces`): a rule
+/// of degree 3 (the mean of any cubic exact, and the spread of a linear function's values its
+/// variance over the box, where the sub-box centres' spread is 3/4 of it). examples/band_rules.rs
+/// measures them better than the eight in the mean up to half a cell (0.0017 against 0.0078 σ
+/// at a quarter), in the variance up to a quarter of a cell (0.0051 against 0.0147 σ²), worse
+/// past it (0.057 against 0.038 σ² at half a cell): fades of at least 0.95 (a quarter of a cell
+/// for Perlin) take them.
+const FACES_FROM: f64 = 0.95;
+
+/// The six face centres' offsets from the centre, `+E_k / 2` then `−E_k / 2` (the last two
+/// entries unused).
+fn face_offsets(e: &[[f64; 3]; 3]) -> [[f64; 3]; 8] {
+    std::array::from_fn(|j| {
+        let sign = if j < 3 { 0.5 } else { -0.5 };
+        std::array::from_fn(|i| if j < 6 { sign * e[j % 3][i] } else { 0.0 })
     })
 }
 
@@ -391,8 +419,11 @@ struct Fade {
 /// shared like the fade).
 #[derive(Clone, Copy)]
 struct Sub {
+    /// The sample points' offsets: the eight sub-box centres, or the six face centres first.
     offsets: [[f64; 3]; 8],
     alpha: f64,
+    /// The six face centres instead of the eight sub-box centres ([`FACES_FROM`]).
+    faces: bool,
 }
 
 impl Fade {
@@ -416,7 +447,7 @@ impl Fade {
             alpha,
             damp,
             rest: super::rules::residual((1.0 - alpha * alpha) * stats.var, expected),
-            sub: band.then(|| Sub::new(rules, stats, q)),
+            sub: band.then(|| Sub::new(rules, stats, q, alpha)),
         }
     }
 }
@@ -452,13 +483,29 @@ impl Sub {
         }
     }
 
-    fn new(rules: &Rules, stats: &Stats, p: &[Dist; 3]) -> Sub {
+    /// The sub-sampling of input `p` whose footprint's fade is `alpha`.
+    fn new(rules: &Rules, stats: &Stats, p: &[Dist; 3], alpha: f64) -> Sub {
         let edges = noise_edges(rules, p);
         let l2 = edges.map(|e| dot(&e, &e) / 4.0);
         let v: f64 = p.iter().map(|c| c.var).sum();
+        let faces = stats.faces && alpha >= FACES_FROM && v == 0.0;
         Sub {
-            offsets: sub_offsets(&edges),
+            offsets: if faces {
+                face_offsets(&edges)
+            } else {
+                sub_offsets(&edges)
+            },
             alpha: fade_of(stats, l2, v).0,
+            faces,
+        }
+    }
+
+    /// The sample points' offsets from the centre.
+    fn points(&self) -> &[[f64; 3]] {
+        if self.faces {
+            &self.offsets[..6]
+        } else {
+            &self.offsets
         }
     }
 }
@@ -594,8 +641,8 @@ fn octave_lanes(
     } = samples;
     for run in runs.iter_mut() {
         let run_lanes = &todo[run.lanes.clone()];
-        let offsets = fades[run.fade as usize].sub.map(|sub| sub.offsets);
-        match (run.kind, offsets) {
+        let sub = fades[run.fade as usize].sub;
+        match (run.kind, sub) {
             (Kind::Centre, _) => {
                 run.at = coords[0].len();
                 for (i, c) in coords.iter_mut().enumerate() {
@@ -603,18 +650,18 @@ fn octave_lanes(
                 }
             }
             // Sub-box j of the run's lane k at `at + j * len + k`.
-            (Kind::SubValues, Some(offsets)) => {
+            (Kind::SubValues, Some(sub)) => {
                 run.at = value_coords[0].len();
                 for (i, c) in value_coords.iter_mut().enumerate() {
-                    for o in &offsets {
+                    for o in sub.points() {
                         c.extend(run_lanes.iter().map(|&l| p[l][i].mean + o[i]));
                     }
                 }
             }
             // Lane k's eight at `at + 8 k ..`.
-            (_, offsets) => {
+            (_, sub) => {
                 run.at = coords[0].len();
-                let offsets = offsets.expect("a sub-sampled run has its sub-boxes");
+                let offsets = sub.expect("a sub-sampled run has its sub-boxes").offsets;
                 for (i, c) in coords.iter_mut().enumerate() {
                     for &l in run_lanes {
                         c.extend(offsets.iter().map(|o| p[l][i].mean + o[i]));
@@ -675,8 +722,13 @@ fn run_kernel(
     let quad = rules.footprint.quad();
     match (run.kind, &fade.sub, rules.footprint.fit()) {
         (Kind::SubValues, Some(sub), Some(fit)) => {
-            let r = run.at..run.at + 8 * n;
-            super::lanes::subsampled(&sub.run(stats, fit, quad), &samples.values[r], n, octave);
+            let r = run.at..run.at + sub.points().len() * n;
+            let shared = sub.run(stats, fit, quad);
+            if sub.faces {
+                super::lanes::faces(&shared, &samples.values[r], n, octave);
+            } else {
+                super::lanes::subsampled(&shared, &samples.values[r], n, octave);
+            }
         }
         (Kind::SubValues, _, _) => octave.none(n),
         _ => {
@@ -1073,7 +1125,7 @@ fn shared_octave(
         // Sub-box j of lane i at `j * n + i`.
         Some(sub) => {
             for (i, c) in samples.value_coords.iter_mut().enumerate() {
-                for offset in &sub.offsets {
+                for offset in sub.points() {
                     c.extend(centres[i].iter().map(|m| freq * m + offset[i]));
                 }
             }
@@ -1154,6 +1206,43 @@ mod tests {
     use super::*;
     use crate::noise::{Basis, NoiseTable};
 
+    #[test]
+    fn face_centres_are_exact_for_a_linear_function() {
+        // The six faces' rule (`lanes::faces`) on `f(y) = 0.3 + c · y` in noise space, the
+        // input `y = J x` affine in the position: the mean is f at the centre, the slope
+        // `Jᵀ c`, no residual (their spread is the linear part's variance exactly).
+        let table = NoiseTable::new(Basis::Perlin, 3);
+        let stats = stats(&table);
+        let fp = Footprint::from_sides([0.08, 0.05, 0.1]).unwrap();
+        let rules = Rules { footprint: &fp };
+        let jac = [[2.0, 0.1, 0.0], [-0.2, 3.0, 0.4], [0.0, 0.3, 1.5]];
+        let q: [Dist; 3] = std::array::from_fn(|i| Dist {
+            mean: [1.2, -3.4, 5.6][i],
+            grad: jac[i],
+            var: 0.0,
+        });
+        let fade = Fade::new(&rules, &stats, &q);
+        let sub = fade.sub.expect("in the band");
+        assert!(sub.faces && sub.points().len() == 6, "{}", fade.alpha);
+        let c = [0.7, -1.1, 0.25];
+        let f = |y: [f64; 3]| 0.3 + dot(&c, &y);
+        let values: Vec<f64> = sub
+            .points()
+            .iter()
+            .map(|o| f(std::array::from_fn(|i| q[i].mean + o[i])))
+            .collect();
+        let mut out = super::super::lanes::Octave::default();
+        let run = sub.run(&stats, fp.fit().unwrap(), fp.quad());
+        super::super::lanes::faces(&run, &values, 1, &mut out);
+        let d = out.get(0).expect("finite");
+        assert!((d.mean - f(q.map(|x| x.mean))).abs() < 1e-12, "{d:?}");
+        for (j, g) in d.grad.iter().enumerate() {
+            let want: f64 = (0..3).map(|i| c[i] * jac[i][j]).sum();
+            assert!((g - want).abs() < 1e-9 * want.abs().max(1.0), "{d:?}");
+        }
+        assert!(d.var.abs() < 1e-12, "{d:?}");
+    }
+
     /// The lane kernels (`lanes.rs`) against the scalar rules they replace for a run
     /// (`subsampled` without gradients, `sampled`): the same estimates to rounding, at random
     /// values, gradients and footprints of a run of 13 lanes.
@@ -1201,7 +1290,7 @@ mod tests {
             let (alpha, beta) = fade(&rules, &stats, &q);
             let mut f = Fade::new(&rules, &stats, &q);
             assert_eq!((f.alpha, f.damp), (alpha, fp.damp_matrix(beta)));
-            f.sub = Some(Sub::new(&rules, &stats, &q));
+            f.sub = Some(Sub::new(&rules, &stats, &q, 0.5));
             let n = 13;
             let value: Vec<f64> = (0..8 * n).map(|_| next(-1.0, 1.0)).collect();
             let grad: [Vec<f64>; 3] =

@@ -483,7 +483,9 @@ impl Gen<'_> {
         self.data.extend([offset, axes[0], axes[1], axes[2]]);
         self.data.extend([metric as f64, value as f64, jitter]);
         let st = crate::filter::noise::cached_stats(*key, &self.tape.tables[table as usize].1);
-        self.data.extend([st.mean, st.var, st.kappa2, st.grad_sq]);
+        let faces = if st.faces { 1.0 } else { 0.0 };
+        self.data
+            .extend([st.mean, st.var, st.kappa2, st.grad_sq, faces]);
         if !self.kernels.iter().any(|(n, _)| *n == name) {
             let mut args = String::from("u32(fdata[s]), x");
             if period.is_some() {

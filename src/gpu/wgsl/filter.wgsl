@@ -37,12 +37,14 @@ struct St {
     var_: f64,
     kappa2: f64,
     grad_sq: f64,
+    // noise.rs `Stats::faces`: 1 where small boxes take the six face centres.
+    faces: f64,
 }
 
 // The statistics of sampler `s`'s table, from its record in the filtered form's data
 // (`filtered.rs` `Gen::sampler`: table offset, period, cellular codes and jitter, statistics).
 fn smp_stats(s: u32) -> St {
-    return St(fdata[s + 7u], fdata[s + 8u], fdata[s + 9u], fdata[s + 10u]);
+    return St(fdata[s + 7u], fdata[s + 8u], fdata[s + 9u], fdata[s + 10u], fdata[s + 11u]);
 }
 
 // A piecewise cubic (moments.rs `Piecewise`): knots k[0..n], pieces p[0..=n] as coefficients
@@ -929,6 +931,37 @@ fn n_sub_centre(p: array<D, 3>, e: array<vec3<f64>, 3>, j: u32) -> vec3<f64> {
         c[i] = c[i] + s;
     }
     return c;
+}
+
+// noise.rs `face_offsets`: face j's centre in noise space, +E_j/2 then -E_(j-3)/2.
+fn n_face_centre(p: array<D, 3>, e: array<vec3<f64>, 3>, j: u32) -> vec3<f64> {
+    let sign = select(-0.5lf, 0.5lf, j < 3u);
+    return vec3<f64>(p[0].m, p[1].m, p[2].m) + sign * e[j % 3u];
+}
+
+// lanes.rs `faces`: one octave from its values at the six face centres (w; an input without
+// residual variance), unfaded; `ok` false where the edges are degenerate.
+fn n_faces(s: array<vec4<f64>, 8>) -> Opt {
+    var mean = 0.0lf;
+    for (var j = 0u; j < 6u; j += 1u) {
+        mean = mean + finite_or_zero(s[j].w);
+    }
+    mean = mean / 6.0lf;
+    var du = vec3<f64>(0.0lf);
+    for (var k = 0u; k < 3u; k += 1u) {
+        du[k] = finite_or_zero(s[k].w) - finite_or_zero(s[k + 3u].w);
+    }
+    let slope = n_slope_with(du);
+    if (slope.w == 0.0lf || !is_finite_d(mean)) {
+        return Opt(dc(0.0lf), false);
+    }
+    var spread = 0.0lf;
+    for (var j = 0u; j < 6u; j += 1u) {
+        let d = finite_or_zero(s[j].w) - mean;
+        spread = spread + d * d;
+    }
+    let v = f_residual(spread / 6.0lf, f_linvar(slope.xyz));
+    return Opt(D(mean, slope.xyz, select(0.0lf, v, is_finite_d(v))), true);
 }
 
 // noise.rs `subsampled`: one octave from its eight sub-boxes' values and gradients (xyz the

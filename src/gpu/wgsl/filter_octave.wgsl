@@ -17,16 +17,21 @@ fn n_octave_SAMPLE(p: array<D, 3>, s: u32) -> D {
     // site of the sampler in a loop the driver cannot unroll (`filter_one()`): each call site
     // inlines the whole f64 noise kernel.
     let band = alpha >= 0.01lf && alpha <= 0.99lf;
+    // noise.rs `FACES_FROM`: a small box of an input without residual, a smooth basis.
+    let faces = band && alpha >= 0.95lf && st.faces != 0.0lf
+        && p[0].v + p[1].v + p[2].v == 0.0lf;
     var e: array<vec3<f64>, 3>;
     var count = 1u;
     if (band) {
         e = n_edges(p);
-        count = 8u;
+        count = select(8u, 6u, faces);
     }
     var v: array<vec4<f64>, 8>;
     for (var j = 0u; j < count * u32(filter_one()); j += 1u) {
         var x = vec3<f64>(p[0].m, p[1].m, p[2].m);
-        if (band) {
+        if (faces) {
+            x = n_face_centre(p, e, j);
+        } else if (band) {
             x = n_sub_centre(p, e, j);
         }
         v[j] = smp_SAMPLE(s, x);
@@ -34,7 +39,12 @@ fn n_octave_SAMPLE(p: array<D, 3>, s: u32) -> D {
     if (alpha == 1.0lf && d_is_const(p[0]) && d_is_const(p[1]) && d_is_const(p[2])) {
         return dc(v[0].w);
     }
-    if (band) {
+    if (faces) {
+        let sub = n_faces(v);
+        if (sub.ok) {
+            return sub.d;
+        }
+    } else if (band) {
         let sub = n_subsampled(st, p, e, v);
         if (sub.ok) {
             return sub.d;
