@@ -33,9 +33,10 @@ pub struct Stats {
     /// Mean square of one gradient component (`NoiseGradient`'s variance).
     pub grad_sq: f64,
     /// Whether small boxes take the six face centres (`FACES_FROM`): a basis smooth across its
-    /// cells. Trilinear value noise, whose kinks on the lattice planes the faces straddle,
-    /// keeps the eight sub-boxes (examples/band_rules.rs: 0.0098 against 0.0084 σ at a
-    /// quarter of a cell).
+    /// cells (Perlin, gradient, simplex, smooth value noise). Trilinear value noise, whose kinks
+    /// on the lattice planes the faces straddle, keeps the eight sub-boxes
+    /// (examples/band_rules.rs: 0.0098 against 0.0084 σ at a quarter of a cell), and so do
+    /// white and cellular noise where their own rules fall back to the octave rule.
     pub faces: bool,
 }
 
@@ -77,10 +78,16 @@ pub fn stats(table: &NoiseTable) -> Stats {
         mean,
         var,
         kappa2: if var > 0.0 { g / var } else { 0.0 },
-        faces: !matches!(
-            table.basis(),
-            crate::noise::Basis::Value(crate::noise::Interpolation::Linear)
-        ),
+        faces: {
+            use crate::noise::{Basis, Interpolation};
+            matches!(
+                table.basis(),
+                Basis::Perlin
+                    | Basis::Gradient
+                    | Basis::Simplex
+                    | Basis::Value(Interpolation::Smooth)
+            )
+        },
         grad_sq: if grad2.is_finite() {
             grad2 / count
         } else {
