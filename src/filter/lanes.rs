@@ -194,7 +194,7 @@ lane_targets! {
 /// `j = k + 3`), for an input without residual variance: their mean (a rule of degree 3); the
 /// slope along each edge the difference across it (`grad · e_k = v_k − v_{k+3}`, through the
 /// fit); as variance their spread (a linear function's variance over the box exactly), less
-/// the slope's. No fade: at the fades that take it the box is within a quarter of a cell.
+/// the slope's. No fade: at the fades that take it the box is within 0.4 of a cell.
 pub(super) fn faces(run: &SubRun, values: &[f64], n: usize, out: &mut Octave) {
     let values = &values[..6 * n];
     let (means, [g0, g1, g2], vars, ok) = out.planes(n);

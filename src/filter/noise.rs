@@ -198,9 +198,9 @@ fn sub_offsets(e: &[[f64; 3]; 3]) -> [[f64; 3]; 8] {
 /// variance over the box, where the sub-box centres' spread is 3/4 of it). examples/band_rules.rs
 /// measures them better than the eight in the mean up to half a cell (0.0017 against 0.0078 σ
 /// at a quarter), in the variance up to a quarter of a cell (0.0051 against 0.0147 σ²), worse
-/// past it (0.057 against 0.038 σ² at half a cell): fades of at least 0.95 (a quarter of a cell
-/// for Perlin) take them.
-const FACES_FROM: f64 = 0.95;
+/// past it (0.057 against 0.038 σ² at half a cell). In the filtering table fades of at least
+/// 0.9 (0.38 of a cell for Perlin) did best: 0.95 made 3 rows worse, 0.85 and 0.8 7 and 8 worse.
+const FACES_FROM: f64 = 0.9;
 
 /// The six face centres' offsets from the centre, `+E_k / 2` then `−E_k / 2` (the last two
 /// entries unused).

@@ -18,7 +18,7 @@ fn n_octave_SAMPLE(p: array<D, 3>, s: u32) -> D {
     // inlines the whole f64 noise kernel.
     let band = alpha >= 0.01lf && alpha <= 0.99lf;
     // noise.rs `FACES_FROM`: a small box of an input without residual, a smooth basis.
-    let faces = band && alpha >= 0.95lf && st.faces != 0.0lf
+    let faces = band && alpha >= 0.9lf && st.faces != 0.0lf
         && p[0].v + p[1].v + p[2].v == 0.0lf;
     var e: array<vec3<f64>, 3>;
     var count = 1u;
