@@ -241,8 +241,8 @@ pub(super) struct CentreRun<'a> {
 lane_targets! {
 /// The centre-sampled octave (`noise.rs`'s `sampled`) at `n` lanes from the noise's value and
 /// gradient at their centres: the faded value; the gradient through the input's linear part,
-/// faded and damped; as variance what the fade takes less the slope's, plus the input's
-/// residual carried through the gradient.
+/// faded and damped; as residual what the fade takes beyond the linear part's expectation
+/// (`run.rest`, one number per run), plus the input's residual carried through the gradient.
 pub(super) fn sampled(run: &CentreRun, value: &[f64], grad: [&[f64]; 3], out: &mut Octave) {
     let n = value.len();
     let (gx, gy, gz) = (&grad[0][..n], &grad[1][..n], &grad[2][..n]);

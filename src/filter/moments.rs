@@ -827,6 +827,12 @@ impl Piecewise {
     pub fn moments(&self, t: f64, s: &Spread) -> Moments {
         piecewise_moments(&self.knots, &self.polys, t, s)
     }
+
+    /// Value and slope where `f` is one line over `t ± half` (the piece holding `t` a line, no
+    /// knot inside), as [`Piecewise::moments`] finds it first; `None` otherwise.
+    pub fn line_around(&self, t: f64, half: f64) -> Option<(f64, f64)> {
+        line_around(&self.knots, &self.polys, t, half)
+    }
 }
 
 /// The anchor of piece `i`: `c_i` for `i >= 1`, `c_1` for `i = 0`, 0 without knots.
@@ -1099,18 +1105,21 @@ fn piecewise_early(knots: &[f64], polys: &[[f64; 4]], t: f64, s: &Spread) -> Opt
             slope: 0.0,
         });
     }
-    let half = s.half_support();
+    let (mean, b) = line_around(knots, polys, t, s.half_support())?;
+    Some(Moments {
+        mean,
+        variance: b * b * s.variance(),
+        slope: b,
+    })
+}
+
+/// The value and slope at `t` where the piece holding `t` is a line and no knot lies within
+/// `half` of `t`: over a support of half-width `half` the function is that line.
+fn line_around(knots: &[f64], polys: &[[f64; 4]], t: f64, half: f64) -> Option<(f64, f64)> {
     let j = knots.partition_point(|&c| c <= t);
     let line = polys[j][2] == 0.0 && polys[j][3] == 0.0;
-    if line && !knots.iter().any(|&c| c > t - half && c < t + half) {
-        let b = polys[j][1];
-        return Some(Moments {
-            mean: horner(&polys[j], t - anchor(knots, j)),
-            variance: b * b * s.variance(),
-            slope: b,
-        });
-    }
-    None
+    (line && !knots.iter().any(|&c| c > t - half && c < t + half))
+        .then(|| (horner(&polys[j], t - anchor(knots, j)), polys[j][1]))
 }
 
 /// `B_n(u) / n!` (`n <= 10`).

@@ -496,7 +496,11 @@ impl Rules<'_> {
         if d.is_constant() {
             return Dist::constant(f.eval(d.mean));
         }
-        let m = f.moments(d.mean, &self.spread(d));
+        let widths = self.footprint.widths(d.grad);
+        if let Some(line) = line_only(f, d, &widths) {
+            return line;
+        }
+        let m = f.moments(d.mean, &Spread::new(widths, d.var));
         self.out_of_moments(d, m)
     }
 
@@ -505,7 +509,11 @@ impl Rules<'_> {
         if d.is_constant() {
             return fs.each_ref().map(|f| Dist::constant(f.eval(d.mean)));
         }
-        let spread = self.spread(d);
+        let widths = self.footprint.widths(d.grad);
+        if let [Some(a), Some(b), Some(c)] = fs.each_ref().map(|f| line_only(f, d, &widths)) {
+            return [a, b, c];
+        }
+        let spread = Spread::new(widths, d.var);
         Piecewise::moments_of(fs.each_ref(), d.mean, &spread).map(|m| self.out_of_moments(d, m))
     }
 
@@ -809,15 +817,11 @@ impl Rules<'_> {
             // One spread for both the corner sum and the piecewise rule (it was made twice
             // where the corner sum declines: most lanes, whose support misses 0).
             UnaryOp::Abs => {
-                // A support wholly on one side of 0 makes `|X|` exactly `±X`: checked on the
-                // widths before `Spread::new` merges them (a merge only shrinks the support),
-                // the rule `shapes.abs` would give there, without making the spread (most
-                // lanes of a sharp octave or a small footprint).
+                // A support wholly on one side of 0: `±X` (`line_only`), most lanes of a sharp
+                // octave or a small footprint.
                 let widths = self.footprint.widths(d.grad);
-                let half = (6.0 * d.var.max(0.0)).sqrt();
-                let bound = (widths.iter().map(|w| w.abs()).sum::<f64>() + 2.0 * half) / 2.0;
-                if bound.is_finite() && d.mean.abs() > bound {
-                    return d.scale(d.mean.signum());
+                if let Some(line) = line_only(&shapes.abs, d, &widths) {
+                    return line;
                 }
                 let spread = Spread::new(widths, d.var);
                 let m = moments::abs_moments(d.mean, &spread)
@@ -1086,6 +1090,25 @@ impl Rules<'_> {
             var: residual(total, self.footprint.linear_var(grad)),
         }
     }
+}
+
+/// `f(d)` where `f` is one line over `d`'s whole support: that line applied to `d` exactly
+/// (mean, linear part and residual scaled by its slope), without making `d`'s spread. The
+/// support is bounded on the footprint's widths and the residual's two uniforms before
+/// `Spread::new` merges them (a merge only shrinks it), so wherever this applies the piecewise
+/// rule would find the same line (`moments.rs` `piecewise_early`). `None` otherwise.
+fn line_only(f: &Piecewise, d: &Dist, widths: &[f64; 3]) -> Option<Dist> {
+    let residual = (6.0 * d.var.max(0.0)).sqrt();
+    let half = (widths.iter().map(|w| w.abs()).sum::<f64>() + 2.0 * residual) / 2.0;
+    if !half.is_finite() || !d.mean.is_finite() {
+        return None;
+    }
+    let (value, slope) = f.line_around(d.mean, half)?;
+    Some(Dist {
+        mean: value,
+        grad: d.grad.map(|g| slope * g),
+        var: slope * slope * d.var,
+    })
 }
 
 /// The residual variance left when a linear part of variance `linear` is taken out of a total
