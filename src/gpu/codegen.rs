@@ -67,7 +67,7 @@ pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
                     | Instr::FractalGradient { .. }
             )
     }) {
-        source.push_str(super::widen::library());
+        source.push_str(super::widen::declarations());
         source.push('\n');
     }
     source.push_str(&tape_part(tape, &ConstantExprs::default(), "dispatch.one"));
@@ -857,18 +857,26 @@ fn vec3_literal(v: [f64; 3]) -> String {
     )
 }
 
-/// Validates WGSL with naga (what wgpu itself runs before compiling), with 64-bit floats
-/// allowed: the errors located in the source.
+/// A generated shader parsed by naga, the bases' f64 twins given their bodies
+/// (`widen::graft`) and validated (what wgpu itself runs before compiling) with 64-bit floats
+/// allowed: the module wgpu compiles, or the errors located in the source.
 #[cfg(feature = "gpu")]
-pub fn validate(source: &str) -> Result<(), String> {
-    let module = naga::front::wgsl::parse_str(source).map_err(|e| e.emit_to_string(source))?;
+pub fn module(source: &str) -> Result<naga::Module, String> {
+    let mut module = naga::front::wgsl::parse_str(source).map_err(|e| e.emit_to_string(source))?;
+    super::widen::graft(&mut module)?;
     naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
         naga::valid::Capabilities::FLOAT64,
     )
     .validate(&module)
-    .map(|_| ())
-    .map_err(|e| e.emit_to_string(source))
+    .map_err(|e| e.emit_to_string(source))?;
+    Ok(module)
+}
+
+/// [`module`]'s checks alone.
+#[cfg(feature = "gpu")]
+pub fn validate(source: &str) -> Result<(), String> {
+    module(source).map(|_| ())
 }
 
 #[cfg(all(test, feature = "gpu"))]

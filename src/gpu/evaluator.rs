@@ -248,12 +248,12 @@ impl GpuEvaluator {
 
     fn build(tape: &Tape, shader: codegen::Shader) -> Result<GpuEvaluator, GpuError> {
         let context = context()?;
-        codegen::validate(&shader.source).map_err(GpuError::Shader)?;
+        let naga_module = codegen::module(&shader.source).map_err(GpuError::Shader)?;
         let device = &context.device;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("texgraph tape"),
-            source: wgpu::ShaderSource::Wgsl(shader.source.as_str().into()),
+            source: wgpu::ShaderSource::Naga(std::borrow::Cow::Owned(naga_module)),
         });
         let entry = layout_entry;
         let read = wgpu::BufferBindingType::Storage { read_only: true };

@@ -69,8 +69,8 @@ pub fn generate(tape: &Tape) -> Result<Shader, GpuError> {
         ));
     };
     let mut source = String::from(library);
-    if !source.contains(super::widen::library()) {
-        source.push_str(super::widen::library());
+    if !source.contains(super::widen::declarations()) {
+        source.push_str(super::widen::declarations());
         source.push('\n');
     }
     source.push_str(&filtered);

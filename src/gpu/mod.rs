@@ -25,7 +25,17 @@ pub use evaluator::GpuEvaluator;
 mod stub;
 #[cfg(not(feature = "gpu"))]
 pub use stub::GpuBake;
+#[cfg(any(feature = "gpu", feature = "shader"))]
+pub(crate) mod ir;
+#[cfg(any(feature = "gpu", feature = "shader"))]
 pub(crate) mod widen;
+/// Without naga nothing parses WGSL, so no shader is ever made: no twins to declare.
+#[cfg(not(any(feature = "gpu", feature = "shader")))]
+pub(crate) mod widen {
+    pub(crate) fn declarations() -> &'static str {
+        ""
+    }
+}
 #[cfg(not(feature = "gpu"))]
 pub use stub::GpuEvaluator;
 

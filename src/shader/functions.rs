@@ -5,7 +5,8 @@
 //! shader.
 
 use super::options::PREFIX;
-use naga::{Block, Expression, Function, Handle, Module, Statement};
+use crate::gpu::ir::{map_calls, order_by_calls};
+use naga::{Function, Handle, Module};
 use std::collections::HashSet;
 
 /// Each function named `NAME{suffix}` replaces `NAME`: its body and signature go to `NAME`'s
@@ -108,113 +109,6 @@ pub fn prefix(module: &mut Module, keep: &HashSet<String>) {
         if t.name != module.types[h].name {
             // In place: a prefixed name is new to the arena, so the handle stays.
             module.types.replace(h, t);
-        }
-    }
-}
-
-/// Reorders `module.functions` so that every function comes after the functions it calls
-/// (depth first, in the old order otherwise), and points every call at the new handles.
-fn order_by_calls(module: &mut Module) {
-    let n = module.functions.len();
-    let callees: Vec<Vec<usize>> = module
-        .functions
-        .iter()
-        .map(|(_, f)| {
-            let mut calls = Vec::new();
-            each_call(&f.body, &mut |h| calls.push(h.index()));
-            calls
-        })
-        .collect();
-    let (mut order, mut state) = (Vec::with_capacity(n), vec![0u8; n]);
-    for root in 0..n {
-        if state[root] != 0 {
-            continue;
-        }
-        // Iterative depth-first post-order: (function, index of its next callee). WGSL has
-        // no recursion, so there are no cycles.
-        state[root] = 1;
-        let mut stack = vec![(root, 0usize)];
-        while let Some(top) = stack.last_mut() {
-            let (f, next) = *top;
-            if let Some(&callee) = callees[f].get(next) {
-                top.1 += 1;
-                if state[callee] == 0 {
-                    state[callee] = 1;
-                    stack.push((callee, 0));
-                }
-            } else {
-                order.push(f);
-                stack.pop();
-            }
-        }
-    }
-    let old: Vec<_> = module.functions.drain().map(|(_, f, s)| (f, s)).collect();
-    let mut old: Vec<Option<(Function, naga::Span)>> = old.into_iter().map(Some).collect();
-    let mut new_handle = vec![None; n];
-    for i in order {
-        let (f, span) = old[i].take().expect("each function once");
-        new_handle[i] = Some(module.functions.append(f, span));
-    }
-    map_calls(module, |h| {
-        new_handle[h.index()].expect("every function placed")
-    });
-}
-
-/// Points every call in `module` (its functions' and entry points') at `map(callee)`.
-fn map_calls(module: &mut Module, map: impl Fn(Handle<Function>) -> Handle<Function>) {
-    let entries = module.entry_points.iter_mut().map(|e| &mut e.function);
-    for f in module.functions.iter_mut().map(|(_, f)| f).chain(entries) {
-        for (_, e) in f.expressions.iter_mut() {
-            if let Expression::CallResult(h) = e {
-                *h = map(*h);
-            }
-        }
-        each_call_mut(&mut f.body, &mut |h| *h = map(*h));
-    }
-}
-
-/// Calls `each` with the function of every call in `block`, nested blocks included.
-fn each_call(block: &Block, each: &mut impl FnMut(Handle<Function>)) {
-    for s in block.iter() {
-        match s {
-            Statement::Call { function, .. } => each(*function),
-            Statement::Block(b) => each_call(b, each),
-            Statement::If { accept, reject, .. } => {
-                each_call(accept, each);
-                each_call(reject, each);
-            }
-            Statement::Switch { cases, .. } => cases.iter().for_each(|c| each_call(&c.body, each)),
-            Statement::Loop {
-                body, continuing, ..
-            } => {
-                each_call(body, each);
-                each_call(continuing, each);
-            }
-            _ => {}
-        }
-    }
-}
-
-/// [`each_call`], able to change the function called.
-fn each_call_mut(block: &mut Block, each: &mut impl FnMut(&mut Handle<Function>)) {
-    for s in block.iter_mut() {
-        match s {
-            Statement::Call { function, .. } => each(function),
-            Statement::Block(b) => each_call_mut(b, each),
-            Statement::If { accept, reject, .. } => {
-                each_call_mut(accept, each);
-                each_call_mut(reject, each);
-            }
-            Statement::Switch { cases, .. } => cases
-                .iter_mut()
-                .for_each(|c| each_call_mut(&mut c.body, each)),
-            Statement::Loop {
-                body, continuing, ..
-            } => {
-                each_call_mut(body, each);
-                each_call_mut(continuing, each);
-            }
-            _ => {}
         }
     }
 }

@@ -81,7 +81,7 @@ pub fn export_source(
     // into them; the point forms take the literal.
     source.push_str(&crate::gpu::codegen::tape_part(tape, &exprs, "1.0"));
     if functions.iter().any(|f| f.filtered.is_some()) {
-        source.push_str(crate::gpu::widen::library());
+        source.push_str(crate::gpu::widen::declarations());
         match crate::gpu::filtered::filtered_part(tape, true, Some(array_decl(lang))) {
             Ok((part, _)) => source.push_str(&part),
             Err(e) => debug_assert!(false, "functions() checked the tape: {e}"),

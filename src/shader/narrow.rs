@@ -10,7 +10,8 @@
 //! change (the same ops exist at both widths), and the validator, run afterwards without the
 //! f64 capability, proves that nothing of f64 is left.
 
-use naga::{Expression, Handle, Literal, Module, Scalar, ScalarKind, Type, TypeInner};
+use crate::gpu::ir::NARROW;
+use naga::{Expression, Handle, Literal, Module, Scalar, Type};
 use std::collections::{HashMap, HashSet};
 
 /// The module's f64 constants by name, with their values where they are literals.
@@ -111,7 +112,7 @@ fn d_mod__export(a: f32, b: f32) -> f32 { return s_mod(a, b); }
 /// the constants that were f64, by name, with their values where they are literals, for
 /// [`settle_constants`].
 pub fn narrow(module: &mut Module) -> Result<Wide, String> {
-    let types = narrow_types(module)?;
+    let types = NARROW.types(module, |_, _| None)?;
     let t = |h: Handle<Type>| types[h.index()];
     let mut wide = Wide::new();
     for (_, c) in module.constants.iter_mut() {
@@ -131,7 +132,7 @@ pub fn narrow(module: &mut Module) -> Result<Wide, String> {
         g.ty = t(g.ty);
     }
     for (_, e) in module.global_expressions.iter_mut() {
-        narrow_expression(e, &t);
+        NARROW.expression(e, &t);
     }
     let functions = module.functions.iter_mut().map(|(_, f)| f);
     let entries = module.entry_points.iter_mut().map(|e| &mut e.function);
@@ -146,7 +147,7 @@ pub fn narrow(module: &mut Module) -> Result<Wide, String> {
             v.ty = t(v.ty);
         }
         for (_, e) in f.expressions.iter_mut() {
-            narrow_expression(e, &t);
+            NARROW.expression(e, &t);
         }
     }
     // `frexp` and `modf` of f64 would need their predeclared result types narrowed too; the
@@ -205,125 +206,6 @@ pub fn settle_constants(module: &mut Module, wide: &Wide) -> Result<(), String> 
         }
     }
     Ok(())
-}
-
-/// Per type handle (by index), the handle of its f32 form: itself where it holds no f64, else
-/// a type added to the arena (its name kept; struct members and array strides laid out for
-/// the narrowed members, by naga's own layouter, as the WGSL front end lays them out).
-fn narrow_types(module: &mut Module) -> Result<Vec<Handle<Type>>, String> {
-    let old: Vec<(Handle<Type>, Type)> =
-        module.types.iter().map(|(h, ty)| (h, ty.clone())).collect();
-    let mut map: Vec<Handle<Type>> = Vec::with_capacity(old.len());
-    let mut layouter = naga::proc::Layouter::default();
-    let layout_error = |e: naga::proc::LayoutError| format!("laying out a narrowed type: {e}");
-    for (handle, ty) in old {
-        let base = |b: Handle<Type>| map[b.index()];
-        let inner = match ty.inner {
-            TypeInner::Scalar(s) => TypeInner::Scalar(narrow_scalar(s)),
-            TypeInner::Atomic(s) => TypeInner::Atomic(narrow_scalar(s)),
-            TypeInner::Vector { size, scalar } => TypeInner::Vector {
-                size,
-                scalar: narrow_scalar(scalar),
-            },
-            TypeInner::Matrix {
-                columns,
-                rows,
-                scalar,
-            } => TypeInner::Matrix {
-                columns,
-                rows,
-                scalar: narrow_scalar(scalar),
-            },
-            TypeInner::ValuePointer {
-                size,
-                scalar,
-                space,
-            } => TypeInner::ValuePointer {
-                size,
-                scalar: narrow_scalar(scalar),
-                space,
-            },
-            TypeInner::Pointer { base: b, space } => TypeInner::Pointer {
-                base: base(b),
-                space,
-            },
-            TypeInner::BindingArray { base: b, size } => TypeInner::BindingArray {
-                base: base(b),
-                size,
-            },
-            TypeInner::Array { base: b, size, .. } if base(b) != b => {
-                layouter.update(module.to_ctx()).map_err(layout_error)?;
-                TypeInner::Array {
-                    base: base(b),
-                    size,
-                    stride: layouter[base(b)].to_stride(),
-                }
-            }
-            TypeInner::Struct { ref members, .. } if members.iter().any(|m| base(m.ty) != m.ty) => {
-                layouter.update(module.to_ctx()).map_err(layout_error)?;
-                let mut members = members.clone();
-                let (mut offset, mut alignment) = (0, naga::proc::Alignment::ONE);
-                for m in &mut members {
-                    m.ty = base(m.ty);
-                    let layout = layouter[m.ty];
-                    offset = layout.alignment.round_up(offset);
-                    m.offset = offset;
-                    offset += layout.size;
-                    alignment = alignment.max(layout.alignment);
-                }
-                TypeInner::Struct {
-                    members,
-                    span: alignment.round_up(offset),
-                }
-            }
-            other => other,
-        };
-        if inner == module.types[handle].inner {
-            map.push(handle);
-        } else {
-            let span = module.types.get_span(handle);
-            map.push(module.types.insert(
-                Type {
-                    name: ty.name,
-                    inner,
-                },
-                span,
-            ));
-        }
-    }
-    Ok(map)
-}
-
-fn narrow_scalar(s: Scalar) -> Scalar {
-    if s == Scalar::F64 {
-        Scalar::F32
-    } else {
-        s
-    }
-}
-
-/// An expression's f64 literal, conversion or type made f32. A literal out of f32's range
-/// becomes infinite here, which the validator refuses wherever it is still used after
-/// compaction (the f64-only constants are used only by functions [`F32_FORMS`] replaces).
-fn narrow_expression(e: &mut Expression, t: &impl Fn(Handle<Type>) -> Handle<Type>) {
-    match e {
-        Expression::Literal(l) => {
-            if let Literal::F64(v) = *l {
-                *l = Literal::F32(v as f32);
-            }
-        }
-        Expression::As {
-            kind: ScalarKind::Float,
-            convert: Some(width),
-            ..
-        } if *width == 8 => *width = 4,
-        Expression::ZeroValue(ty)
-        | Expression::Compose { ty, .. }
-        | Expression::AtomicResult { ty, .. }
-        | Expression::WorkGroupUniformLoadResult { ty }
-        | Expression::SubgroupOperationResult { ty } => *ty = t(*ty),
-        _ => {}
-    }
 }
 
 #[cfg(test)]

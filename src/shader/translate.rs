@@ -17,6 +17,7 @@ pub(super) fn translate(
     let internal = |what: &str, e: String| ShaderError::Internal(format!("{what}: {e}"));
     let mut module = naga::front::wgsl::parse_str(wgsl)
         .map_err(|e| internal("parsing the export's WGSL", e.emit_to_string(wgsl)))?;
+    crate::gpu::widen::graft(&mut module).map_err(|e| internal("the bases' f64 twins", e))?;
     let wide = super::narrow::narrow(&mut module).map_err(|e| internal("narrowing to f32", e))?;
     super::functions::replace(&mut module, super::options::EXPORT_FORM)
         .map_err(|e| internal("the export's functions", e))?;
