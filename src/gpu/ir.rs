@@ -17,6 +17,7 @@ pub(crate) struct Widths {
 }
 
 /// f64 to f32 (the shader export).
+#[cfg(feature = "shader")]
 pub(crate) const NARROW: Widths = Widths {
     from: Scalar::F64,
     to: Scalar::F32,

@@ -193,7 +193,12 @@ fn make_plan() -> Result<Plan, String> {
     let overridden: HashSet<&str> = module
         .functions
         .iter()
-        .filter(|&(h, _)| starts(module.functions.get_span(h), &[overrides.clone()]))
+        .filter(|&(h, _)| {
+            starts(
+                module.functions.get_span(h),
+                std::slice::from_ref(&overrides),
+            )
+        })
         .filter_map(|(_, f)| f.name.as_deref())
         .collect();
 
