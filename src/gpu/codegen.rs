@@ -883,6 +883,21 @@ pub fn validate(source: &str) -> Result<(), String> {
 mod tests {
     use super::*;
 
+    /// The f64 twins are planned from the library as the shaders concatenate it: the files
+    /// `widen.rs` parses are [`LIBRARY`]'s, in its order.
+    #[test]
+    fn the_twins_are_planned_from_this_library() {
+        let planned: Vec<&str> = (super::super::widen::CONTEXT.iter())
+            .chain(&super::super::widen::SOURCES)
+            .copied()
+            .collect();
+        let library: Vec<&str> = LIBRARY.iter().map(|(_, text)| *text).collect();
+        assert!(
+            planned == library,
+            "widen.rs' CONTEXT and SOURCES are not LIBRARY"
+        );
+    }
+
     /// The hand-written WGSL validates with naga on its own (the library and the entry points
     /// over the smallest `tape` function), and so does the shader generated for a graph that
     /// reaches every basis, tiling, both gradients, every fractal style, splines, rotations

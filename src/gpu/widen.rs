@@ -23,7 +23,7 @@ use std::fmt::Write;
 use std::sync::OnceLock;
 
 /// The f32 modules with f64 twins, in library order (`codegen::LIBRARY`).
-const SOURCES: [&str; 5] = [
+pub(crate) const SOURCES: [&str; 5] = [
     include_str!("wgsl/cell.wgsl"),
     include_str!("wgsl/lattice.wgsl"),
     include_str!("wgsl/lattice_grad.wgsl"),
@@ -33,7 +33,7 @@ const SOURCES: [&str; 5] = [
 
 /// The library before them, which they use (tables, NaN tests; math.wgsl's f64 helpers for
 /// `wide.wgsl`).
-const CONTEXT: [&str; 2] = [
+pub(crate) const CONTEXT: [&str; 2] = [
     include_str!("wgsl/common.wgsl"),
     include_str!("wgsl/math.wgsl"),
 ];
@@ -256,43 +256,9 @@ fn make_plan() -> Result<Plan, String> {
     }
 
     let mut declarations = String::from(OVERRIDES);
-    declarations.push_str(
-        "\n// The f64 twins of the f32 bases (gpu/widen.rs): structs and constants whole; each\n\
-         // function's body is its f32 form's at f64, given on naga's IR (`widen::graft`).\n",
-    );
-    for &h in &structs {
-        let TypeInner::Struct { members, .. } = &module.types[h].inner else {
-            continue;
-        };
-        let name = &renames[module.types[h].name.as_deref().unwrap_or_default()];
-        let _ = writeln!(declarations, "struct {name} {{");
-        for m in members {
-            let member = m.name.as_deref().unwrap_or_default();
-            let _ = writeln!(
-                declarations,
-                "    {member}: {},",
-                wgsl_type(&module, m.ty, &renames)?
-            );
-        }
-        declarations.push_str("}\n");
-    }
-    for &h in &constants {
-        let c = &module.constants[h];
-        let value = match module.global_expressions[c.init] {
-            // Finite (an f32 constant's value), written exactly: `{:e}` is the shortest
-            // decimal that reads back as the same f64.
-            Expression::Literal(Literal::F32(v)) if v.is_finite() => {
-                format!("{:e}lf", ir::widened(v))
-            }
-            ref other => return Err(format!("the f32 constant {:?} is {other:?}", c.name)),
-        };
-        let name = &renames[c.name.as_deref().unwrap_or_default()];
-        let _ = writeln!(
-            declarations,
-            "const {name}: {} = {value};",
-            wgsl_type(&module, c.ty, &renames)?
-        );
-    }
+    declarations.push_str(&declare_structs_and_constants(
+        &module, &structs, &constants, &renames,
+    )?);
     let mut functions = Vec::new();
     for &(_, f) in &candidates {
         let name = f.name.as_deref().unwrap_or_default();
@@ -310,6 +276,54 @@ fn make_plan() -> Result<Plan, String> {
         renames,
         functions,
     })
+}
+
+/// The twin structs' and constants' WGSL: each struct with its members at f64, each constant
+/// with its value widened (`ir::widened`).
+fn declare_structs_and_constants(
+    module: &Module,
+    structs: &[Handle<Type>],
+    constants: &[Handle<Constant>],
+    renames: &HashMap<String, String>,
+) -> Result<String, String> {
+    let mut declarations = String::from(
+        "\n// The f64 twins of the f32 bases (gpu/widen.rs): structs and constants whole; each\n\
+         // function's body is its f32 form's at f64, given on naga's IR (`widen::graft`).\n",
+    );
+    for &h in structs {
+        let TypeInner::Struct { members, .. } = &module.types[h].inner else {
+            continue;
+        };
+        let name = &renames[module.types[h].name.as_deref().unwrap_or_default()];
+        let _ = writeln!(declarations, "struct {name} {{");
+        for m in members {
+            let member = m.name.as_deref().unwrap_or_default();
+            let _ = writeln!(
+                declarations,
+                "    {member}: {},",
+                wgsl_type(module, m.ty, renames)?
+            );
+        }
+        declarations.push_str("}\n");
+    }
+    for &h in constants {
+        let c = &module.constants[h];
+        let value = match module.global_expressions[c.init] {
+            // Finite (an f32 constant's value), written exactly: `{:e}` is the shortest
+            // decimal that reads back as the same f64.
+            Expression::Literal(Literal::F32(v)) if v.is_finite() => {
+                format!("{:e}lf", ir::widened(v))
+            }
+            ref other => return Err(format!("the f32 constant {:?} is {other:?}", c.name)),
+        };
+        let name = &renames[c.name.as_deref().unwrap_or_default()];
+        let _ = writeln!(
+            declarations,
+            "const {name}: {} = {value};",
+            wgsl_type(module, c.ty, renames)?
+        );
+    }
+    Ok(declarations)
 }
 
 /// `fn TWIN(ARGS) -> RESULT { return RESULT(); }`: the twin's signature, `f`'s at f64.
