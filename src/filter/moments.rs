@@ -587,12 +587,20 @@ fn tp_means(x: f64, ws: &Widths, level: usize, n0: usize, len: usize) -> [f64; 7
 /// `(P(x + w_1/2 + S' >= 0) − P(x − w_1/2 + S' >= 0)) / w_1`, at `x = −|u|` (`p_S` is even; on
 /// that side the second probability is the smaller, so both keep their relative accuracy into
 /// the tails). 0 on and outside the support's boundary; a point: `inf` at 0, else 0.
+/// How close to the support's end (relative to its half-width) a point counts as on it for
+/// [`density`]: a function's jump there (a box whose edge lies on a `Floor`'s integer, as the
+/// voxels of a power-of-two grid do on cells of a power-of-two size) has no mass on either side,
+/// yet rounding put it inside or outside by a few ulps, depending on how the sum was formed:
+/// `Floor(4y)²` over y in [1/2, 2/3] took the density there and came out 4.0833 for 4 (the
+/// linear part of a jump with no mass; the GPU's `sp_density` has the same rule).
+pub(crate) const EDGE: f64 = 1e-12;
+
 fn density_s(u: f64, ws: &Widths) -> f64 {
     if ws.k == 0 {
         return if u == 0.0 { f64::INFINITY } else { 0.0 };
     }
     let x = -u.abs();
-    if x + ws.half[0] <= 0.0 {
+    if x + ws.half[0] <= EDGE * ws.half[0] {
         return 0.0;
     }
     let w1 = ws.w[0];
@@ -644,8 +652,8 @@ pub fn power_mean(t: f64, s: &Spread, d: u32) -> f64 {
 
 /// The density of `X` at 0 (`d/dt` of `P(X >= 0)`), `p_S(−t) = p_S(t)`, by one step of (D)
 /// (module docs). For a point spread 0 unless `t == 0`, then `f64::INFINITY`; 0 for an
-/// unbounded spread; 0 on the support's boundary (where, for one width, the density jumps).
-/// NaN `t` gives NaN.
+/// unbounded spread; 0 on the support's boundary (where, for one width, the density jumps),
+/// and within [`EDGE`] of it. NaN `t` gives NaN.
 pub fn density(t: f64, s: &Spread) -> f64 {
     if t.is_nan() {
         return f64::NAN;

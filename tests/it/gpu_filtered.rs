@@ -159,6 +159,58 @@ fn gpu_filtered_matches_cpu_filtered() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// Boxes whose edges lie on a `Floor`'s integers (voxels of a power-of-two grid, cells of a
+/// power-of-two size): the sawtooth rule's jump exactly at the support's end is outside on the
+/// GPU as on the CPU. Before, the GPU took the density there: `Floor(4y)²` over y in [1/3, 1/2]
+/// was 1.0833 (1/12 too much), and an HSV hue chain over white noise of the floored position
+/// differed by up to 0.46 at a third of the voxels of a 6³ bake.
+#[test]
+fn a_floor_whose_jump_is_on_the_box_edge_matches_the_cpu() {
+    if !common::gpu_available("a_floor_whose_jump_is_on_the_box_edge_matches_the_cpu") {
+        return;
+    }
+    let tape = crate::filter::tape(
+        r#"Graph(nodes: { "p": Position, "f": Floor(Mul("p.y", 4.0)),
+            "h": WhiteNoise(input: Floor(Mul("p", 4.0)), seed: 1) }, outputs: {
+            "square": Mul("f", "f"),
+            "hue": Clamp(Sub(Abs(Sub(Mul(Fract(Add("h", 0.3333)), 6.0), 3.0)), 1.0), 0.0, 1.0),
+        })"#,
+    );
+    // The centres of a 6³ grid over the unit cube, each with its voxel box.
+    let side = 1.0 / 6.0;
+    let mut points = Vec::new();
+    for k in 0..216 {
+        let c = |i: usize| (i as f64 + 0.5) * side;
+        points.push([c(k % 6), c(k / 6 % 6), c(k / 36)]);
+    }
+    let footprints = vec![Footprint::cube(side).expect("a voxel box"); points.len()];
+    // Where a voxel's y · 4 lies within one integer cell (edges included), the floor is that
+    // integer almost everywhere in the box: its square's mean is exactly the integer's square.
+    let n = points.len();
+    let [x, y, z] = [0, 1, 2].map(|c| points.iter().map(|p| p[c]).collect::<Vec<f64>>());
+    let mut cpu = vec![0f64; n * tape.channels()];
+    Filtered::new(&tape).eval_batch([&x, &y, &z], &footprints, &mut cpu);
+    let mut inside = 0;
+    for (i, p) in points.iter().enumerate() {
+        let (lo, hi) = (4.0 * (p[1] - side / 2.0), 4.0 * (p[1] + side / 2.0));
+        let f = (lo + 1e-9).floor();
+        if f == (hi - 1e-9).floor() {
+            assert!(
+                (cpu[i] - f * f).abs() < 1e-9,
+                "Floor(4y)² at {p:?}: {} for {}",
+                cpu[i],
+                f * f
+            );
+            inside += 1;
+        }
+    }
+    assert!(inside >= 72, "{inside} voxels within one cell");
+    eprintln!(
+        "{}",
+        compare("floor edges", &tape, &points, &footprints).unwrap()
+    );
+}
+
 /// One graph through every rule the library graphs leave out: a twisting rotation by a noise
 /// angle, ridged and billow sums, the trigonometric inverses, `exp`/`log`/`log2`/`sqrt`/`pow`,
 /// `atan2`, `min`/`max`/`clamp`/`smoothstep` with varying operands, `step`, `sign`, `select`,

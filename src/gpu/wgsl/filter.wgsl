@@ -297,6 +297,11 @@ fn sp_density(s: f64, sp: Sp) -> f64 {
     if (w0 == 0.0lf || sp.unbounded) {
         return 0.0lf;
     }
+    // On the support's end or within 1e-12 of its half-width: 0 (moments.rs `EDGE`).
+    let h = (sp.w.x + sp.w.y + sp.w.z) / 2.0lf;
+    if (h - abs(s) <= 1e-12lf * h) {
+        return 0.0lf;
+    }
     let u = -abs(s);
     return (cdf2(u + w0 / 2.0lf, sp.w.y, sp.w.z) - cdf2(u - w0 / 2.0lf, sp.w.y, sp.w.z)) / w0;
 }
