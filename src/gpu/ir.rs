@@ -159,6 +159,23 @@ impl Widths {
         }
     }
 
+    /// `f`'s argument, result and variable types and its expressions at the new width (`t`:
+    /// [`Widths::types`]' map).
+    pub(crate) fn function(self, f: &mut Function, t: &impl Fn(Handle<Type>) -> Handle<Type>) {
+        for a in &mut f.arguments {
+            a.ty = t(a.ty);
+        }
+        if let Some(r) = &mut f.result {
+            r.ty = t(r.ty);
+        }
+        for (_, v) in f.local_variables.iter_mut() {
+            v.ty = t(v.ty);
+        }
+        for (_, e) in f.expressions.iter_mut() {
+            self.expression(e, t);
+        }
+    }
+
     /// A literal of the old width at the new one ([`widened`] for f32 to f64).
     pub(crate) fn literal(self, l: Literal) -> Literal {
         match (l, self.to) {

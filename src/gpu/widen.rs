@@ -153,17 +153,8 @@ fn widen_function(
     constants: &HashMap<Handle<Constant>, Handle<Constant>>,
     calls: &HashMap<Handle<Function>, Handle<Function>>,
 ) {
-    for a in &mut f.arguments {
-        a.ty = t(a.ty);
-    }
-    if let Some(r) = &mut f.result {
-        r.ty = t(r.ty);
-    }
-    for (_, v) in f.local_variables.iter_mut() {
-        v.ty = t(v.ty);
-    }
+    WIDEN.function(f, t);
     for (_, e) in f.expressions.iter_mut() {
-        WIDEN.expression(e, t);
         if let Expression::Constant(c) = e {
             *c = constants.get(c).copied().unwrap_or(*c);
         }

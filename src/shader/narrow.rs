@@ -137,18 +137,7 @@ pub fn narrow(module: &mut Module) -> Result<Wide, String> {
     let functions = module.functions.iter_mut().map(|(_, f)| f);
     let entries = module.entry_points.iter_mut().map(|e| &mut e.function);
     for f in functions.chain(entries) {
-        for a in &mut f.arguments {
-            a.ty = t(a.ty);
-        }
-        if let Some(r) = &mut f.result {
-            r.ty = t(r.ty);
-        }
-        for (_, v) in f.local_variables.iter_mut() {
-            v.ty = t(v.ty);
-        }
-        for (_, e) in f.expressions.iter_mut() {
-            NARROW.expression(e, &t);
-        }
+        NARROW.function(f, &t);
     }
     // `frexp` and `modf` of f64 would need their predeclared result types narrowed too; the
     // library calls neither on f64.
