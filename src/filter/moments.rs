@@ -583,10 +583,6 @@ fn tp_means(x: f64, ws: &Widths, level: usize, n0: usize, len: usize) -> [f64; 7
     array::from_fn(|d| (hi[d] - lo[d]) / w1)
 }
 
-/// The density of `S` at `u`, `p_S(u) = d/du P(u + S >= 0)`: one step of (D) one order down,
-/// `(P(x + w_1/2 + S' >= 0) − P(x − w_1/2 + S' >= 0)) / w_1`, at `x = −|u|` (`p_S` is even; on
-/// that side the second probability is the smaller, so both keep their relative accuracy into
-/// the tails). 0 on and outside the support's boundary; a point: `inf` at 0, else 0.
 /// How close to the support's end (relative to its half-width) a point counts as on it for
 /// [`density`]: a function's jump there (a box whose edge lies on a `Floor`'s integer, as the
 /// voxels of a power-of-two grid do on cells of a power-of-two size) has no mass on either side,
@@ -595,6 +591,11 @@ fn tp_means(x: f64, ws: &Widths, level: usize, n0: usize, len: usize) -> [f64; 7
 /// linear part of a jump with no mass; the GPU's `sp_density` has the same rule).
 pub(crate) const EDGE: f64 = 1e-12;
 
+/// The density of `S` at `u`, `p_S(u) = d/du P(u + S >= 0)`: one step of (D) one order down,
+/// `(P(x + w_1/2 + S' >= 0) − P(x − w_1/2 + S' >= 0)) / w_1`, at `x = −|u|` (`p_S` is even; on
+/// that side the second probability is the smaller, so both keep their relative accuracy into
+/// the tails). 0 on and outside the support's boundary (within [`EDGE`]); a point: `inf` at 0,
+/// else 0.
 fn density_s(u: f64, ws: &Widths) -> f64 {
     if ws.k == 0 {
         return if u == 0.0 { f64::INFINITY } else { 0.0 };
@@ -653,7 +654,7 @@ pub fn power_mean(t: f64, s: &Spread, d: u32) -> f64 {
 /// The density of `X` at 0 (`d/dt` of `P(X >= 0)`), `p_S(−t) = p_S(t)`, by one step of (D)
 /// (module docs). For a point spread 0 unless `t == 0`, then `f64::INFINITY`; 0 for an
 /// unbounded spread; 0 on the support's boundary (where, for one width, the density jumps),
-/// and within [`EDGE`] of it. NaN `t` gives NaN.
+/// and within `EDGE` (10⁻¹² of the half-width) of it. NaN `t` gives NaN.
 pub fn density(t: f64, s: &Spread) -> f64 {
     if t.is_nan() {
         return f64::NAN;
