@@ -147,6 +147,16 @@ pub(super) struct SubRun<'a> {
     pub quad: &'a [[f64; 3]; 3],
 }
 
+/// A sub-sampled lane's slope and residual variance from its samples' differences along the
+/// edges (`du`, through the footprint's fit) and their total variance, less the slope's
+/// (`subsampled`, `faces`).
+#[inline(always)]
+fn fitted(run: &SubRun, du: [f64; 3], total_var: f64) -> ([f64; 3], f64) {
+    let g: [f64; 3] = std::array::from_fn(|r| dot(&run.fit[r], &du));
+    let linear = quadratic(run.quad, &g).max(0.0);
+    (g, residual(total_var, linear))
+}
+
 lane_targets! {
 /// The sub-sampled octave (`noise.rs`, "the octave over the footprint from its eight
 /// sub-boxes") at `n` lanes from the noise's values at their sub-box centres, sub-box `j` of
@@ -173,16 +183,14 @@ pub(super) fn subsampled(run: &SubRun, values: &[f64], n: usize, out: &mut Octav
             }
             d * 0.5
         });
-        let g: [f64; 3] = std::array::from_fn(|r| dot(&run.fit[r], &du));
         let mut between = 0.0;
         for m in &m {
             between += (m - mean) * (m - mean);
         }
-        let total_var = between / 8.0 + run.within;
-        let linear = quadratic(run.quad, &g).max(0.0);
+        let (g, var) = fitted(run, du, between / 8.0 + run.within);
         means[i] = mean;
         (g0[i], g1[i], g2[i]) = (g[0], g[1], g[2]);
-        vars[i] = residual(total_var, linear);
+        vars[i] = var;
         ok[i] = g.iter().all(|c| c.is_finite()) & mean.is_finite();
     }
 }
@@ -208,15 +216,14 @@ pub(super) fn faces(run: &SubRun, values: &[f64], n: usize, out: &mut Octave) {
         }
         let mean = total / 6.0;
         let du: [f64; 3] = std::array::from_fn(|k| v[k] - v[k + 3]);
-        let g: [f64; 3] = std::array::from_fn(|r| dot(&run.fit[r], &du));
         let mut spread = 0.0;
         for x in &v {
             spread += (x - mean) * (x - mean);
         }
-        let linear = quadratic(run.quad, &g).max(0.0);
+        let (g, var) = fitted(run, du, spread / 6.0);
         means[i] = mean;
         (g0[i], g1[i], g2[i]) = (g[0], g[1], g[2]);
-        vars[i] = residual(spread / 6.0, linear);
+        vars[i] = var;
         ok[i] = g.iter().all(|c| c.is_finite()) & mean.is_finite();
     }
 }

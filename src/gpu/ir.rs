@@ -205,6 +205,13 @@ pub(crate) fn widened(v: f32) -> f64 {
     }
 }
 
+/// A function's signature: its argument types and its result type (two functions with equal
+/// signatures can take each other's calls).
+pub(crate) fn signature(f: &Function) -> (Vec<Handle<Type>>, Option<Handle<Type>>) {
+    let arguments = f.arguments.iter().map(|a| a.ty).collect();
+    (arguments, f.result.as_ref().map(|r| r.ty))
+}
+
 /// Reorders `module.functions` so that every function comes after the functions it calls
 /// (depth first, in the old order otherwise; naga's validator and writers need it), and points
 /// every call at the new handles.

@@ -127,11 +127,7 @@ fn graft_twins(
         let mut f = module.functions[from].clone();
         widen_function(&mut f, &t, &constants, &calls);
         let declared = &module.functions[to];
-        let signature = |f: &Function| {
-            let arguments: Vec<_> = f.arguments.iter().map(|a| a.ty).collect();
-            (arguments, f.result.as_ref().map(|r| r.ty))
-        };
-        if signature(&f) != signature(declared) {
+        if ir::signature(&f) != ir::signature(declared) {
             return Err(format!(
                 "the twin `{}` differs from its declaration",
                 declared.name.as_deref().unwrap_or_default()

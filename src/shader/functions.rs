@@ -5,7 +5,7 @@
 //! shader.
 
 use super::options::PREFIX;
-use crate::gpu::ir::{map_calls, order_by_calls};
+use crate::gpu::ir::{map_calls, order_by_calls, signature};
 use naga::{Function, Handle, Module};
 use std::collections::HashSet;
 
@@ -62,10 +62,6 @@ pub fn redirect(module: &mut Module, from: &str, to: &str) -> Result<(), String>
     };
     let (Some(from), Some(to)) = (find(from), find(to)) else {
         return Ok(());
-    };
-    let signature = |f: &Function| {
-        let arguments: Vec<_> = f.arguments.iter().map(|a| a.ty).collect();
-        (arguments, f.result.as_ref().map(|r| r.ty))
     };
     if signature(&module.functions[from]) != signature(&module.functions[to]) {
         let name = |h: Handle<Function>| module.functions[h].name.clone().unwrap_or_default();
