@@ -5,12 +5,14 @@
 //! slopes of piecewise polynomials, `fract` and truncated powers of a value spread over a
 //! footprint) → `periodic` (`g(fract x)` for a piecewise-cubic `g`, exactly), `rules` (a value's
 //! distribution, [`Dist`], through each operation; the [`Footprint`]), `operands` (an operand
-//! saved for a fused instruction) → `noise` (noise and fractal sums over a footprint, white and cellular
+//! saved for a fused instruction), `abs_sine` (`|sin X|`: one-sided, or its Fourier series
+//! summed for a chunk's lanes) → `noise` (noise and fractal sums over a footprint, white and cellular
 //! noise), `integers` (which values are integer-valued), `ranges` (the interval a value cannot leave), `chains` (periodic chains) → `fusions`
 //! (which instructions are computed from an earlier argument) → `tape` ([`Filtered`]: a compiled
 //! tape run on distributions, chunk by chunk of lanes). docs/filtering.md has every rule's
 //! derivation.
 
+mod abs_sine;
 mod chains;
 pub mod fusions;
 pub mod integers;

@@ -32,6 +32,7 @@
 use super::moments::{
     piecewise_moments, taylor_at, Moments, PeriodicMeans, Piecewise, Spread, LOCAL_SPAN,
 };
+use smallvec::SmallVec;
 
 /// At most this many pieces per period: a longer chain is left to the plain rules.
 const MAX_PIECES: usize = 64;
@@ -330,14 +331,16 @@ impl Periodic {
     }
 
     /// A short support: `g` unrolled over the periods it covers (`x` in `[0, 1)`), the exact
-    /// piecewise-polynomial rule.
+    /// piecewise-polynomial rule. Its knots and pieces on the stack up to [`LOCAL_STACK`] (every
+    /// chain of this project's graphs), so a lane allocates nothing.
     fn local(&self, x: f64, s: &Spread) -> Moments {
         let half = s.half_support();
         let (first, last) = ((x - half).floor() as i64, (x + half).floor() as i64);
-        let mut knots = Vec::new();
+        let mut knots = SmallVec::<[f64; LOCAL_STACK]>::new();
         // Before the first knot: the previous period's last piece, anchored at that knot.
         let last_piece = self.pieces[self.pieces.len() - 1];
-        let mut polys = vec![taylor_at(last_piece, 1.0)];
+        let mut polys = SmallVec::<[[f64; 4]; LOCAL_STACK]>::new();
+        polys.push(taylor_at(last_piece, 1.0));
         for m in first..=last {
             for (c, p) in self.starts.iter().zip(&self.pieces) {
                 knots.push(m as f64 + c);
@@ -347,6 +350,9 @@ impl Periodic {
         piecewise_moments(&knots, &polys, x, s)
     }
 }
+
+/// How many knots and pieces [`Periodic::local`] keeps on the stack.
+const LOCAL_STACK: usize = 32;
 
 #[cfg(test)]
 mod tests {

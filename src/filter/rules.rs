@@ -550,7 +550,7 @@ impl Rules<'_> {
         }
     }
 
-    fn sin_cos(&self, d: &Dist, cos: bool) -> Dist {
+    pub(super) fn sin_cos(&self, d: &Dist, cos: bool) -> Dist {
         let (s, c) = d.mean.sin_cos();
         let (value, slope) = if cos { (c, -s) } else { (s, c) };
         if d.is_constant() {
@@ -584,94 +584,9 @@ impl Rules<'_> {
         self.out_of_moments(d, m)
     }
 
-    /// `|sin X|` (or `|cos X|` with `cos`) over the footprint from `X` itself, by the Fourier
-    /// series `|sin x| = 2/π − (4/π) Σ_m cos(2 m x) / (4 m² − 1)` and `X`'s characteristic
-    /// function (the `Sin` rule's: exact for the linear part, Gaussian residual): exact where
-    /// `X` is affine, where the composition of the two rules treats the sine's arcsine-shaped
-    /// spread as unimodal (`E|sin X|` of a wide phase is 2/π, not `0.82 σ`). `None` where the
-    /// spread is too small for the series to converge in 64 terms (the plain rules are then
-    /// accurate: `sin X` is nearly linear over the footprint).
-    pub fn abs_sin_cos(&self, x: &Dist, cos: bool) -> Option<Dist> {
-        const TERMS: usize = 64;
-        if x.is_constant() || !x.mean.is_finite() {
-            return None;
-        }
-        let widths = self.footprint.widths(x.grad);
-        // Where even the last term's damping bound (|sinc| ≤ 1/|m a|) is not below the
-        // tolerance, the series cannot converge: leave at once.
-        let last = TERMS as f64;
-        let bound = widths
-            .iter()
-            .map(|&a| (1.0 / (last * a).abs()).min(1.0))
-            .product::<f64>()
-            * (-2.0 * last * last * x.var).exp();
-        if bound.is_nan() || bound >= 1e-7 {
-            // One linear width (a line through the footprint, the residual too small for the
-            // series): the exact box mean by the antiderivative instead.
-            let mut live = widths.iter().copied().filter(|&a| a > 0.0);
-            return match (live.next(), live.next()) {
-                (Some(a), None) if a.is_finite() => Some(self.abs_sin_line(x, a, cos)),
-                _ => None,
-            };
-        }
-        // cos(2mμ), sin(2mμ) and each sin(m a_k) by angle addition from m = 1 (one sin_cos per
-        // angle, not per term); e^(−2m²σ²) as a running product.
-        let (s1, c1) = (2.0 * x.mean).sin_cos();
-        let (mut sm, mut cm) = (s1, c1);
-        let steps: [(f64, f64); 3] = widths.map(|a| a.sin_cos());
-        let mut sines: [(f64, f64); 3] = steps;
-        let q = (-2.0 * x.var).exp();
-        let (mut gauss, mut ratio) = (q, q * q * q);
-        let (mut series, mut slope) = (0.0, 0.0);
-        let mut converged = false;
-        // The first term's damping, Π sinc(a_k) e^(−2σ²): Re φ(2) = cos(2μ) times it.
-        let mut first = 0.0;
-        for m in 1..=TERMS {
-            let mf = m as f64;
-            let mut d = gauss;
-            for (k, &a) in widths.iter().enumerate() {
-                let ma = mf * a;
-                d *= if ma.abs() < 1e-4 {
-                    1.0 - ma * ma / 6.0
-                } else {
-                    sines[k].0 / ma
-                };
-            }
-            if m == 1 {
-                first = d;
-            }
-            let sign = if cos && m % 2 == 1 { -1.0 } else { 1.0 };
-            let w = sign * d / (4.0 * mf * mf - 1.0);
-            series += w * cm;
-            slope += w * 2.0 * mf * sm;
-            if d.abs() < 1e-7 {
-                converged = true;
-                break;
-            }
-            // m → m + 1.
-            (sm, cm) = (sm * c1 + cm * s1, cm * c1 - sm * s1);
-            for (sine, step) in sines.iter_mut().zip(&steps) {
-                *sine = (
-                    sine.0 * step.1 + sine.1 * step.0,
-                    sine.1 * step.1 - sine.0 * step.0,
-                );
-            }
-            // e^(−2(m+1)²σ²) = e^(−2m²σ²) · e^(−2σ²(2m+1)).
-            gauss *= ratio;
-            ratio *= q * q;
-        }
-        if !converged {
-            return None;
-        }
-        let pi = std::f64::consts::PI;
-        let mean = 2.0 / pi - 4.0 / pi * series;
-        let re2 = c1 * first;
-        Some(self.abs_sin_out(x, mean, 4.0 / pi * slope, re2, cos))
-    }
-
     /// `|sin X|`'s (`|cos X|`'s) distribution from its mean, slope and `Re φ(2) =
     /// E[cos 2X]`: `E[sin² X] = (1 − Re φ(2)) / 2`, `E[cos² X] = (1 + Re φ(2)) / 2`.
-    fn abs_sin_out(&self, x: &Dist, mean: f64, slope: f64, re2: f64, cos: bool) -> Dist {
+    pub(super) fn abs_sin_out(&self, x: &Dist, mean: f64, slope: f64, re2: f64, cos: bool) -> Dist {
         let square = if cos {
             0.5 * (1.0 + re2)
         } else {
@@ -690,7 +605,7 @@ impl Rules<'_> {
     /// `(G(μ + a/2) − G(μ − a/2)) / a`; the slope `(|sin(μ + a/2)| − |sin(μ − a/2)|) / a`; the
     /// square's mean as for `Sin` (exact). `X`'s residual, if any, is left out (it is below what
     /// the Fourier series resolves in 64 terms).
-    fn abs_sin_line(&self, x: &Dist, a: f64, cos: bool) -> Dist {
+    pub(super) fn abs_sin_line(&self, x: &Dist, a: f64, cos: bool) -> Dist {
         let pi = std::f64::consts::PI;
         let x0 = x.mean + if cos { pi / 2.0 } else { 0.0 };
         let (lo, hi) = (x0 - a / 2.0, x0 + a / 2.0);

@@ -8,6 +8,7 @@
 //! per tape ([`Filtered::new`]): each noise table's statistics, each tiled fractal's per-octave
 //! tables, each spline as piecewise cubics.
 
+use super::abs_sine::{AbsSinPlan, SeriesLanes};
 use super::fusions::{Fusion, Fusions, Part};
 use super::noise::{self as fnoise, FractalSamplers, LaneScratch, Lanes, Sampler, Stats};
 use super::operands::Source;
@@ -52,6 +53,8 @@ struct Slots {
     /// Arguments saved for fused instructions (`Fusions::save`).
     saved: Vec<Dist>,
     scratch: LaneScratch,
+    /// A fused `|sin|`'s series at the chunk's lanes (`Filtered::abs_sin_chunk`).
+    series: SeriesLanes,
 }
 
 impl Slots {
@@ -323,6 +326,7 @@ impl<'t> Filtered<'t> {
             vec3s: Vec::new(),
             saved: Vec::new(),
             scratch: LaneScratch::default(),
+            series: SeriesLanes::default(),
         };
         self.prepare(&mut slots, width);
         slots
@@ -393,6 +397,10 @@ impl<'t> Filtered<'t> {
                 self.step(lanes, instr, *integer, points, s, 0..w);
                 continue;
             }
+            if let Some(Fusion::AbsSin { saved, cos }) = fusion {
+                self.abs_sin_chunk(lanes, instr, *saved, *cos, s);
+                continue;
+            }
             for lane in 0..w {
                 let rules = lanes.rules(lane);
                 let fused = fusion.as_ref().and_then(|f| self.fused(&rules, f, s, lane));
@@ -443,29 +451,62 @@ impl<'t> Filtered<'t> {
         }
     }
 
+    /// A fused `|sin|` (`|cos|`) at every lane of the chunk: [`Rules::abs_sin_cos`], its
+    /// series summed for all the lanes that take one in one loop (`lanes::SeriesLanes`).
+    fn abs_sin_chunk(&self, lanes: Lanes, instr: &Instr, saved: u32, cos: bool, s: &mut Slots) {
+        let w = s.width;
+        let Some(prec) = instr.writes().file.prec() else {
+            return;
+        };
+        let at = |lane: usize| instr.writes().slot as usize * w + lane;
+        let arg = |s: &Slots, lane: usize| s.saved[saved as usize * w + lane];
+        s.series.clear();
+        for lane in 0..w {
+            let rules = lanes.rules(lane);
+            let x = arg(s, lane);
+            match rules.abs_sin_plan(&x, cos) {
+                AbsSinPlan::Done(d) => {
+                    let v = d.unwrap_or_else(|| self.abs_sin_plain(&rules, &x, cos));
+                    s.file(prec)[at(lane)] = v;
+                }
+                AbsSinPlan::Series(l) => s.series.push(lane, &l),
+            }
+        }
+        if s.series.len() == 0 {
+            return;
+        }
+        s.series.run(cos);
+        for i in 0..s.series.len() {
+            let lane = s.series.lane[i] as usize;
+            let rules = lanes.rules(lane);
+            let x = arg(s, lane);
+            let v = rules
+                .abs_sin_finish(&x, cos, s.series.c1(i), s.series.sums(i))
+                .unwrap_or_else(|| self.abs_sin_plain(&rules, &x, cos));
+            s.file(prec)[at(lane)] = v;
+        }
+    }
+
+    /// Where the `|sin|` series declines: the plain rules on the argument itself (the `Sin`
+    /// may have been skipped, `Fusions::skip`).
+    fn abs_sin_plain(&self, rules: &Rules, x: &Dist, cos: bool) -> Dist {
+        let op = if cos {
+            ops::UnaryOp::Cos
+        } else {
+            ops::UnaryOp::Sin
+        };
+        let sh = &self.shapes;
+        rules.unary(sh, ops::UnaryOp::Abs, &rules.unary(sh, op, x))
+    }
+
     /// A fused instruction's value (`fusions.rs`): its rule on its operand's producer's
-    /// argument; `None` where that rule declines (a `|sin|` series that cannot converge: the
-    /// plain rules are then accurate).
+    /// argument; `None` for a fused `|sin|`, which `run` gives [`Filtered::abs_sin_chunk`]
+    /// instead, and for a chain of another length.
     fn fused(&self, rules: &Rules, fusion: &Fusion, s: &Slots, lane: usize) -> Option<Fused> {
         let at = |k: u32| k as usize * s.width + lane;
         match fusion {
-            Fusion::AbsSin { saved, cos } => {
-                // Where the series declines, the plain rules on the argument itself (the
-                // `Sin` may have been skipped, `Fusions::skip`).
-                let arg = &s.saved[at(*saved)];
-                let plain = || {
-                    let op = if *cos {
-                        ops::UnaryOp::Cos
-                    } else {
-                        ops::UnaryOp::Sin
-                    };
-                    let sh = &self.shapes;
-                    rules.unary(sh, ops::UnaryOp::Abs, &rules.unary(sh, op, arg))
-                };
-                Some(Fused::Scalar(
-                    rules.abs_sin_cos(arg, *cos).unwrap_or_else(plain),
-                ))
-            }
+            // The chunk's lanes at once (`abs_sin_chunk`).
+            Fusion::AbsSin { .. } => None,
             Fusion::Folded { saved, shape } => {
                 Some(Fused::Scalar(rules.piecewise(shape, &s.saved[at(*saved)])))
             }
