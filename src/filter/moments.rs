@@ -28,7 +28,7 @@
 //! `E[(wU)^j] / j! = (w/2)^j / (j + 1)!` (even `j`). For independent `A`, `B` the binomial theorem
 //! gives `E[(A + B)^j] / j! = Σ_i (E[A^i] / i!) (E[B^{j−i}] / (j − i)!)`: the sequences
 //! `e_j = E[S^j] / j!` multiply as power series (exponential generating functions), which is how
-//! they are computed (`moment_series`; every term is ≥ 0, no cancellation). Written out:
+//! they are computed (`times_width`, one width at a time; every term is ≥ 0, no cancellation). Written out:
 //!
 //! ```text
 //! E[S²] = Σ_k w_k²/12
@@ -458,37 +458,43 @@ impl Moments {
 }
 
 /// `e_j = E[S^j] / j!` for `j < SERIES` (odd ones 0): the product of the series
-/// `Σ_i (w/2)^{2i} z^{2i} / (2i + 1)!` of the widths (module docs, "The moments of S").
-/// Inlined into [`Widths::new`]'s four calls (left out of line, it cost a periodic chain's box
-/// bake 10 %).
-#[inline]
+/// `Σ_i (w/2)^{2i} z^{2i} / (2i + 1)!` of the widths (module docs, "The moments of S"), as
+/// [`Widths::new`] makes it one width at a time.
+#[cfg(test)]
 fn moment_series(w: &[f64]) -> [f64; SERIES] {
+    let mut e = [0.0; SERIES];
+    e[0] = 1.0;
+    for &wk in w {
+        e = times_width(&e, wk);
+    }
+    e
+}
+
+/// A moment series `e` times one width's (`S + wU`'s from `S`'s): [`Widths::new`] makes each
+/// suffix's series from the next one's, one width each.
+#[inline]
+fn times_width(e: &[f64; SERIES], wk: f64) -> [f64; SERIES] {
     // Plain index loops over the even orders (the odd ones are 0): this runs once per rule
     // application and level, and stepped iterators did not optimise well (a fifth of a
     // turbulence render's time).
     const HALF: usize = SERIES / 2;
-    let mut e = [0.0; SERIES];
-    e[0] = 1.0;
-    for &wk in w {
-        // u_i = E[(wU)^i] / i! = (w/2)^i / (i + 1)! for even i, kept at u[i / 2].
-        let h2 = (wk / 2.0) * (wk / 2.0);
-        let mut u = [0.0; HALF];
-        let mut p = 1.0;
-        for (i, ui) in u.iter_mut().enumerate() {
-            *ui = p / FACT[2 * i + 1];
-            p *= h2;
-        }
-        let mut next = [0.0; SERIES];
-        for j in 0..HALF {
-            let mut acc = 0.0;
-            for i in 0..=j {
-                acc += e[2 * i] * u[j - i];
-            }
-            next[2 * j] = acc;
-        }
-        e = next;
+    // u_i = E[(wU)^i] / i! = (w/2)^i / (i + 1)! for even i, kept at u[i / 2].
+    let h2 = (wk / 2.0) * (wk / 2.0);
+    let mut u = [0.0; HALF];
+    let mut p = 1.0;
+    for (i, ui) in u.iter_mut().enumerate() {
+        *ui = p / FACT[2 * i + 1];
+        p *= h2;
     }
-    e
+    let mut next = [0.0; SERIES];
+    for j in 0..HALF {
+        let mut acc = 0.0;
+        for i in 0..=j {
+            acc += e[2 * i] * u[j - i];
+        }
+        next[2 * j] = acc;
+    }
+    next
 }
 
 /// `x^j / j!` for `j < n` (at most `SERIES`; the entries past `n` are not computed and must
@@ -519,11 +525,21 @@ impl Widths {
         for level in (0..k).rev() {
             half[level] = half[level + 1] + s.w[level] / 2.0;
         }
+        // Each suffix's series from the next one's: one width's product per level (the
+        // widths' order within a product does not change it but for rounding).
+        let mut series = [[0.0; SERIES]; 4];
+        series[k][0] = 1.0;
+        for level in (0..k).rev() {
+            series[level] = times_width(&series[level + 1], s.w[level]);
+        }
+        for level in k + 1..4 {
+            series[level] = series[k];
+        }
         Widths {
             w: s.w,
             k,
             half,
-            series: array::from_fn(|level| moment_series(&s.w[level.min(k)..k])),
+            series,
         }
     }
 
