@@ -2,6 +2,7 @@
 
 import os
 import signal
+import sys
 import threading
 import time
 
@@ -14,34 +15,49 @@ from conftest import GRAPHS
 MARBLE = GRAPHS[0].parent / "seed003_marble.ron"
 
 
-@pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="needs two cores")
-def test_two_threads_evaluate_side_by_side():
+def test_another_thread_runs_while_one_evaluates():
+    # Not a timing ratio (two threads against one after the other moved with the machine's
+    # load and failed CI at 0.82 against 0.75): the main thread watches a flag the worker
+    # holds up only while it is inside `eval`, and notes when it saw it. With the GIL held
+    # through the call, the main thread could run only before the call (at most one switch
+    # interval, made tiny here) and after it; with the GIL released it sees the flag across
+    # the call, however loaded the machine, as long as it is scheduled at all.
     g = texgraph.load(MARBLE)
     pts = np.random.default_rng(1).uniform(-4, 4, size=(60000, 3))
     g.eval(pts[:100], threads=1)
+    inside = threading.Event()
+    done = threading.Event()
+    span = {}
 
-    def one():
+    def worker():
+        inside.set()
+        started = time.perf_counter()
         g.eval(pts, output="vein", threads=1)
+        span["call"] = (started, time.perf_counter())
+        inside.clear()
+        done.set()
 
-    best = None
-    for _ in range(3):
-        started = time.perf_counter()
-        one()
-        one()
-        serial = time.perf_counter() - started
-        workers = [threading.Thread(target=one) for _ in range(2)]
-        started = time.perf_counter()
-        for w in workers:
-            w.start()
-        for w in workers:
-            w.join()
-        side_by_side = time.perf_counter() - started
-        ratio = side_by_side / serial
-        best = ratio if best is None else min(best, ratio)
-        if best < 0.75:
-            break
-    # With the GIL held the two calls would take as long as one after the other (ratio 1).
-    assert best < 0.75, f"two threads took {best:.2f}x the serial time"
+    previous = sys.getswitchinterval()
+    sys.setswitchinterval(1e-5)
+    try:
+        # When the main thread saw the flag up, at most one sighting per 50 µs.
+        seen = [0.0]
+        thread = threading.Thread(target=worker)
+        thread.start()
+        while not done.is_set():
+            if inside.is_set():
+                now = time.perf_counter()
+                if now - seen[-1] > 5e-5:
+                    seen.append(now)
+        thread.join()
+    finally:
+        sys.setswitchinterval(previous)
+    start, end = span["call"]
+    # The longest stretch of the call without a sighting: with the GIL held, the whole call
+    # (the main thread may run just after it starts and just before it ends, never inside).
+    marks = [start] + [t for t in seen if start < t < end] + [end]
+    gap = max(b - a for a, b in zip(marks, marks[1:]))
+    assert gap < 0.5 * (end - start), f"the main thread stood still for {gap / (end - start):.0%} of the call"
 
 
 def test_keyboard_interrupt_stops_a_long_bake():

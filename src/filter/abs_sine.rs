@@ -5,6 +5,7 @@
 //! where the series cannot converge, `tape.rs` takes the plain rules.
 
 use super::rules::{Dist, Rules};
+
 /// The most terms [`Rules::abs_sin_cos`]' series takes.
 pub(crate) const SERIES_TERMS: usize = 64;
 
@@ -47,7 +48,7 @@ impl Rules<'_> {
 
     /// [`Rules::abs_sin_cos`] up to its series: the answer where there is no series to sum
     /// (`Done`: a constant, a line, or `None` where it cannot converge), else the series'
-    /// inputs, which `lanes::SeriesLanes` sums for a chunk's lanes at once.
+    /// inputs, which [`SeriesLanes`] sums for a chunk's lanes at once.
     pub(crate) fn abs_sin_plan(&self, x: &Dist, cos: bool) -> AbsSinPlan {
         if x.is_constant() || !x.mean.is_finite() {
             return AbsSinPlan::Done(None);
@@ -116,11 +117,11 @@ fn one_sided_sine(mean: f64, widths: &[f64; 3], var: f64, cos: bool) -> Option<f
     let pi = std::f64::consts::PI;
     let x = if cos { mean + pi / 2.0 } else { mean };
     let reach = widths.iter().map(|a| a.abs()).sum::<f64>() / 2.0 + ONE_SIDED_SIGMAS * var.sqrt();
-    // The distance from x to the nearest zero kπ; beyond about 2⁵² the phase has no digits
-    // left to place it (the series then decides).
+    // The distance from x to the nearest zero kπ, to within |x| · 2⁻⁵² (the rounding of kπ):
+    // a phase past 10⁶ is left to the series, where that error could reach a useful margin.
     let k = (x / pi).round();
     let distance = (x - k * pi).abs();
-    (reach.is_finite() && x.abs() < 1e15 && reach < distance).then(|| {
+    (reach.is_finite() && x.abs() < 1e6 && reach < distance).then(|| {
         if x.sin() >= 0.0 {
             1.0
         } else {
@@ -129,7 +130,7 @@ fn one_sided_sine(mean: f64, widths: &[f64; 3], var: f64, cos: bool) -> Option<f
     })
 }
 
-/// The `|sin|` series of [`super::rules::Rules::abs_sin_cos`] at many lanes (a chunk's lanes of
+/// The `|sin|` series of [`Rules::abs_sin_cos`] at many lanes (a chunk's lanes of
 /// one fused `|sin|`): each lane's inputs pushed, then summed [`SERIES_BLOCK`] lanes at a time,
 /// term by term until all of a block's have converged, a lane that has kept as it is. The same
 /// operations per lane as one lane alone, so a batch and `eval_point` get the same bits.
