@@ -331,8 +331,8 @@ impl Periodic {
     }
 
     /// A short support: `g` unrolled over the periods it covers (`x` in `[0, 1)`), the exact
-    /// piecewise-polynomial rule. Its knots and pieces on the stack up to [`LOCAL_STACK`] (every
-    /// chain of this project's graphs), so a lane allocates nothing.
+    /// piecewise-polynomial rule. Its knots and pieces on the stack up to [`LOCAL_STACK`] (a
+    /// longer unrolling spills to the heap), so a lane of a short chain allocates nothing.
     fn local(&self, x: f64, s: &Spread) -> Moments {
         let half = s.half_support();
         let (first, last) = ((x - half).floor() as i64, (x + half).floor() as i64);
