@@ -28,7 +28,8 @@
 //! `E[(wU)^j] / j! = (w/2)^j / (j + 1)!` (even `j`). For independent `A`, `B` the binomial theorem
 //! gives `E[(A + B)^j] / j! = Σ_i (E[A^i] / i!) (E[B^{j−i}] / (j − i)!)`: the sequences
 //! `e_j = E[S^j] / j!` multiply as power series (exponential generating functions), which is how
-//! they are computed (`times_width`, one width at a time; every term is ≥ 0, no cancellation). Written out:
+//! they are computed (`times_width`, one width at a time; every term is ≥ 0, no cancellation).
+//! Written out:
 //!
 //! ```text
 //! E[S²] = Σ_k w_k²/12
