@@ -1,12 +1,13 @@
 //! `|sin X|` and `|cos X|` over a footprint (the fused `Abs(Sin(x))`, `fusions.rs`): where `X`'s
 //! support keeps to one side of the sine's zeros, `±sin X` by the `Sin` rule; else the Fourier
 //! series of `|sin|` over `X`'s characteristic function, summed for a chunk's lanes at once
-//! ([`SeriesLanes`], a loop over blocks of lanes compiled per CPU like `lanes.rs`' kernels);
+//! ([`SeriesLanes`], a loop over blocks of lanes compiled per CPU with `lanes.rs`' targets);
 //! where the series cannot converge, `tape.rs` takes the plain rules.
 
+use super::lanes::lane_targets;
 use super::rules::{Dist, Rules};
 
-/// The most terms [`Rules::abs_sin_cos`]' series takes.
+/// The most terms the `|sin|` series takes ([`Rules::abs_sin_plan`]).
 pub(crate) const SERIES_TERMS: usize = 64;
 
 /// [`Rules::abs_sin_plan`]: the answer, or the series to sum.
@@ -27,28 +28,17 @@ pub(crate) struct SeriesLane {
 }
 
 impl Rules<'_> {
-    /// `|sin X|` (or `|cos X|` with `cos`) over the footprint from `X` itself, by the Fourier
-    /// series `|sin x| = 2/π − (4/π) Σ_m cos(2 m x) / (4 m² − 1)` and `X`'s characteristic
-    /// function (the `Sin` rule's: exact for the linear part, Gaussian residual): exact where
-    /// `X` is affine, where the composition of the two rules treats the sine's arcsine-shaped
-    /// spread as unimodal (`E|sin X|` of a wide phase is 2/π, not `0.82 σ`). `None` where the
-    /// spread is too small for the series to converge in 64 terms (the plain rules are then
-    /// accurate: `sin X` is nearly linear over the footprint).
-    pub fn abs_sin_cos(&self, x: &Dist, cos: bool) -> Option<Dist> {
-        match self.abs_sin_plan(x, cos) {
-            AbsSinPlan::Done(d) => d,
-            AbsSinPlan::Series(lane) => {
-                let mut one = SeriesLanes::default();
-                one.push(0, &lane);
-                one.run(cos);
-                self.abs_sin_finish(x, cos, lane.c1, one.sums(0))
-            }
-        }
-    }
-
-    /// [`Rules::abs_sin_cos`] up to its series: the answer where there is no series to sum
-    /// (`Done`: a constant, a line, or `None` where it cannot converge), else the series'
-    /// inputs, which [`SeriesLanes`] sums for a chunk's lanes at once.
+    /// `|sin X|` (or `|cos X|` with `cos`) over the footprint from `X` itself. Where `X`'s
+    /// support keeps to one side of the sine's zeros ([`one_sided`]), `±sin X` by the `Sin`
+    /// rule. Else by the Fourier series `|sin x| = 2/π − (4/π) Σ_m cos(2 m x) / (4 m² − 1)`
+    /// and `X`'s characteristic function (the `Sin` rule's: exact for the linear part, Gaussian
+    /// residual): exact where `X` is affine, where the composition of the two rules treats the
+    /// sine's arcsine-shaped spread as unimodal (`E|sin X|` of a wide phase is 2/π, not
+    /// `0.82 σ`). Here the answer where there is no series to sum (`Done`: a constant,
+    /// one-sided, a line, or `None` where the spread is too small for the series to converge
+    /// in [`SERIES_TERMS`] terms, the plain rules then being accurate), else the series'
+    /// inputs, which [`SeriesLanes`] sums for a chunk's lanes at once and
+    /// [`Rules::abs_sin_finish`] completes.
     pub(crate) fn abs_sin_plan(&self, x: &Dist, cos: bool) -> AbsSinPlan {
         if x.is_constant() || !x.mean.is_finite() {
             return AbsSinPlan::Done(None);
@@ -56,8 +46,11 @@ impl Rules<'_> {
         let widths = self.footprint.widths(x.grad);
         // A support on one side of the sine's zeros: `|sin X| = ±sin X` there, whose rule is
         // exact for the same model (linear part, Gaussian residual), without a series.
-        if let Some(sign) = one_sided_sine(x.mean, &widths, x.var, cos) {
-            return AbsSinPlan::Done(Some(self.sin_cos(x, cos).scale(sign)));
+        // The sign is the mean's: `sin X` keeps it over such a support (each sinc of its
+        // attenuation is positive there, its half-widths below π/2).
+        if one_sided(x.mean, &widths, x.var, cos) {
+            let s = self.sin_cos_over(x, widths, cos);
+            return AbsSinPlan::Done(Some(if s.mean < 0.0 { s.scale(-1.0) } else { s }));
         }
         // Where even the last term's damping bound (|sinc| ≤ 1/|m a|) is not below the
         // tolerance, the series cannot converge: leave at once.
@@ -88,7 +81,7 @@ impl Rules<'_> {
         })
     }
 
-    /// [`Rules::abs_sin_cos`] from its series' sums (`series`, `slope`, the first term's
+    /// [`Rules::abs_sin_plan`]'s answer from its series' sums (`series`, `slope`, the first term's
     /// damping), `None` where the series did not converge.
     pub(crate) fn abs_sin_finish(
         &self,
@@ -106,14 +99,14 @@ impl Rules<'_> {
     }
 }
 
-/// How many standard deviations of a Gaussian residual [`one_sided_sine`] keeps clear of a
+/// How many standard deviations of a Gaussian residual [`one_sided`] keeps clear of a
 /// zero: past 5.5σ, `E[(σZ − 5.5σ)⁺] < 4·10⁻⁹ σ`, what `±sin X` then errs from `|sin X|`.
 const ONE_SIDED_SIGMAS: f64 = 5.5;
 
-/// The sign of `sin X` (`cos X` with `cos`) where `X = μ + Σ a_k U_k + σZ` keeps to one side of
-/// its zeros: the uniform part's half-support `Σ |a_k| / 2` and [`ONE_SIDED_SIGMAS`] residual
+/// Whether `X = μ + Σ a_k U_k + σZ` keeps to one side of the zeros of `sin X` (`cos X` with
+/// `cos`): the uniform part's half-support `Σ |a_k| / 2` and [`ONE_SIDED_SIGMAS`] residual
 /// deviations short of the nearest multiple of π from `μ` (`μ + π/2` for the cosine).
-fn one_sided_sine(mean: f64, widths: &[f64; 3], var: f64, cos: bool) -> Option<f64> {
+fn one_sided(mean: f64, widths: &[f64; 3], var: f64, cos: bool) -> bool {
     let pi = std::f64::consts::PI;
     let x = if cos { mean + pi / 2.0 } else { mean };
     let reach = widths.iter().map(|a| a.abs()).sum::<f64>() / 2.0 + ONE_SIDED_SIGMAS * var.sqrt();
@@ -121,16 +114,10 @@ fn one_sided_sine(mean: f64, widths: &[f64; 3], var: f64, cos: bool) -> Option<f
     // a phase past 10⁶ is left to the series, where that error could reach a useful margin.
     let k = (x / pi).round();
     let distance = (x - k * pi).abs();
-    (reach.is_finite() && x.abs() < 1e6 && reach < distance).then(|| {
-        if x.sin() >= 0.0 {
-            1.0
-        } else {
-            -1.0
-        }
-    })
+    reach.is_finite() && x.abs() < 1e6 && reach < distance
 }
 
-/// The `|sin|` series of [`Rules::abs_sin_cos`] at many lanes (a chunk's lanes of
+/// The `|sin|` series of [`Rules::abs_sin_plan`] at many lanes (a chunk's lanes of
 /// one fused `|sin|`): each lane's inputs pushed, then summed [`SERIES_BLOCK`] lanes at a time,
 /// term by term until all of a block's have converged, a lane that has kept as it is. The same
 /// operations per lane as one lane alone, so a batch and `eval_point` get the same bits.
@@ -197,10 +184,7 @@ fn block_lane(block: &[SeriesLane], j: usize) -> SeriesLane {
     })
 }
 
-simd_clones! {
-    all: ["x86_64+avx512f+avx512vl+avx2+fma", "x86_64+avx2+fma", "x86_64+sse4.1"],
-    vbmi: "x86_64+avx512f+avx512vl+avx2+fma",
-    avx2: "x86_64+avx2+fma",
+lane_targets! {
 /// [`SeriesLanes::run`] on one block of up to [`SERIES_BLOCK`] lanes: term `m` at every lane
 /// not yet converged (the scalar rule's operations in its order: cos(2mμ), sin(2mμ) and
 /// sin(m a_k) by angle addition, e^(−2m²σ²) as a running product), until every lane has or
@@ -268,7 +252,7 @@ mod tests {
     use super::*;
     use crate::filter::rules::Footprint;
 
-    /// `|sin X|` over a support on one side of the sine's zeros (`one_sided_sine`) is `±sin X`:
+    /// `|sin X|` over a support on one side of the sine's zeros (`one_sided`) is `±sin X`:
     /// its mean against a quadrature of `|sin|` over the footprint's uniforms and the Gaussian
     /// residual, and against the Fourier series it replaces where that converges.
     #[test]
@@ -285,7 +269,7 @@ mod tests {
         ] {
             let x = Dist { mean, grad, var };
             let widths = fp.widths(grad);
-            assert!(one_sided_sine(mean, &widths, var, cos).is_some(), "{x:?}");
+            assert!(one_sided(mean, &widths, var, cos), "{x:?}");
             let AbsSinPlan::Done(Some(fast)) = rules.abs_sin_plan(&x, cos) else {
                 panic!("one-sided: {x:?}");
             };

@@ -9,7 +9,7 @@
 
 use super::rules::{dot, residual, Dist};
 
-/// The targets of this file's kernels: every clone in release builds, the building machine's
+/// The targets of this file's kernels (and `abs_sine.rs`'): every clone in release builds, the building machine's
 /// alone in debug and test builds (`simd_clones!`, the crate root).
 macro_rules! lane_targets {
     ($item:item) => {
@@ -21,6 +21,8 @@ macro_rules! lane_targets {
         }
     };
 }
+/// For the filtered form's other lane kernels (`abs_sine.rs`).
+pub(super) use lane_targets;
 
 /// [`Octave::planes`]: mean, slope, variance and whether the estimate holds, one plane each.
 type Planes<'a> = (

@@ -550,13 +550,19 @@ impl Rules<'_> {
         }
     }
 
-    pub(super) fn sin_cos(&self, d: &Dist, cos: bool) -> Dist {
+    fn sin_cos(&self, d: &Dist, cos: bool) -> Dist {
+        if d.is_constant() {
+            let (s, c) = d.mean.sin_cos();
+            return Dist::constant(if cos { c } else { s });
+        }
+        self.sin_cos_over(d, self.footprint.widths(d.grad), cos)
+    }
+
+    /// [`Rules::sin_cos`] of a non-constant `d` whose footprint widths (`Footprint::widths`
+    /// of its linear part) the caller has made already.
+    pub(super) fn sin_cos_over(&self, d: &Dist, widths: [f64; 3], cos: bool) -> Dist {
         let (s, c) = d.mean.sin_cos();
         let (value, slope) = if cos { (c, -s) } else { (s, c) };
-        if d.is_constant() {
-            return Dist::constant(value);
-        }
-        let widths = self.footprint.widths(d.grad);
         // E[sin(μ + Σ a_k U_k)] = sin μ · Π sinc(a_k / 2); a Gaussian residual: e^(−σ²/2),
         // and e^(−2σ²) its fourth power (one `exp`, none without a residual).
         let gauss = if d.var == 0.0 {

@@ -451,7 +451,7 @@ impl<'t> Filtered<'t> {
         }
     }
 
-    /// A fused `|sin|` (`|cos|`) at every lane of the chunk: [`Rules::abs_sin_cos`], its
+    /// A fused `|sin|` (`|cos|`) at every lane of the chunk: [`Rules::abs_sin_plan`], its
     /// series summed for all the lanes that take one in one loop (`lanes::SeriesLanes`).
     fn abs_sin_chunk(&self, lanes: Lanes, instr: &Instr, saved: u32, cos: bool, s: &mut Slots) {
         let w = s.width;

@@ -1120,7 +1120,8 @@ fn r_abs_sin_line(x: D, a: f64, cos: bool) -> D {
     return r_abs_sin_out(x, mean, slope, re2, cos);
 }
 
-// rules.rs `abs_sin_cos`: the Fourier series of |sin| over X's characteristic function;
+// abs_sine.rs `abs_sin_plan`: the Fourier series of |sin| over X's characteristic function
+// (the CPU's one-sided case, the same model, is not taken here);
 // `ok` false where it cannot converge in 64 terms (and the spread is not one line).
 fn r_abs_sin_series(x: D, cos: bool) -> Opt {
     let none = Opt(dc(0.0lf), false);
