@@ -55,6 +55,11 @@ fn bench_gpu(c: &mut Criterion) {
     group.bench_function(format!("marble_{n}/kernel"), |b| {
         b.iter(|| gpu.eval_grid(&grid, true).expect("evaluates"))
     });
+    // From here on each iteration takes tenths of a second to seconds (a read-back of 512 MiB
+    // on a card, of 32 MiB through llvmpipe): flat sampling runs each of the 10 samples about
+    // equally often instead of criterion's linear 1 + 2 + … + 10 (55 iterations at least),
+    // which made `read_back` alone take 90 s of a lent card's time.
+    group.sampling_mode(criterion::SamplingMode::Flat);
     group.bench_function(format!("marble_{n}/read_back"), |b| {
         b.iter(|| gpu.eval_grid(&grid, false).expect("evaluates"))
     });
@@ -73,9 +78,7 @@ fn bench_gpu(c: &mut Criterion) {
     group.bench_function(format!("marble_filtered_{n}/kernel"), |b| {
         b.iter(|| filtered.eval_grid(&small, true).expect("evaluates"))
     });
-    // A 1024³ bake takes seconds: flat sampling runs each of the 10 samples once instead of
-    // criterion's linear 1 + 2 + … + 10 iterations.
-    group.sampling_mode(criterion::SamplingMode::Flat);
+    // A 1024³ bake takes seconds: with flat sampling (above) each of the 10 samples runs once.
     let n = size(1024);
     let out = std::env::temp_dir().join(format!("texgraph-gpu-bench-{}", std::process::id()));
     let exe = env!("CARGO_BIN_EXE_texgraph");

@@ -730,6 +730,9 @@ pub(super) fn binding(index: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry
     }
 }
 
+/// Bytes [`copy_back`] copies out of a mapped range at a time.
+const STAGING_BYTES: usize = 1 << 16;
+
 /// Maps `buffer` (after the queue's work) and copies it into `out`.
 fn copy_back(
     device: &wgpu::Device,
@@ -752,11 +755,21 @@ fn copy_back(
         let view = slice
             .get_mapped_range()
             .map_err(|e| GpuError::Device(e.to_string()))?;
-        // One sequential copy out of the mapped range first: on a card it may be host-visible
-        // memory that is not cached, where reading four bytes at a time crawls.
-        let bytes = view.to_vec();
-        for (o, b) in out.iter_mut().zip(bytes.chunks_exact(4)) {
-            *o = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+        // Sequential copies out of the mapped range, 64 KiB at a time, into a buffer that
+        // stays in cache: on a card the range may be host-visible memory that is not cached,
+        // where reading four bytes at a time crawls. (A copy of the whole range first, as
+        // before, allocated and faulted in as many bytes again: 2 GiB for a 512³ marble,
+        // whose float read-back took 2.9 s on an H200 against a 13 ms kernel.)
+        let mut staging = vec![0u8; STAGING_BYTES];
+        for (o, b) in out
+            .chunks_mut(STAGING_BYTES / 4)
+            .zip(view.chunks(STAGING_BYTES))
+        {
+            let staging = &mut staging[..b.len()];
+            staging.copy_from_slice(b);
+            for (o, b) in o.iter_mut().zip(staging.chunks_exact(4)) {
+                *o = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+            }
         }
     }
     buffer.unmap();
