@@ -203,27 +203,27 @@ fn series(block: &[SeriesLane], cos: bool, out: &mut [Option<(f64, f64, f64)>; S
     let (mut sum, mut slope, mut first) = ([0.0; B], [0.0; B], [0.0; B]);
     let mut done = [false; B];
     let pick = |keep: bool, old: f64, new: f64| if keep { old } else { new };
-    // sinc(m a) as the scalar rule takes it: its series near 0.
-    let sinc = |ma: f64, sine: f64| {
-        if ma.abs() < 1e-4 {
-            1.0 - ma * ma / 6.0
-        } else {
-            sine / ma
-        }
-    };
     for m in 1..=SERIES_TERMS {
         let mf = m as f64;
+        // The term's weight ±1/(4m² − 1), the same for every lane: a product, not a division.
         let sign = if cos && m % 2 == 1 { -1.0 } else { 1.0 };
-        let den = 4.0 * mf * mf - 1.0;
+        let weight = sign / (4.0 * mf * mf - 1.0);
         for j in 0..B {
-            let mut d = gauss[j];
+            // Π sinc(m a_k) e^(−2m²σ²) as one quotient (one division a term, not three):
+            // each sinc's numerator sin(m a) over m a, or its series 1 − (m a)²/6 over 1 near
+            // 0. Huge widths make the denominator overflow to ∞ and the damping 0, its limit.
+            let (mut num, mut den) = (gauss[j], 1.0);
             for k in 0..3 {
-                d *= sinc(mf * widths[k][j], sin[k][j]);
+                let ma = mf * widths[k][j];
+                let small = ma.abs() < 1e-4;
+                num *= pick(small, 1.0 - ma * ma / 6.0, sin[k][j]);
+                den *= pick(small, 1.0, ma);
             }
+            let d = num / den;
             if m == 1 {
                 first[j] = d;
             }
-            let w = sign * d / den;
+            let w = weight * d;
             sum[j] = pick(done[j], sum[j], sum[j] + w * cm[j]);
             slope[j] = pick(done[j], slope[j], slope[j] + w * 2.0 * mf * sm[j]);
             done[j] = done[j] || d.abs() < 1e-7;
