@@ -6,6 +6,7 @@
 
 use super::lanes::lane_targets;
 use super::rules::{Dist, Rules};
+use super::trig;
 
 /// The most terms the `|sin|` series takes ([`Rules::abs_sin_plan`]).
 pub(crate) const SERIES_TERMS: usize = 64;
@@ -71,12 +72,12 @@ impl Rules<'_> {
         }
         // cos(2mμ), sin(2mμ) and each sin(m a_k) by angle addition from m = 1 (one sin_cos per
         // angle, not per term); e^(−2m²σ²) as a running product.
-        let (s1, c1) = (2.0 * x.mean).sin_cos();
+        let (s1, c1) = trig::sin_cos(2.0 * x.mean);
         AbsSinPlan::Series(SeriesLane {
             s1,
             c1,
             widths,
-            steps: widths.map(|a| a.sin_cos()),
+            steps: widths.map(trig::sin_cos),
             q: (-2.0 * x.var).exp(),
         })
     }

@@ -24,6 +24,7 @@
 //!   `f(V)` with the position), and its residual is the rest of its variance.
 
 use super::moments::{self, Moments, Piecewise, Spread};
+use super::trig;
 use crate::ops::{self, BinaryOp, TernaryOp, UnaryOp};
 
 /// A value over the footprint: mean, linear part (per unit of sample position) and residual
@@ -552,7 +553,7 @@ impl Rules<'_> {
 
     fn sin_cos(&self, d: &Dist, cos: bool) -> Dist {
         if d.is_constant() {
-            let (s, c) = d.mean.sin_cos();
+            let (s, c) = trig::sin_cos(d.mean);
             return Dist::constant(if cos { c } else { s });
         }
         self.sin_cos_over(d, self.footprint.widths(d.grad), cos)
@@ -561,7 +562,7 @@ impl Rules<'_> {
     /// [`Rules::sin_cos`] of a non-constant `d` whose footprint widths (`Footprint::widths`
     /// of its linear part) the caller has made already.
     pub(super) fn sin_cos_over(&self, d: &Dist, widths: [f64; 3], cos: bool) -> Dist {
-        let (s, c) = d.mean.sin_cos();
+        let (s, c) = trig::sin_cos(d.mean);
         let (value, slope) = if cos { (c, -s) } else { (s, c) };
         // E[sin(μ + Σ a_k U_k)] = sin μ · Π sinc(a_k / 2); a Gaussian residual: e^(−σ²/2),
         // and e^(−2σ²) its fourth power (one `exp`, none without a residual).
@@ -617,9 +618,9 @@ impl Rules<'_> {
         let (lo, hi) = (x0 - a / 2.0, x0 + a / 2.0);
         let (klo, khi) = ((lo / pi).floor(), (hi / pi).floor());
         let (rlo, rhi) = (lo - klo * pi, hi - khi * pi);
-        let mean = (2.0 * (khi - klo) + rlo.cos() - rhi.cos()) / a;
-        let slope = (hi.sin().abs() - lo.sin().abs()) / a;
-        let re2 = (2.0 * x.mean).cos() * sinc(a);
+        let mean = (2.0 * (khi - klo) + trig::sin_cos(rlo).1 - trig::sin_cos(rhi).1) / a;
+        let slope = (trig::sin(hi).abs() - trig::sin(lo).abs()) / a;
+        let re2 = trig::sin_cos(2.0 * x.mean).1 * sinc(a);
         self.abs_sin_out(x, mean, slope, re2, cos)
     }
 
@@ -1071,7 +1072,7 @@ fn sinc(x: f64) -> f64 {
     } else if x.is_infinite() {
         0.0
     } else {
-        x.sin() / x
+        trig::sin(x) / x
     }
 }
 
