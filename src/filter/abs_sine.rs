@@ -55,12 +55,19 @@ impl Rules<'_> {
         }
         // Where even the last term's damping bound (|sinc| ≤ 1/|m a|) is not below the
         // tolerance, the series cannot converge: leave at once.
+        // (min(1/|m a|, 1) is 1/max(|m a|, 1): one division for the three; no `exp` without a
+        // residual.)
         let last = SERIES_TERMS as f64;
-        let bound = widths
-            .iter()
-            .map(|&a| (1.0 / (last * a).abs()).min(1.0))
-            .product::<f64>()
-            * (-2.0 * last * last * x.var).exp();
+        let residual = if x.var == 0.0 {
+            1.0
+        } else {
+            (-2.0 * last * last * x.var).exp()
+        };
+        let bound = residual
+            / widths
+                .iter()
+                .map(|&a| (last * a).abs().max(1.0))
+                .product::<f64>();
         if bound.is_nan() || bound >= 1e-7 {
             // One linear width (a line through the footprint, the residual too small for the
             // series): the exact box mean by the antiderivative instead.
@@ -113,7 +120,9 @@ fn one_sided(mean: f64, widths: &[f64; 3], var: f64, cos: bool) -> bool {
     let reach = widths.iter().map(|a| a.abs()).sum::<f64>() / 2.0 + ONE_SIDED_SIGMAS * var.sqrt();
     // The distance from x to the nearest zero kπ, to within |x| · 2⁻⁵² (the rounding of kπ):
     // a phase past 10⁶ is left to the series, where that error could reach a useful margin.
-    let k = (x / pi).round();
+    // k = x/π rounded (ties to even) by adding and taking away 1.5 · 2⁵², as `trig` does: no
+    // division, no libm `round`; exact where it matters, |x| < 10⁶.
+    let k = (x * std::f64::consts::FRAC_1_PI + trig::ROUNDER) - trig::ROUNDER;
     let distance = (x - k * pi).abs();
     reach.is_finite() && x.abs() < 1e6 && reach < distance
 }

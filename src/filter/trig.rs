@@ -10,7 +10,7 @@
 use std::f64::consts::FRAC_2_PI;
 
 /// 1.5 · 2⁵²: `(y + ROUNDER) − ROUNDER` is `y` rounded to an integer for `|y| < 2⁵¹`.
-const ROUNDER: f64 = 6_755_399_441_055_744.0;
+pub(crate) const ROUNDER: f64 = 6_755_399_441_055_744.0;
 
 /// Past this magnitude the three-part reduction below loses bits: libm reduces instead.
 /// (`n · PIO2_1` is exact while `n < 2²⁰`, fdlibm's bound for its medium-size reduction.)
