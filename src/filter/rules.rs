@@ -553,7 +553,7 @@ impl Rules<'_> {
 
     fn sin_cos(&self, d: &Dist, cos: bool) -> Dist {
         if d.is_constant() {
-            let (s, c) = trig::sin_cos(d.mean);
+            let (s, c) = d.mean.sin_cos();
             return Dist::constant(if cos { c } else { s });
         }
         self.sin_cos_over(d, self.footprint.widths(d.grad), cos)
@@ -562,7 +562,14 @@ impl Rules<'_> {
     /// [`Rules::sin_cos`] of a non-constant `d` whose footprint widths (`Footprint::widths`
     /// of its linear part) the caller has made already.
     pub(super) fn sin_cos_over(&self, d: &Dist, widths: [f64; 3], cos: bool) -> Dist {
-        let (s, c) = trig::sin_cos(d.mean);
+        // A point (a zero footprint, no residual) takes libm's own sine, as the point tape
+        // does, so that a zero footprint gives the point value to the bit; a spread takes
+        // `trig`'s (within half a unit of it, and cheaper).
+        let (s, c) = if d.var == 0.0 && widths == [0.0; 3] {
+            d.mean.sin_cos()
+        } else {
+            trig::sin_cos(d.mean)
+        };
         let (value, slope) = if cos { (c, -s) } else { (s, c) };
         // E[sin(μ + Σ a_k U_k)] = sin μ · Π sinc(a_k / 2); a Gaussian residual: e^(−σ²/2),
         // and e^(−2σ²) its fourth power (one `exp`, none without a residual).
