@@ -53,7 +53,8 @@ pub(crate) fn sin_cos(x: f64) -> (f64, f64) {
     // n = x · 2/π rounded to the nearest integer (ties to even) by adding and taking away
     // 1.5 · 2⁵²: exact for |x · 2/π| < 2⁵¹, no libm `round` call.
     let n = (x * FRAC_2_PI + ROUNDER) - ROUNDER;
-    // r = x − n π/2: the first two products and differences are exact, the rest below 2⁻⁶⁰.
+    // r = x − n π/2: the products n · PIO2_1 and n · PIO2_2 are exact (|n| < 2²⁰), so r is
+    // off by a few units of its own last place, not of x's.
     let r = ((x - n * PIO2_1) - n * PIO2_2) - n * (PIO2_3 + PIO2_3T);
     let (s, c) = (kernel_sin(r).to_bits(), kernel_cos(r).to_bits());
     // The quadrant n mod 4 without branches (the angles a rule meets fall in any quadrant, so
@@ -84,8 +85,8 @@ fn kernel_sin(r: f64) -> f64 {
 }
 
 /// `cos r` for `|r| ≤ π/4` (fdlibm's `__kernel_cos` without a tail): `1 − r²/2` is summed as
-/// `(1 − q) − (r²/2 − q)` with `q ≈ r²/4` of few bits (`|r|/4` with its low 32 bits cleared),
-/// so that `1 − q` is exact and no bit of the leading term is lost. fdlibm takes `1 − (r²/2 −
+/// `(1 − q) − (r²/2 − q)` with `q` of few bits (`|r|/4` with its low 32 bits cleared), so that
+/// `1 − q` is exact and no bit of the leading term is lost. fdlibm takes `1 − (r²/2 −
 /// r² p)` below 0.3 and `q = 0.28125` past 0.78125; the one form serves the whole range
 /// without its branches (within half a unit of libm, the test below).
 #[inline]
