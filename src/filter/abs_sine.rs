@@ -28,6 +28,20 @@ pub(crate) struct SeriesLane {
     pub q: f64,
 }
 
+impl SeriesLane {
+    /// The series' inputs for `X = μ + Σ a_k U_k + σZ` (`widths` the `a_k`, `var` σ²).
+    fn new(mean: f64, widths: [f64; 3], var: f64) -> SeriesLane {
+        let (s1, c1) = trig::sin_cos(2.0 * mean);
+        SeriesLane {
+            s1,
+            c1,
+            widths,
+            steps: widths.map(trig::sin_cos),
+            q: (-2.0 * var).exp(),
+        }
+    }
+}
+
 impl Rules<'_> {
     /// `|sin X|` (or `|cos X|` with `cos`) over the footprint from `X` itself. Where `X`'s
     /// support keeps to one side of the sine's zeros ([`one_sided`]), `±sin X` by the `Sin`
@@ -79,30 +93,20 @@ impl Rules<'_> {
         }
         // cos(2mμ), sin(2mμ) and each sin(m a_k) by angle addition from m = 1 (one sin_cos per
         // angle, not per term); e^(−2m²σ²) as a running product.
-        let (s1, c1) = trig::sin_cos(2.0 * x.mean);
-        AbsSinPlan::Series(SeriesLane {
-            s1,
-            c1,
-            widths,
-            steps: widths.map(trig::sin_cos),
-            q: (-2.0 * x.var).exp(),
-        })
+        AbsSinPlan::Series(SeriesLane::new(x.mean, widths, x.var))
     }
 
-    /// [`Rules::abs_sin_plan`]'s answer from its series' sums (`series`, `slope`, the first term's
-    /// damping), `None` where the series did not converge.
+    /// [`Rules::abs_sin_plan`]'s answer from its series' sums (`series`, `slope`, `Re φ(2)`),
+    /// `None` where the series did not converge.
     pub(crate) fn abs_sin_finish(
         &self,
         x: &Dist,
         cos: bool,
-        c1: f64,
         sums: Option<(f64, f64, f64)>,
     ) -> Option<Dist> {
-        let (series, slope, first) = sums?;
+        let (series, slope, re2) = sums?;
         let pi = std::f64::consts::PI;
         let mean = 2.0 / pi - 4.0 / pi * series;
-        // Re φ(2) = cos(2μ) times the first term's damping, Π sinc(a_k) e^(−2σ²).
-        let re2 = c1 * first;
         Some(self.abs_sin_out(x, mean, 4.0 / pi * slope, re2, cos))
     }
 }
@@ -136,8 +140,7 @@ pub(crate) struct SeriesLanes {
     /// The chunk lane each series lane stands for.
     pub lane: Vec<u32>,
     inputs: Vec<SeriesLane>,
-    /// Per lane its sum, slope sum and first term's damping, `None` where the series did not
-    /// converge.
+    /// Per lane its sum, slope sum and `Re φ(2)`, `None` where the series did not converge.
     sums: Vec<Option<(f64, f64, f64)>>,
 }
 
@@ -161,11 +164,6 @@ impl SeriesLanes {
         self.lane.len()
     }
 
-    /// Series lane `i`'s `cos 2μ`.
-    pub(crate) fn c1(&self, i: usize) -> f64 {
-        self.inputs[i].c1
-    }
-
     /// Sums every lane's series ([`SeriesLanes::sums`] after).
     pub(crate) fn run(&mut self, cos: bool) {
         self.sums.clear();
@@ -176,7 +174,7 @@ impl SeriesLanes {
         }
     }
 
-    /// Series lane `i`'s sum, slope sum and first term's damping; `None` where it did not
+    /// Series lane `i`'s sum, slope sum and `Re φ(2) = E[cos 2X]`; `None` where it did not
     /// converge in [`SERIES_TERMS`] terms.
     pub(crate) fn sums(&self, i: usize) -> Option<(f64, f64, f64)> {
         self.sums[i]
@@ -210,7 +208,7 @@ fn series(block: &[SeriesLane], cos: bool, out: &mut [Option<(f64, f64, f64)>; S
     let (mut sm, mut cm) = (s1, c1);
     let mut gauss = q;
     let mut ratio = q.map(|q| q * q * q);
-    let (mut sum, mut slope, mut first) = ([0.0; B], [0.0; B], [0.0; B]);
+    let (mut sum, mut slope, mut re2) = ([0.0; B], [0.0; B], [0.0; B]);
     let mut done = [false; B];
     let pick = |keep: bool, old: f64, new: f64| if keep { old } else { new };
     for m in 1..=SERIES_TERMS {
@@ -231,7 +229,8 @@ fn series(block: &[SeriesLane], cos: bool, out: &mut [Option<(f64, f64, f64)>; S
             }
             let d = num / den;
             if m == 1 {
-                first[j] = d;
+                // Re φ(2) = cos(2μ) times the first term's damping, Π sinc(a_k) e^(−2σ²).
+                re2[j] = c1[j] * d;
             }
             let w = weight * d;
             sum[j] = pick(done[j], sum[j], sum[j] + w * cm[j]);
@@ -252,7 +251,7 @@ fn series(block: &[SeriesLane], cos: bool, out: &mut [Option<(f64, f64, f64)>; S
         }
     }
     for j in 0..B {
-        out[j] = done[j].then_some((sum[j], slope[j], first[j]));
+        out[j] = done[j].then_some((sum[j], slope[j], re2[j]));
     }
 }
 }
@@ -307,18 +306,11 @@ mod tests {
                 fast.mean
             );
             // The series, where it converges, agrees to its truncation.
-            let (s1, c1) = (2.0 * mean).sin_cos();
-            let lane = SeriesLane {
-                s1,
-                c1,
-                widths,
-                steps: widths.map(|a| a.sin_cos()),
-                q: (-2.0 * var).exp(),
-            };
+            let lane = SeriesLane::new(mean, widths, var);
             let mut series = SeriesLanes::default();
             series.push(0, &lane);
             series.run(cos);
-            if let Some(slow) = rules.abs_sin_finish(&x, cos, c1, series.sums(0)) {
+            if let Some(slow) = rules.abs_sin_finish(&x, cos, series.sums(0)) {
                 assert!(
                     (slow.mean - fast.mean).abs() < 1e-7,
                     "{x:?}: {slow:?} against {fast:?}"

@@ -481,7 +481,7 @@ impl<'t> Filtered<'t> {
             let rules = lanes.rules(lane);
             let x = arg(s, lane);
             let v = rules
-                .abs_sin_finish(&x, cos, s.series.c1(i), s.series.sums(i))
+                .abs_sin_finish(&x, cos, s.series.sums(i))
                 .unwrap_or_else(|| self.abs_sin_plain(&rules, &x, cos));
             s.file(prec)[at(lane)] = v;
         }
