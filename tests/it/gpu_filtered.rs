@@ -211,6 +211,67 @@ fn a_floor_whose_jump_is_on_the_box_edge_matches_the_cpu() {
     );
 }
 
+/// The centres of an 8³ grid over the unit cube, each with its voxel box (a bake's points).
+fn voxels_8() -> (Vec<[f64; 3]>, Vec<Footprint>) {
+    let side = 1.0 / 8.0;
+    let c = |i: usize| (i as f64 + 0.5) * side;
+    let points: Vec<[f64; 3]> = (0..512)
+        .map(|k| [c(k % 8), c(k / 8 % 8), c(k / 64)])
+        .collect();
+    let footprints = vec![Footprint::cube(side).expect("a voxel box"); points.len()];
+    (points, footprints)
+}
+
+/// White noise of a floored position over voxels whose edges lie on the floor's integers
+/// (`library/brick_wall`'s per-brick hashes): a voxel within one cell makes the floor a
+/// constant whose mean the GPU's sawtooth rule leaves 1e-16 below the integer, and the
+/// mixture took the cell below (0.17 for 0.90 at a voxel). A constant integer-valued input now
+/// takes the integer it rounds to, on both sides.
+#[test]
+fn a_constant_floored_input_takes_its_own_cell() {
+    if !common::gpu_available("a_constant_floored_input_takes_its_own_cell") {
+        return;
+    }
+    let tape = crate::filter::tape(
+        r#"Graph(nodes: { "p": Position, "id": Floor(Mul("p", (4.0, 12.0, 8.0))),
+            "h1": WhiteNoise(input: "id", seed: 1), "h2": WhiteNoise(input: "id", seed: 2),
+            "hue": Clamp(Sub(Abs(Sub(Mul(Fract(Add("h1", 0.3333)), 6.0), 3.0)), 1.0), 0.0, 1.0),
+        }, outputs: { "c": Add(Mul("hue", "h2"), "h1") })"#,
+    );
+    let (points, footprints) = voxels_8();
+    eprintln!(
+        "{}",
+        compare("floored cells", &tape, &points, &footprints).unwrap()
+    );
+}
+
+/// llvmpipe (lavapipe) ends every loop of a shader once its SIMD group has run 65 535 loop
+/// iterations in all (`LP_MAX_TGSI_LOOP_ITERATIONS`, one count for every loop), silently:
+/// later loops run once and the values are wrong. `library/brick_wall`'s colour over an 8³
+/// bake's voxels spent them all: its three per-brick white noises took two step-mean
+/// integrations per cell and per loop nesting (78 per noise), and a third of the colours were
+/// wrong, by up to 0.12. Each axis' probabilities are now taken once, the step means without
+/// the variance pass, and the periodic chains' polynomials without a loop of their own.
+#[test]
+fn brick_colours_stay_within_lavapipes_loop_budget() {
+    if !common::gpu_available("brick_colours_stay_within_lavapipes_loop_budget") {
+        return;
+    }
+    let path = common::crate_root().join("graphs/library/brick_wall.ron");
+    let options = CompileOptions {
+        outputs: vec!["colour".into()],
+        ..CompileOptions::default()
+    };
+    let tape = texgraph::load_tape(&path, &CheckOptions::default(), &options)
+        .expect("brick_wall")
+        .1;
+    let (points, footprints) = voxels_8();
+    eprintln!(
+        "{}",
+        compare("brick colour", &tape, &points, &footprints).unwrap()
+    );
+}
+
 /// One graph through every rule the library graphs leave out: a twisting rotation by a noise
 /// angle, ridged and billow sums, the trigonometric inverses, `exp`/`log`/`log2`/`sqrt`/`pow`,
 /// `atan2`, `min`/`max`/`clamp`/`smoothstep` with varying operands, `step`, `sign`, `select`,

@@ -350,6 +350,15 @@ const GL_W: array<f64, 5> = array<f64, 5>(0.23692688505618908lf, 0.4786286704993
 // knots inside it, each interval by 5-node Gauss-Legendre (the integrands are polynomials of
 // degree <= 8 there); the slope adds each jump times the density at its knot.
 fn pw_moments(f: Pw, t: f64, sp: Sp) -> Mo {
+    return pw_stats(f, t, sp, true);
+}
+
+// `pw_moments`' mean alone (the same operations; no slope's jumps, no variance pass).
+fn pw_mean(f: Pw, t: f64, sp: Sp) -> f64 {
+    return pw_stats(f, t, sp, false).mean;
+}
+
+fn pw_stats(f: Pw, t: f64, sp: Sp, full: bool) -> Mo {
     if (is_nan_d(t)) {
         return Mo(nan_d(), nan_d(), nan_d());
     }
@@ -442,6 +451,9 @@ fn pw_moments(f: Pw, t: f64, sp: Sp) -> Mo {
             mean = mean + weight * horner4(c, u);
             slope = slope + weight * horner_slope(c, u);
         }
+    }
+    if (!full) {
+        return Mo(mean, 0.0lf, slope);
     }
     for (var i = 0u; i < f.n; i += 1u) {
         let k = f.k[i];
@@ -677,7 +689,7 @@ fn r_select(cond: D, a: D, b: D) -> D {
     if (s.w.x == 0.0lf && s.w.y == 0.0lf && s.w.z == 0.0lf) {
         p = select(0.0lf, 1.0lf, cond.m > 0.0lf);
     } else {
-        p = pw_moments(shape_step(), cond.m, s).mean;
+        p = pw_mean(shape_step(), cond.m, s);
     }
     var density = 0.0lf;
     if (!d_is_const(cond)) {
@@ -1329,6 +1341,11 @@ fn w_axis(d: D, integer: bool) -> Axis {
         return a;
     }
     if (d_is_const(d)) {
+        // A constant integer-valued input is an integer: its rounding error (a floor's mean
+        // 1e-16 below its integer) must not pick the cell below.
+        if (integer) {
+            a.first = round(mu);
+        }
         return a;
     }
     let widths = f_widths(d.g);
@@ -1359,21 +1376,29 @@ fn w_axis(d: D, integer: bool) -> Axis {
     return a;
 }
 
-// Cell n's probability and its derivative along the axis' mean.
-fn w_prob(a: Axis, n: u32) -> vec2<f64> {
+// The axis' cell probabilities and their derivatives along its mean, cell n at `at + n` of
+// `pr` (noise.rs `cells`: P(X >= n - shift) - P(X >= n + 1 - shift), each edge's step mean
+// taken once).
+fn w_fill(a: Axis, at: u32, pr: ptr<function, array<vec2<f64>, 66>>) {
     if (a.kind == 0u) {
-        return vec2<f64>(1.0lf, 0.0lf);
+        (*pr)[at] = vec2<f64>(1.0lf, 0.0lf);
+        return;
     }
     if (a.kind == 1u) {
-        if (n == 0u) {
-            return vec2<f64>(1.0lf - a.q, -1.0lf);
-        }
-        return vec2<f64>(a.q, 1.0lf);
+        (*pr)[at] = vec2<f64>(1.0lf - a.q, -1.0lf);
+        (*pr)[at + 1u] = vec2<f64>(a.q, 1.0lf);
+        return;
     }
-    let below = a.mu - (a.first + f64(n) - a.shift);
-    let above = a.mu - (a.first + f64(n) + 1.0lf - a.shift);
-    let step = shape_step();
-    let pb = pw_moments(step, below, a.sp).mean;
-    let pa = pw_moments(step, above, a.sp).mean;
-    return vec2<f64>(pb - pa, sp_density(below, a.sp) - sp_density(above, a.sp));
+    var below = w_at_least(a, a.first - a.shift);
+    for (var n = 0u; n < a.count; n += 1u) {
+        let above = w_at_least(a, a.first + f64(n) + 1.0lf - a.shift);
+        (*pr)[at + n] = below - above;
+        below = above;
+    }
+}
+
+// P(X >= e) and its derivative along the mean, X the axis' value over the footprint.
+fn w_at_least(a: Axis, e: f64) -> vec2<f64> {
+    let t = a.mu - e;
+    return vec2<f64>(pw_mean(shape_step(), t, a.sp), sp_density(t, a.sp));
 }

@@ -118,15 +118,20 @@ fn n_white_SAMPLE(p: array<D, 3>, integer: vec3<bool>, s: u32) -> D {
     if (!ax.ok || !ay.ok || !az.ok || ax.count * ay.count * az.count > 64u) {
         return n_octave_SAMPLE(p, s);
     }
+    // The three axes' cells (at most 64 in all, so at most 66 along the axes).
+    var pr: array<vec2<f64>, 66>;
+    w_fill(ax, 0u, &pr);
+    w_fill(ay, ax.count, &pr);
+    w_fill(az, ax.count + ay.count, &pr);
     var mean = 0.0lf;
     var square = 0.0lf;
     var slope = vec3<f64>(0.0lf);
     for (var i = 0u; i < ax.count; i += 1u) {
-        let x = w_prob(ax, i);
+        let x = pr[i];
         for (var j = 0u; j < ay.count; j += 1u) {
-            let y = w_prob(ay, j);
+            let y = pr[ax.count + j];
             for (var k = 0u; k < az.count; k += 1u) {
-                let z = w_prob(az, k);
+                let z = pr[ax.count + ay.count + k];
                 let centre = vec3<f64>(ax.first + f64(i), ay.first + f64(j), az.first + f64(k));
                 let w = smp_SAMPLE(s, centre + vec3<f64>(0.5lf)).w;
                 mean = mean + x.x * y.x * z.x * w;

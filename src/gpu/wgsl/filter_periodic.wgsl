@@ -53,17 +53,13 @@ fn pc_piece(pc: Pc, field: u32, j: u32) -> f64 {
     return fdata[pc.at + 3u + field * pc.m + j];
 }
 
-// The level-`level` function at u in [0, 1]: its piece by the starts, then Horner.
-fn pc_eval(pc: Pc, level: u32, u: f64) -> f64 {
-    let m = pc.m;
-    var j = 0u;
-    for (var i = 1u; i < m; i += 1u) {
-        if (u >= fdata[pc.at + 3u + i]) {
-            j = i;
-        }
-    }
+// Piece j's level-`level` polynomial at u, by Horner. (llvmpipe ends every loop of a shader
+// once its SIMD group has run 65 535 loop iterations in all, docs/gpu.md: the piece comes from
+// the integration's own loop, not from a search per node. Written out instead of this loop the
+// polynomial took a third more time to compile on lavapipe.)
+fn pc_poly(pc: Pc, level: u32, j: u32, u: f64) -> f64 {
     let len = pc_len(level);
-    let base = pc.at + 3u + 5u * m + pc_pre(level) * m + j * len;
+    let base = pc.at + 3u + 5u * pc.m + pc_pre(level) * pc.m + j * len;
     var acc = fdata[base + len - 1u];
     for (var i = len - 1u; i > 0u; i -= 1u) {
         acc = acc * u + fdata[base + i - 1u];
@@ -71,14 +67,25 @@ fn pc_eval(pc: Pc, level: u32, u: f64) -> f64 {
     return acc;
 }
 
-// F_L, G_L and the slope level at u: one loop over the three (one call site of `pc_eval`).
-fn pc_three(pc: Pc, level: u32, slope_level: u32, u: f64) -> vec3<f64> {
-    var out = vec3<f64>(0.0lf);
-    var levels = vec3<u32>(level, level + 4u, slope_level);
-    for (var i = 0u; i < 3u * u32(filter_one()); i += 1u) {
-        out[i] = pc_eval(pc, levels[i], u);
+// The piece of u in [0, 1] by the starts.
+fn pc_find(pc: Pc, u: f64) -> u32 {
+    var j = 0u;
+    for (var i = 1u; i < pc.m; i += 1u) {
+        if (u >= fdata[pc.at + 3u + i]) {
+            j = i;
+        }
     }
-    return out;
+    return j;
+}
+
+// The level-`level` function at u in [0, 1].
+fn pc_eval(pc: Pc, level: u32, u: f64) -> f64 {
+    return pc_poly(pc, level, pc_find(pc, u), u);
+}
+
+// F_L, G_L and the slope level at u in piece j.
+fn pc_three(pc: Pc, level: u32, slope_level: u32, j: u32, u: f64) -> vec3<f64> {
+    return vec3<f64>(pc_poly(pc, level, j, u), pc_poly(pc, level + 4u, j, u), pc_poly(pc, slope_level, j, u));
 }
 
 // Over the rest's spread (at most two periods wide): (E[F_L], E[G_L], slope part), F_L and
@@ -92,7 +99,8 @@ fn per_local(pc: Pc, y: f64, sp: Sp, level: u32) -> vec3<f64> {
         slope_level = level - 1u;
     }
     if (h == 0.0lf) {
-        return pc_three(pc, level, slope_level, y - floor(y));
+        let u = y - floor(y);
+        return pc_three(pc, level, slope_level, pc_find(pc, u), u);
     }
     var c: array<f64, 8>;
     for (var i = 0u; i < 8u; i += 1u) {
@@ -136,7 +144,7 @@ fn per_local(pc: Pc, y: f64, sp: Sp, level: u32) -> vec3<f64> {
                         let s = mid + half * GL_X[g];
                         let weight = GL_W[g] * half * sp_density(s, sp);
                         let u = yk + s;
-                        acc = acc + weight * pc_three(pc, level, slope_level, u);
+                        acc = acc + weight * pc_three(pc, level, slope_level, j, u);
                     }
                     prev = end;
                 }
