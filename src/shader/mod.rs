@@ -57,8 +57,8 @@ pub fn functions(tape: &Tape, filtered: bool) -> Result<Vec<ExportedFunction>, S
 }
 
 /// The export's WGSL module before naga: the GPU path's library and the tape's parts (the noise
-/// tables as module-scope arrays read by [`TABLE_READERS`], the constants times a literal 1.0,
-/// the filtered form's loops bounded by [`FILTER_ONE`]), the f32 forms of `narrow.rs` (every
+/// tables as module-scope arrays read by `TABLE_READERS`, the constants times a literal 1.0,
+/// the filtered form's loops bounded by `FILTER_ONE`), the f32 forms of `narrow.rs` (every
 /// target is f32 today), the uniform block, the exported `functions` ([`functions`]) and the
 /// stub entry point. Functions written for the export are named `NAME__export`
 /// (`options::EXPORT_FORM`) and take `NAME`'s place on naga's IR (`translate`), which also
