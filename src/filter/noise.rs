@@ -853,11 +853,6 @@ fn cells(rules: &Rules, d: &Dist, integer: bool) -> Option<Cells> {
     };
     c.prob[0] = 1.0;
     if d.is_constant() {
-        // A constant integer-valued input is an integer: its rounding error (a floor's mean
-        // 1e-16 below its integer) must not pick the cell below.
-        if integer {
-            c.first = mu.round();
-        }
         return Some(c);
     }
     let widths = rules.footprint.widths(d.grad);

@@ -224,9 +224,9 @@ fn voxels_8() -> (Vec<[f64; 3]>, Vec<Footprint>) {
 
 /// White noise of a floored position over voxels whose edges lie on the floor's integers
 /// (`library/brick_wall`'s per-brick hashes): a voxel within one cell makes the floor a
-/// constant whose mean the GPU's sawtooth rule leaves 1e-16 below the integer, and the
-/// mixture took the cell below (0.17 for 0.90 at a voxel). A constant integer-valued input now
-/// takes the integer it rounds to, on both sides.
+/// constant whose mean the GPU's sawtooth rule left 1e-16 below the integer (its support
+/// touched the line piece's end, so the rule integrated), and the mixture took the cell below
+/// (0.17 for 0.90 at a voxel). The line case now allows the support's ends on the piece's.
 #[test]
 fn a_constant_floored_input_takes_its_own_cell() {
     if !common::gpu_available("a_constant_floored_input_takes_its_own_cell") {

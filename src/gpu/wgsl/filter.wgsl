@@ -1341,11 +1341,6 @@ fn w_axis(d: D, integer: bool) -> Axis {
         return a;
     }
     if (d_is_const(d)) {
-        // A constant integer-valued input is an integer: its rounding error (a floor's mean
-        // 1e-16 below its integer) must not pick the cell below.
-        if (integer) {
-            a.first = round(mu);
-        }
         return a;
     }
     let widths = f_widths(d.g);

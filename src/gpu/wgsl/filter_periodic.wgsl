@@ -173,14 +173,20 @@ fn per_moments(pc: Pc, t: f64, sp: Sp) -> Mo {
     }
     let x = t - floor(t);
     let w = sp.w;
-    // A support inside one line piece of one period: the line's exact moments.
+    // A support inside one line piece of one period, its ends allowed on the piece's (a jump
+    // on the support's end, or within 1e-12 of its half-width, has no density: moments.rs
+    // `EDGE`, as on the CPU): the line's exact moments. (A floor over a voxel whose edges lie
+    // on its integers is then its integer exactly, not 1e-16 below it.)
     let h = (w.x + w.y + w.z) / 2.0lf;
     let k0 = floor(x - h);
-    if (floor(x + h) == k0) {
+    let lo = x - h - k0;
+    let hi = x + h - k0;
+    let edge = 1e-12lf * h;
+    if (hi <= 1.0lf + edge) {
         for (var j = 0u; j < pc.m; j += 1u) {
             let b = pc_piece(pc, 3u, j);
             let line = pc_piece(pc, 4u, j) != 0.0lf;
-            if (pc_piece(pc, 0u, j) <= x - h - k0 && x + h - k0 < pc_piece(pc, 1u, j) && line) {
+            if (pc_piece(pc, 0u, j) - edge <= lo && hi <= pc_piece(pc, 1u, j) + edge && line) {
                 let s2 = (w.x * w.x + w.y * w.y + w.z * w.z) / 12.0lf;
                 return Mo(pc_eval(pc, 0u, x - k0), b * b * s2, b);
             }
