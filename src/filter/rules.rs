@@ -784,14 +784,7 @@ impl Rules<'_> {
                     var: residual(total, self.footprint.linear_var(grad)),
                 }
             }
-            UnaryOp::Sqrt => {
-                let s = m.sqrt();
-                let r = self.smooth(d, (s, 0.5 / s, -0.25 / (s * m)), true);
-                Dist {
-                    mean: r.mean.max(0.0),
-                    ..r
-                }
-            }
+            UnaryOp::Sqrt => self.sqrt(d),
             UnaryOp::Log => self.smooth(d, (m.ln(), 1.0 / m, -1.0 / (m * m)), true),
             UnaryOp::Log2 => {
                 let k = std::f64::consts::LN_2;
@@ -809,6 +802,41 @@ impl Rules<'_> {
                 self.smooth(d, (op.apply(m), sign * f1, sign * f2), false)
             }
         }
+    }
+
+    /// `√X` of a non-constant `X ≥ 0` (mean `m`, total variance `t`), exact where `X` is
+    /// Gamma-distributed (shape `k = m²/t`, scale `t/m`): `E√X = √m · g(k)` with
+    /// `g(k) = Γ(k + ½) / (Γ(k) √k)` ([`half_gamma_ratio`]), which is the delta method's
+    /// `√m − t / 8m^{3/2}` while the spread is small against the mean and falls to 0 as it
+    /// grows past it; the variance `m − (E√X)²` (exact for any `X ≥ 0`, as `E[(√X)²] = E X`);
+    /// the slope `E√X / 2m` (`Cov(√X, X) / Var X` under the same model, `1 / 2√m` for a small
+    /// spread). The delta method alone diverged near 0: the `Length` of a gradient that
+    /// vanishes over most of a box (mean 4e-14, spread beyond it) had a variance of 1e19, and a
+    /// `Smoothstep` of it read 0.5 where the box's mean is 0 (library/slate's pale edges).
+    /// A mean ≤ 0: `X = 0` almost surely at 0, and below 0 the point tape's NaN.
+    fn sqrt(&self, d: &Dist) -> Dist {
+        let m = d.mean;
+        let t = self.total_var(d);
+        if m.is_nan() || m <= 0.0 {
+            return Dist::constant(m.sqrt());
+        }
+        if t == 0.0 {
+            // A point: the point tape's value to the bit.
+            let s = m.sqrt();
+            return Dist {
+                mean: s,
+                grad: d.grad.map(|g| 0.5 / s * g),
+                var: 0.0,
+            };
+        }
+        let (g, one_less) = half_gamma_ratio(m * m / t);
+        let mean = m.sqrt() * g;
+        let moments = Moments {
+            mean,
+            variance: m * one_less * (1.0 + g),
+            slope: mean / (2.0 * m),
+        };
+        self.out_of_moments(d, moments)
     }
 
     /// `mod(K, P)` of an integer-valued `K` by a whole `P` ≥ 1 (a checker's parity, a cell
@@ -1044,6 +1072,38 @@ fn line_only(f: &Piecewise, d: &Dist, widths: &[f64; 3]) -> Option<Dist> {
 /// variance `total`: 0 where the difference is rounding (below 1e-9 of the total), and where
 /// either overflowed (an overflowing variance is dropped, not propagated as ∞ or NaN).
 #[inline]
+/// `g(k) = Γ(k + ½) / (Γ(k) √k)` for `k ≥ 0` and `1 − g(k)` (without cancellation for a
+/// large `k`): the asymptotic series `1 − 1/8k + 1/128k² + 5/1024k³ − 21/32768k⁴ −
+/// 399/262144k⁵ + 869/4194304k⁶` from `k = 8` on, below it shifted there by
+/// `Γ(k + ½)/Γ(k) = Γ(k + 8½)/Γ(k + 8) · Π_{j<8} (k + j)/(k + j + ½)`; within 6e-10 of
+/// `lgamma`'s ratio at every `k` (`sqrt_rule_is_the_gamma_models_moments`). No crate of the
+/// dependency tree has a log-gamma, and the GPU's rule (`filter.wgsl` `half_gamma_ratio`)
+/// needs the same arithmetic.
+pub(crate) fn half_gamma_ratio(k: f64) -> (f64, f64) {
+    // 1 − g at k ≥ 8.
+    let tail = |k: f64| {
+        let u = 1.0 / k;
+        u * (1.0 / 8.0
+            - u * (1.0 / 128.0
+                + u * (5.0 / 1024.0
+                    + u * (-21.0 / 32768.0 + u * (-399.0 / 262144.0 + u * 869.0 / 4194304.0)))))
+    };
+    if k >= 8.0 {
+        let h = tail(k);
+        return (1.0 - h, h);
+    }
+    if k.is_nan() || k <= 0.0 {
+        return (0.0, 1.0);
+    }
+    let mut p = ((k + 8.0) / k).sqrt();
+    for j in 0..8 {
+        let x = k + j as f64;
+        p *= x / (x + 0.5);
+    }
+    let g = (1.0 - tail(k + 8.0)) * p;
+    (g, 1.0 - g)
+}
+
 pub(super) fn residual(total: f64, linear: f64) -> f64 {
     let r = total - linear;
     if r.is_finite() && r > 1e-9 * total.abs() {
@@ -1121,5 +1181,62 @@ mod tests {
         // Parallel edges: the Gram system is singular; the smallest factor scales the slope.
         let f = Footprint::from_edges([[1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0; 3]]).unwrap();
         assert_eq!(f.damp(g, beta), g.map(|c| c * 0.25));
+    }
+
+    /// `half_gamma_ratio` against the Gamma integrals themselves (trapezoids in `s = ln x`:
+    /// `∫ x^a e^{−x} dx = ∫ e^{(a+1)s − e^s} ds`, smooth and fast-decaying), and
+    /// `Rules::sqrt` within what any `X ≥ 0` allows: `0 ≤ E√X ≤ √m` and `E[(√X)²] = m`; the
+    /// delta method where the spread is small against the mean.
+    #[test]
+    fn sqrt_rule_is_the_gamma_models_moments() {
+        // ln ∫ x^a e^{−x} dx, the integrand scaled by its peak at s = ln(a + 1).
+        let log_integral = |a: f64| {
+            let b = a + 1.0;
+            let peak = b * (b.ln() - 1.0);
+            let (lo, hi, n) = (b.ln() - 40.0 / b - 10.0, b.ln().max(0.0) + 4.0, 400_000);
+            let h = (hi - lo) / n as f64;
+            let sum: f64 = (0..=n)
+                .map(|i| {
+                    let s = lo + i as f64 * h;
+                    let w = if i == 0 || i == n { 0.5 } else { 1.0 };
+                    w * (b * s - s.exp() - peak).exp()
+                })
+                .sum();
+            peak + (sum * h).ln()
+        };
+        for k in [0.05, 0.3, 1.0, 2.5, 7.9, 8.0, 12.0, 40.0, 300.0] {
+            let want = (log_integral(k - 0.5) - log_integral(k - 1.0)).exp() / k.sqrt();
+            let (g, h) = super::half_gamma_ratio(k);
+            assert!(
+                (g - want).abs() < 1e-9 * want,
+                "k = {k}: {g} against {want}"
+            );
+            assert!((g + h - 1.0).abs() < 1e-15, "k = {k}");
+        }
+        assert_eq!(super::half_gamma_ratio(f64::INFINITY), (1.0, 0.0));
+        assert_eq!(super::half_gamma_ratio(0.0), (0.0, 1.0));
+
+        let fp = Footprint::from_sides([0.1, 0.2, 0.3]).unwrap();
+        let rules = super::Rules { footprint: &fp };
+        for (mean, grad, var) in [
+            (4e-14, [1e-6, 0.0, 0.0], 1e-10),
+            (0.5, [1.0, -2.0, 0.5], 0.01),
+            (2.0, [0.0; 3], 3.0),
+            (1e6, [1.0, 1.0, 1.0], 0.0),
+        ] {
+            let d = super::Dist { mean, grad, var };
+            let r = rules.sqrt(&d);
+            let total = rules.total_var(&r);
+            assert!(r.mean >= 0.0 && r.mean <= mean.sqrt(), "{d:?}: {r:?}");
+            assert!(
+                r.mean * r.mean + total <= mean * (1.0 + 1e-12),
+                "{d:?}: {r:?}"
+            );
+            let t = rules.total_var(&d);
+            if t < 1e-6 * mean * mean {
+                let delta = mean.sqrt() - t / (8.0 * mean * mean.sqrt());
+                assert!((r.mean - delta).abs() < 1e-12 * mean.sqrt(), "{d:?}: {r:?}");
+            }
+        }
     }
 }

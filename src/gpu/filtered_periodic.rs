@@ -18,7 +18,11 @@ use crate::filter::periodic::Periodic;
 use std::fmt::Write;
 
 /// A periodic piecewise polynomial: pieces from `starts` (the first 0) to the next start (the
-/// last to 1), ascending coefficients in the period's `u`.
+/// last to 1), each piece's ascending coefficients in its own variable `v = u − start`. (In the
+/// period's `u` a steep piece far from 0 has huge coefficients that cancel: `Smoothstep(0.9, 1,
+/// fract x)`'s square is `2893401 − 18370800 u + …` on `[0.9, 1]`, and the shader export's f32
+/// evaluated it to 1.8 where it is 0.18, a variance of 1.8 at a zero footprint: issue 49's
+/// `library/sandstone`. In `v` the same piece is `300 v² − 2000 v³`.)
 #[derive(Clone, Debug)]
 struct Pieces {
     starts: Vec<f64>,
@@ -26,32 +30,47 @@ struct Pieces {
 }
 
 impl Pieces {
+    /// `g`'s pieces, shifted from the period's `u` to each piece's own variable.
+    fn of(g: &Periodic) -> Pieces {
+        let starts = g.starts().to_vec();
+        let polys = g
+            .pieces()
+            .iter()
+            .zip(&starts)
+            .map(|(p, &s)| shifted(p, s))
+            .collect();
+        Pieces { starts, polys }
+    }
+
     fn end(&self, j: usize) -> f64 {
         self.starts.get(j + 1).copied().unwrap_or(1.0)
+    }
+
+    /// Piece `j`'s length: its polynomial's domain is `[0, len]`.
+    fn len(&self, j: usize) -> f64 {
+        self.end(j) - self.starts[j]
     }
 
     /// `∫₀¹`.
     fn mean(&self) -> f64 {
         (0..self.polys.len())
-            .map(|j| integral(&self.polys[j], self.starts[j], self.end(j)))
+            .map(|j| integral(&self.polys[j], 0.0, self.len(j)))
             .sum()
     }
 
-    /// `H(u) = ∫₀ᵘ (F − F̄)`: piece `j` is `H(s_j) + ∫_{s_j}^u (F_j − F̄)`.
+    /// `H(u) = ∫₀ᵘ (F − F̄)`: piece `j` is `H(s_j) + ∫₀^v (F_j − F̄)`.
     fn antiderivative(&self) -> Pieces {
         let mean = self.mean();
         let mut at_start = 0.0;
         let mut polys = Vec::with_capacity(self.polys.len());
         for (j, p) in self.polys.iter().enumerate() {
             let mut q: Vec<f64> = Vec::with_capacity(p.len() + 1);
-            q.push(0.0);
+            q.push(at_start);
             for (i, &a) in p.iter().enumerate() {
                 let a = if i == 0 { a - mean } else { a };
                 q.push(a / (i + 1) as f64);
             }
-            let start = eval(&q, self.starts[j]);
-            q[0] = at_start - start;
-            at_start += eval(&q, self.end(j)) - eval(&q, self.starts[j]);
+            at_start = eval(&q, self.len(j));
             polys.push(q);
         }
         Pieces {
@@ -94,6 +113,18 @@ impl Pieces {
 
 fn eval(c: &[f64], u: f64) -> f64 {
     c.iter().rev().fold(0.0, |acc, &a| acc * u + a)
+}
+
+/// `p(s + v)`'s ascending coefficients in `v` (a Taylor shift: `b_k = Σ_{i≥k} C(i, k) s^{i−k} a_i`).
+fn shifted(p: &[f64], s: f64) -> Vec<f64> {
+    let mut b = p.to_vec();
+    // Horner's scheme applied repeatedly: after pass k, b[k] is the k-th Taylor coefficient.
+    for k in 0..b.len() {
+        for i in (k..b.len() - 1).rev() {
+            b[i] += s * b[i + 1];
+        }
+    }
+    b
 }
 
 fn integral(c: &[f64], u0: f64, u1: f64) -> f64 {
@@ -175,12 +206,9 @@ fn data_literal(v: f64) -> String {
 /// Shape `g`'s block of `pc_data`: its piece count, the means of `g` and `g²`, per piece its
 /// start, end, jump, line slope and whether it is a line, then per level (0-3: `g` and its
 /// successive antiderivatives `H`; 4-7: the same for `g²`; 8: `g'`) per piece its
-/// [`LEVEL_COEFFS`] ascending coefficients.
+/// [`LEVEL_COEFFS`] ascending coefficients in `u − start`.
 fn block(g: &Periodic) -> Vec<f64> {
-    let base = Pieces {
-        starts: g.starts().to_vec(),
-        polys: g.pieces().iter().map(|p| p.to_vec()).collect(),
-    };
+    let base = Pieces::of(g);
     let mut levels = vec![base.clone()];
     for _ in 1..4 {
         let next = levels[levels.len() - 1].antiderivative();
@@ -199,8 +227,7 @@ fn block(g: &Periodic) -> Vec<f64> {
     out.extend((0..m).map(|j| base.end(j)));
     out.extend((0..m).map(|j| {
         let prev = (j + m - 1) % m;
-        let at = if j == 0 { 1.0 } else { base.starts[j] };
-        eval(&base.polys[j], base.starts[j]) - eval(&base.polys[prev], at)
+        base.polys[j][0] - eval(&base.polys[prev], base.len(prev))
     }));
     // Per piece, its slope where it is a line: a support inside one line piece takes the
     // exact line rule, as the CPU's (`moments::piecewise_early`).
@@ -230,10 +257,54 @@ mod tests {
         let j = (1..m).filter(|&i| u >= b[3 + i]).max().unwrap_or(0);
         let (len, pre) = (pc_len(level), pc_pre(level));
         let base = 3 + 5 * m + pre * m + j * len;
+        let v = u - b[3 + j];
         b[base..base + len]
             .iter()
             .rev()
-            .fold(0.0, |acc, &c| acc * u + c)
+            .fold(0.0, |acc, &c| acc * v + c)
+    }
+
+    /// [`eval_block`] in f32, as the shader export runs it.
+    fn eval_block_f32(b: &[f64], level: usize, u: f32) -> f32 {
+        let m = b[0] as usize;
+        let j = (1..m).filter(|&i| u >= b[3 + i] as f32).max().unwrap_or(0);
+        let (len, pre) = (pc_len(level), pc_pre(level));
+        let base = 3 + 5 * m + pre * m + j * len;
+        let v = u - b[3 + j] as f32;
+        b[base..base + len]
+            .iter()
+            .rev()
+            .fold(0.0, |acc, &c| acc * v + c as f32)
+    }
+
+    /// A steep piece near the period's end (`Smoothstep(0.9, 1, fract x)`, a bed's blend into
+    /// the next in library/sandstone): its square and its antiderivatives in f32 as in f64.
+    /// In the period's `u` the square's coefficients reach 7e7 and cancel to 0.18: f32 read
+    /// 1.8 (a variance of 1.6 at a zero footprint in the exported filtered shader).
+    #[test]
+    fn a_steep_piece_keeps_f32s_precision() {
+        let s = Piecewise::new(
+            vec![0.9, 1.0],
+            vec![[0.0; 4], [0.0, 0.0, 300.0, -2000.0], [1.0, 0.0, 0.0, 0.0]],
+        );
+        let g = Periodic::sawtooth()
+            .then(&s)
+            .expect("a smoothstep of fract");
+        let b = block(&g);
+        assert!((eval_block(&b, 0, 0.95) - 0.5).abs() < 1e-12);
+        for &u in &[0.05, 0.5, 0.9, 0.91, 0.945, 0.97, 0.999] {
+            // (f32's own rounding of u and of the piece's start: 5e-6 of a slope at 0.91.)
+            for level in 0..9 {
+                let want = eval_block(&b, level, u as f32 as f64);
+                let got = eval_block_f32(&b, level, u as f32) as f64;
+                assert!(
+                    (got - want).abs() < 2e-5 * want.abs().max(1.0),
+                    "level {level} at {u}: f32 {got}, f64 {want}"
+                );
+            }
+            let g1 = eval_block(&b, 0, u);
+            assert!((eval_block(&b, 4, u) - g1 * g1).abs() < 1e-12, "g² at {u}");
+        }
     }
 
     /// filter_periodic.wgsl's `pc_len` and `pc_pre`, as written there.

@@ -172,12 +172,12 @@ fn f_widths(g: vec3<f64>) -> vec3<f64> {
     return vec3<f64>(abs(v_dot(g, fp_e[0])), abs(v_dot(g, fp_e[1])), abs(v_dot(g, fp_e[2])));
 }
 
+// Written out (the same sums in the same order as a loop over i): it runs several times in
+// every rule, and every loop iteration counts against llvmpipe's budget (docs/gpu.md).
 fn f_cov(a: vec3<f64>, b: vec3<f64>) -> f64 {
-    var s = 0.0lf;
-    for (var i = 0u; i < 3u; i += 1u) {
-        s = s + a[i] * (fp_q[i][0] * b[0] + fp_q[i][1] * b[1] + fp_q[i][2] * b[2]);
-    }
-    return s;
+    let s0 = 0.0lf + a[0] * (fp_q[0][0] * b[0] + fp_q[0][1] * b[1] + fp_q[0][2] * b[2]);
+    let s1 = s0 + a[1] * (fp_q[1][0] * b[0] + fp_q[1][1] * b[1] + fp_q[1][2] * b[2]);
+    return s1 + a[2] * (fp_q[2][0] * b[0] + fp_q[2][1] * b[1] + fp_q[2][2] * b[2]);
 }
 
 fn f_linvar(g: vec3<f64>) -> f64 {
@@ -221,25 +221,25 @@ fn sp_new(widths: vec3<f64>, residual: f64) -> Sp {
     }
     let half = sqrt(6.0lf * max(residual, 0.0lf));
     var five = array<f64, 5>(abs(widths.x), abs(widths.y), abs(widths.z), half, half);
-    sort_desc5(&five, 5u);
-    for (var n = 5u; n >= 4u; n -= 1u) {
-        five[n - 2u] = hypot_d(five[n - 2u], five[n - 1u]);
-        sort_desc5(&five, n - 1u);
+    if (half == 0.0lf) {
+        // No residual (most values): the three widths sorted without a loop, the same order
+        // as the merge below leaves them (hypot(x, 0) = x). Every loop iteration counts
+        // against llvmpipe's budget (docs/gpu.md), and this runs for every rule.
+        sort_desc3(&five);
+    } else {
+        sort_desc5(&five, 5u);
+        for (var n = 5u; n >= 4u; n -= 1u) {
+            five[n - 2u] = hypot_d(five[n - 2u], five[n - 1u]);
+            sort_desc5(&five, n - 1u);
+        }
     }
+    // The three largest, each below 1e-4 of the one kept before it merged into that one
+    // (`sp_take` three times: the widths descend, so a subnormal ends the list).
     var w = vec3<f64>(0.0lf);
     var k = 0u;
-    for (var i = 0u; i < 3u; i += 1u) {
-        let x = five[i];
-        if (x < 2.2250738585072014e-308lf) {
-            break;
-        }
-        if (k > 0u && x < 1e-4lf * w[k - 1u]) {
-            w[k - 1u] = hypot_d(w[k - 1u], x);
-        } else {
-            w[k] = x;
-            k += 1u;
-        }
-    }
+    sp_take(&w, &k, five[0]);
+    sp_take(&w, &k, five[1]);
+    sp_take(&w, &k, five[2]);
     if (w.y > w.x) {
         w = vec3<f64>(w.y, w.x, w.z);
     }
@@ -250,6 +250,62 @@ fn sp_new(widths: vec3<f64>, residual: f64) -> Sp {
         return Sp(vec3<f64>(f64(inf_f32()), 0.0lf, 0.0lf), true);
     }
     return Sp(w, false);
+}
+
+// `sp_new`'s step for one width x of a descending list: none below the smallest normal,
+// merged into the last kept where below 1e-4 of it, else kept.
+fn sp_take(w: ptr<function, vec3<f64>>, k: ptr<function, u32>, x: f64) {
+    if (x < 2.2250738585072014e-308lf) {
+        return;
+    }
+    if (*k > 0u && x < 1e-4lf * (*w)[*k - 1u]) {
+        (*w)[*k - 1u] = hypot_d((*w)[*k - 1u], x);
+    } else {
+        (*w)[*k] = x;
+        *k += 1u;
+    }
+}
+
+// The eight values (±w.x ± w.y ± w.z) / 2 in ascending order, without a loop: with the widths
+// sorted a >= b >= c only the middle two can swap.
+fn corners_sorted(w: vec3<f64>) -> array<f64, 8> {
+    var a = max(w.x, w.y);
+    var b = min(w.x, w.y);
+    var c = w.z;
+    if (c > b) {
+        let t = c;
+        c = b;
+        b = t;
+    }
+    if (b > a) {
+        let t = b;
+        b = a;
+        a = t;
+    }
+    let mid_lo = (-a + b + c) / 2.0lf;
+    let mid_hi = (a - b - c) / 2.0lf;
+    return array<f64, 8>((-a - b - c) / 2.0lf, (-a - b + c) / 2.0lf, (-a + b - c) / 2.0lf,
+        min(mid_lo, mid_hi), max(mid_lo, mid_hi), (a - b + c) / 2.0lf, (a + b - c) / 2.0lf,
+        (a + b + c) / 2.0lf);
+}
+
+// The first three of `a` in descending order by three exchanges (no loop).
+fn sort_desc3(a: ptr<function, array<f64, 5>>) {
+    if ((*a)[0] < (*a)[1]) {
+        let t = (*a)[0];
+        (*a)[0] = (*a)[1];
+        (*a)[1] = t;
+    }
+    if ((*a)[1] < (*a)[2]) {
+        let t = (*a)[1];
+        (*a)[1] = (*a)[2];
+        (*a)[2] = t;
+    }
+    if ((*a)[0] < (*a)[1]) {
+        let t = (*a)[0];
+        (*a)[0] = (*a)[1];
+        (*a)[1] = t;
+    }
 }
 
 fn sort_desc5(a: ptr<function, array<f64, 5>>, n: u32) {
@@ -403,30 +459,26 @@ fn pw_stats(f: Pw, t: f64, sp: Sp, full: bool) -> Mo {
         let variance = q1 * q1 * s2 + q2 * q2 * (s4 - s2 * s2) + q3 * q3 * s6 + 2.0lf * q1 * q3 * s4;
         return Mo(q0 + q2 * s2, max(variance, 0.0lf), q1 + 3.0lf * q3 * s2);
     }
-    // Breakpoints in s: the density's (± w0/2 ± w1/2 ± w2/2) and the knots inside.
+    // Breakpoints in s: the density's (± w0/2 ± w1/2 ± w2/2), in ascending order without a
+    // loop (`corners_sorted`), and the knots inside, each inserted in order. (Every loop
+    // iteration counts against llvmpipe's budget, docs/gpu.md; this rule runs for most.)
     var b: array<f64, PW_BREAKS>;
-    var nb = 0u;
-    for (var c = 0u; c < 8u; c += 1u) {
-        let s0 = select(-w.x, w.x, (c & 1u) != 0u);
-        let s1 = select(-w.y, w.y, (c & 2u) != 0u);
-        let s2 = select(-w.z, w.z, (c & 4u) != 0u);
-        b[nb] = (s0 + s1 + s2) / 2.0lf;
-        nb += 1u;
+    let corners = corners_sorted(w);
+    for (var i = 0u; i < 8u; i += 1u) {
+        b[i] = corners[i];
     }
+    var nb = 8u;
     for (var i = 0u; i < f.n; i += 1u) {
+        let x = f.k[i] - t;
         if (f.k[i] > t - h && f.k[i] < t + h) {
-            b[nb] = f.k[i] - t;
+            var j = nb;
+            while (j > 0u && b[j - 1u] > x) {
+                b[j] = b[j - 1u];
+                j -= 1u;
+            }
+            b[j] = x;
             nb += 1u;
         }
-    }
-    for (var i = 1u; i < nb; i += 1u) {
-        let x = b[i];
-        var j = i;
-        while (j > 0u && b[j - 1u] > x) {
-            b[j] = b[j - 1u];
-            j -= 1u;
-        }
-        b[j] = x;
     }
     var mean = 0.0lf;
     var slope = 0.0lf;
@@ -638,11 +690,42 @@ fn r_exp(d: D) -> D {
     return D(mean, g, f_residual(total, f_linvar(g)));
 }
 
+// rules.rs `half_gamma_ratio`'s series: 1 − Γ(k + ½) / (Γ(k) √k) at k ≥ 8.
+fn half_gamma_tail(k: f64) -> f64 {
+    let u = 1.0lf / k;
+    return u * (1.0lf / 8.0lf
+        - u * (1.0lf / 128.0lf
+            + u * (5.0lf / 1024.0lf
+                + u * (-21.0lf / 32768.0lf + u * (-399.0lf / 262144.0lf + u * 869.0lf / 4194304.0lf)))));
+}
+
+// rules.rs `Rules::sqrt`: the moments of √X for a Gamma-distributed X ≥ 0 (the shift below
+// k = 8 written out, no loop: llvmpipe's loop budget, docs/gpu.md).
 fn r_sqrt(d: D) -> D {
     let m = d.m;
+    let t = f_total(d);
+    if (!(m > 0.0lf)) {
+        return dc(d_sqrt(m));
+    }
     let s = d_sqrt(m);
-    let r = r_smooth(d, s, 0.5lf / s, -0.25lf / (s * m), true);
-    return D(max(r.m, 0.0lf), r.g, r.v);
+    if (t == 0.0lf) {
+        return D(s, (0.5lf / s) * d.g, 0.0lf);
+    }
+    let k = m * m / t;
+    var g = 0.0lf;
+    var h = 1.0lf;
+    if (k >= 8.0lf) {
+        h = half_gamma_tail(k);
+        g = 1.0lf - h;
+    } else if (k > 0.0lf) {
+        let p = d_sqrt((k + 8.0lf) / k) * (k / (k + 0.5lf)) * ((k + 1.0lf) / (k + 1.5lf))
+            * ((k + 2.0lf) / (k + 2.5lf)) * ((k + 3.0lf) / (k + 3.5lf)) * ((k + 4.0lf) / (k + 4.5lf))
+            * ((k + 5.0lf) / (k + 5.5lf)) * ((k + 6.0lf) / (k + 6.5lf)) * ((k + 7.0lf) / (k + 7.5lf));
+        g = (1.0lf - half_gamma_tail(k + 8.0lf)) * p;
+        h = 1.0lf - g;
+    }
+    let mean = s * g;
+    return f_out(d, Mo(mean, m * h * (1.0lf + g), mean / (2.0lf * m)));
 }
 
 // rules.rs `Rules::min_max`.
@@ -853,15 +936,23 @@ fn n_fade(st: St, p: array<D, 3>) -> vec4<f64> {
     return n_fade_of(st, l2, p[0].v + p[1].v + p[2].v);
 }
 
-// rules.rs `Footprint::damp_matrix` applied to g (`apply`); `g` where it leaves slopes alone.
-fn n_damp(beta: vec3<f64>, g: vec3<f64>) -> vec3<f64> {
+// rules.rs `Footprint::damp_matrix`, made once per octave rule and applied to each slope
+// (`n_damp_apply`); `on` false where it leaves slopes alone. (Made per application before, it
+// ran about 40 loop iterations each time, four times an octave: llvmpipe's loop budget,
+// docs/gpu.md.)
+struct Damp {
+    d: array<vec3<f64>, 3>,
+    on: bool,
+}
+
+fn n_damp_matrix(beta: vec3<f64>) -> Damp {
+    var d: array<vec3<f64>, 3>;
     if (abs(1.0lf - beta.x) < 1e-9lf && abs(1.0lf - beta.y) < 1e-9lf && abs(1.0lf - beta.z) < 1e-9lf) {
-        return g;
+        return Damp(d, false);
     }
     if (fp_n == 0u) {
-        return g;
+        return Damp(d, false);
     }
-    var d: array<vec3<f64>, 3>;
     if (!fp_inv_ok) {
         let least = min(1.0lf, min(beta.x, min(beta.y, beta.z)));
         d[0] = vec3<f64>(least, 0.0lf, 0.0lf);
@@ -876,18 +967,23 @@ fn n_damp(beta: vec3<f64>, g: vec3<f64>) -> vec3<f64> {
                 let c = fp_inv[a][b] * (beta[fp_live[b]] - 1.0lf);
                 let ea = fp_e[fp_live[a]];
                 let eb = fp_e[fp_live[b]];
-                for (var i = 0u; i < 3u; i += 1u) {
-                    d[i] = d[i] + ea[i] * c * eb;
-                }
+                d[0] = d[0] + ea[0] * c * eb;
+                d[1] = d[1] + ea[1] * c * eb;
+                d[2] = d[2] + ea[2] * c * eb;
             }
         }
     }
-    for (var i = 0u; i < 3u; i += 1u) {
-        if (!is_finite_d(d[i].x) || !is_finite_d(d[i].y) || !is_finite_d(d[i].z)) {
-            return g;
-        }
+    let finite = is_finite_d(d[0].x) && is_finite_d(d[0].y) && is_finite_d(d[0].z)
+        && is_finite_d(d[1].x) && is_finite_d(d[1].y) && is_finite_d(d[1].z)
+        && is_finite_d(d[2].x) && is_finite_d(d[2].y) && is_finite_d(d[2].z);
+    return Damp(d, finite);
+}
+
+fn n_damp_apply(m: Damp, g: vec3<f64>) -> vec3<f64> {
+    if (!m.on) {
+        return g;
     }
-    let out = vec3<f64>(v_dot(d[0], g), v_dot(d[1], g), v_dot(d[2], g));
+    let out = vec3<f64>(v_dot(m.d[0], g), v_dot(m.d[1], g), v_dot(m.d[2], g));
     if (!is_finite_d(out.x) || !is_finite_d(out.y) || !is_finite_d(out.z)) {
         return g;
     }
@@ -902,16 +998,14 @@ fn finite_or_zero(c: f64) -> f64 {
 fn n_sampled(st: St, p: array<D, 3>, fade: vec4<f64>, value: f64, gin: vec3<f64>) -> D {
     let alpha = fade.x;
     let g = vec3<f64>(finite_or_zero(gin.x), finite_or_zero(gin.y), finite_or_zero(gin.z));
+    let damp = n_damp_matrix(fade.yzw);
     var grad = alpha * (g.x * p[0].g + g.y * p[1].g + g.z * p[2].g);
-    grad = n_damp(fade.yzw, grad);
+    grad = n_damp_apply(damp, grad);
     let carried = g.x * g.x * p[0].v + g.y * g.y * p[1].v + g.z * g.z * p[2].v;
     // noise.rs `Fade::rest`: what the fade takes beyond the linear part's expectation over the
-    // noise's gradients (one call site of `n_damp` in a loop the driver cannot unroll).
-    var expected = 0.0lf;
-    var q = p;
-    for (var i = 0u; i < 3u * u32(filter_one()); i += 1u) {
-        expected += f_linvar(n_damp(fade.yzw, q[i].g));
-    }
+    // noise's gradients.
+    let expected = 0.0lf + f_linvar(n_damp_apply(damp, p[0].g)) + f_linvar(n_damp_apply(damp, p[1].g))
+        + f_linvar(n_damp_apply(damp, p[2].g));
     let within = f_residual((1.0lf - alpha * alpha) * st.var_, alpha * alpha * st.grad_sq * expected);
     let v = within + alpha * alpha * carried;
     return D(alpha * value + (1.0lf - alpha) * st.mean, grad, select(0.0lf, max(v, 0.0lf), is_finite_d(v)));
@@ -938,16 +1032,13 @@ fn n_slope_with(du: vec3<f64>) -> vec4<f64> {
 
 // noise.rs `sub_centres`: sub-box j's centre in noise space.
 fn n_sub_centre(p: array<D, 3>, e: array<vec3<f64>, 3>, j: u32) -> vec3<f64> {
-    var c = vec3<f64>(p[0].m, p[1].m, p[2].m);
-    for (var i = 0u; i < 3u; i += 1u) {
-        var s = 0.0lf;
-        for (var k = 0u; k < 3u; k += 1u) {
-            let sk = select(-0.25lf, 0.25lf, ((j >> k) & 1u) == 1u);
-            s = s + sk * e[k][i];
-        }
-        c[i] = c[i] + s;
-    }
-    return c;
+    // The sums over k of every component at once, in the same order (no loop: llvmpipe's
+    // budget, docs/gpu.md).
+    let s0 = select(-0.25lf, 0.25lf, (j & 1u) == 1u);
+    let s1 = select(-0.25lf, 0.25lf, ((j >> 1u) & 1u) == 1u);
+    let s2 = select(-0.25lf, 0.25lf, ((j >> 2u) & 1u) == 1u);
+    let s = vec3<f64>(0.0lf) + s0 * e[0] + s1 * e[1] + s2 * e[2];
+    return vec3<f64>(p[0].m, p[1].m, p[2].m) + s;
 }
 
 // noise.rs `face_offsets`: face j's centre in noise space, +E_j/2 then -E_(j-3)/2.
@@ -989,24 +1080,20 @@ fn n_subsampled(st: St, p: array<D, 3>, e: array<vec3<f64>, 3>, s: array<vec4<f6
     let alpha = fade.x;
     var means: array<f64, 8>;
     var mean = 0.0lf;
+    // Each edge's halves summed in the same pass, all three edges at once (one loop of 8, not
+    // 8 and 3 × 8: llvmpipe's budget, docs/gpu.md).
+    var plus = vec3<f64>(0.0lf);
+    var minus = vec3<f64>(0.0lf);
     for (var j = 0u; j < 8u; j += 1u) {
         means[j] = alpha * finite_or_zero(s[j].w) + (1.0lf - alpha) * st.mean;
         mean = mean + means[j];
+        let high = vec3<bool>((j & 1u) == 1u, ((j >> 1u) & 1u) == 1u, ((j >> 2u) & 1u) == 1u);
+        let quarter = means[j] / 4.0lf;
+        plus = plus + select(vec3<f64>(0.0lf), vec3<f64>(quarter), high);
+        minus = minus + select(vec3<f64>(quarter), vec3<f64>(0.0lf), high);
     }
     mean = mean / 8.0lf;
-    var du = vec3<f64>(0.0lf);
-    for (var k = 0u; k < 3u; k += 1u) {
-        var plus = 0.0lf;
-        var minus = 0.0lf;
-        for (var j = 0u; j < 8u; j += 1u) {
-            if (((j >> k) & 1u) == 1u) {
-                plus = plus + means[j] / 4.0lf;
-            } else {
-                minus = minus + means[j] / 4.0lf;
-            }
-        }
-        du[k] = 2.0lf * (plus - minus);
-    }
+    let du = 2.0lf * (plus - minus);
     let slope = n_slope_with(du);
     if (slope.w == 0.0lf) {
         return Opt(dc(0.0lf), false);

@@ -11,8 +11,10 @@
 //                              else 0 (+ 4m)
 //   pc + 3 + 5m + pc_pre(L) m + j pc_len(L)
 //                              piece j's polynomial of level L, its pc_len(L) ascending
-//                              coefficients: levels 0-3 g and its antiderivatives H (4 to 7
-//                              coefficients), 4-7 the same for g² (7 to 10), 8 g' (3)
+//                              coefficients in u - start (in u a steep piece near 1 cancels
+//                              terms of 1e7, which the export's f32 loses): levels 0-3 g and
+//                              its antiderivatives H (4 to 7 coefficients), 4-7 the same for
+//                              g² (7 to 10), 8 g' (3)
 //
 // The sawtooth g(u) = u (`fract`, `floor`, the lattice `mod`) is the block at PC_SAW.
 
@@ -60,9 +62,10 @@ fn pc_piece(pc: Pc, field: u32, j: u32) -> f64 {
 fn pc_poly(pc: Pc, level: u32, j: u32, u: f64) -> f64 {
     let len = pc_len(level);
     let base = pc.at + 3u + 5u * pc.m + pc_pre(level) * pc.m + j * len;
+    let v = u - pc_piece(pc, 0u, j);
     var acc = fdata[base + len - 1u];
     for (var i = len - 1u; i > 0u; i -= 1u) {
-        acc = acc * u + fdata[base + i - 1u];
+        acc = acc * v + fdata[base + i - 1u];
     }
     return acc;
 }
@@ -102,22 +105,9 @@ fn per_local(pc: Pc, y: f64, sp: Sp, level: u32) -> vec3<f64> {
         let u = y - floor(y);
         return pc_three(pc, level, slope_level, pc_find(pc, u), u);
     }
-    var c: array<f64, 8>;
-    for (var i = 0u; i < 8u; i += 1u) {
-        let s0 = select(-w.x, w.x, (i & 1u) != 0u);
-        let s1 = select(-w.y, w.y, (i & 2u) != 0u);
-        let s2 = select(-w.z, w.z, (i & 4u) != 0u);
-        c[i] = (s0 + s1 + s2) / 2.0lf;
-    }
-    for (var i = 1u; i < 8u; i += 1u) {
-        let x = c[i];
-        var j = i;
-        while (j > 0u && c[j - 1u] > x) {
-            c[j] = c[j - 1u];
-            j -= 1u;
-        }
-        c[j] = x;
-    }
+    // The density's breakpoints in ascending order, written out, not sorted by loops: every
+    // loop iteration counts against llvmpipe's budget (docs/gpu.md).
+    var c = corners_sorted(w);
     var acc = vec3<f64>(0.0lf);
     let lo = y - h;
     let hi = y + h;
