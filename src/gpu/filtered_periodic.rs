@@ -79,6 +79,31 @@ impl Pieces {
         }
     }
 
+    /// Each term that stays below 1e-15 of the largest term of any piece over its own domain
+    /// set to 0: the rounding the shifts and sums leave (1e-17 and less, e.g. an
+    /// antiderivative's value at a start that is 0), which the shader's f32 literals would
+    /// spell out in 30 digits (naga writes them without an exponent) and no value can show.
+    fn without_noise(&self) -> Pieces {
+        let term = |j: usize, k: usize, c: f64| c.abs() * self.len(j).powi(k as i32);
+        let mut largest = 0.0f64;
+        for (j, p) in self.polys.iter().enumerate() {
+            for (k, &c) in p.iter().enumerate() {
+                largest = largest.max(term(j, k, c));
+            }
+        }
+        let polys = self.polys.iter().enumerate().map(|(j, p)| {
+            let small = |(k, &c): (usize, &f64)| term(j, k, c) < 1e-15 * largest;
+            p.iter()
+                .enumerate()
+                .map(|kc| if small(kc) { 0.0 } else { *kc.1 })
+                .collect()
+        });
+        Pieces {
+            starts: self.starts.clone(),
+            polys: polys.collect(),
+        }
+    }
+
     /// The same starts, each piece's polynomial mapped by `f`.
     fn map(&self, f: impl Fn(&[f64]) -> Vec<f64>) -> Pieces {
         Pieces {
@@ -225,9 +250,18 @@ fn block(g: &Periodic) -> Vec<f64> {
     let mut out = vec![m as f64, levels[0].mean(), levels[4].mean()];
     out.extend(&base.starts);
     out.extend((0..m).map(|j| base.end(j)));
+    // (A continuous join's rounding, 1e-17, is no jump: 0 below 1e-15 of the shape's values.)
+    let scale = (0..m)
+        .map(|j| base.polys[j][0].abs())
+        .fold(0.0f64, f64::max);
     out.extend((0..m).map(|j| {
         let prev = (j + m - 1) % m;
-        base.polys[j][0] - eval(&base.polys[prev], base.len(prev))
+        let jump = base.polys[j][0] - eval(&base.polys[prev], base.len(prev));
+        if jump.abs() < 1e-15 * scale {
+            0.0
+        } else {
+            jump
+        }
     }));
     // Per piece, its slope where it is a line: a support inside one line piece takes the
     // exact line rule, as the CPU's (`moments::piecewise_early`).
@@ -238,6 +272,7 @@ fn block(g: &Periodic) -> Vec<f64> {
     }));
     out.extend(base.polys.iter().map(|p| if line(p) { 1.0 } else { 0.0 }));
     for (level, len) in levels.iter().zip(LEVEL_COEFFS) {
+        let level = level.without_noise();
         for p in &level.polys {
             debug_assert!(p.len() <= len, "degree {} in a chain shape", p.len());
             out.extend((0..len).map(|i| p.get(i).copied().unwrap_or(0.0)));
