@@ -1076,8 +1076,9 @@ fn line_only(f: &Piecewise, d: &Dist, widths: &[f64; 3]) -> Option<Dist> {
 /// large `k`): the asymptotic series `1 − 1/8k + 1/128k² + 5/1024k³ − 21/32768k⁴ −
 /// 399/262144k⁵ + 869/4194304k⁶` from `k = 8` on, below it shifted there by
 /// `Γ(k + ½)/Γ(k) = Γ(k + 8½)/Γ(k + 8) · Π_{j<8} (k + j)/(k + j + ½)`; within 6e-10 of
-/// `lgamma`'s ratio at every `k` (`sqrt_rule_is_the_gamma_models_moments`). No crate of the
-/// dependency tree has a log-gamma, and the GPU's rule (`filter.wgsl` `half_gamma_ratio`)
+/// the log-gamma ratio at every `k` (the test holds it to 1e-9 of the Gamma integrals:
+/// `sqrt_rule_is_the_gamma_models_moments`). No crate of the
+/// dependency tree has a log-gamma, and the GPU's rule (`filter.wgsl` `half_gamma_tail`, `r_sqrt`)
 /// needs the same arithmetic.
 pub(crate) fn half_gamma_ratio(k: f64) -> (f64, f64) {
     // 1 − g at k ≥ 8.
