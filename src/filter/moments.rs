@@ -696,7 +696,7 @@ fn horner(c: &[f64], u: f64) -> f64 {
 
 /// The Taylor coefficients at `u0` of the cubic with coefficients `a` (in `u`):
 /// `b_d = a^{(d)}(u0) / d!`.
-pub(super) fn taylor_at(a: [f64; 4], u0: f64) -> [f64; 4] {
+pub(crate) fn taylor_at(a: [f64; 4], u0: f64) -> [f64; 4] {
     [
         horner(&a, u0),
         horner(&[a[1], 2.0 * a[2], 3.0 * a[3]], u0),

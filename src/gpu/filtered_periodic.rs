@@ -14,6 +14,7 @@
 //! The same for `g²` gives the second moment.
 
 use super::codegen::f64_literal;
+use crate::filter::moments::taylor_at;
 use crate::filter::periodic::Periodic;
 use std::fmt::Write;
 
@@ -37,7 +38,7 @@ impl Pieces {
             .pieces()
             .iter()
             .zip(&starts)
-            .map(|(p, &s)| shifted(p, s))
+            .map(|(p, &s)| taylor_at(*p, s).to_vec())
             .collect();
         Pieces { starts, polys }
     }
@@ -138,18 +139,6 @@ impl Pieces {
 
 fn eval(c: &[f64], u: f64) -> f64 {
     c.iter().rev().fold(0.0, |acc, &a| acc * u + a)
-}
-
-/// `p(s + v)`'s ascending coefficients in `v` (a Taylor shift: `b_k = Σ_{i≥k} C(i, k) s^{i−k} a_i`).
-fn shifted(p: &[f64], s: f64) -> Vec<f64> {
-    let mut b = p.to_vec();
-    // Horner's scheme applied repeatedly: after pass k, b[k] is the k-th Taylor coefficient.
-    for k in 0..b.len() {
-        for i in (k..b.len() - 1).rev() {
-            b[i] += s * b[i + 1];
-        }
-    }
-    b
 }
 
 fn integral(c: &[f64], u0: f64, u1: f64) -> f64 {
